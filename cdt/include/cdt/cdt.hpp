@@ -1,0 +1,96 @@
+#pragma once
+// Public API of the constrained Delaunay triangulation engine (gCD: Qi, Cao and Tan, IEEE TVCG 2013).
+//
+// In: points and segments (index pairs). Out: a constrained Delaunay triangulation with neighbour
+// links, constraint flags carrying their source segment, the duplicate-point map and statistics.
+// This header needs the C++ standard library only; it never includes a CUDA header.
+
+#include <array>
+#include <cstdint>
+#include <span>
+#include <string>
+#include <vector>
+
+#include "cdt/errors.hpp"
+
+namespace cdt {
+
+/// A point in the plane. Coordinates must be finite.
+struct Point {
+  double x = 0.0;
+  double y = 0.0;
+  friend bool operator==(const Point&, const Point&) = default;
+};
+
+/// A constraint segment between two point indices (0-based, into the points given with it).
+struct Segment {
+  std::uint32_t a = 0;
+  std::uint32_t b = 0;
+  friend bool operator==(const Segment&, const Segment&) = default;
+};
+
+/// Sentinel for "no triangle" (a hull edge's missing neighbour) and "no segment" (an edge that is
+/// not a constraint).
+inline constexpr std::uint32_t kNone = 0xFFFFFFFFu;
+
+/// Where the algorithm runs.
+enum class Backend {
+  automatic, ///< the GPU when a CUDA device is present, the CPU otherwise (said once on stderr)
+  cpu,       ///< the CPU executor (threads)
+  gpu,       ///< the CUDA executor; an error when no device is present
+};
+
+/// What to do with input segments that cross each other in their interiors.
+enum class CrossingSegments {
+  resolve, ///< split both at the intersection point (a new vertex after the input points)
+  reject,  ///< throw CrossingSegmentsError naming both segments
+};
+
+/// Options of triangulate(). The defaults suit most inputs.
+struct Options {
+  Backend backend = Backend::automatic;
+  /// Side m of the m x m grid of the digital Voronoi phase; 0 picks a power of two from the input.
+  std::uint32_t grid_size = 0;
+  /// CPU executor threads; 0 uses every hardware thread.
+  unsigned threads = 0;
+  /// Inner-loop iterations of constraint insertion per outer iteration (Algorithm 4-5), at least 1.
+  unsigned inner_iterations = 8;
+  CrossingSegments crossings = CrossingSegments::resolve;
+};
+
+/// Work and time of one phase of the algorithm.
+struct PhaseStats {
+  std::string name;             ///< e.g. "voronoi", "dualize", "shift", "insert", "constraints", "flip"
+  double milliseconds = 0.0;    ///< wall time (CPU) or CUDA-event time (GPU)
+  std::uint64_t flips = 0;      ///< edge flips performed
+  std::uint64_t missing = 0;    ///< points handled as missing points
+  std::uint64_t iterations = 0; ///< parallel rounds
+};
+
+/// Statistics of one triangulate() call.
+struct Statistics {
+  std::string backend;         ///< "cpu" or "gpu"
+  std::uint32_t grid_size = 0; ///< grid side actually used
+  double total_milliseconds = 0.0;
+  std::vector<PhaseStats> phases;
+};
+
+/// A constrained Delaunay triangulation.
+///
+/// Triangle t has vertices triangles[t] in counter-clockwise order. Edge i of t joins
+/// triangles[t][(i + 1) % 3] and triangles[t][(i + 2) % 3] (it is opposite vertex i);
+/// neighbors[t][i] is the triangle across it or kNone on the hull, and segment_of_edge[t][i] the input
+/// segment the edge lies on, or kNone when it is not a constraint.
+struct Triangulation {
+  /// The input points at their input indices, then vertices added where crossing segments were split.
+  std::vector<Point> vertices;
+  std::vector<std::array<std::uint32_t, 3>> triangles;
+  std::vector<std::array<std::uint32_t, 3>> neighbors;
+  std::vector<std::array<std::uint32_t, 3>> segment_of_edge;
+  /// duplicate_of[i] is the vertex that input point i was merged into (i itself when it is not a
+  /// duplicate). Only such representatives appear in triangles.
+  std::vector<std::uint32_t> duplicate_of;
+  Statistics stats;
+};
+
+} // namespace cdt

@@ -1,0 +1,24 @@
+# Every option carries the TRIXEL_ prefix; TrixelSummary.cmake prints them at configure time.
+include_guard(GLOBAL)
+
+set(TRIXEL_CUDA AUTO CACHE STRING
+    "Build the CUDA executor: AUTO (when nvcc is found), ON (fail without nvcc), OFF")
+set_property(CACHE TRIXEL_CUDA PROPERTY STRINGS AUTO ON OFF)
+
+set(TRIXEL_VECTORIZE AUTO CACHE STRING
+    "Build the vectorize pipeline and app: AUTO (when OpenCV, OpenImageIO and Cairo are found), ON (fail without them), OFF")
+set_property(CACHE TRIXEL_VECTORIZE PROPERTY STRINGS AUTO ON OFF)
+
+option(TRIXEL_BUILD_TESTS "Build the GoogleTest suites" ${TRIXEL_TOP_LEVEL})
+option(TRIXEL_BUILD_BENCHMARKS "Build the benchmark programs" ${TRIXEL_TOP_LEVEL})
+option(TRIXEL_WERROR "Treat compiler warnings as errors (CI turns this on)" OFF)
+set(TRIXEL_SANITIZE "" CACHE STRING
+    "Sanitizers for host code, e.g. 'address,undefined' (CUDA is turned off in such a build)")
+
+foreach(opt TRIXEL_CUDA TRIXEL_VECTORIZE)
+  string(TOUPPER "${${opt}}" _v)
+  if(NOT _v MATCHES "^(AUTO|ON|OFF)$")
+    message(FATAL_ERROR "${opt} must be AUTO, ON or OFF (got '${${opt}}')")
+  endif()
+  set(${opt} "${_v}" CACHE STRING "" FORCE)
+endforeach()

@@ -1,0 +1,46 @@
+#!/usr/bin/env bash
+# On a GPU machine (CUDA toolkit, CMake, a device; no image libraries needed), in one call:
+# configure and build the CUDA targets, run the GPU tests (and the CPU tests of cdt), run the GPU tests
+# under compute-sanitizer memcheck, run the benchmarks, and print a short table at the end.
+# Logs go to $OUT (when set) or build-gpu/logs.
+set -uo pipefail
+cd "$(dirname "$0")/.."
+logs=${OUT:-build-gpu/logs}
+mkdir -p "$logs"
+arch=${TRIXEL_GPU_ARCH:-90}
+generator=()
+command -v ninja >/dev/null 2>&1 && generator=(-G Ninja)
+status=()
+
+step() { # step NAME COMMAND...: runs it, logs it, records PASS/FAIL
+  local name=$1; shift
+  local t0 t1 r
+  t0=$(date +%s%N)
+  if "$@" >"$logs/$name.log" 2>&1; then r=PASS; else r=FAIL; fi
+  t1=$(date +%s%N)
+  status+=("| $name | $r | $(( (t1 - t0) / 1000000 )) ms |")
+  echo "== $name: $r"; tail -n 25 "$logs/$name.log"
+}
+
+nvidia-smi --query-gpu=name,driver_version,memory.total --format=csv,noheader > "$logs/device.txt" 2>&1 || true
+step configure cmake -S . -B build-gpu "${generator[@]}" -DCMAKE_BUILD_TYPE=Release -DTRIXEL_CUDA=ON \
+  -DCMAKE_CUDA_ARCHITECTURES="$arch" -DTRIXEL_VECTORIZE=AUTO -DTRIXEL_WERROR=ON
+step build cmake --build build-gpu -j "$(nproc)"
+step gpu-tests ctest --test-dir build-gpu -L gpu --output-on-failure --no-tests=error
+step cdt-cpu-tests ctest --test-dir build-gpu -L cpu -LE build --output-on-failure --no-tests=error -j "$(nproc)"
+if command -v compute-sanitizer >/dev/null 2>&1; then
+  step memcheck compute-sanitizer --tool memcheck --error-exitcode 1 build-gpu/bin/kernels_tests
+  step racecheck compute-sanitizer --tool racecheck --error-exitcode 1 build-gpu/bin/kernels_tests
+fi
+step bench-predicates build-gpu/bin/bench_predicates 4000000
+
+echo
+echo "## device: $(cat "$logs/device.txt")"
+echo "| step | result | time |"
+echo "| --- | --- | --- |"
+printf '%s\n' "${status[@]}"
+echo
+grep -h '^|' "$logs/bench-predicates.log" || true
+grep -h -E 'tests passed|tests failed|Skipped|Not Run' "$logs/gpu-tests.log" || true
+grep -q FAIL <<<"${status[*]}" && exit 1
+exit 0

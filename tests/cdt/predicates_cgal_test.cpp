@@ -1,0 +1,55 @@
+// CGAL's exact predicates as an oracle on random near-degenerate doubles, where no closed-form answer
+// exists: points snapped to lines and circles and then perturbed by a few ulps.
+#include <CGAL/Exact_predicates_inexact_constructions_kernel.h>
+#include <gtest/gtest.h>
+
+#include <cmath>
+
+#include "cdt/detail/predicates.hpp"
+#include "predicate_cases.hpp"
+
+namespace {
+
+using Kernel = CGAL::Exact_predicates_inexact_constructions_kernel;
+using P = Kernel::Point_2;
+
+double unit(trixel_test::Rng& rng) { return static_cast<double>(rng.next() >> 11) / 9007199254740992.0; }
+
+double nudge(double v, trixel_test::Rng& rng) {
+  const int steps = static_cast<int>(rng.range(-3, 3));
+  for (int s = 0; s < (steps < 0 ? -steps : steps); ++s) v = std::nextafter(v, steps < 0 ? -1e300 : 1e300);
+  return v;
+}
+
+TEST(PredicatesCgal, OrientNearLinesAgreesWithCgal) {
+  trixel_test::Rng rng(7);
+  int wrong = 0;
+  for (int i = 0; i < 100000; ++i) {
+    const double ax = unit(rng) * 100, ay = unit(rng) * 100, bx = unit(rng) * 100, by = unit(rng) * 100;
+    const double s = unit(rng) * 2 - 0.5;
+    const double cx = nudge(ax + s * (bx - ax), rng), cy = nudge(ay + s * (by - ay), rng);
+    const int expected = static_cast<int>(CGAL::orientation(P(ax, ay), P(bx, by), P(cx, cy)));
+    if (cdt::detail::orient2d(ax, ay, bx, by, cx, cy) != expected) ++wrong;
+  }
+  EXPECT_EQ(wrong, 0);
+}
+
+TEST(PredicatesCgal, IncircleNearCirclesAgreesWithCgal) {
+  trixel_test::Rng rng(11);
+  int wrong = 0;
+  for (int i = 0; i < 100000; ++i) {
+    const double cx0 = unit(rng) * 1000, cy0 = unit(rng) * 1000, r = 0.001 + unit(rng) * 10;
+    double p[8];
+    for (int k = 0; k < 4; ++k) {
+      const double angle = unit(rng) * 6.283185307179586;
+      p[2 * k] = nudge(cx0 + r * std::cos(angle), rng);
+      p[2 * k + 1] = nudge(cy0 + r * std::sin(angle), rng);
+    }
+    const int expected = static_cast<int>(
+        CGAL::side_of_oriented_circle(P(p[0], p[1]), P(p[2], p[3]), P(p[4], p[5]), P(p[6], p[7])));
+    if (cdt::detail::incircle(p[0], p[1], p[2], p[3], p[4], p[5], p[6], p[7]) != expected) ++wrong;
+  }
+  EXPECT_EQ(wrong, 0);
+}
+
+} // namespace

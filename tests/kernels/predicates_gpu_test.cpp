@@ -1,0 +1,56 @@
+// The exact predicates evaluated on the device must give the independent oracle's answers, and
+// therefore the host's: the CUDA executor relies on both sides of the machine agreeing.
+#include <gtest/gtest.h>
+
+#include <cstddef>
+#include <vector>
+
+#include "../cdt/predicate_cases.hpp"
+#include "cdt/detail/predicates.hpp"
+#include "cdt_kernels.hpp"
+
+namespace {
+
+class GpuPredicates : public ::testing::Test {
+protected:
+  void SetUp() override {
+    if (cdt::gpu::device_count() == 0) GTEST_SKIP() << "no CUDA device available";
+  }
+};
+
+TEST_F(GpuPredicates, OrientOnDeviceMatchesOracleAndHost) {
+  const auto cases = trixel_test::make_predicate_cases(4);
+  std::vector<int> signs(cases.orient_expected.size(), 7); // poisoned: every entry must be written
+  cdt::gpu::orient2d_signs(cases.orient_coords.data(), signs.data(), signs.size());
+  std::size_t wrong = 0;
+  for (std::size_t i = 0; i < signs.size(); ++i) {
+    const double* c = &cases.orient_coords[6 * i];
+    const int host = cdt::detail::orient2d(c[0], c[1], c[2], c[3], c[4], c[5]);
+    if (signs[i] != cases.orient_expected[i] || signs[i] != host) ++wrong;
+  }
+  EXPECT_EQ(wrong, 0u) << "of " << signs.size() << " queries on " << cdt::gpu::device_description();
+}
+
+TEST_F(GpuPredicates, IncircleOnDeviceMatchesOracleAndHost) {
+  const auto cases = trixel_test::make_predicate_cases(4);
+  std::vector<int> signs(cases.incircle_expected.size(), 7);
+  cdt::gpu::incircle_signs(cases.incircle_coords.data(), signs.data(), signs.size());
+  std::size_t wrong = 0;
+  for (std::size_t i = 0; i < signs.size(); ++i) {
+    const double* c = &cases.incircle_coords[8 * i];
+    const int host = cdt::detail::incircle(c[0], c[1], c[2], c[3], c[4], c[5], c[6], c[7]);
+    if (signs[i] != cases.incircle_expected[i] || signs[i] != host) ++wrong;
+  }
+  EXPECT_EQ(wrong, 0u) << "of " << signs.size() << " queries";
+}
+
+TEST_F(GpuPredicates, EmptyBatchIsANoOp) {
+  cdt::gpu::orient2d_signs(nullptr, nullptr, 0);
+  SUCCEED();
+}
+
+TEST_F(GpuPredicates, DeviceDescriptionNamesTheDevice) {
+  EXPECT_NE(cdt::gpu::device_description().find("compute capability"), std::string::npos);
+}
+
+} // namespace

@@ -1,0 +1,31 @@
+#pragma once
+// Stage 1 of the pipeline: decoding a raster file into plain RGBA floats.
+
+#include <cstddef>
+#include <filesystem>
+#include <vector>
+
+namespace vectorize {
+
+/// A decoded image: width x height pixels, row-major from the top-left, 4 channels (R, G, B, A) per
+/// pixel as non-premultiplied values in [0, 1] in the file's colour space (normally sRGB).
+struct Image {
+  int width = 0;
+  int height = 0;
+  std::vector<float> rgba;
+  /// Channels of the source file (1 grey, 2 grey+alpha, 3 RGB, 4 RGBA), for reporting.
+  int source_channels = 0;
+
+  float* pixel(int x, int y) { return rgba.data() + 4 * (static_cast<std::size_t>(y) * width + x); }
+  const float* pixel(int x, int y) const {
+    return rgba.data() + 4 * (static_cast<std::size_t>(y) * width + x);
+  }
+};
+
+/// Reads any format OpenImageIO reads (PNG, JPEG, TIFF, BMP, WebP, ...), 8/16-bit or float, grey,
+/// grey+alpha, RGB or RGBA; grey is replicated to RGB and a missing alpha is 1. Only the first
+/// subimage is read. Throws FileError naming the file and the reason: missing, not a regular file,
+/// unreadable, unsupported format, corrupt or truncated data, zero size, or more than max_pixels.
+Image load_image(const std::filesystem::path& path, std::size_t max_pixels = std::size_t{1} << 28);
+
+} // namespace vectorize
