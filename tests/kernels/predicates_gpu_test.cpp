@@ -3,6 +3,8 @@
 #include <gtest/gtest.h>
 
 #include <cstddef>
+#include <sstream>
+#include <string>
 #include <vector>
 
 #include "../cdt/predicate_cases.hpp"
@@ -10,6 +12,13 @@
 #include "cdt_kernels.hpp"
 
 namespace {
+
+std::string describe(const double* c, int n) {
+  std::ostringstream out;
+  out.precision(17);
+  for (int k = 0; k < n; ++k) out << (k == 0 ? "" : " ") << c[k];
+  return out.str();
+}
 
 class GpuPredicates : public ::testing::Test {
 protected:
@@ -26,7 +35,13 @@ TEST_F(GpuPredicates, OrientOnDeviceMatchesOracleAndHost) {
   for (std::size_t i = 0; i < signs.size(); ++i) {
     const double* c = &cases.orient_coords[6 * i];
     const int host = cdt::detail::orient2d(c[0], c[1], c[2], c[3], c[4], c[5]);
-    if (signs[i] != cases.orient_expected[i] || signs[i] != host) ++wrong;
+    if (signs[i] != cases.orient_expected[i] || signs[i] != host) {
+      if (wrong < 5) {
+        ADD_FAILURE() << "query " << i << ": device " << signs[i] << ", host " << host << ", expected "
+                      << cases.orient_expected[i] << " for " << describe(c, 6);
+      }
+      ++wrong;
+    }
   }
   EXPECT_EQ(wrong, 0u) << "of " << signs.size() << " queries on " << cdt::gpu::device_description();
 }
@@ -39,9 +54,24 @@ TEST_F(GpuPredicates, IncircleOnDeviceMatchesOracleAndHost) {
   for (std::size_t i = 0; i < signs.size(); ++i) {
     const double* c = &cases.incircle_coords[8 * i];
     const int host = cdt::detail::incircle(c[0], c[1], c[2], c[3], c[4], c[5], c[6], c[7]);
-    if (signs[i] != cases.incircle_expected[i] || signs[i] != host) ++wrong;
+    if (signs[i] != cases.incircle_expected[i] || signs[i] != host) {
+      if (wrong < 5) {
+        ADD_FAILURE() << "query " << i << ": device " << signs[i] << ", host " << host << ", expected "
+                      << cases.incircle_expected[i] << " for " << describe(c, 8);
+      }
+      ++wrong;
+    }
   }
   EXPECT_EQ(wrong, 0u) << "of " << signs.size() << " queries";
+}
+
+// Regression: the device compiler once turned a pointer select between two local buffers in
+// expansion_product into wrong code; this query (a == b, exact determinant 0) came out as +1.
+TEST_F(GpuPredicates, ExactPathOnDuplicatePointGivesZero) {
+  const double query[] = {2, 1, 2, 1, 1, 2, -4, 1};
+  int sign = 7;
+  cdt::gpu::incircle_signs(query, &sign, 1);
+  EXPECT_EQ(sign, 0);
 }
 
 TEST_F(GpuPredicates, EmptyBatchIsANoOp) {

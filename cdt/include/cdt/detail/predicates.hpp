@@ -153,26 +153,18 @@ CDT_HD_INLINE void expansion_sum(const Expansion<M>& e, const Expansion<K>& f, E
 template <int N, int M, int K>
 CDT_HD void expansion_product(const Expansion<M>& e, const Expansion<K>& f, Expansion<N>& h) {
   static_assert(2 * M * K <= N, "expansion_product: output capacity too small");
-  // Accumulate e * f_j for each term of f, ping-ponging between h and a scratch buffer so that the
-  // final sum lands in h.
+  // h accumulates e * f_j term by term; each partial sum goes through a scratch buffer and is copied
+  // back. (Selecting between two buffers by pointer instead was miscompiled by the device compiler.)
   double scratch[N];
   double part[2 * M];
-  double* acc = (f.n % 2 == 0) ? h.t : scratch;
-  double* other = (f.n % 2 == 0) ? scratch : h.t;
-  int acc_n = 0;
+  h.n = 0;
   for (int j = 0; j < f.n; ++j) {
     const int part_n = scale_terms(e.t, e.n, f.t[j], part);
-    // After j terms acc holds at most 2*M*j components, so the sum has room in N.
-    const int out_n = sum_terms(acc, acc_n, part, part_n, other);
-    double* swap = acc;
-    acc = other;
-    other = swap;
-    acc_n = out_n;
+    // After j terms h holds at most 2*M*j components, so the sum has room in N.
+    const int sum_n = sum_terms(h.t, h.n, part, part_n, scratch);
+    for (int i = 0; i < sum_n; ++i) h.t[i] = scratch[i];
+    h.n = sum_n;
   }
-  if (acc != h.t) {
-    for (int i = 0; i < acc_n; ++i) h.t[i] = acc[i];
-  }
-  h.n = acc_n;
 }
 
 template <int M>
