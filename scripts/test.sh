@@ -31,5 +31,6 @@ cmake -S . -B build-asan "${generator[@]}" -DCMAKE_BUILD_TYPE=Debug -DTRIXEL_WER
   -DTRIXEL_SANITIZE=address,undefined -DTRIXEL_CUDA=OFF -DTRIXEL_VECTORIZE=ON -DTRIXEL_BUILD_BENCHMARKS=OFF
 cmake --build build-asan -j "$jobs"
 ASAN_OPTIONS=detect_leaks=1:abort_on_error=1 UBSAN_OPTIONS=print_stacktrace=1:halt_on_error=1 \
+  LSAN_OPTIONS=suppressions=$PWD/tests/lsan.supp \
   ctest --test-dir build-asan --output-on-failure --no-tests=error -j "$jobs" -L cpu -LE build
 echo "== all tests passed"
