@@ -7,9 +7,9 @@
 #include <string>
 #include <vector>
 
-#include "../cdt/predicate_cases.hpp"
 #include "cdt/detail/predicates.hpp"
 #include "cdt_kernels.hpp"
+#include "predicate_cases.hpp"
 
 namespace {
 

@@ -40,10 +40,12 @@ enum class Backend {
   gpu,       ///< the CUDA executor; an error when no device is present
 };
 
-/// What to do with input segments that cross each other in their interiors.
+/// What to do with input segments that cross each other in their interiors, and with zero-length
+/// segments (from a point to itself or to a point at the same place).
 enum class CrossingSegments {
-  resolve, ///< split both at the intersection point (a new vertex after the input points)
-  reject,  ///< throw CrossingSegmentsError naming both segments
+  resolve, ///< split both at the intersection point (a new vertex after the input points); ignore
+           ///< zero-length segments and count them in Statistics::zero_length_segments
+  reject,  ///< throw CrossingSegmentsError naming both segments; InvalidInputError for zero length
 };
 
 /// Options of triangulate(). The defaults suit most inputs.
@@ -69,8 +71,10 @@ struct PhaseStats {
 
 /// Statistics of one triangulate() call.
 struct Statistics {
-  std::string backend;         ///< "cpu" or "gpu"
-  std::uint32_t grid_size = 0; ///< grid side actually used
+  std::string backend;                    ///< "cpu" or "gpu"
+  std::uint32_t grid_size = 0;            ///< grid side actually used
+  std::uint64_t added_vertices = 0;       ///< vertices added where crossing segments were split
+  std::uint64_t zero_length_segments = 0; ///< input segments of zero length, ignored
   double total_milliseconds = 0.0;
   std::vector<PhaseStats> phases;
 };
@@ -92,5 +96,16 @@ struct Triangulation {
   std::vector<std::uint32_t> duplicate_of;
   Statistics stats;
 };
+
+/// Computes the constrained Delaunay triangulation of the points and segments.
+///
+/// Duplicate points are merged (see Triangulation::duplicate_of), points lying on a segment split it,
+/// overlapping collinear segments are merged, and crossing segments are split at their intersection
+/// (CrossingSegments::resolve) or reported (CrossingSegments::reject). Throws InvalidInputError for
+/// non-finite or huge coordinates, out-of-range indices, degenerate segments, fewer than three
+/// distinct points or all points collinear; CrossingSegmentsError under the reject policy;
+/// DeviceError when Backend::gpu is asked for and cannot be used.
+Triangulation triangulate(std::span<const Point> points, std::span<const Segment> segments,
+                          const Options& options = {});
 
 } // namespace cdt

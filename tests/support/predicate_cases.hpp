@@ -6,6 +6,8 @@
 #include <cstdint>
 #include <vector>
 
+#include "pslg_generators.hpp"
+
 namespace trixel_test {
 
 struct PredicateCases {
@@ -20,24 +22,8 @@ __extension__ typedef __int128 Int128;
 
 inline int sign_of(Int128 v) { return (v > 0) - (v < 0); }
 
-/// Deterministic generator (splitmix64) so that failures reproduce.
-class Rng {
-public:
-  explicit Rng(std::uint64_t seed) : state_(seed) {}
-  std::uint64_t next() {
-    std::uint64_t z = (state_ += 0x9E3779B97F4A7C15ull);
-    z = (z ^ (z >> 30)) * 0xBF58476D1CE4E5B9ull;
-    z = (z ^ (z >> 27)) * 0x94D049BB133111EBull;
-    return z ^ (z >> 31);
-  }
-  /// Uniform integer in [lo, hi].
-  std::int64_t range(std::int64_t lo, std::int64_t hi) {
-    return lo + static_cast<std::int64_t>(next() % static_cast<std::uint64_t>(hi - lo + 1));
-  }
-
-private:
-  std::uint64_t state_;
-};
+/// Deterministic generator shared with the input generators, so that failures reproduce.
+using Rng = trixel_gen::Random;
 
 inline int orient_int(std::int64_t ax, std::int64_t ay, std::int64_t bx, std::int64_t by, std::int64_t cx,
                       std::int64_t cy) {

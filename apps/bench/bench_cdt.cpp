@@ -1,0 +1,207 @@
+// CDT benchmark: gCD on the CPU executor against CGAL's constrained Delaunay triangulation, same
+// inputs, same run. Inputs: the paper's synthetic PSLGs (random non-crossing segments of many lengths,
+// then random points on no segment; uniform and Gaussian), uniform points without segments, and
+// optionally a GIS coastline file as printed by `gmt coast -Rg -Dh -W -M` ('>'-separated polylines).
+//
+// usage: bench_cdt [--quick] [--coast FILE] [--threads N] [--repeat R]
+// Prints one Markdown row per input: median times of R runs, per-phase times of the median run, flips,
+// missing points, the verifier's verdict, peak memory of the run (its own process), CGAL's time and
+// the ratio ours/CGAL (<= 1 means faster).
+
+#include <sys/resource.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cstdio>
+#include <cstdlib>
+#include <cstring>
+#include <fstream>
+#include <functional>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include "cdt/cdt.hpp"
+#include "cdt/verify.hpp"
+#include "pslg_generators.hpp"
+
+#if defined(TRIXEL_HAVE_CGAL)
+#include <CGAL/Constrained_Delaunay_triangulation_2.h>
+#include <CGAL/Exact_predicates_inexact_constructions_kernel.h>
+#endif
+
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+struct Input {
+  std::string name;
+  trixel_gen::Pslg pslg;
+};
+
+trixel_gen::Pslg read_coast(const std::string& path) {
+  std::ifstream in(path);
+  if (!in) {
+    std::fprintf(stderr, "bench_cdt: cannot read %s\n", path.c_str());
+    std::exit(1);
+  }
+  trixel_gen::Pslg p;
+  std::string line;
+  bool open = false;
+  while (std::getline(in, line)) {
+    if (line.empty()) continue;
+    if (line[0] == '>') {
+      open = false;
+      continue;
+    }
+    std::istringstream fields(line);
+    double lon = 0;
+    double lat = 0;
+    if (!(fields >> lon >> lat)) continue;
+    const auto id = static_cast<std::uint32_t>(p.points.size());
+    p.points.push_back({lon, lat});
+    if (open) p.segments.push_back({id - 1, id});
+    open = true;
+  }
+  return p;
+}
+
+double median(std::vector<double> v) {
+  std::sort(v.begin(), v.end());
+  return v[v.size() / 2];
+}
+
+#if defined(TRIXEL_HAVE_CGAL)
+double run_cgal(const trixel_gen::Pslg& in) {
+  using K = CGAL::Exact_predicates_inexact_constructions_kernel;
+  using Cdt = CGAL::Constrained_Delaunay_triangulation_2<K, CGAL::Default, CGAL::Exact_predicates_tag>;
+  std::vector<K::Point_2> points;
+  points.reserve(in.points.size());
+  for (const auto& p : in.points) points.emplace_back(p.x, p.y);
+  std::vector<std::pair<std::size_t, std::size_t>> segments;
+  segments.reserve(in.segments.size());
+  for (const auto& s : in.segments) segments.emplace_back(s.a, s.b);
+  const auto t0 = Clock::now();
+  Cdt cdt;
+  cdt.insert_constraints(points.begin(), points.end(), segments.begin(), segments.end());
+  const double ms = std::chrono::duration<double, std::milli>(Clock::now() - t0).count();
+  if (cdt.number_of_faces() == 0) std::fprintf(stderr, "CGAL produced no faces\n");
+  return ms;
+}
+#endif
+
+/// Runs f in a child process so its peak memory is its own; returns the child's maxrss in MiB.
+double peak_mib_of(const std::function<void(int)>& f, std::string& child_output) {
+  int fds[2];
+  if (pipe(fds) != 0) return -1;
+  const pid_t pid = fork();
+  if (pid == 0) {
+    close(fds[0]);
+    f(fds[1]);
+    close(fds[1]);
+    _exit(0);
+  }
+  close(fds[1]);
+  char buffer[4096];
+  ssize_t got;
+  while ((got = read(fds[0], buffer, sizeof buffer)) > 0)
+    child_output.append(buffer, static_cast<std::size_t>(got));
+  close(fds[0]);
+  int status = 0;
+  rusage usage{};
+  wait4(pid, &status, 0, &usage);
+  return usage.ru_maxrss / 1024.0;
+}
+
+} // namespace
+
+int main(int argc, char** argv) {
+  bool quick = false;
+  std::string coast;
+  unsigned threads = 0;
+  int repeat = 3;
+  for (int i = 1; i < argc; ++i) {
+    if (!std::strcmp(argv[i], "--quick"))
+      quick = true;
+    else if (!std::strcmp(argv[i], "--coast") && i + 1 < argc)
+      coast = argv[++i];
+    else if (!std::strcmp(argv[i], "--threads") && i + 1 < argc)
+      threads = static_cast<unsigned>(std::atoi(argv[++i]));
+    else if (!std::strcmp(argv[i], "--repeat") && i + 1 < argc)
+      repeat = std::max(1, std::atoi(argv[++i]));
+    else {
+      std::fprintf(stderr, "usage: bench_cdt [--quick] [--coast FILE] [--threads N] [--repeat R]\n");
+      return 2;
+    }
+  }
+  const std::size_t n = quick ? 100000 : 1000000;
+  std::vector<Input> inputs;
+  inputs.push_back({"uniform points", trixel_gen::random_points(n, trixel_gen::Distribution::uniform, 1)});
+  inputs.push_back(
+      {"synthetic uniform", trixel_gen::synthetic_pslg(n, n / 10, trixel_gen::Distribution::uniform, 2)});
+  inputs.push_back(
+      {"synthetic gaussian", trixel_gen::synthetic_pslg(n, n / 10, trixel_gen::Distribution::gaussian, 3)});
+  if (!coast.empty()) inputs.push_back({"GSHHG coastlines", read_coast(coast)});
+
+  std::printf("| input | points | segments | ours ms (median of %d) | phases ms | flips | missing | verified "
+              "| peak MiB "
+              "| CGAL ms | ours / CGAL |\n",
+              repeat);
+  std::printf("| --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- |\n");
+  for (const Input& input : inputs) {
+    std::string row;
+    const double peak = peak_mib_of(
+        [&](int fd) {
+          cdt::Options options;
+          options.threads = threads;
+          std::vector<double> times;
+          cdt::Triangulation best;
+          for (int r = 0; r < repeat; ++r) {
+            cdt::Triangulation t = cdt::triangulate(input.pslg.points, input.pslg.segments, options);
+            times.push_back(t.stats.total_milliseconds);
+            if (r == 0 || t.stats.total_milliseconds == median(times)) best = std::move(t);
+          }
+          const bool ok = cdt::verify(best, input.pslg.points, input.pslg.segments).ok();
+          std::string phases;
+          std::uint64_t flips = 0;
+          std::uint64_t missing = 0;
+          for (const auto& p : best.stats.phases) {
+            char part[64];
+            std::snprintf(part, sizeof part, "%s%s %.0f", phases.empty() ? "" : ", ", p.name.c_str(),
+                          p.milliseconds);
+            phases += part;
+            flips += p.flips;
+            if (p.name == "insert") missing = p.missing;
+          }
+          char text[1024];
+          const int len = std::snprintf(text, sizeof text, "%.1f|%s|%llu|%llu|%s", median(times),
+                                        phases.c_str(), static_cast<unsigned long long>(flips),
+                                        static_cast<unsigned long long>(missing), ok ? "yes" : "NO");
+          if (write(fd, text, static_cast<std::size_t>(len)) < 0) _exit(1);
+        },
+        row);
+    double cgal_ms = -1;
+#if defined(TRIXEL_HAVE_CGAL)
+    std::vector<double> cgal;
+    for (int r = 0; r < repeat; ++r) cgal.push_back(run_cgal(input.pslg));
+    cgal_ms = median(cgal);
+#endif
+    std::vector<std::string> f;
+    std::stringstream ss(row);
+    std::string item;
+    while (std::getline(ss, item, '|')) f.push_back(item);
+    if (f.size() != 5) {
+      std::printf("| %s | %zu | %zu | FAILED (child output: %s) |\n", input.name.c_str(),
+                  input.pslg.points.size(), input.pslg.segments.size(), row.c_str());
+      continue;
+    }
+    const double ours = std::atof(f[0].c_str());
+    std::printf("| %s | %zu | %zu | %s | %s | %s | %s | %s | %.0f | %.1f | %.2f |\n", input.name.c_str(),
+                input.pslg.points.size(), input.pslg.segments.size(), f[0].c_str(), f[1].c_str(),
+                f[2].c_str(), f[3].c_str(), f[4].c_str(), peak, cgal_ms, cgal_ms > 0 ? ours / cgal_ms : 0.0);
+    std::fflush(stdout);
+  }
+  return 0;
+}

@@ -1,0 +1,170 @@
+#pragma once
+// The CPU executor of gCD: the data-parallel steps the algorithm is written in (for-each-index,
+// prefix sum, stream compaction, sort, atomic minimum), run on a pool of threads. The CUDA executor
+// in kernels/ provides the same steps on the GPU; per-element work is shared between the two.
+
+#include <algorithm>
+#include <atomic>
+#include <condition_variable>
+#include <cstddef>
+#include <cstdint>
+#include <functional>
+#include <mutex>
+#include <thread>
+#include <vector>
+
+namespace cdt::detail {
+
+/// Lowers *address to value if value is smaller; returns the previous value. Safe against concurrent
+/// callers on the same address (the paper's atomic minimum marking).
+inline std::uint32_t atomic_min(std::uint32_t* address, std::uint32_t value) {
+  std::atomic_ref<std::uint32_t> ref(*address);
+  std::uint32_t current = ref.load(std::memory_order_relaxed);
+  while (value < current && !ref.compare_exchange_weak(current, value, std::memory_order_relaxed)) {
+  }
+  return current;
+}
+
+/// A fixed pool of worker threads running data-parallel steps. Each step returns only when every
+/// element is done, which is the global synchronisation the algorithm relies on between steps.
+class CpuExecutor {
+public:
+  /// threads == 0 uses every hardware thread.
+  explicit CpuExecutor(unsigned threads = 0);
+  ~CpuExecutor();
+  CpuExecutor(const CpuExecutor&) = delete;
+  CpuExecutor& operator=(const CpuExecutor&) = delete;
+
+  unsigned threads() const noexcept { return num_threads_; }
+
+  /// Calls f(i) for every i in [0, n) in parallel. f must be safe to run concurrently for distinct i.
+  template <class F>
+  void for_each(std::size_t n, F&& f) {
+    if (n == 0) return;
+    if (num_threads_ == 1 || n < kSerialBelow) {
+      for (std::size_t i = 0; i < n; ++i) f(i);
+      return;
+    }
+    run_chunks(n, [&f](std::size_t begin, std::size_t end) {
+      for (std::size_t i = begin; i < end; ++i) f(i);
+    });
+  }
+
+  /// Exclusive prefix sum of v in place; returns the total.
+  template <class T>
+  T exclusive_scan(std::vector<T>& v) {
+    const std::size_t n = v.size();
+    if (num_threads_ == 1 || n < kSerialBelow) {
+      T sum{};
+      for (auto& x : v) {
+        const T value = x;
+        x = sum;
+        sum += value;
+      }
+      return sum;
+    }
+    // Two passes over fixed blocks: block totals, then each block scanned from its offset.
+    const std::size_t blocks = num_threads_ * 4;
+    const std::size_t block = (n + blocks - 1) / blocks;
+    std::vector<T> totals(blocks, T{});
+    for_each(blocks, [&](std::size_t b) {
+      T sum{};
+      for (std::size_t i = b * block; i < std::min(n, (b + 1) * block); ++i) sum += v[i];
+      totals[b] = sum;
+    });
+    T running{};
+    for (auto& t : totals) {
+      const T value = t;
+      t = running;
+      running += value;
+    }
+    for_each(blocks, [&](std::size_t b) {
+      T sum = totals[b];
+      for (std::size_t i = b * block; i < std::min(n, (b + 1) * block); ++i) {
+        const T value = v[i];
+        v[i] = sum;
+        sum += value;
+      }
+    });
+    return running;
+  }
+
+  /// The indices i in [0, n) for which keep(i) is true, in increasing order (stream compaction).
+  template <class Pred>
+  std::vector<std::uint32_t> compact(std::size_t n, Pred&& keep) {
+    std::vector<std::uint32_t> out;
+    if (num_threads_ == 1 || n < kSerialBelow) {
+      for (std::size_t i = 0; i < n; ++i)
+        if (keep(i)) out.push_back(static_cast<std::uint32_t>(i));
+      return out;
+    }
+    const std::size_t blocks = num_threads_ * 4;
+    const std::size_t block = (n + blocks - 1) / blocks;
+    std::vector<std::uint32_t> counts(blocks, 0);
+    std::vector<std::uint8_t> flags(n);
+    for_each(blocks, [&](std::size_t b) {
+      std::uint32_t c = 0;
+      for (std::size_t i = b * block; i < std::min(n, (b + 1) * block); ++i) {
+        flags[i] = keep(i) ? 1 : 0;
+        c += flags[i];
+      }
+      counts[b] = c;
+    });
+    const std::uint32_t total = exclusive_scan(counts);
+    out.resize(total);
+    for_each(blocks, [&](std::size_t b) {
+      std::uint32_t at = counts[b];
+      for (std::size_t i = b * block; i < std::min(n, (b + 1) * block); ++i)
+        if (flags[i]) out[at++] = static_cast<std::uint32_t>(i);
+    });
+    return out;
+  }
+
+  /// Sorts v by less (not stable).
+  template <class T, class Less>
+  void sort(std::vector<T>& v, Less less) {
+    const std::size_t n = v.size();
+    if (num_threads_ == 1 || n < 4 * kSerialBelow) {
+      std::sort(v.begin(), v.end(), less);
+      return;
+    }
+    // Sort equal slices in parallel, then merge pairs of runs in parallel rounds.
+    const std::size_t parts = num_threads_;
+    std::vector<std::size_t> bounds(parts + 1);
+    for (std::size_t p = 0; p <= parts; ++p) bounds[p] = n * p / parts;
+    for_each(parts,
+             [&](std::size_t p) { std::sort(v.begin() + bounds[p], v.begin() + bounds[p + 1], less); });
+    for (std::size_t width = 1; width < parts; width *= 2) {
+      const std::size_t pairs = (parts + 2 * width - 1) / (2 * width);
+      for_each(pairs, [&](std::size_t k) {
+        const std::size_t lo = 2 * width * k;
+        const std::size_t mid = std::min(parts, lo + width);
+        const std::size_t hi = std::min(parts, lo + 2 * width);
+        if (mid < hi)
+          std::inplace_merge(v.begin() + bounds[lo], v.begin() + bounds[mid], v.begin() + bounds[hi], less);
+      });
+    }
+  }
+
+private:
+  static constexpr std::size_t kSerialBelow = 4096;
+
+  void run_chunks(std::size_t n, const std::function<void(std::size_t, std::size_t)>& body);
+  void worker_loop(unsigned index);
+
+  unsigned num_threads_ = 1;
+  std::vector<std::thread> workers_;
+  std::mutex mutex_;
+  std::condition_variable start_;
+  std::condition_variable done_;
+  std::uint64_t generation_ = 0;
+  unsigned pending_ = 0;
+  bool stop_ = false;
+  // The current step: chunks handed out dynamically so uneven per-element work balances.
+  const std::function<void(std::size_t, std::size_t)>* body_ = nullptr;
+  std::size_t n_ = 0;
+  std::size_t chunk_ = 0;
+  std::atomic<std::size_t> next_{0};
+};
+
+} // namespace cdt::detail

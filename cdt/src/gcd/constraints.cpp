@@ -1,0 +1,228 @@
+// Step 2 of the CDT (paper section 4, Algorithms 4 and 5): constraint insertion by flipping, with the
+// outer marking loop, the inner flipping loop with the one-step look-ahead of Figure 5, atomic-minimum
+// claims and compacted lists of pending pieces and active triangles.
+
+#include "gcd/constraints.hpp"
+
+#include <string>
+#include <vector>
+
+#include "cdt/errors.hpp"
+#include "executor/cpu_executor.hpp"
+
+namespace cdt::detail {
+namespace {
+
+// Labels keep 2 bits for the case above the slot index.
+constexpr std::uint32_t kMaxSlots = 1u << 30;
+
+bool is_error(ConstraintStatus s) { return s >= ConstraintStatus::vertex_on_piece; }
+
+const char* describe(ConstraintStatus s) {
+  switch (s) {
+  case ConstraintStatus::vertex_on_piece:
+    return "a vertex lies on the open piece (pieces must be split at vertices first)";
+  case ConstraintStatus::crosses_constraint:
+    return "the piece crosses another constraint (crossing pieces must be split first)";
+  case ConstraintStatus::leaves_mesh:
+    return "the piece leaves the triangulated domain";
+  case ConstraintStatus::endpoint_not_in_mesh:
+    return "an endpoint is not a vertex of the triangulation";
+  case ConstraintStatus::corrupt_mesh:
+    return "the triangulation's links or marks are inconsistent";
+  default:
+    return "unknown status";
+  }
+}
+
+[[noreturn]] void fail(ConstraintStatus s, std::uint32_t index, const ConstraintPiece2& p) {
+  throw Error("internal error: constraint piece " + std::to_string(index) + " (" + std::to_string(p.a) +
+              ", " + std::to_string(p.b) + "): " + describe(s));
+}
+
+} // namespace
+
+ConstraintStats insert_constraints(Mesh& mesh, std::span<const ConstraintPiece2> pieces,
+                                   unsigned inner_iterations, CpuExecutor& executor) {
+  // Each inner iteration that runs flips at least once and there are O(n^2) flips (paper, Claim 3), so
+  // only broken code or input can reach this.
+  const std::uint64_t n = mesh.num_vertices();
+  const std::uint64_t bound = n < (1u << 28) ? 16 * n * n + 10'000'000 : ~std::uint64_t{0};
+  return insert_constraints(mesh, pieces, inner_iterations, executor, bound);
+}
+
+ConstraintStats insert_constraints(Mesh& mesh, std::span<const ConstraintPiece2> pieces,
+                                   unsigned inner_iterations, CpuExecutor& executor,
+                                   std::uint64_t max_inner_iterations) {
+  ConstraintStats stats;
+  const std::uint32_t slots = mesh.num_slots();
+  if (slots >= kMaxSlots) throw Error("too many triangles for constraint insertion (at most 2^30 slots)");
+  if (pieces.size() >= kNoId) throw Error("too many constraint pieces for 32-bit indices");
+  const std::uint32_t num_vertices = mesh.num_vertices();
+  for (std::size_t k = 0; k < pieces.size(); ++k) {
+    const ConstraintPiece2& p = pieces[k];
+    if (p.a >= num_vertices || p.b >= num_vertices || p.a == p.b) {
+      throw Error("internal error: constraint piece " + std::to_string(k) + " (" + std::to_string(p.a) +
+                  ", " + std::to_string(p.b) + ") has invalid endpoints");
+    }
+  }
+  if (pieces.empty()) return stats;
+  const unsigned inner_limit = inner_iterations == 0 ? 1u : inner_iterations;
+
+  const MeshView m = mesh.view();
+  const ConstraintPiece2* piece = pieces.data();
+  std::vector<std::uint32_t> cmark_store(slots, kNoId);
+  std::vector<std::uint32_t> claim_store(slots, kNoId);
+  std::uint32_t* cmark = cmark_store.data();
+  std::uint32_t* claim = claim_store.data();
+  FlipBatch batch(slots);
+
+  std::vector<std::uint32_t> pending(pieces.size());
+  for (std::size_t k = 0; k < pending.size(); ++k) pending[k] = static_cast<std::uint32_t>(k);
+  std::vector<ConstraintStatus> walk_status, prop_status;
+  std::vector<std::uint32_t> present_edge;
+  std::vector<std::uint32_t> crossings;
+  std::vector<std::uint32_t> prop_edge, prop_next, prop_prev, label, winner_edges;
+  std::vector<std::uint8_t> owned;
+
+  for (;;) {
+    ++stats.outer_iterations;
+    // Algorithm 4, line 3: marks from scratch, each piece's walk lowering them to its index.
+    executor.for_each(slots, [&](std::size_t t) { cmark[t] = kNoId; });
+    const std::size_t np = pending.size();
+    walk_status.resize(np);
+    present_edge.resize(np);
+    crossings.resize(np);
+    {
+      const std::uint32_t* pend = pending.data();
+      ConstraintStatus* st = walk_status.data();
+      std::uint32_t* present = present_edge.data();
+      std::uint32_t* cross = crossings.data();
+      std::uint32_t error_at = kNoId;
+      executor.for_each(np, [&](std::size_t k) {
+        const std::uint32_t i = pend[k];
+        const auto mark = [cmark, i](std::uint32_t t) { atomic_min(cmark + t, i); };
+        st[k] = walk_piece(m, piece[i].a, piece[i].b, mark, present[k], cross[k]);
+        if (is_error(st[k])) atomic_min(&error_at, static_cast<std::uint32_t>(k));
+      });
+      if (error_at != kNoId) fail(st[error_at], pend[error_at], piece[pend[error_at]]);
+      if (stats.outer_iterations == 1) {
+        for (std::size_t k = 0; k < np; ++k) stats.intersections += cross[k];
+      }
+      // A separate step from the walks, which read seg. Duplicate pieces share an edge: lowest id wins.
+      executor.for_each(np, [&](std::size_t k) {
+        if (st[k] != ConstraintStatus::present) return;
+        const std::uint32_t id = piece[pend[k]].id;
+        atomic_min(m.seg + present[k], id);
+        const std::uint32_t twin = m.adj[present[k]];
+        if (twin != kNoId) atomic_min(m.seg + twin, id);
+      });
+      const std::vector<std::uint32_t> left =
+          executor.compact(np, [&](std::size_t k) { return st[k] == ConstraintStatus::ok; });
+      std::vector<std::uint32_t> next(left.size());
+      const std::uint32_t* l = left.data();
+      std::uint32_t* out = next.data();
+      executor.for_each(left.size(), [&](std::size_t k) { out[k] = pend[l[k]]; });
+      pending.swap(next);
+    }
+    if (pending.empty()) break;
+
+    std::vector<std::uint32_t> active =
+        executor.compact(slots, [&](std::size_t t) { return cmark[t] != kNoId; });
+    std::uint64_t outer_flips = 0;
+    for (unsigned iteration = 0; iteration < inner_limit && !active.empty(); ++iteration) {
+      if (++stats.inner_iterations > max_inner_iterations) {
+        throw Error("internal error: constraint insertion did not finish within " +
+                    std::to_string(max_inner_iterations) + " inner iterations");
+      }
+      const std::size_t na = active.size();
+      prop_edge.resize(na);
+      prop_next.resize(na);
+      prop_prev.resize(na);
+      label.resize(na);
+      owned.resize(na);
+      prop_status.resize(na);
+      ConstraintStatus* status = prop_status.data();
+      const std::uint32_t* act = active.data();
+      std::uint32_t* edge = prop_edge.data();
+      std::uint32_t* next_tri = prop_next.data();
+      std::uint32_t* prev_tri = prop_prev.data();
+      std::uint32_t* lab = label.data();
+      std::uint8_t* own = owned.data();
+
+      // Algorithm 5, lines 2-11: cases, then claims by atomic minimum of the label.
+      std::uint32_t error_at = kNoId;
+      executor.for_each(na, [&](std::size_t k) {
+        const std::uint32_t A = act[k];
+        FlipProposal proposal;
+        status[k] = propose_constraint_flip(m, cmark, piece, A, proposal);
+        if (is_error(status[k])) atomic_min(&error_at, static_cast<std::uint32_t>(k));
+        edge[k] = proposal.edge;
+        prev_tri[k] = proposal.prev;
+        next_tri[k] = kNoId;
+        if (proposal.flip_case == FlipCase::none) return;
+        const std::uint32_t C = edge_tri(m.adj[proposal.edge]);
+        next_tri[k] = C;
+        lab[k] = constraint_flip_label(proposal.flip_case, A);
+        atomic_min(claim + A, lab[k]);
+        atomic_min(claim + C, lab[k]);
+        if (proposal.prev != kNoId) atomic_min(claim + proposal.prev, lab[k]);
+      });
+      if (error_at != kNoId) {
+        const std::uint32_t i = cmark[act[error_at]];
+        fail(status[error_at], i, piece[i]);
+      }
+      // Algorithm 5, line 13: flip only where every claim held. The bits also say which claims this
+      // element clears afterwards, so each claim has one clearer.
+      executor.for_each(na, [&](std::size_t k) {
+        if (next_tri[k] == kNoId) {
+          own[k] = 0;
+          return;
+        }
+        const std::uint32_t mine = lab[k];
+        own[k] = static_cast<std::uint8_t>((claim[act[k]] == mine ? 1u : 0u) |
+                                           (claim[next_tri[k]] == mine ? 2u : 0u) |
+                                           (prev_tri[k] != kNoId && claim[prev_tri[k]] == mine ? 4u : 0u));
+      });
+      const std::vector<std::uint32_t> winners = executor.compact(na, [&](std::size_t k) {
+        return next_tri[k] != kNoId && own[k] == (prev_tri[k] != kNoId ? 7u : 3u);
+      });
+      executor.for_each(na, [&](std::size_t k) {
+        if (own[k] & 1u) claim[act[k]] = kNoId;
+        if (own[k] & 2u) claim[next_tri[k]] = kNoId;
+        if (own[k] & 4u) claim[prev_tri[k]] = kNoId;
+      });
+      if (winners.empty()) break; // the lowest label holds all its claims: nothing was flippable
+      winner_edges.resize(winners.size());
+      {
+        const std::uint32_t* w = winners.data();
+        std::uint32_t* out = winner_edges.data();
+        executor.for_each(winners.size(), [&](std::size_t k) { out[k] = edge[w[k]]; });
+        batch.apply(mesh, winner_edges, executor);
+        const std::uint32_t* partner = batch.partner();
+        executor.for_each(winners.size(), [&](std::size_t k) {
+          const std::uint32_t A = act[w[k]];
+          mark_after_flip(m, cmark, piece, A, partner[A], cmark[A]);
+        });
+      }
+      stats.flips += winners.size();
+      outer_flips += winners.size();
+      // Flips only reuse slots of marked triangles, so the marked set shrinks within the list.
+      const std::vector<std::uint32_t> still =
+          executor.compact(na, [&](std::size_t k) { return cmark[act[k]] != kNoId; });
+      std::vector<std::uint32_t> next(still.size());
+      const std::uint32_t* s = still.data();
+      std::uint32_t* out = next.data();
+      executor.for_each(still.size(), [&](std::size_t k) { out[k] = act[s[k]]; });
+      active.swap(next);
+    }
+    // Section 4.3: the lowest pending piece has all its triangles marked and always a flippable pair.
+    if (outer_flips == 0) {
+      throw Error("internal error: constraint insertion made no progress with " +
+                  std::to_string(pending.size()) + " pieces pending (crossing pieces?)");
+    }
+  }
+  return stats;
+}
+
+} // namespace cdt::detail

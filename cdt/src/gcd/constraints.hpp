@@ -1,0 +1,323 @@
+#pragma once
+// Step 2 of the CDT (paper section 4, Algorithms 4 and 5): inserting constraints into a triangulation by
+// flipping only.
+//
+// Outer loop (section 4.1): one thread per pending piece walks from the fan of its first endpoint along
+// the piece and marks every triangle it crosses with the piece's index by atomic minimum, so all the
+// triangles of the lowest pending piece carry its index (what the proof of section 4.3 needs).
+// Inner loop (section 4.2, Algorithm 5): one thread per marked triangle A looks at its next triangle C and
+// previous triangle B along its piece, classifies the pairs as in Figure 4 (zero, single, double
+// intersection, concave) and flips (A, C) in Case 1, 2 or 3 of Figure 5, claiming A, C (and B for the
+// look-ahead cases) with a label that puts Case 1 before Case 2 before Case 3.
+//
+// "Intersects" always means the open piece meets the interior of the triangle; by precondition no vertex
+// lies on an open piece, so a piece enters and leaves a triangle through the interiors of its edges.
+
+#include <cstdint>
+#include <span>
+
+#include "cdt/detail/host_device.hpp"
+#include "cdt/detail/predicates.hpp"
+#include "gcd/flip.hpp"
+#include "gcd/mesh.hpp"
+
+namespace cdt::detail {
+
+class CpuExecutor;
+
+/// One constraint piece: the segment between mesh vertices a != b; id is stored into seg on both sides of
+/// the edge once it is in the mesh.
+struct ConstraintPiece2 {
+  std::uint32_t a, b, id;
+};
+
+struct ConstraintStats {
+  std::uint64_t flips = 0;            ///< flips performed to insert the pieces
+  std::uint64_t outer_iterations = 0; ///< marking passes (the last one only confirms that all are in)
+  std::uint64_t inner_iterations = 0; ///< flipping passes, over all outer iterations
+  std::uint64_t intersections = 0;    ///< piece-triangle intersections before the first flip (paper Fig. 13)
+};
+
+/// Makes every piece an edge of the mesh (setting seg on both sides to its id) by flips only.
+/// Preconditions: the mesh is a valid triangulation containing every piece's endpoints; no piece crosses
+/// another piece or passes through a vertex other than its endpoints (the caller splits them beforehand);
+/// pieces do not cross constraint edges already in the mesh. inner_iterations bounds the flipping passes
+/// per marking pass (the paper suggests 5 to 10; 0 counts as 1). Duplicate pieces are allowed: their edge
+/// gets the smallest id. Throws Error on a violated precondition that it detects (instead of looping) and
+/// when the mesh has 2^30 slots or more (the labels keep 2 bits for the case).
+ConstraintStats insert_constraints(Mesh& mesh, std::span<const ConstraintPiece2> pieces,
+                                   unsigned inner_iterations, CpuExecutor& executor);
+
+/// The same, throwing Error once more than max_inner_iterations flipping passes have run in total (a hang
+/// guard for tests; the 4-argument form uses 16 n^2 + 10^7 for n vertices, far above the Theta(n^2) flips of
+/// Claim 3, since every pass flips at least once).
+ConstraintStats insert_constraints(Mesh& mesh, std::span<const ConstraintPiece2> pieces,
+                                   unsigned inner_iterations, CpuExecutor& executor,
+                                   std::uint64_t max_inner_iterations);
+
+// --- per-element work (host and device) --------------------------------------------------------------
+
+/// Result of a per-element step. Values from vertex_on_piece on are errors; the driver reports the one of
+/// the lowest-indexed element, so the message does not depend on the thread count.
+enum class ConstraintStatus : std::uint32_t {
+  ok = 0,
+  present = 1,              ///< the piece is already an edge of the mesh
+  vertex_on_piece = 2,      ///< a mesh vertex lies on the open piece (precondition)
+  crosses_constraint = 3,   ///< the piece crosses a constraint edge (precondition)
+  leaves_mesh = 4,          ///< the piece leaves the triangulated domain
+  endpoint_not_in_mesh = 5, ///< an endpoint has no incident triangle
+  corrupt_mesh = 6,         ///< links or marks are inconsistent
+};
+
+/// Figure 4: what flipping a pair of adjacent triangles that a piece crosses gives.
+enum class PairConfig : std::uint8_t {
+  zero_intersection,   ///< the new diagonal is the piece
+  single_intersection, ///< the piece meets one new triangle
+  double_intersection, ///< the piece crosses the new diagonal
+  concave,             ///< the quadrilateral is not strictly convex: no flip
+};
+
+/// Figure 5: why a pair (A, C) may flip. Case 1 zero or single intersection; Case 2 (B, A) and (A, C)
+/// double and (B, A') single after the flip; Case 3 (A, C) double, (B, A) concave and (B, A') double
+/// (3a) or single (3b) after the flip, A' being B's new next triangle.
+enum class FlipCase : std::uint8_t { none, case1, case2, case3a, case3b };
+
+/// Edges (0..2) through which a piece enters and leaves a triangle along its direction a -> b; 3 where the
+/// triangle holds the endpoint instead.
+struct ChainLinks {
+  std::uint32_t entry = 3;
+  std::uint32_t exit = 3;
+};
+
+/// What triangle A proposes: flip the pair across `edge` (encoded, A's side), for `flip_case`, claiming
+/// also `prev` (B, for Cases 2 and 3).
+struct FlipProposal {
+  std::uint32_t edge = kNoId;
+  std::uint32_t prev = kNoId;
+  FlipCase flip_case = FlipCase::none;
+};
+
+/// Label of a proposal for the atomic-minimum claims: 2 bits of priority (Case 1 < Case 2 < Case 3, lower
+/// wins) above 30 bits of A's slot, so labels are unique and the lowest label always holds all its claims.
+CDT_HD_INLINE std::uint32_t constraint_flip_label(FlipCase c, std::uint32_t a_slot) {
+  const std::uint32_t priority = c == FlipCase::case1 ? 0u : c == FlipCase::case2 ? 1u : 2u;
+  return (priority << 30) | a_slot;
+}
+
+/// Classifies the pair of triangles (w, u, v) and (z, v, u) sharing the edge u-v, which the piece a-b
+/// crosses in its interior (so u, v are not endpoints), by the diagonal w-z a flip would create.
+CDT_HD inline PairConfig classify_pair(const MeshView& m, std::uint32_t w, std::uint32_t u, std::uint32_t v,
+                                       std::uint32_t z, std::uint32_t a, std::uint32_t b) {
+  // Strictly convex exactly when u and v lie strictly on opposite sides of the new diagonal.
+  const int ou = orient_vertices(m, w, z, u), ov = orient_vertices(m, w, z, v);
+  if (!((ou > 0 && ov < 0) || (ou < 0 && ov > 0))) return PairConfig::concave;
+  if ((w == a && z == b) || (w == b && z == a)) return PairConfig::zero_intersection;
+  // A diagonal from an endpoint of the piece cannot cross it. Otherwise the piece passes through the whole
+  // quadrilateral (its endpoints are outside), so it crosses the diagonal iff w and z are on opposite
+  // sides of its line.
+  if (w == a || w == b || z == a || z == b) return PairConfig::single_intersection;
+  const int ow = orient_vertices(m, a, b, w), oz = orient_vertices(m, a, b, z);
+  return (ow > 0 && oz < 0) || (ow < 0 && oz > 0) ? PairConfig::double_intersection
+                                                  : PairConfig::single_intersection;
+}
+
+/// True when the open segment a-b meets the interior of triangle t. Two convex sets have disjoint
+/// interiors exactly when a line along an edge of one of them separates them (weakly).
+CDT_HD inline bool triangle_crosses_segment(const MeshView& m, std::uint32_t t, std::uint32_t a,
+                                            std::uint32_t b) {
+  int side[3];
+  for (std::uint32_t i = 0; i < 3; ++i) {
+    const std::uint32_t p = m.v(t, next3(i)), q = m.v(t, prev3(i));
+    if (orient_vertices(m, p, q, a) <= 0 && orient_vertices(m, p, q, b) <= 0) return false;
+    side[i] = orient_vertices(m, a, b, m.v(t, i));
+  }
+  const bool all_left = side[0] >= 0 && side[1] >= 0 && side[2] >= 0;
+  const bool all_right = side[0] <= 0 && side[1] <= 0 && side[2] <= 0;
+  return !all_left && !all_right;
+}
+
+/// Entry and exit edges of triangle t, which the piece a-b intersects (see ChainLinks).
+CDT_HD inline ConstraintStatus chain_links(const MeshView& m, std::uint32_t t, std::uint32_t a,
+                                           std::uint32_t b, ChainLinks& out) {
+  out = ChainLinks{};
+  const std::uint32_t ka = m.index_of(t, a), kb = m.index_of(t, b);
+  if (ka < 3 && kb < 3) return ConstraintStatus::corrupt_mesh; // the piece is an edge of t: not crossing it
+  if (ka < 3) {
+    out.exit = ka;
+    return ConstraintStatus::ok;
+  }
+  if (kb < 3) {
+    out.entry = kb;
+    return ConstraintStatus::ok;
+  }
+  int side[3];
+  for (std::uint32_t k = 0; k < 3; ++k) {
+    side[k] = orient_vertices(m, a, b, m.v(t, k));
+    // On the line but not an endpoint: the triangle meets the open piece, so the vertex is on it.
+    if (side[k] == 0) return ConstraintStatus::vertex_on_piece;
+  }
+  // The piece crosses the two edges at the vertex alone on its side; walking a -> b, it enters on the
+  // edge after that vertex in counter-clockwise order when the vertex is on the left.
+  std::uint32_t lone = 3;
+  for (std::uint32_t k = 0; k < 3; ++k) {
+    if (side[k] != side[next3(k)] && side[k] != side[prev3(k)]) lone = k;
+  }
+  if (lone == 3) return ConstraintStatus::corrupt_mesh;
+  if (side[lone] > 0) {
+    out.entry = prev3(lone);
+    out.exit = next3(lone);
+  } else {
+    out.entry = next3(lone);
+    out.exit = prev3(lone);
+  }
+  return ConstraintStatus::ok;
+}
+
+/// Algorithm 5, lines 2-11 for triangle A marked with piece cmark[A]: determines the case of (A, C) with
+/// the one-step look-ahead to B. out.flip_case is none when A proposes nothing.
+CDT_HD inline ConstraintStatus propose_constraint_flip(const MeshView& m, const std::uint32_t* cmark,
+                                                       const ConstraintPiece2* pieces, std::uint32_t A,
+                                                       FlipProposal& out) {
+  out = FlipProposal{};
+  const std::uint32_t piece = cmark[A];
+  if (piece == kNoId) return ConstraintStatus::ok;
+  const std::uint32_t a = pieces[piece].a, b = pieces[piece].b;
+  ChainLinks links;
+  const ConstraintStatus status = chain_links(m, A, a, b, links);
+  if (status != ConstraintStatus::ok) return status;
+  if (links.exit == 3) return ConstraintStatus::ok; // A holds b: the pair (B, A) is B's to propose
+  const std::uint32_t exit_edge = edge_id(A, links.exit);
+  if (m.seg[exit_edge] != kNoId) return ConstraintStatus::crosses_constraint;
+  const std::uint32_t ce = m.adj[exit_edge];
+  if (ce == kNoId) return ConstraintStatus::leaves_mesh;
+  const std::uint32_t C = edge_tri(ce);
+  if (cmark[C] != piece) return ConstraintStatus::ok;
+  const std::uint32_t x = m.v(A, links.exit), p = m.v(A, next3(links.exit)), q = m.v(A, prev3(links.exit));
+  const std::uint32_t y = m.v(C, edge_index(ce));
+  const PairConfig ac = classify_pair(m, x, p, q, y, a, b);
+  if (ac == PairConfig::zero_intersection || ac == PairConfig::single_intersection) {
+    out.edge = exit_edge;
+    out.flip_case = FlipCase::case1;
+    return ConstraintStatus::ok;
+  }
+  if (ac != PairConfig::double_intersection || links.entry == 3) return ConstraintStatus::ok;
+  const std::uint32_t be = m.adj[edge_id(A, links.entry)];
+  if (be == kNoId) return ConstraintStatus::leaves_mesh;
+  const std::uint32_t B = edge_tri(be);
+  if (cmark[B] != piece) return ConstraintStatus::ok;
+  // (B, A) shares A's entry edge (x, s); after the flip the triangle of (x, s) is (x, s, y), so B's new
+  // pair has the same shared edge with apex y instead of A's apex.
+  const std::uint32_t w = m.v(B, edge_index(be));
+  const std::uint32_t e1 = m.v(A, next3(links.entry)), e2 = m.v(A, prev3(links.entry));
+  const PairConfig ba = classify_pair(m, w, e1, e2, m.v(A, links.entry), a, b);
+  if (ba != PairConfig::double_intersection && ba != PairConfig::concave) return ConstraintStatus::ok;
+  const PairConfig after = classify_pair(m, w, e1, e2, y, a, b);
+  const bool after_single =
+      after == PairConfig::zero_intersection || after == PairConfig::single_intersection;
+  FlipCase c = FlipCase::none;
+  if (ba == PairConfig::double_intersection && after_single) c = FlipCase::case2;
+  if (ba == PairConfig::concave && after == PairConfig::double_intersection) c = FlipCase::case3a;
+  if (ba == PairConfig::concave && after_single) c = FlipCase::case3b;
+  if (c == FlipCase::none) return ConstraintStatus::ok;
+  out.edge = exit_edge;
+  out.prev = B;
+  out.flip_case = c;
+  return ConstraintStatus::ok;
+}
+
+/// Algorithm 5, line 14, after the batch flip of the pair (t, u) for `piece` (the diagonal is edge 1 of
+/// both slots): each new triangle keeps the mark only while it still intersects the piece, and a diagonal
+/// that is the piece itself becomes a constraint edge at once, so no later flip can take it away.
+CDT_HD inline void mark_after_flip(const MeshView& m, std::uint32_t* cmark, const ConstraintPiece2* pieces,
+                                   std::uint32_t t, std::uint32_t u, std::uint32_t piece) {
+  const std::uint32_t a = pieces[piece].a, b = pieces[piece].b;
+  cmark[t] = triangle_crosses_segment(m, t, a, b) ? piece : kNoId;
+  cmark[u] = triangle_crosses_segment(m, u, a, b) ? piece : kNoId;
+  const std::uint32_t d0 = m.v(t, 2), d1 = m.v(t, 0); // edge 1 of t runs from vertex 2 to vertex 0
+  if ((d0 == a && d1 == b) || (d0 == b && d1 == a)) {
+    m.seg[edge_id(t, 1)] = pieces[piece].id;
+    m.seg[edge_id(u, 1)] = pieces[piece].id;
+  }
+}
+
+/// Exact: whether p and q, both on a line through a and distinct from a, lie on the same side of a.
+CDT_HD_INLINE bool same_direction(const MeshView& m, std::uint32_t a, std::uint32_t p, std::uint32_t q) {
+  const int px = (m.x[p] > m.x[a]) - (m.x[p] < m.x[a]), qx = (m.x[q] > m.x[a]) - (m.x[q] < m.x[a]);
+  if (px != 0 || qx != 0) return px == qx;
+  return (m.y[p] > m.y[a]) == (m.y[q] > m.y[a]);
+}
+
+/// Section 4.1 for one piece a -> b: finds the triangle of a's fan that the piece leaves a through and
+/// walks to b, calling mark(t) on every triangle crossed and counting them in `crossings`. Reads the mesh
+/// only. Returns present (with the encoded edge a -> b side in present_edge) when the piece is an edge.
+template <class MarkFn>
+CDT_HD ConstraintStatus walk_piece(const MeshView& m, std::uint32_t a, std::uint32_t b, MarkFn&& mark,
+                                   std::uint32_t& present_edge, std::uint32_t& crossings) {
+  present_edge = kNoId;
+  crossings = 0;
+  const std::uint32_t start = m.vert_tri[a];
+  if (start == kNoId || m.vert_tri[b] == kNoId) return ConstraintStatus::endpoint_not_in_mesh;
+  // Rotate counter-clockwise around a, then clockwise from the start when the fan is open (hull vertex).
+  std::uint32_t first = kNoId;
+  std::uint32_t t = start;
+  bool clockwise = false;
+  for (std::uint32_t steps = 0; first == kNoId; ++steps) {
+    if (steps > m.num_slots) return ConstraintStatus::corrupt_mesh;
+    const std::uint32_t k = m.index_of(t, a);
+    if (k == 3) return ConstraintStatus::corrupt_mesh;
+    const std::uint32_t p = m.v(t, next3(k)), q = m.v(t, prev3(k));
+    if (p == b) {
+      present_edge = edge_id(t, prev3(k));
+      return ConstraintStatus::present;
+    }
+    if (q == b) {
+      present_edge = edge_id(t, next3(k));
+      return ConstraintStatus::present;
+    }
+    const int op = orient_vertices(m, a, p, b), oq = orient_vertices(m, a, q, b);
+    if ((op == 0 && same_direction(m, a, p, b)) || (oq == 0 && same_direction(m, a, q, b))) {
+      return ConstraintStatus::vertex_on_piece;
+    }
+    if (op > 0 && oq < 0) {
+      first = t;
+      break;
+    }
+    // Counter-clockwise the next triangle is across the edge (q, a), clockwise across (a, p).
+    const std::uint32_t e = m.adj[edge_id(t, clockwise ? prev3(k) : next3(k))];
+    if (e == kNoId) {
+      if (clockwise) return ConstraintStatus::leaves_mesh;
+      clockwise = true;
+      t = start;
+      continue;
+    }
+    t = edge_tri(e);
+    if (t == start) return ConstraintStatus::corrupt_mesh; // a closed fan with no wedge towards b
+  }
+  // Walk: keep the crossed edge's endpoints on the left (l) and right (r) of a -> b.
+  const std::uint32_t k = m.index_of(first, a);
+  std::uint32_t r = m.v(first, next3(k)), l = m.v(first, prev3(k));
+  std::uint32_t crossed = edge_id(first, k);
+  mark(first);
+  crossings = 1;
+  for (std::uint32_t steps = 0; steps <= m.num_slots; ++steps) {
+    if (m.seg[crossed] != kNoId) return ConstraintStatus::crosses_constraint;
+    const std::uint32_t e = m.adj[crossed];
+    if (e == kNoId) return ConstraintStatus::leaves_mesh;
+    const std::uint32_t n = edge_tri(e);
+    const std::uint32_t apex = m.v(n, edge_index(e));
+    mark(n);
+    ++crossings;
+    if (apex == b) return ConstraintStatus::ok;
+    const int side = orient_vertices(m, a, b, apex);
+    if (side == 0) return ConstraintStatus::vertex_on_piece;
+    // The piece leaves n through the edge joining the apex to the crossed edge's endpoint on the other
+    // side, which is the edge opposite the endpoint on the apex's side.
+    const std::uint32_t opposite = m.index_of(n, side > 0 ? l : r);
+    if (opposite == 3) return ConstraintStatus::corrupt_mesh;
+    crossed = edge_id(n, opposite);
+    (side > 0 ? l : r) = apex;
+  }
+  return ConstraintStatus::corrupt_mesh;
+}
+
+} // namespace cdt::detail

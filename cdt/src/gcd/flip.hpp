@@ -1,0 +1,186 @@
+#pragma once
+// Phase 5 of gCD and Step 3 of the CDT (paper section 3.5; section 4, "Step 3"): Lawson flipping to the
+// (constrained) Delaunay triangulation in parallel rounds, plus the race-free parallel flip of a batch of
+// disjoint triangle pairs (section 3.5, the two-step link update through temporary storage), which
+// constraint insertion (section 4.2, Algorithm 5 line 14) shares.
+//
+// Rounds: every active triangle t proposes one failing edge towards a neighbour u it is responsible for
+// (u > t, or u inactive: the paper's "ti checks tj only if i < j" while keeping pairs with an unmarked
+// side checked), claims t and u with atomic minimum of t, and flips only if both claims held. The
+// smallest proposer always wins both claims, so every round with a proposal flips at least once.
+
+#include <cstdint>
+#include <span>
+#include <vector>
+
+#include "cdt/detail/host_device.hpp"
+#include "cdt/detail/predicates.hpp"
+#include "gcd/mesh.hpp"
+
+namespace cdt::detail {
+
+class CpuExecutor;
+
+struct FlipStats {
+  std::uint64_t flips = 0;  ///< edge flips performed
+  std::uint64_t rounds = 0; ///< parallel rounds (each a propose / claim / flip / relink sequence)
+};
+
+/// Flips every non-constraint edge that fails the strict incircle test until none does. Constraint edges
+/// (seg != kNoId) are never flipped. Preconditions: mesh is a valid triangulation (CCW, links symmetric,
+/// vert_tri incident). Only strict incircle results flip, so co-circular input terminates; the result
+/// does not depend on the executor's thread count.
+FlipStats flip_to_delaunay(Mesh& mesh, CpuExecutor& executor);
+
+// --- per-element work (host and device) --------------------------------------------------------------
+
+CDT_HD_INLINE int orient_vertices(const MeshView& m, std::uint32_t a, std::uint32_t b, std::uint32_t c) {
+  return orient2d(m.x[a], m.y[a], m.x[b], m.y[b], m.x[c], m.y[c]);
+}
+
+/// True when flipping edge i of t (t = (a, b, c), neighbour (c, b, d)) gives two counter-clockwise
+/// triangles (a, b, d) and (d, c, a), i.e. the quadrilateral a b d c is strictly convex.
+CDT_HD_INLINE bool flip_is_convex(const MeshView& m, std::uint32_t t, std::uint32_t i) {
+  const std::uint32_t e = m.adj[3 * t + i];
+  const std::uint32_t a = m.v(t, i), b = m.v(t, next3(i)), c = m.v(t, prev3(i));
+  const std::uint32_t d = m.v(edge_tri(e), edge_index(e));
+  return orient_vertices(m, a, b, d) > 0 && orient_vertices(m, d, c, a) > 0;
+}
+
+/// True when edge i of t is not a constraint, has a neighbour, fails the strict incircle test and can
+/// be flipped (strictly convex quadrilateral; the incircle test implies it in a valid triangulation,
+/// the orient2d check keeps a corrupt or constrained neighbourhood from producing inverted triangles).
+CDT_HD_INLINE bool edge_wants_flip(const MeshView& m, std::uint32_t t, std::uint32_t i) {
+  const std::uint32_t e = m.adj[3 * t + i];
+  if (e == kNoId || m.seg[3 * t + i] != kNoId) return false;
+  const std::uint32_t a = m.v(t, 0), b = m.v(t, 1), c = m.v(t, 2);
+  const std::uint32_t d = m.v(edge_tri(e), edge_index(e));
+  if (incircle(m.x[a], m.y[a], m.x[b], m.y[b], m.x[c], m.y[c], m.x[d], m.y[d]) <= 0) return false;
+  return flip_is_convex(m, t, i);
+}
+
+/// The encoded edge 3t + i that active triangle t proposes to flip this round, or kNoId. t checks the
+/// edge to neighbour u only when u > t or u is not active: each pair is checked once per round, and a
+/// pair stays checked as long as one side is active.
+CDT_HD inline std::uint32_t delaunay_flip_candidate(const MeshView& m, const std::uint8_t* active,
+                                                    std::uint32_t t) {
+  for (std::uint32_t i = 0; i < 3; ++i) {
+    const std::uint32_t e = m.adj[3 * t + i];
+    if (e == kNoId) continue;
+    const std::uint32_t u = edge_tri(e);
+    if (u < t && active[u]) continue;
+    if (edge_wants_flip(m, t, i)) return edge_id(t, i);
+  }
+  return kNoId;
+}
+
+/// First step of a parallel flip: rewrites the contents of the pair across encoded edge e = 3t + i in
+/// the layout of flip_edge (t = (a, b, d), u = (d, c, a), the diagonal is edge 1 of both), writing only
+/// the two slots it owns. Outer links keep naming the neighbours' edges as they were before the batch;
+/// relink_flipped_pair fixes them once every pair of the batch has been rewritten. Returns which
+/// vertex-array entries must move (bit 0: vert_tri[b] was u, bit 1: vert_tri[c] was t), decided here
+/// because nobody writes vert_tri during this step.
+CDT_HD inline std::uint8_t flip_pair_contents(const MeshView& m, std::uint32_t e) {
+  const std::uint32_t t = edge_tri(e), i = edge_index(e);
+  const std::uint32_t f = m.adj[e];
+  const std::uint32_t u = edge_tri(f), j = edge_index(f);
+  const std::uint32_t i1 = next3(i), i2 = prev3(i);
+  const std::uint32_t j1 = next3(j), j2 = prev3(j);
+  const std::uint32_t a = m.tri[3 * t + i], b = m.tri[3 * t + i1], c = m.tri[3 * t + i2];
+  const std::uint32_t d = m.tri[3 * u + j];
+  const std::uint32_t t_ca = m.adj[3 * t + i1], t_ab = m.adj[3 * t + i2];
+  const std::uint32_t u_bd = m.adj[3 * u + j1], u_dc = m.adj[3 * u + j2];
+  const std::uint32_t s_ca = m.seg[3 * t + i1], s_ab = m.seg[3 * t + i2];
+  const std::uint32_t s_bd = m.seg[3 * u + j1], s_dc = m.seg[3 * u + j2];
+  const std::uint8_t fix =
+      static_cast<std::uint8_t>((m.vert_tri[b] == u ? 1u : 0u) | (m.vert_tri[c] == t ? 2u : 0u));
+  m.tri[3 * t + 0] = a;
+  m.tri[3 * t + 1] = b;
+  m.tri[3 * t + 2] = d;
+  m.tri[3 * u + 0] = d;
+  m.tri[3 * u + 1] = c;
+  m.tri[3 * u + 2] = a;
+  m.adj[3 * t + 0] = u_bd;
+  m.adj[3 * t + 1] = edge_id(u, 1);
+  m.adj[3 * t + 2] = t_ab;
+  m.adj[3 * u + 0] = t_ca;
+  m.adj[3 * u + 1] = edge_id(t, 1);
+  m.adj[3 * u + 2] = u_dc;
+  m.seg[3 * t + 0] = s_bd;
+  m.seg[3 * t + 1] = kNoId;
+  m.seg[3 * t + 2] = s_ab;
+  m.seg[3 * u + 0] = s_ca;
+  m.seg[3 * u + 1] = kNoId;
+  m.seg[3 * u + 2] = s_dc;
+  return fix;
+}
+
+/// Encoded edge of t running from vertex `from` to vertex `to`, or kNoId.
+CDT_HD_INLINE std::uint32_t find_directed_edge(const MeshView& m, std::uint32_t t, std::uint32_t from,
+                                               std::uint32_t to) {
+  for (std::uint32_t i = 0; i < 3; ++i) {
+    if (m.v(t, next3(i)) == from && m.v(t, prev3(i)) == to) return edge_id(t, i);
+  }
+  return kNoId;
+}
+
+/// Second step of a parallel flip, for the pair whose first slot is t (partner[t] is the second). For
+/// each of the four outer edges: a neighbour that did not flip in this batch gets its link rewritten
+/// here (only this pair faces that edge, so the write is exclusive); a neighbour that did flip has moved
+/// the shared edge into itself or its partner, where it is found by its vertices, and fixes its own side.
+/// Also applies the vertex-array moves decided by flip_pair_contents. Returns false when an edge cannot
+/// be found (corrupt input).
+CDT_HD inline bool relink_flipped_pair(const MeshView& m, const std::uint32_t* partner, std::uint32_t t,
+                                       std::uint8_t vertex_fix) {
+  const std::uint32_t u = partner[t];
+  const std::uint32_t pair[2] = {t, u};
+  bool ok = true;
+  for (const std::uint32_t x : pair) {
+    for (std::uint32_t k = 0; k < 3; k += 2) {
+      const std::uint32_t e = m.adj[3 * x + k];
+      if (e == kNoId) continue;
+      const std::uint32_t n = edge_tri(e);
+      if (partner[n] == kNoId) {
+        m.adj[e] = edge_id(x, k);
+        continue;
+      }
+      const std::uint32_t from = m.v(x, next3(k)), to = m.v(x, prev3(k));
+      std::uint32_t found = find_directed_edge(m, n, to, from);
+      if (found == kNoId) found = find_directed_edge(m, partner[n], to, from);
+      if (found == kNoId) {
+        ok = false;
+        continue;
+      }
+      m.adj[3 * x + k] = found;
+    }
+  }
+  if (vertex_fix & 1u) m.vert_tri[m.v(t, 1)] = t;
+  if (vertex_fix & 2u) m.vert_tri[m.v(u, 1)] = u;
+  return ok;
+}
+
+// --- host driver of a batch of flips -----------------------------------------------------------------
+
+/// Flips batches of pairwise disjoint triangle pairs in parallel without races: contents first
+/// (flip_pair_contents), then links (relink_flipped_pair), with a global synchronisation between the two
+/// steps. Holds the per-slot temporary storage, allocated once per phase.
+class FlipBatch {
+public:
+  explicit FlipBatch(std::uint32_t num_slots);
+
+  /// Flips the pair across each encoded edge (t's side). The pairs must be disjoint, the quadrilaterals
+  /// strictly convex; constraint ids move with their edges and the new diagonal (edge 1 of both slots)
+  /// is not a constraint. Throws Error when the links are inconsistent.
+  void apply(Mesh& mesh, std::span<const std::uint32_t> edges, CpuExecutor& executor);
+
+  /// Per slot, the other slot of its pair in the last batch, kNoId when it did not flip. Valid until the
+  /// next apply().
+  const std::uint32_t* partner() const { return partner_.data(); }
+
+private:
+  std::vector<std::uint32_t> partner_;
+  std::vector<std::uint32_t> last_pairs_; // the slots of the last batch, so partner_ resets in O(batch)
+  std::vector<std::uint8_t> vertex_fix_;
+};
+
+} // namespace cdt::detail

@@ -1,0 +1,89 @@
+#pragma once
+// Phase 1 of gCD, first half (paper section 3.1 and Appendix B): the mapping of the input points onto
+// an m x m grid, and the grid sites (one kept point per occupied grid cell, the others "missing").
+//
+// The mapping is chosen so that its inverse is exact: gx * scale + tx is a double computed without
+// rounding for every grid coordinate gx in [0, m). Phase 3 moves every kept point from that grid
+// position to its true position; if the grid position itself were rounded, the triangulation dualized
+// from the grid could already be invalid before any shifting starts (Appendix B).
+
+#include <cstddef>
+#include <cstdint>
+#include <span>
+#include <vector>
+
+#include "cdt/cdt.hpp"
+#include "cdt/detail/host_device.hpp"
+
+namespace cdt::detail {
+
+class CpuExecutor;
+
+/// Largest grid side accepted: cell indices gy * m + gx and the packed (row, column) pairs of the
+/// Voronoi phase need 16 bits per coordinate, and one m x m uint32 array is then already 4 GiB.
+inline constexpr std::uint32_t kMaxGridSize = 32768;
+
+/// Scale and translation that map input coordinates onto an m x m grid such that
+/// gx * scale + tx is computed without rounding error for every grid coordinate gx in [0, m).
+struct GridMapping {
+  std::uint32_t m = 0;
+  double scale = 0, tx = 0, ty = 0; ///< one scale for both axes (the larger extent), per-axis translation
+
+  /// Exact grid-point position: gx * scale + tx (no rounding, by construction). gx < m.
+  CDT_HD double to_x(std::uint32_t gx) const { return static_cast<double>(gx) * scale + tx; }
+  CDT_HD double to_y(std::uint32_t gy) const { return static_cast<double>(gy) * scale + ty; }
+
+  /// Grid cell of a coordinate: floor((x - tx) / scale) clamped to [0, m-1] (the paper's "nearest lower
+  /// left grid point"). Evaluated exactly: the result g is the largest g in [0, m) with to_x(g) <= x,
+  /// or 0 when x < tx, so a kept point never sits left of or below its grid point.
+  CDT_HD std::uint32_t grid_x(double x) const { return grid_coordinate(x, tx); }
+  CDT_HD std::uint32_t grid_y(double y) const { return grid_coordinate(y, ty); }
+
+private:
+  CDT_HD std::uint32_t grid_coordinate(double v, double t) const {
+    // The quotient is only an estimate (two roundings); the exact grid positions correct it by at
+    // most a step or two. NaN compares false everywhere and lands on 0.
+    const double q = (v - t) / scale;
+    std::uint32_t g = 0;
+    if (q >= static_cast<double>(m - 1)) {
+      g = m - 1;
+    } else if (q > 0.0) {
+      g = static_cast<std::uint32_t>(q);
+    }
+    while (g > 0 && static_cast<double>(g) * scale + t > v) --g;
+    while (g + 1 < m && static_cast<double>(g + 1) * scale + t <= v) ++g;
+    return g;
+  }
+};
+
+/// Grid side for num_points input points: the smallest power of two >= 2 * sqrt(num_points), clamped
+/// to [256, 8192]. With m^2 >= 4n cells a uniform input leaves about one point in nine missing (the
+/// expected share of points sharing a cell at load n / m^2 <= 1/4 is about 11%), which Phase 4 inserts
+/// cheaply, while the grid arrays stay within 256 MiB at m = 8192. The paper measures 1024..8192 for
+/// up to 10M points and finds larger grids better for larger inputs (section 5.1.1).
+std::uint32_t choose_grid_size(std::size_t num_points);
+
+/// Appendix B mapping of the points (x[i], y[i]) onto an m x m grid, 1 <= m <= kMaxGridSize.
+/// scale is rounded up so that its mantissa has at most 52 - bit_width(m - 1) bits (gx * scale is then
+/// exact) and scale and both translations are multiples of one power of two small enough that every
+/// gx * scale + t fits in 53 bits (Case 1: the translation loses its low bits; Case 2: a translation
+/// much larger than the extent rounds the scale up instead). Every point maps into [0, m); the points'
+/// bounding box fits in the grid up to a rounding of the scale (points beyond it are clamped).
+/// Throws InvalidInputError for a non-finite coordinate and Error for m outside [1, kMaxGridSize].
+GridMapping make_grid_mapping(std::span<const double> x, std::span<const double> y, std::uint32_t m);
+
+/// The grid sites of Phase 1: each input point's grid cell and the one point kept per occupied cell.
+struct GridSites {
+  std::vector<std::uint32_t> gx, gy;     ///< per input point
+  std::vector<std::uint32_t> cell_owner; ///< m*m, row-major (gy*m+gx): the point kept there, kNone if empty
+  std::vector<std::uint32_t> missing; ///< points not kept because another point had the same cell, increasing
+  std::vector<std::uint32_t> missing_owner; ///< for each missing point, the kept point of its cell
+};
+
+/// Maps every point to its grid cell; the lowest point index of a cell is kept (atomic minimum, so the
+/// result does not depend on thread timing) and the others become missing points. Fewer than 2^32 - 1
+/// points (kNone is the empty-cell sentinel).
+GridSites assign_sites(const GridMapping& mapping, std::span<const double> x, std::span<const double> y,
+                       CpuExecutor& executor);
+
+} // namespace cdt::detail

@@ -1,0 +1,262 @@
+#pragma once
+// Phase 4 of gCD (paper section 3.4): missing points insertion (Algorithm 3) and the removal of the fake
+// boundary added in Phase 2.
+//
+// Algorithm 3 rounds: every pending point locates its container (one triangle, or the two triangles of the
+// edge it lies on) and marks it with its index by atomic minimum; a point whose marks all survive splits its
+// container (1 -> 3 inside a triangle, 2 -> 4 on an edge) into reused free slots; links are repaired in a
+// separate step. The smallest pending index always wins, so every round inserts at least one point.
+//
+// Point location is a straight walk from a vertex towards the point rather than the paper's unspecified
+// search: a visibility walk can cycle in a triangulation that is not Delaunay (ours is not until Phase 5),
+// while a straight walk advances along a segment. When the segment runs exactly through a vertex (lattice
+// inputs do this constantly) the walk restarts from that vertex, which is closer to the point, so no
+// degenerate crossing case is ever needed.
+//
+// Fake boundary removal deletes the fake vertices in rounds of non-adjacent vertices with the hole machinery
+// of shift.hpp; each hole is an open fan, filled up to the convex hull of its chain by fill_pockets.
+
+#include <cstdint>
+#include <span>
+
+#include "cdt/detail/host_device.hpp"
+#include "cdt/detail/predicates.hpp"
+#include "gcd/mesh.hpp"
+#include "gcd/shift.hpp"
+
+namespace cdt::detail {
+
+class CpuExecutor;
+
+struct InsertStats {
+  std::uint64_t inserted = 0; ///< missing points inserted
+  std::uint64_t rounds = 0;   ///< rounds of Algorithm 3
+};
+
+/// Inserts every missing point (already at its true position in mesh.x/y) by Algorithm 3: locate the
+/// container (one triangle, or two when the point is on an edge) by walking from the hint, mark the container
+/// with the point's index in `missing` by atomic minimum, insert the winners (1->3 split or 2->4 split on an
+/// edge) reusing free slots (compaction of free slots; each insertion takes exactly two, so the prefix sum of
+/// the allocation is twice the winner's rank; the mesh grows once up front when slots are short), fix links,
+/// repeat. Delays a point whose hint is a missing point not yet inserted; a hint that is neither in the mesh
+/// nor pending is replaced by a vertex of the mesh. Precondition: the fake boundary encloses every point
+/// strictly and no point coincides with a vertex (else cdt::Error).
+InsertStats insert_missing_points(Mesh& mesh, std::span<const MissingPoint> missing, CpuExecutor& executor);
+
+/// Deletes the fake boundary vertices [first_fake, num_vertices) like bad cases, except that each hole is an
+/// open polygon: the region between the fake vertex's chain of neighbours and that chain's convex hull is
+/// filled (a Graham-scan-like walk adding triangles at convex turns, never a zero-area one). The result
+/// covers exactly the convex hull of the remaining vertices, collinear hull vertices included; then compacts
+/// the triangle list (removes free slots, renumbers links and vert_tri) and removes the fake vertices from
+/// x/y/vert_tri. Precondition: the fake vertices are strictly convex corners of the outer boundary.
+void remove_fake_boundary(Mesh& mesh, std::uint32_t first_fake, CpuExecutor& executor);
+
+// ------------------------------------------------------------------------------------------------------------
+// Per-element work (host and device).
+
+/// Where a point lies: strictly inside triangle `tri` (edge == 3) or strictly inside its edge `edge`.
+struct PointLocation {
+  std::uint32_t tri = kNoId;
+  std::uint32_t edge = 3;
+  WorkStatus status = WorkStatus::ok;
+};
+
+CDT_HD_INLINE int sign_of_difference(double a, double b) { return (a > b) - (a < b); }
+
+/// For q collinear with o and a (q != o): whether q lies on the ray from o through a.
+CDT_HD_INLINE bool on_ray(double ox, double oy, double ax, double ay, double qx, double qy) {
+  return sign_of_difference(qx, ox) == sign_of_difference(ax, ox) &&
+         sign_of_difference(qy, oy) == sign_of_difference(ay, oy);
+}
+
+/// For q on the ray from o through a: whether q lies strictly before a. Exact: compares coordinates only.
+CDT_HD_INLINE bool before_on_ray(double ox, double oy, double ax, double ay, double qx, double qy) {
+  if (ax != ox) return ax > ox ? qx < ax : qx > ax;
+  return ay > oy ? qy < ay : qy > ay;
+}
+
+/// Algorithm 3 line 3: locates (px, py) by a straight walk from vertex `origin` (in the mesh). A vertex met
+/// exactly on the segment becomes the new origin; otherwise the walk crosses the edges the segment crosses,
+/// with the edge's right end A and left end B strictly on either side of the line.
+CDT_HD inline PointLocation locate_point(MeshView m, std::uint32_t origin, double px, double py) {
+  const std::uint64_t max_steps = 8 * static_cast<std::uint64_t>(m.num_slots) + 64;
+  std::uint64_t steps = 0;
+  PointLocation fail;
+  fail.status = WorkStatus::lost;
+  for (;;) {
+    const double ox = m.x[origin], oy = m.y[origin];
+    if (ox == px && oy == py) return PointLocation{kNoId, 3, WorkStatus::duplicate};
+    // Find the wedge of origin's fan that holds the ray towards p (any visiting order will do).
+    std::uint32_t e_cross = kNoId, a = kNoId, b = kNoId, next_origin = kNoId;
+    PointLocation found;
+    found.status = WorkStatus::lost;
+    bool closed = false;
+    const bool fan_ok = visit_fan(m, origin, closed, [&](std::uint32_t t, std::uint32_t k) {
+      if (++steps > max_steps) return false;
+      const std::uint32_t va = m.v(t, next3(k)), vb = m.v(t, prev3(k));
+      const double ax = m.x[va], ay = m.y[va], bx = m.x[vb], by = m.y[vb];
+      const int oa = orient2d(ox, oy, ax, ay, px, py);
+      const int ob = orient2d(ox, oy, bx, by, px, py);
+      // Edge (origin, va) is edge prev3(k); edge (vb, origin) is edge next3(k).
+      if (oa == 0 && on_ray(ox, oy, ax, ay, px, py)) {
+        if (ax == px && ay == py)
+          found = PointLocation{kNoId, 3, WorkStatus::duplicate};
+        else if (before_on_ray(ox, oy, ax, ay, px, py))
+          found = PointLocation{t, prev3(k), WorkStatus::ok};
+        else
+          next_origin = va;
+        return false;
+      }
+      if (ob == 0 && on_ray(ox, oy, bx, by, px, py)) {
+        if (bx == px && by == py)
+          found = PointLocation{kNoId, 3, WorkStatus::duplicate};
+        else if (before_on_ray(ox, oy, bx, by, px, py))
+          found = PointLocation{t, next3(k), WorkStatus::ok};
+        else
+          next_origin = vb;
+        return false;
+      }
+      if (oa > 0 && ob < 0) {
+        const int ab = orient2d(ax, ay, bx, by, px, py);
+        if (ab > 0)
+          found = PointLocation{t, 3, WorkStatus::ok};
+        else if (ab == 0)
+          found = PointLocation{t, k, WorkStatus::ok};
+        else {
+          e_cross = edge_id(t, k);
+          a = va;
+          b = vb;
+        }
+        return false;
+      }
+      return true;
+    });
+    if (!fan_ok) return fail;
+    if (found.status != WorkStatus::lost) return found;
+    if (next_origin == kNoId && e_cross == kNoId) return fail; // p outside the mesh as seen from origin
+    if (next_origin != kNoId) {
+      origin = next_origin;
+      continue;
+    }
+    // Cross edges: the current edge goes from a (right of origin->p) to b (left) in its triangle.
+    while (next_origin == kNoId) {
+      if (++steps > max_steps) return fail;
+      const std::uint32_t e = m.adj[e_cross];
+      if (e == kNoId) return fail;
+      const std::uint32_t u = edge_tri(e), j = edge_index(e);
+      const std::uint32_t c = m.v(u, j); // u = (c, b, a) from index j on
+      const double ax = m.x[a], ay = m.y[a], bx = m.x[b], by = m.y[b], cx = m.x[c], cy = m.y[c];
+      const int s_ac = orient2d(ax, ay, cx, cy, px, py);
+      const int s_cb = orient2d(cx, cy, bx, by, px, py);
+      if (s_ac >= 0 && s_cb >= 0) {
+        if (s_ac == 0 && s_cb == 0) return PointLocation{kNoId, 3, WorkStatus::duplicate};
+        if (s_ac == 0) return PointLocation{u, next3(j), WorkStatus::ok};
+        if (s_cb == 0) return PointLocation{u, prev3(j), WorkStatus::ok};
+        return PointLocation{u, 3, WorkStatus::ok};
+      }
+      const int side = orient2d(ox, oy, px, py, cx, cy);
+      if (side > 0) {
+        e_cross = edge_id(u, next3(j)); // edge (a, c)
+        b = c;
+      } else if (side < 0) {
+        e_cross = edge_id(u, prev3(j)); // edge (c, b)
+        a = c;
+      } else {
+        next_origin = c; // c lies on the segment, strictly between origin and p
+      }
+    }
+    origin = next_origin;
+  }
+}
+
+/// Bits of the corners whose vert_tri a split rewrites: a, b, c of the first container (from the edge's
+/// opposite vertex on, or from index 0 inside a triangle) and d, the apex of the second container.
+enum : std::uint8_t { kSplitOwnA = 1, kSplitOwnB = 2, kSplitOwnC = 4, kSplitOwnD = 8 };
+
+/// Algorithm 3 line 18 inside triangle t = (a, b, c): t becomes (p, b, c), s0 = (a, p, c), s1 = (a, b, p).
+/// The triangle that holds old edge k of t holds it at index k, so links into t can be forwarded by
+/// arithmetic (split_forward); the outer links are left pointing at the old neighbours for that repair.
+CDT_HD inline void split_triangle(MeshView m, std::uint32_t p, std::uint32_t t, std::uint32_t s0,
+                                  std::uint32_t s1, std::uint8_t own) {
+  const std::uint32_t a = m.tri[3 * t], b = m.tri[3 * t + 1], c = m.tri[3 * t + 2];
+  const std::uint32_t o1 = m.adj[3 * t + 1], o2 = m.adj[3 * t + 2];
+  const std::uint32_t g1 = m.seg[3 * t + 1], g2 = m.seg[3 * t + 2];
+  m.tri[3 * t] = p;
+  m.adj[3 * t + 1] = edge_id(s0, 0);
+  m.adj[3 * t + 2] = edge_id(s1, 0);
+  m.seg[3 * t + 1] = kNoId;
+  m.seg[3 * t + 2] = kNoId;
+  const std::uint32_t v0[3] = {a, p, c}, l0[3] = {edge_id(t, 1), o1, edge_id(s1, 1)},
+                      g0[3] = {kNoId, g1, kNoId};
+  const std::uint32_t v1[3] = {a, b, p}, l1[3] = {edge_id(t, 2), edge_id(s0, 2), o2},
+                      h1[3] = {kNoId, kNoId, g2};
+  for (std::uint32_t i = 0; i < 3; ++i) {
+    m.tri[3 * s0 + i] = v0[i];
+    m.adj[3 * s0 + i] = l0[i];
+    m.seg[3 * s0 + i] = g0[i];
+    m.tri[3 * s1 + i] = v1[i];
+    m.adj[3 * s1 + i] = l1[i];
+    m.seg[3 * s1 + i] = h1[i];
+  }
+  m.vert_tri[p] = t;
+  if (own & kSplitOwnA) m.vert_tri[a] = s0;
+  if (own & kSplitOwnB) m.vert_tri[b] = t;
+  if (own & kSplitOwnC) m.vert_tri[c] = t;
+}
+
+/// Algorithm 3 line 18 on edge i of t = (a, b, c) (from index i on), shared with edge j of u = (d, c, b):
+/// t becomes (a, b, p), s0 = (a, p, c), u becomes (d, c, p), s1 = (d, p, b), each new triangle at the indices
+/// of the triangle it came from, so every old outer edge keeps its index.
+CDT_HD inline void split_edge(MeshView m, std::uint32_t p, std::uint32_t t, std::uint32_t i, std::uint32_t u,
+                              std::uint32_t j, std::uint32_t s0, std::uint32_t s1, std::uint8_t own) {
+  const std::uint32_t i1 = next3(i), i2 = prev3(i), j1 = next3(j), j2 = prev3(j);
+  const std::uint32_t a = m.tri[3 * t + i], b = m.tri[3 * t + i1], c = m.tri[3 * t + i2],
+                      d = m.tri[3 * u + j];
+  const std::uint32_t t_ca = m.adj[3 * t + i1], u_bd = m.adj[3 * u + j1];
+  const std::uint32_t g_bc = m.seg[3 * t + i], g_ca = m.seg[3 * t + i1], g_bd = m.seg[3 * u + j1];
+  // s0 and s1 first: they copy from t and u before those change.
+  m.tri[3 * s0 + i] = a;
+  m.tri[3 * s0 + i1] = p;
+  m.tri[3 * s0 + i2] = c;
+  m.adj[3 * s0 + i] = edge_id(u, j);
+  m.adj[3 * s0 + i1] = t_ca;
+  m.adj[3 * s0 + i2] = edge_id(t, i1);
+  m.seg[3 * s0 + i] = g_bc;
+  m.seg[3 * s0 + i1] = g_ca;
+  m.seg[3 * s0 + i2] = kNoId;
+  m.tri[3 * s1 + j] = d;
+  m.tri[3 * s1 + j1] = p;
+  m.tri[3 * s1 + j2] = b;
+  m.adj[3 * s1 + j] = edge_id(t, i);
+  m.adj[3 * s1 + j1] = u_bd;
+  m.adj[3 * s1 + j2] = edge_id(u, j1);
+  m.seg[3 * s1 + j] = g_bc;
+  m.seg[3 * s1 + j1] = g_bd;
+  m.seg[3 * s1 + j2] = kNoId;
+  m.tri[3 * t + i2] = p;
+  m.adj[3 * t + i] = edge_id(s1, j);
+  m.adj[3 * t + i1] = edge_id(s0, i2);
+  m.seg[3 * t + i1] = kNoId;
+  m.tri[3 * u + j2] = p;
+  m.adj[3 * u + j] = edge_id(s0, i);
+  m.adj[3 * u + j1] = edge_id(s1, j2);
+  m.seg[3 * u + j1] = kNoId;
+  m.vert_tri[p] = t;
+  if (own & kSplitOwnA) m.vert_tri[a] = t;
+  if (own & kSplitOwnB) m.vert_tri[b] = t;
+  if (own & kSplitOwnC) m.vert_tri[c] = u;
+  if (own & kSplitOwnD) m.vert_tri[d] = u;
+}
+
+/// Where old edge k of container x of a winning point now lives. `edge` is the point's location edge in t
+/// (3: inside t), j the matching edge of the second container (any x other than t), s0/s1 its new slots (see
+/// split_triangle and split_edge).
+CDT_HD_INLINE std::uint32_t split_forward(std::uint32_t x, std::uint32_t k, std::uint32_t t,
+                                          std::uint32_t edge, std::uint32_t j, std::uint32_t s0,
+                                          std::uint32_t s1) {
+  if (edge == 3) return edge_id(k == 0 ? t : k == 1 ? s0 : s1, k);
+  if (x == t) return edge_id(k == prev3(edge) ? t : s0, k);
+  return edge_id(k == prev3(j) ? x : s1, k);
+}
+
+} // namespace cdt::detail

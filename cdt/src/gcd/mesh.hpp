@@ -1,0 +1,131 @@
+#pragma once
+// The triangulation data structure shared by every phase of gCD (paper section 3: a triangle list
+// of pre-allocated slots with edge-adjacency links, plus a vertex array).
+//
+// Conventions (the same as the public Triangulation): a triangle's vertices are counter-clockwise;
+// edge i of a triangle joins its vertices (i + 1) % 3 and (i + 2) % 3, so it is opposite vertex i.
+// Links name the neighbour's edge, not only the neighbour: adj[3t + i] = 3u + j means edge i of t is
+// edge j of u. This makes every link update O(1), with no search through the neighbour.
+//
+// Vertex array: where the paper keeps a linked list of incident triangles per vertex, this keeps one
+// incident triangle per vertex and walks the fan through the links. Every phase only needs fans
+// between its parallel steps, when links are consistent, and this needs no list maintenance and a
+// quarter of the memory.
+//
+// MeshView holds raw pointers so that per-element functions run unchanged on the host and the device.
+
+#include <cstdint>
+#include <vector>
+
+#include "cdt/detail/host_device.hpp"
+
+namespace cdt::detail {
+
+inline constexpr std::uint32_t kNoId = 0xFFFFFFFFu;
+
+CDT_HD_INLINE std::uint32_t next3(std::uint32_t i) { return i == 2 ? 0 : i + 1; }
+CDT_HD_INLINE std::uint32_t prev3(std::uint32_t i) { return i == 0 ? 2 : i - 1; }
+CDT_HD_INLINE std::uint32_t edge_id(std::uint32_t t, std::uint32_t i) { return 3 * t + i; }
+CDT_HD_INLINE std::uint32_t edge_tri(std::uint32_t e) { return e / 3; }
+CDT_HD_INLINE std::uint32_t edge_index(std::uint32_t e) { return e % 3; }
+
+/// Raw view of a Mesh for per-element work (host or device pointers).
+struct MeshView {
+  double* x = nullptr; ///< vertex coordinates
+  double* y = nullptr;
+  std::uint32_t* tri = nullptr; ///< 3 per slot; tri[3t] == kNoId marks a free slot
+  std::uint32_t* adj = nullptr; ///< 3 per slot: encoded neighbour edge across edge i, kNoId on the boundary
+  std::uint32_t* seg = nullptr; ///< 3 per slot: constraint id on edge i, kNoId when not a constraint
+  std::uint32_t* vert_tri = nullptr; ///< per vertex: one live incident triangle, kNoId when not in the mesh
+  std::uint32_t num_slots = 0;
+  std::uint32_t num_vertices = 0;
+
+  CDT_HD std::uint32_t v(std::uint32_t t, std::uint32_t i) const { return tri[3 * t + i]; }
+  CDT_HD bool alive(std::uint32_t t) const { return tri[3 * t] != kNoId; }
+  /// Index (0..2) of vertex p in triangle t, or 3 when p is not a vertex of t.
+  CDT_HD std::uint32_t index_of(std::uint32_t t, std::uint32_t p) const {
+    return tri[3 * t] == p ? 0 : tri[3 * t + 1] == p ? 1 : tri[3 * t + 2] == p ? 2 : 3;
+  }
+};
+
+/// Host-side storage of a triangulation under construction.
+struct Mesh {
+  std::vector<double> x;
+  std::vector<double> y;
+  std::vector<std::uint32_t> tri;
+  std::vector<std::uint32_t> adj;
+  std::vector<std::uint32_t> seg;
+  std::vector<std::uint32_t> vert_tri;
+
+  std::uint32_t num_slots() const { return static_cast<std::uint32_t>(tri.size() / 3); }
+  std::uint32_t num_vertices() const { return static_cast<std::uint32_t>(x.size()); }
+  bool alive(std::uint32_t t) const { return tri[3 * t] != kNoId; }
+
+  /// Adds a triangle slot (a, b, c must be counter-clockwise) with no links; returns its index.
+  std::uint32_t add_triangle(std::uint32_t a, std::uint32_t b, std::uint32_t c);
+  /// Makes room for n more slots (all free) and returns the first new index.
+  std::uint32_t grow_slots(std::uint32_t n);
+
+  MeshView view() {
+    return MeshView{x.data(),   y.data(),        tri.data(),  adj.data(),
+                    seg.data(), vert_tri.data(), num_slots(), num_vertices()};
+  }
+};
+
+class CpuExecutor;
+
+/// Recomputes every link (adj) of the live triangles from their vertices by sorting edge keys, and
+/// points vert_tri at an incident live triangle. Throws Error if an edge is shared by more than two
+/// triangles or used twice in the same direction (not a valid triangulation).
+void link_triangles(Mesh& mesh, CpuExecutor& executor);
+
+/// Flips edge i of triangle t with its neighbour u (the quadrilateral must be strictly convex):
+/// t = (a, b, c) with edge i = (b, c) and u = (c, b, d) become t = (a, b, d) and u = (d, c, a).
+/// The four outer links and vert_tri of the four vertices are updated directly, so the caller must
+/// own t, u and the slots of their outer neighbours that face them. Constraint ids move with their
+/// edges; the new diagonal is not a constraint.
+CDT_HD inline void flip_edge(MeshView m, std::uint32_t t, std::uint32_t i) {
+  const std::uint32_t e = m.adj[3 * t + i];
+  const std::uint32_t u = edge_tri(e);
+  const std::uint32_t j = edge_index(e);
+  const std::uint32_t i1 = next3(i), i2 = prev3(i);
+  const std::uint32_t j1 = next3(j), j2 = prev3(j);
+  const std::uint32_t a = m.tri[3 * t + i], b = m.tri[3 * t + i1], c = m.tri[3 * t + i2];
+  const std::uint32_t d = m.tri[3 * u + j];
+  // Outer edges before the flip: of t, (c, a) is edge i1 and (a, b) is edge i2; of u, with
+  // u = (d, c, b) in order j, j1, j2: (b, d) is edge j1 and (d, c) is edge j2.
+  const std::uint32_t t_ca = m.adj[3 * t + i1], t_ab = m.adj[3 * t + i2];
+  const std::uint32_t u_bd = m.adj[3 * u + j1], u_dc = m.adj[3 * u + j2];
+  const std::uint32_t s_ca = m.seg[3 * t + i1], s_ab = m.seg[3 * t + i2];
+  const std::uint32_t s_bd = m.seg[3 * u + j1], s_dc = m.seg[3 * u + j2];
+  // New t = (a, b, d): edge 0 = (b, d), edge 1 = (d, a) (the new diagonal), edge 2 = (a, b).
+  // New u = (d, c, a): edge 0 = (c, a), edge 1 = (a, d) (the diagonal), edge 2 = (d, c).
+  m.tri[3 * t + 0] = a;
+  m.tri[3 * t + 1] = b;
+  m.tri[3 * t + 2] = d;
+  m.tri[3 * u + 0] = d;
+  m.tri[3 * u + 1] = c;
+  m.tri[3 * u + 2] = a;
+  m.adj[3 * t + 0] = u_bd;
+  m.adj[3 * t + 1] = edge_id(u, 1);
+  m.adj[3 * t + 2] = t_ab;
+  m.adj[3 * u + 0] = t_ca;
+  m.adj[3 * u + 1] = edge_id(t, 1);
+  m.adj[3 * u + 2] = u_dc;
+  m.seg[3 * t + 0] = s_bd;
+  m.seg[3 * t + 1] = kNoId;
+  m.seg[3 * t + 2] = s_ab;
+  m.seg[3 * u + 0] = s_ca;
+  m.seg[3 * u + 1] = kNoId;
+  m.seg[3 * u + 2] = s_dc;
+  if (u_bd != kNoId) m.adj[u_bd] = edge_id(t, 0);
+  if (t_ab != kNoId) m.adj[t_ab] = edge_id(t, 2);
+  if (t_ca != kNoId) m.adj[t_ca] = edge_id(u, 0);
+  if (u_dc != kNoId) m.adj[u_dc] = edge_id(u, 2);
+  m.vert_tri[a] = t;
+  m.vert_tri[b] = t;
+  m.vert_tri[d] = u;
+  m.vert_tri[c] = u;
+}
+
+} // namespace cdt::detail

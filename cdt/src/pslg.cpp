@@ -1,0 +1,831 @@
+// PSLG preparation: input checks, duplicate merging, point-on-segment splits, overlap merging and
+// crossing resolution (see pslg.hpp).
+//
+// Overlapping collinear segments need no code of their own: when every segment is split at every
+// vertex lying in its interior, two segments that overlap are cut into the very same pieces along the
+// overlap, and identical pieces are merged (keeping the lowest segment id). Crossings are resolved in
+// rounds: the rounded crossing point bends both segments slightly, so the bent pieces are checked again
+// (against everything) in the next round, until a round finds no crossing.
+//
+// Candidate pairs (segment/segment and point/segment) come from a uniform grid. A segment is registered
+// in a superset of the cells it meets: cell boundaries are fixed doubles and a point's cell is found
+// by exact comparisons with them, so only the segment's y over one column is computed inexactly, and
+// that range is widened by a margin far above its rounding error.
+
+#include "pslg.hpp"
+
+#include <algorithm>
+#include <array>
+#include <charconv>
+#include <cmath>
+#include <cstddef>
+#include <limits>
+#include <string>
+#include <unordered_map>
+#include <utility>
+
+#include "cdt/detail/predicates.hpp"
+#include "cdt/errors.hpp"
+
+namespace cdt::detail {
+namespace {
+
+using Kind = InvalidInputError::Kind;
+
+/// Limits of crossing resolution. Each round only re-checks pieces bent in the previous one; inputs
+/// settle in a few rounds, the repairs adding at most a few vertices per vertex of the first round. An
+/// input beyond these limits is one where rounding keeps creating crossings faster than it resolves
+/// them.
+constexpr int kMaxRounds = 32;
+constexpr std::size_t kRepairVerticesPerFirstVertex = 8;
+constexpr std::size_t kRepairVerticesSlack = 1024;
+
+std::string format_number(double v) {
+  std::array<char, 64> buffer{};
+  const auto result = std::to_chars(buffer.data(), buffer.data() + buffer.size(), v);
+  return std::string(buffer.data(), result.ptr);
+}
+
+std::string format_point(const Point& p) {
+  // Appended piece by piece: GCC 12 warns falsely (-Wrestrict) about "(" + std::string when inlined.
+  std::string text("(");
+  text.append(format_number(p.x)).append(", ").append(format_number(p.y)).append(")");
+  return text;
+}
+
+int orient(const Point& a, const Point& b, const Point& c) { return orient2d(a.x, a.y, b.x, b.y, c.x, c.y); }
+
+/// The axis along which a non-degenerate segment a-b is longest: coordinates along it are strictly
+/// monotone over the segment, so exact comparisons on it order points that lie on the segment.
+bool x_is_dominant(const Point& a, const Point& b) { return std::abs(b.x - a.x) >= std::abs(b.y - a.y); }
+
+/// True when p, known to be collinear with a-b, lies strictly between a and b.
+bool strictly_between(const Point& a, const Point& b, const Point& p) {
+  const bool use_x = x_is_dominant(a, b);
+  const double pa = use_x ? a.x : a.y;
+  const double pb = use_x ? b.x : b.y;
+  const double pp = use_x ? p.x : p.y;
+  return pa < pb ? (pa < pp && pp < pb) : (pb < pp && pp < pa);
+}
+
+// --- input checks ------------------------------------------------------------------------------------
+
+void validate_points(std::span<const Point> points) {
+  for (std::size_t i = 0; i < points.size(); ++i) {
+    const Point& p = points[i];
+    if (!std::isfinite(p.x) || !std::isfinite(p.y)) {
+      throw InvalidInputError(Kind::non_finite_coordinate, i,
+                              "point " + std::to_string(i) + " has a non-finite coordinate " +
+                                  format_point(p));
+    }
+    if (std::abs(p.x) > kMaxCoordinate || std::abs(p.y) > kMaxCoordinate) {
+      throw InvalidInputError(Kind::coordinate_out_of_range, i,
+                              "point " + std::to_string(i) + " has a coordinate beyond +-" +
+                                  format_number(kMaxCoordinate) + " " + format_point(p) +
+                                  ": the exact predicates' products would overflow");
+    }
+  }
+}
+
+/// Returns the number of zero-length segments (a point to itself, or two points at one place): they
+/// are ignored under CrossingSegments::resolve (the point is a vertex anyway) and an error under
+/// CrossingSegments::reject.
+std::size_t validate_segments(std::span<const Point> points, std::span<const Segment> segments,
+                              CrossingSegments policy) {
+  std::size_t zero_length = 0;
+  for (std::size_t s = 0; s < segments.size(); ++s) {
+    const Segment& g = segments[s];
+    if (g.a >= points.size() || g.b >= points.size()) {
+      throw InvalidInputError(Kind::index_out_of_range, s,
+                              "segment " + std::to_string(s) + " (" + std::to_string(g.a) + ", " +
+                                  std::to_string(g.b) + ") refers to a point beyond the " +
+                                  std::to_string(points.size()) + " points given");
+    }
+    if (g.a == g.b || points[g.a] == points[g.b]) {
+      ++zero_length;
+      if (policy == CrossingSegments::resolve) continue;
+      throw InvalidInputError(Kind::degenerate_segment, s,
+                              "segment " + std::to_string(s) + " (" + std::to_string(g.a) + ", " +
+                                  std::to_string(g.b) + ") has zero length: both ends are at " +
+                                  format_point(points[g.a]));
+    }
+  }
+  return zero_length;
+}
+
+// --- duplicates --------------------------------------------------------------------------------------
+
+/// Per point, its representative: the lowest index with identical coordinates (-0 and +0 are equal).
+std::vector<std::uint32_t> merge_duplicates(std::span<const Point> points) {
+  struct Keyed {
+    double x;
+    double y;
+    std::uint32_t index;
+  };
+  std::vector<Keyed> order(points.size());
+  for (std::uint32_t i = 0; i < points.size(); ++i) order[i] = {points[i].x, points[i].y, i};
+  // Sorting copies rather than indices keeps the comparisons in cache. Ties go to the lower index, so
+  // the first of a run of equal points is its lowest index.
+  std::sort(order.begin(), order.end(), [](const Keyed& p, const Keyed& q) {
+    if (p.x != q.x) return p.x < q.x;
+    if (p.y != q.y) return p.y < q.y;
+    return p.index < q.index;
+  });
+  std::vector<std::uint32_t> duplicate_of(points.size());
+  for (std::size_t k = 0; k < order.size(); ++k) {
+    const bool repeat = k > 0 && order[k - 1].x == order[k].x && order[k - 1].y == order[k].y;
+    duplicate_of[order[k].index] = repeat ? duplicate_of[order[k - 1].index] : order[k].index;
+  }
+  return duplicate_of;
+}
+
+void check_dimension(std::span<const Point> points, const std::vector<std::uint32_t>& representatives) {
+  const std::size_t count = representatives.size();
+  if (count < 3) {
+    throw InvalidInputError(Kind::too_few_points, count,
+                            "only " + std::to_string(count) + " distinct points: a triangulation needs 3");
+  }
+  const Point& a = points[representatives[0]];
+  const Point& b = points[representatives[1]];
+  for (std::uint32_t r : representatives) {
+    if (orient(a, b, points[r]) != 0) return;
+  }
+  throw InvalidInputError(Kind::all_collinear, count,
+                          "all " + std::to_string(count) +
+                              " distinct points are collinear: there is no triangle");
+}
+
+// --- working segments --------------------------------------------------------------------------------
+
+/// A segment during preparation: input segments first, then the pieces bent at crossing points.
+struct WorkSegment {
+  std::uint32_t a;
+  std::uint32_t b;
+  std::uint32_t label; // lowest input segment id covering it
+  bool dirty;          // to be checked against every segment and site in the coming round
+  bool snapped;        // bent through a snapped site in this round, after its sites were checked
+};
+
+/// Sorts vertices along segment a -> b: by the dominant coordinate, then the other one. Exact for
+/// vertices on the segment; for rounded crossing points it still gives a monotone order, so the bent
+/// polyline never folds back.
+struct AlongSegment {
+  const std::vector<Point>* vertices;
+  bool use_x;
+  bool ascending;
+  bool ascending_other;
+  AlongSegment(const std::vector<Point>& v, const Point& a, const Point& b)
+      : vertices(&v), use_x(x_is_dominant(a, b)), ascending(use_x ? a.x < b.x : a.y < b.y),
+        ascending_other(use_x ? a.y <= b.y : a.x <= b.x) {}
+  bool operator()(std::uint32_t i, std::uint32_t j) const {
+    const Point& p = (*vertices)[i];
+    const Point& q = (*vertices)[j];
+    const double pk = use_x ? p.x : p.y;
+    const double qk = use_x ? q.x : q.y;
+    if (pk != qk) return ascending ? pk < qk : pk > qk;
+    const double po = use_x ? p.y : p.x;
+    const double qo = use_x ? q.y : q.x;
+    if (po != qo) return ascending_other ? po < qo : po > qo;
+    return i < j;
+  }
+};
+
+/// Per segment: the vertices to split it at, in a compressed row layout.
+struct SplitLists {
+  std::vector<std::uint32_t> start; // segment s owns vertex[start[s] .. start[s + 1])
+  std::vector<std::uint32_t> vertex;
+  std::span<const std::uint32_t> of(std::size_t s) const {
+    return {vertex.data() + start[s], vertex.data() + start[s + 1]};
+  }
+};
+
+/// Groups (segment, vertex) pairs by segment and sorts each group along its segment.
+SplitLists group_splits(std::vector<std::pair<std::uint32_t, std::uint32_t>>& pairs,
+                        const std::vector<WorkSegment>& segs, const std::vector<Point>& vertices) {
+  SplitLists lists;
+  lists.start.assign(segs.size() + 1, 0);
+  for (const auto& [s, v] : pairs) ++lists.start[s + 1];
+  for (std::size_t s = 0; s < segs.size(); ++s) lists.start[s + 1] += lists.start[s];
+  lists.vertex.resize(pairs.size());
+  std::vector<std::uint32_t> fill(lists.start.begin(), lists.start.end() - 1);
+  for (const auto& [s, v] : pairs) lists.vertex[fill[s]++] = v;
+  for (std::size_t s = 0; s < segs.size(); ++s) {
+    if (lists.start[s + 1] - lists.start[s] < 2) continue;
+    const AlongSegment along(vertices, vertices[segs[s].a], vertices[segs[s].b]);
+    std::sort(lists.vertex.begin() + lists.start[s], lists.vertex.begin() + lists.start[s + 1], along);
+  }
+  return lists;
+}
+
+// --- the grid ----------------------------------------------------------------------------------------
+
+/// The endpoints of each working segment, copied in segment order: the hot loops read them in sequence
+/// instead of chasing vertex indices across memory.
+using Ends = std::vector<std::array<Point, 2>>;
+
+Ends endpoints(const std::vector<WorkSegment>& segs, const std::vector<Point>& vertices) {
+  Ends ends(segs.size());
+  for (std::size_t k = 0; k < segs.size(); ++k) ends[k] = {vertices[segs[k].a], vertices[segs[k].b]};
+  return ends;
+}
+
+struct Box {
+  double min_x;
+  double min_y;
+  double max_x;
+  double max_y;
+};
+
+/// The largest coordinate magnitude in the box: the scale of the rounding errors of coordinates.
+double magnitude(const Box& box) {
+  return std::max({std::abs(box.min_x), std::abs(box.max_x), std::abs(box.min_y), std::abs(box.max_y)});
+}
+
+/// A uniform grid over the sites' bounding box; cells list the segments that may meet them.
+class SegmentGrid {
+public:
+  SegmentGrid(const Box& box, std::size_t num_segments) : min_x_(box.min_x), min_y_(box.min_y) {
+    const double width = box.max_x - box.min_x;
+    const double height = box.max_y - box.min_y;
+    // About one cell per segment, but never more cells along a side than that, so that a very thin box
+    // cannot ask for an absurd number of cells.
+    const double target = static_cast<double>(std::max<std::size_t>(num_segments, 1));
+    size_ = std::max({std::sqrt(width * height / target), width / target, height / target});
+    if (!(size_ > 0.0)) size_ = 1.0;
+    nx_ = static_cast<std::uint32_t>(std::min(target, std::floor(width / size_)) + 1.0);
+    ny_ = static_cast<std::uint32_t>(std::min(target, std::floor(height / size_)) + 1.0);
+    // The y of a segment over a column is computed with an error of a few ulps of the coordinates.
+    margin_ = std::max(1e-12 * magnitude(box), std::numeric_limits<double>::min());
+  }
+
+  /// Registers every segment in the cells it may meet.
+  void build(const Ends& ends) {
+    start_.assign(num_cells() + 1, 0);
+    for (const auto& [a, b] : ends) {
+      for_each_cell(a, b, [&](std::size_t c) { ++start_[c + 1]; });
+    }
+    for (std::size_t c = 0; c < num_cells(); ++c) start_[c + 1] += start_[c];
+    items_.resize(start_.back());
+    std::vector<std::size_t> fill(start_.begin(), start_.end() - 1);
+    for (std::size_t k = 0; k < ends.size(); ++k) {
+      for_each_cell(ends[k][0], ends[k][1],
+                    [&](std::size_t c) { items_[fill[c]++] = static_cast<std::uint32_t>(k); });
+    }
+  }
+
+  std::size_t num_cells() const { return static_cast<std::size_t>(nx_) * ny_; }
+
+  std::size_t cell_of(const Point& p) const {
+    return static_cast<std::size_t>(row_of(p.y)) * nx_ + column_of(p.x);
+  }
+
+  std::span<const std::uint32_t> segments_in(std::size_t cell) const {
+    return {items_.data() + start_[cell], items_.data() + start_[cell + 1]};
+  }
+
+  /// Calls f(cell) for each cell meeting the box [x0, x1] x [y0, y1], unless there are more than
+  /// max_cells of them; returns whether it did.
+  template <class F>
+  bool for_each_cell_in_box(double x0, double y0, double x1, double y1, std::size_t max_cells, F&& f) const {
+    const std::uint32_t c0 = column_of(x0);
+    const std::uint32_t c1 = column_of(x1);
+    const std::uint32_t r0 = row_of(y0);
+    const std::uint32_t r1 = row_of(y1);
+    if (static_cast<std::size_t>(c1 - c0 + 1) * (r1 - r0 + 1) > max_cells) return false;
+    for (std::uint32_t r = r0; r <= r1; ++r) {
+      for (std::uint32_t c = c0; c <= c1; ++c) f(static_cast<std::size_t>(r) * nx_ + c);
+    }
+    return true;
+  }
+
+  /// Calls f(cell) once for each cell of a superset of the cells that segment a-b meets.
+  template <class F>
+  void for_each_cell(const Point& a, const Point& b, F&& f) const {
+    const std::uint32_t c0 = column_of(std::min(a.x, b.x));
+    const std::uint32_t c1 = column_of(std::max(a.x, b.x));
+    const std::uint32_t r0 = row_of(std::min(a.y, b.y));
+    const std::uint32_t r1 = row_of(std::max(a.y, b.y));
+    const std::size_t box_cells = static_cast<std::size_t>(c1 - c0 + 1) * (r1 - r0 + 1);
+    if (box_cells <= 4 || c0 == c1 || r0 == r1) {
+      for (std::uint32_t r = r0; r <= r1; ++r) {
+        for (std::uint32_t c = c0; c <= c1; ++c) f(static_cast<std::size_t>(r) * nx_ + c);
+      }
+      return;
+    }
+    // Walk the columns (or rows) along the dominant axis; in each, the segment's extent across is a
+    // short interval, widened by the margin.
+    const bool along_x = x_is_dominant(a, b);
+    const Point& p = along_x ? (a.x < b.x ? a : b) : (a.y < b.y ? a : b);
+    const Point& q = &p == &a ? b : a;
+    if (along_x) {
+      const double slope = (q.y - p.y) / (q.x - p.x);
+      for (std::uint32_t c = c0; c <= c1; ++c) {
+        const double lo = std::max(boundary_x(c), p.x);
+        const double hi = c + 1 < nx_ ? std::min(boundary_x(c + 1), q.x) : q.x;
+        const double y_lo = p.y + (lo - p.x) * slope;
+        const double y_hi = p.y + (hi - p.x) * slope;
+        const std::uint32_t from = std::max(r0, row_of(std::min(y_lo, y_hi) - margin_));
+        const std::uint32_t to = std::min(r1, row_of(std::max(y_lo, y_hi) + margin_));
+        for (std::uint32_t r = from; r <= to; ++r) f(static_cast<std::size_t>(r) * nx_ + c);
+      }
+    } else {
+      const double slope = (q.x - p.x) / (q.y - p.y);
+      for (std::uint32_t r = r0; r <= r1; ++r) {
+        const double lo = std::max(boundary_y(r), p.y);
+        const double hi = r + 1 < ny_ ? std::min(boundary_y(r + 1), q.y) : q.y;
+        const double x_lo = p.x + (lo - p.y) * slope;
+        const double x_hi = p.x + (hi - p.y) * slope;
+        const std::uint32_t from = std::max(c0, column_of(std::min(x_lo, x_hi) - margin_));
+        const std::uint32_t to = std::min(c1, column_of(std::max(x_lo, x_hi) + margin_));
+        for (std::uint32_t c = from; c <= to; ++c) f(static_cast<std::size_t>(r) * nx_ + c);
+      }
+    }
+  }
+
+private:
+  /// Cell k spans [boundary(k), boundary(k + 1)) along an axis. These doubles *are* the cells: whatever
+  /// their rounding, they increase with k, and cell indices are found by comparing with them.
+  static double boundary(double origin, double size, std::uint32_t k) {
+    return origin + static_cast<double>(k) * size;
+  }
+  /// The cell index of a coordinate: the estimate by division is corrected by exact comparisons.
+  static std::uint32_t index_of(double v, double origin, double size, std::uint32_t count) {
+    const double estimate = std::floor((v - origin) / size);
+    std::uint32_t k = 0;
+    if (estimate >= static_cast<double>(count - 1)) {
+      k = count - 1;
+    } else if (estimate > 0.0) {
+      k = static_cast<std::uint32_t>(estimate);
+    }
+    while (k > 0 && v < boundary(origin, size, k)) --k;
+    while (k + 1 < count && v >= boundary(origin, size, k + 1)) ++k;
+    return k;
+  }
+  double boundary_x(std::uint32_t c) const { return boundary(min_x_, size_, c); }
+  double boundary_y(std::uint32_t r) const { return boundary(min_y_, size_, r); }
+  std::uint32_t column_of(double x) const { return index_of(x, min_x_, size_, nx_); }
+  std::uint32_t row_of(double y) const { return index_of(y, min_y_, size_, ny_); }
+
+  double min_x_;
+  double min_y_;
+  double size_ = 1.0;
+  double margin_ = 0.0;
+  std::uint32_t nx_ = 1;
+  std::uint32_t ny_ = 1;
+  std::vector<std::size_t> start_;
+  std::vector<std::uint32_t> items_;
+};
+
+// --- point on segment --------------------------------------------------------------------------------
+
+/// The sites of each grid cell with their coordinates, so that a cell's tests read contiguous memory.
+struct SiteCells {
+  std::vector<std::size_t> start; // cell c holds entries start[c] .. start[c + 1]
+  std::vector<std::uint32_t> id;
+  std::vector<Point> point;
+};
+
+SiteCells bucket_sites(const SegmentGrid& grid, const std::vector<Point>& vertices,
+                       const std::vector<std::uint32_t>& sites) {
+  SiteCells cells;
+  cells.start.assign(grid.num_cells() + 1, 0);
+  std::vector<std::size_t> cell(sites.size());
+  for (std::size_t k = 0; k < sites.size(); ++k) {
+    cell[k] = grid.cell_of(vertices[sites[k]]);
+    ++cells.start[cell[k] + 1];
+  }
+  for (std::size_t c = 0; c < grid.num_cells(); ++c) cells.start[c + 1] += cells.start[c];
+  cells.id.resize(sites.size());
+  cells.point.resize(sites.size());
+  std::vector<std::size_t> fill(cells.start.begin(), cells.start.end() - 1);
+  for (std::size_t k = 0; k < sites.size(); ++k) {
+    const std::size_t slot = fill[cell[k]]++;
+    cells.id[slot] = sites[k];
+    cells.point[slot] = vertices[sites[k]];
+  }
+  return cells;
+}
+
+/// The vertices to split the segments at, and per segment whether any of them was snapped (lies off
+/// the segment, so that its pieces are bent).
+struct PointSplits {
+  SplitLists lists;
+  std::vector<std::uint8_t> snapped;
+  bool any_snapped = false;
+};
+
+/// True when p lies within `tolerance` of the line through a and b (an estimate, not a decision: the
+/// pieces bent through p are checked exactly afterwards).
+bool near_line(const Point& a, const Point& b, const Point& p, double tolerance) {
+  const double dx = b.x - a.x;
+  const double dy = b.y - a.y;
+  return std::abs(dx * (p.y - a.y) - dy * (p.x - a.x)) <= tolerance * std::max(std::abs(dx), std::abs(dy));
+}
+
+/// Every site that lies in the interior of a segment, as split lists sorted along each segment. Only
+/// pairs not settled in an earlier round are tested: a dirty segment against every site, a new vertex
+/// (id >= first_new) against every segment. A site lies in exactly one cell, so no pair is seen twice.
+///
+/// With a positive snap tolerance (repair rounds only), a new vertex that lies within it of a segment's
+/// interior splits the segment too, bending it through the vertex: segments that pass a hair away from
+/// a crossing vertex would otherwise cross its bent pieces again and again. Only vertices new in this
+/// round snap, so each vertex snaps in one round at most and snapping cannot go back and forth.
+PointSplits find_points_on_segments(const SegmentGrid& grid, const SiteCells& site_cells, const Ends& ends,
+                                    const std::vector<WorkSegment>& segs, const std::vector<Point>& vertices,
+                                    std::uint32_t first_new, double snap_tolerance) {
+  PointSplits splits;
+  splits.snapped.assign(segs.size(), 0);
+  std::vector<std::pair<std::uint32_t, std::uint32_t>> hits;
+  for (std::size_t c = 0; c < grid.num_cells(); ++c) {
+    const std::size_t begin = site_cells.start[c];
+    const std::size_t end = site_cells.start[c + 1];
+    if (begin == end) continue;
+    for (std::uint32_t s : grid.segments_in(c)) {
+      const WorkSegment& g = segs[s];
+      const auto& [a, b] = ends[s];
+      for (std::size_t k = begin; k < end; ++k) {
+        const std::uint32_t v = site_cells.id[k];
+        if ((!g.dirty && v < first_new) || v == g.a || v == g.b) continue;
+        const Point& p = site_cells.point[k];
+        if (!strictly_between(a, b, p)) continue;
+        if (orient(a, b, p) == 0) {
+          hits.emplace_back(s, v);
+        } else if (v >= first_new && snap_tolerance > 0.0 && near_line(a, b, p, snap_tolerance)) {
+          hits.emplace_back(s, v);
+          splits.snapped[s] = 1;
+          splits.any_snapped = true;
+        }
+      }
+    }
+  }
+  splits.lists = group_splits(hits, segs, vertices);
+  return splits;
+}
+
+// --- crossings ---------------------------------------------------------------------------------------
+
+/// True when segments i and j cross at a single point interior to both (touching and collinear
+/// overlap are no crossings: splitting at vertices handles them).
+bool properly_cross(const std::array<Point, 2>& i, const std::array<Point, 2>& j) {
+  const auto& [a, b] = i;
+  const auto& [c, d] = j;
+  const int oc = orient(a, b, c);
+  const int od = orient(a, b, d);
+  if (oc == 0 || od == 0 || oc == od) return false;
+  const int oa = orient(c, d, a);
+  const int ob = orient(c, d, b);
+  return oa != 0 && ob != 0 && oa != ob;
+}
+
+/// All pairs of segments that properly cross, as index pairs (lower first). Each candidate pair of the
+/// grid is tested once, and only when one of the two is dirty.
+std::vector<std::pair<std::uint32_t, std::uint32_t>> find_crossings(const SegmentGrid& grid, const Ends& ends,
+                                                                    const std::vector<WorkSegment>& segs) {
+  std::vector<std::pair<std::uint32_t, std::uint32_t>> crossings;
+  std::vector<std::uint32_t> tested_with(segs.size(), std::numeric_limits<std::uint32_t>::max());
+  for (std::uint32_t i = 0; i < segs.size(); ++i) {
+    const bool dirty = segs[i].dirty;
+    grid.for_each_cell(ends[i][0], ends[i][1], [&](std::size_t cell) {
+      for (std::uint32_t j : grid.segments_in(cell)) {
+        if (j <= i || tested_with[j] == i) continue;
+        tested_with[j] = i;
+        if (!dirty && !segs[j].dirty) continue;
+        if (properly_cross(ends[i], ends[j])) crossings.emplace_back(i, j);
+      }
+    });
+  }
+  return crossings;
+}
+
+[[noreturn]] void throw_not_converging(const std::string& where, int rounds) {
+  throw Error("crossing segments: resolution did not converge after " + std::to_string(rounds) +
+              " rounds: rounding the crossing points keeps creating new crossings" + where +
+              "; the input has segments that nearly overlap at the limit of double precision");
+}
+
+[[noreturn]] void reject_crossing(const std::vector<std::pair<std::uint32_t, std::uint32_t>>& crossings,
+                                  const std::vector<WorkSegment>& segs) {
+  std::pair<std::uint32_t, std::uint32_t> lowest{std::numeric_limits<std::uint32_t>::max(), 0};
+  for (const auto& [i, j] : crossings) {
+    const auto pair = std::minmax(segs[i].label, segs[j].label);
+    lowest = std::min(lowest, std::pair<std::uint32_t, std::uint32_t>(pair.first, pair.second));
+  }
+  throw CrossingSegmentsError(lowest.first, lowest.second,
+                              "segments " + std::to_string(lowest.first) + " and " +
+                                  std::to_string(lowest.second) +
+                                  " cross in their interiors (crossing policy: reject)");
+}
+
+/// (b - a) x (d - c), evaluated exactly and rounded once at the end (the expansion's components summed
+/// smallest first), so that it keeps its relative accuracy when the two directions are nearly parallel.
+double cross_of_differences(const Point& a, const Point& b, const Point& c, const Point& d) {
+  const Expansion<2> ux = exact_diff(b.x, a.x);
+  const Expansion<2> uy = exact_diff(b.y, a.y);
+  const Expansion<2> vx = exact_diff(d.x, c.x);
+  const Expansion<2> vy = exact_diff(d.y, c.y);
+  Expansion<8> left;
+  Expansion<8> right;
+  expansion_product(ux, vy, left);
+  expansion_product(uy, vx, right);
+  Expansion<16> det;
+  expansion_sum(left, negated(right), det);
+  double sum = 0.0;
+  for (int k = 0; k < det.n; ++k) sum += det.t[k];
+  return sum;
+}
+
+/// The crossing point of two segments known to cross, rounded to doubles.
+///
+/// The parameter along one segment is a ratio of two cross products, both evaluated exactly before
+/// rounding, so it is accurate even for nearly parallel segments (where the plain double formula can
+/// be off by the whole segment). The point is then stepped from the nearer end of the shorter
+/// segment, which keeps the absolute error to a few ulps of that short step, and clamped into both
+/// bounding boxes, where the exact point lies. A far-off point would bend the pieces across
+/// neighbouring segments, and the repair rounds would snowball.
+Point crossing_point(const Point& a, const Point& b, const Point& c, const Point& d) {
+  const auto length2 = [](const Point& p, const Point& q) {
+    return (q.x - p.x) * (q.x - p.x) + (q.y - p.y) * (q.y - p.y);
+  };
+  const bool first_shorter = length2(a, b) <= length2(c, d);
+  const Point& p0 = first_shorter ? a : c;
+  const Point& p1 = first_shorter ? b : d;
+  const Point& q0 = first_shorter ? c : a;
+  const Point& q1 = first_shorter ? d : b;
+  double t = cross_of_differences(p0, q0, q0, q1) / cross_of_differences(p0, p1, q0, q1);
+  if (!std::isfinite(t)) t = 0.5;
+  t = std::clamp(t, 0.0, 1.0);
+  Point x = t <= 0.5 ? Point{p0.x + t * (p1.x - p0.x), p0.y + t * (p1.y - p0.y)}
+                     : Point{p1.x + (t - 1.0) * (p1.x - p0.x), p1.y + (t - 1.0) * (p1.y - p0.y)};
+  const double lo_x = std::max(std::min(a.x, b.x), std::min(c.x, d.x));
+  const double hi_x = std::min(std::max(a.x, b.x), std::max(c.x, d.x));
+  const double lo_y = std::max(std::min(a.y, b.y), std::min(c.y, d.y));
+  const double hi_y = std::min(std::max(a.y, b.y), std::max(c.y, d.y));
+  // + 0.0 turns -0 into +0, so that equal points have equal bits.
+  x.x = std::clamp(x.x, lo_x, hi_x) + 0.0;
+  x.y = std::clamp(x.y, lo_y, hi_y) + 0.0;
+  return x;
+}
+
+/// Chooses the vertex for a rounded crossing point.
+///
+/// An input point at exactly that place is reused, and so is an added vertex within a tolerance of a
+/// few ulps of the largest coordinate (the nearest one), so that rounded crossing points of segments
+/// that overlap to within rounding error (a shared border digitised twice) gather on few vertices. The
+/// tolerance is far below any feature the input can resolve. Input points are only reused exactly: a
+/// segment may bend through an added vertex, never through an input point that is not on it.
+class VertexChooser {
+public:
+  VertexChooser(double tolerance, std::size_t num_points)
+      : tolerance_(std::max(tolerance, std::numeric_limits<double>::min())), num_points_(num_points) {}
+
+  std::uint32_t choose(const Point& p, const SegmentGrid& grid, const SiteCells& site_cells,
+                       std::vector<Point>& vertices, std::vector<std::uint32_t>& sites) {
+    std::uint32_t best = std::numeric_limits<std::uint32_t>::max();
+    double best_distance = tolerance_;
+    const auto consider = [&](std::uint32_t v, const Point& q) {
+      const double distance = std::max(std::abs(q.x - p.x), std::abs(q.y - p.y));
+      if (v < num_points_ && distance != 0.0) return;
+      if (distance <= best_distance && (distance < best_distance || v < best)) {
+        best = v;
+        best_distance = distance;
+      }
+    };
+    // Cells are far larger than the tolerance except in inputs at the limit of double precision, where
+    // scanning a huge box would cost more than an extra vertex.
+    const bool scanned = grid.for_each_cell_in_box(
+        p.x - tolerance_, p.y - tolerance_, p.x + tolerance_, p.y + tolerance_, 9, [&](std::size_t cell) {
+          for (std::size_t k = site_cells.start[cell]; k < site_cells.start[cell + 1]; ++k) {
+            consider(site_cells.id[k], site_cells.point[k]);
+          }
+        });
+    if (!scanned) {
+      const std::size_t cell = grid.cell_of(p);
+      for (std::size_t k = site_cells.start[cell]; k < site_cells.start[cell + 1]; ++k) {
+        if (site_cells.point[k] == p) return site_cells.id[k];
+      }
+    }
+    const Key key = key_of(p);
+    for (std::int64_t dy = -1; dy <= 1; ++dy) {
+      for (std::int64_t dx = -1; dx <= 1; ++dx) {
+        const auto [first, last] = added_.equal_range(Key{key.x + dx, key.y + dy});
+        for (auto it = first; it != last; ++it) consider(it->second, vertices[it->second]);
+      }
+    }
+    if (best != std::numeric_limits<std::uint32_t>::max()) return best;
+    if (vertices.size() >= std::numeric_limits<std::uint32_t>::max()) {
+      throw Error("crossing resolution needs more than 2^32 - 1 vertices");
+    }
+    const auto v = static_cast<std::uint32_t>(vertices.size());
+    vertices.push_back(p);
+    sites.push_back(v);
+    added_.emplace(key, v);
+    return v;
+  }
+
+private:
+  /// Buckets of side `tolerance_` for the vertices added in this round (the site cells do not hold them
+  /// yet): a vertex within the tolerance lies in one of the 3 x 3 buckets around p's.
+  struct Key {
+    std::int64_t x;
+    std::int64_t y;
+    friend bool operator==(const Key&, const Key&) = default;
+  };
+  struct KeyHash {
+    std::size_t operator()(const Key& k) const noexcept {
+      const auto hx = std::hash<std::int64_t>{}(k.x);
+      return hx ^ (std::hash<std::int64_t>{}(k.y) + 0x9E3779B97F4A7C15ull + (hx << 6) + (hx >> 2));
+    }
+  };
+  Key key_of(const Point& p) const {
+    return {static_cast<std::int64_t>(std::floor(p.x / tolerance_)),
+            static_cast<std::int64_t>(std::floor(p.y / tolerance_))};
+  }
+
+  double tolerance_;
+  std::size_t num_points_;
+  std::unordered_multimap<Key, std::uint32_t, KeyHash> added_;
+};
+
+// --- pieces ------------------------------------------------------------------------------------------
+
+enum class CutAt {
+  sites,     ///< vertices on (or snapped to) the segments, found before this round's crossing tests
+  crossings, ///< rounded crossing points, after this round's tests
+};
+
+/// Cuts every segment at its cut vertices (sorted along it) and merges identical pieces, keeping the
+/// lowest label. A cut at an end of its own segment (a crossing point rounded onto it) is no cut.
+/// bent[s] says that segment s was bent by its cuts (snapped sites or crossings).
+///
+/// Dirty pieces are tested against everything in the coming round. Exact cuts at sites give parts of
+/// the segment, which inherit what was already checked of it. After the crossing tests, pieces are
+/// clean unless bent by a crossing now, or by a snap earlier in this round (their sites are unchecked).
+std::vector<WorkSegment> cut_segments(const std::vector<WorkSegment>& segs, const SplitLists& cuts,
+                                      const std::vector<std::uint8_t>& bent, CutAt at) {
+  std::vector<WorkSegment> pieces;
+  pieces.reserve(segs.size() + cuts.vertex.size());
+  std::vector<std::uint32_t> along;
+  for (std::size_t s = 0; s < segs.size(); ++s) {
+    const WorkSegment& g = segs[s];
+    const auto mine = cuts.of(s);
+    along.assign(mine.begin(), mine.end());
+    along.erase(std::unique(along.begin(), along.end()), along.end());
+    std::erase_if(along, [&](std::uint32_t v) { return v == g.a || v == g.b; });
+    const bool is_bent = bent[s] != 0;
+    const bool dirty = at == CutAt::sites ? g.dirty || is_bent : is_bent || g.snapped;
+    const bool snapped = at == CutAt::sites && is_bent;
+    std::uint32_t from = g.a;
+    for (std::uint32_t v : along) {
+      pieces.push_back({std::min(from, v), std::max(from, v), g.label, dirty, snapped});
+      from = v;
+    }
+    pieces.push_back({std::min(from, g.b), std::max(from, g.b), g.label, dirty, snapped});
+  }
+  std::sort(pieces.begin(), pieces.end(), [](const WorkSegment& p, const WorkSegment& q) {
+    if (p.a != q.a) return p.a < q.a;
+    if (p.b != q.b) return p.b < q.b;
+    return p.label < q.label;
+  });
+  std::size_t kept = 0;
+  for (std::size_t k = 0; k < pieces.size(); ++k) {
+    if (kept > 0 && pieces[kept - 1].a == pieces[k].a && pieces[kept - 1].b == pieces[k].b) {
+      pieces[kept - 1].dirty = pieces[kept - 1].dirty || pieces[k].dirty;
+      pieces[kept - 1].snapped = pieces[kept - 1].snapped || pieces[k].snapped;
+    } else {
+      pieces[kept++] = pieces[k];
+    }
+  }
+  pieces.resize(kept);
+  return pieces;
+}
+
+/// The input segments between representatives, each vertex pair once (lowest segment id), all dirty.
+std::vector<WorkSegment> initial_segments(std::span<const Segment> segments,
+                                          const std::vector<std::uint32_t>& duplicate_of) {
+  std::vector<WorkSegment> segs;
+  segs.reserve(segments.size());
+  for (std::size_t s = 0; s < segments.size(); ++s) {
+    const std::uint32_t a = duplicate_of[segments[s].a];
+    const std::uint32_t b = duplicate_of[segments[s].b];
+    if (a == b) continue; // zero length: validated and ignored
+    segs.push_back({std::min(a, b), std::max(a, b), static_cast<std::uint32_t>(s), true, false});
+  }
+  SplitLists none;
+  none.start.assign(segs.size() + 1, 0);
+  return cut_segments(segs, none, std::vector<std::uint8_t>(segs.size(), 0), CutAt::sites);
+}
+
+/// Orders segments by the grid cell of their first end, so that segments met together in the grid
+/// are also near each other in memory.
+void order_spatially(std::vector<WorkSegment>& segs, const std::vector<Point>& vertices,
+                     const SegmentGrid& grid) {
+  std::vector<std::pair<std::size_t, std::uint32_t>> keys(segs.size());
+  for (std::size_t k = 0; k < segs.size(); ++k) {
+    keys[k] = {grid.cell_of(vertices[segs[k].a]), static_cast<std::uint32_t>(k)};
+  }
+  std::sort(keys.begin(), keys.end());
+  std::vector<WorkSegment> sorted(segs.size());
+  for (std::size_t k = 0; k < segs.size(); ++k) sorted[k] = segs[keys[k].second];
+  segs = std::move(sorted);
+}
+
+Box bounding_box(const std::vector<Point>& vertices, const std::vector<std::uint32_t>& sites) {
+  Box box{vertices[sites[0]].x, vertices[sites[0]].y, vertices[sites[0]].x, vertices[sites[0]].y};
+  for (std::uint32_t v : sites) {
+    box.min_x = std::min(box.min_x, vertices[v].x);
+    box.min_y = std::min(box.min_y, vertices[v].y);
+    box.max_x = std::max(box.max_x, vertices[v].x);
+    box.max_y = std::max(box.max_y, vertices[v].y);
+  }
+  return box;
+}
+
+} // namespace
+
+PreparedPslg prepare_pslg(std::span<const Point> points, std::span<const Segment> segments,
+                          CrossingSegments policy) {
+  if (points.size() >= std::numeric_limits<std::uint32_t>::max() ||
+      segments.size() >= std::numeric_limits<std::uint32_t>::max()) {
+    throw Error("more than 2^32 - 2 points or segments");
+  }
+  validate_points(points);
+  const std::size_t zero_length = validate_segments(points, segments, policy);
+  PreparedPslg out;
+  out.zero_length_segments = zero_length;
+  out.duplicate_of = merge_duplicates(points);
+  for (std::uint32_t i = 0; i < points.size(); ++i) {
+    if (out.duplicate_of[i] == i) out.sites.push_back(i);
+  }
+  check_dimension(points, out.sites);
+  out.vertices.assign(points.begin(), points.end());
+  std::vector<WorkSegment> segs = initial_segments(segments, out.duplicate_of);
+  if (segs.empty()) return out;
+
+  // Crossing points are clamped into their segments' boxes, so this box holds every vertex to come.
+  const Box box = bounding_box(out.vertices, out.sites);
+  SegmentGrid grid(box, segs.size());
+  // Rounding a crossing point moves it by an ulp or two of the largest coordinate; snapping works at
+  // a few times that.
+  const double snap_tolerance = 16.0 * kEpsilon * magnitude(box);
+  VertexChooser chooser(snap_tolerance, points.size());
+  // Each round: split at the vertices on the segments (and, in repair rounds, snap new vertices into
+  // segments passing within the tolerance), then bend crossing pieces through their rounded crossing
+  // points. Pairs settled in an earlier round are not tested again (see WorkSegment::dirty).
+  std::uint32_t first_new = 0;
+  std::size_t first_round_vertices = 0;
+  for (int round = 0; round < kMaxRounds; ++round) {
+    order_spatially(segs, out.vertices, grid);
+    Ends ends = endpoints(segs, out.vertices);
+    grid.build(ends);
+    const SiteCells site_cells = bucket_sites(grid, out.vertices, out.sites);
+    // The first round is exact: snapping is only for repairing what rounding did.
+    const PointSplits on_segment = find_points_on_segments(grid, site_cells, ends, segs, out.vertices,
+                                                           first_new, round == 0 ? 0.0 : snap_tolerance);
+    if (!on_segment.lists.vertex.empty()) {
+      segs = cut_segments(segs, on_segment.lists, on_segment.snapped, CutAt::sites);
+      order_spatially(segs, out.vertices, grid);
+      ends = endpoints(segs, out.vertices);
+      grid.build(ends);
+    }
+    const auto crossings = find_crossings(grid, ends, segs);
+    if (crossings.empty() && !on_segment.any_snapped) {
+      std::sort(segs.begin(), segs.end(), [](const WorkSegment& p, const WorkSegment& q) {
+        return p.a != q.a ? p.a < q.a : p.b < q.b;
+      });
+      out.pieces.reserve(segs.size());
+      for (const WorkSegment& p : segs) out.pieces.push_back({p.a, p.b, p.label});
+      return out;
+    }
+    if (policy == CrossingSegments::reject && !crossings.empty()) reject_crossing(crossings, segs);
+
+    first_new = static_cast<std::uint32_t>(out.vertices.size());
+    std::vector<std::pair<std::uint32_t, std::uint32_t>> cuts;
+    cuts.reserve(2 * crossings.size());
+    for (const auto& [i, j] : crossings) {
+      const Point x = crossing_point(out.vertices[segs[i].a], out.vertices[segs[i].b],
+                                     out.vertices[segs[j].a], out.vertices[segs[j].b]);
+      const std::uint32_t v = chooser.choose(x, grid, site_cells, out.vertices, out.sites);
+      cuts.emplace_back(i, v);
+      cuts.emplace_back(j, v);
+    }
+    if (round == 0) first_round_vertices = out.vertices.size() - points.size();
+    const std::size_t repair_vertices = out.vertices.size() - points.size() - first_round_vertices;
+    if (repair_vertices > kRepairVerticesPerFirstVertex * first_round_vertices + kRepairVerticesSlack ||
+        round + 1 == kMaxRounds) {
+      std::string where;
+      if (!crossings.empty()) {
+        where.append(" (segments ").append(std::to_string(segs[crossings.front().first].label));
+        where.append(" and ").append(std::to_string(segs[crossings.front().second].label));
+        where.append(" near ").append(format_point(out.vertices[cuts.front().second])).append(")");
+      }
+      throw_not_converging(where, round + 1);
+    }
+    // Without crossings this only turns this round's snapped pieces from "snapped" into "dirty".
+    std::vector<std::uint8_t> bent(segs.size(), 0);
+    for (const auto& [i, j] : crossings) bent[i] = bent[j] = 1;
+    segs = cut_segments(segs, group_splits(cuts, segs, out.vertices), bent, CutAt::crossings);
+  }
+  throw Error("crossing segments: resolution did not converge"); // not reached: the loop throws first
+}
+
+} // namespace cdt::detail

@@ -1,0 +1,62 @@
+#pragma once
+// Preparation of the planar straight-line graph before the gCD algorithm runs: input checks, merging of
+// duplicate points, and splitting of segments so that what reaches the triangulator is a set of pieces
+// that neither cross nor overlap and carry no vertex in their interiors.
+//
+// Every geometric decision (is a point on a segment, do two segments cross) is made with the exact
+// predicates; the only inexact step is the rounding of a crossing point to doubles. The pieces bent
+// through it are checked again until nothing crosses. To make that converge where segments overlap
+// to within rounding error, a rounded crossing point reuses an added vertex within a few ulps of the
+// largest coordinate, and a vertex new in a repair round also splits segments passing that close to
+// it (snap rounding in miniature). Input points are only ever reused when hit exactly.
+
+#include <cstdint>
+#include <span>
+#include <vector>
+
+#include "cdt/cdt.hpp"
+
+namespace cdt::detail {
+
+/// Largest coordinate magnitude accepted. The exact predicates need the fourth powers of coordinate
+/// differences in incircle to stay finite (see cdt/detail/predicates.hpp): (2 * 1e60)^4 is far below
+/// the largest double.
+inline constexpr double kMaxCoordinate = 1e60;
+
+/// A constraint between two distinct vertices that must appear as one edge of the triangulation.
+struct ConstraintPiece {
+  std::uint32_t a;       ///< vertex index (into PreparedPslg::vertices)
+  std::uint32_t b;       ///< vertex index, != a
+  std::uint32_t segment; ///< the lowest input segment id that covers this piece
+};
+
+/// The cleaned input of the triangulator.
+struct PreparedPslg {
+  /// The input points at their input indices, then the vertices added at crossings.
+  std::vector<Point> vertices;
+  /// Per input point: its representative, the lowest index with identical coordinates.
+  std::vector<std::uint32_t> duplicate_of;
+  /// The distinct vertices to triangulate (representatives, then added vertices), increasing.
+  std::vector<std::uint32_t> sites;
+  /// Pieces that pairwise neither cross nor overlap, with no site in their interiors; a < b, sorted by
+  /// (a, b). A segment's pieces follow it exactly, except where a crossing bent it: then they pass
+  /// through the rounded crossing vertex, a few ulps off its line (and through any vertex exactly on
+  /// the bent pieces).
+  std::vector<ConstraintPiece> pieces;
+  /// Input segments from a point to itself (or to a duplicate of it), ignored.
+  std::size_t zero_length_segments = 0;
+};
+
+/// Checks and cleans the input of triangulate(). Throws InvalidInputError (non-finite coordinates,
+/// coordinates beyond kMaxCoordinate, out-of-range indices, zero-length segments under
+/// CrossingSegments::reject (ignored under resolve), fewer than 3 distinct
+/// points, all points collinear; item() is the point or segment id, or the number of distinct points
+/// for the last two), CrossingSegmentsError when segments cross under CrossingSegments::reject (the
+/// lowest pair of ids, lower first; segments that cross exactly at an input point are split there, not
+/// rejected), and Error when crossing resolution does not converge. Runs in O((n + m) log(n + m) + k)
+/// for n points, m segments and k candidate pairs from the grid (about linear for inputs whose
+/// segments are short compared with the domain).
+PreparedPslg prepare_pslg(std::span<const Point> points, std::span<const Segment> segments,
+                          CrossingSegments policy);
+
+} // namespace cdt::detail

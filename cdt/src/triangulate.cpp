@@ -1,0 +1,220 @@
+// triangulate(): the gCD pipeline (paper sections 3 and 4) on the CPU executor.
+//
+//   prepare   merge duplicates, split segments at points on them and at crossings (cdt/src/pslg.cpp)
+//   voronoi   Phase 1: grid mapping (Appendix B), digital Voronoi diagram (PBA + Appendix A)
+//   dualize   Phase 2: dual triangles, hull completion, fake boundary
+//   shift     Phase 3: points back to their true coordinates (Algorithms 1 and 2)
+//   insert    Phase 4: missing points (Algorithm 3), fake boundary removal
+//   constraints  Step 2: constraints inserted by flipping (Algorithms 4 and 5)
+//   flip      Step 3: Lawson flips to the constrained Delaunay triangulation
+
+#include <algorithm>
+#include <chrono>
+#include <cstdio>
+#include <mutex>
+#include <string>
+#include <vector>
+
+#include "cdt/cdt.hpp"
+#include "executor/cpu_executor.hpp"
+#include "gcd/constraints.hpp"
+#include "gcd/dualize.hpp"
+#include "gcd/flip.hpp"
+#include "gcd/grid_map.hpp"
+#include "gcd/insert.hpp"
+#include "gcd/mesh.hpp"
+#include "gcd/shift.hpp"
+#include "gcd/voronoi.hpp"
+#include "pslg.hpp"
+
+#if defined(TRIXEL_HAVE_CUDA)
+#include "cdt_kernels.hpp"
+#endif
+
+namespace cdt {
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+class PhaseTimer {
+public:
+  explicit PhaseTimer(Statistics& stats) : stats_(stats), start_(Clock::now()) {}
+  PhaseStats& end(const char* name) {
+    const auto now = Clock::now();
+    PhaseStats phase;
+    phase.name = name;
+    phase.milliseconds = std::chrono::duration<double, std::milli>(now - start_).count();
+    stats_.phases.push_back(phase);
+    start_ = now;
+    return stats_.phases.back();
+  }
+
+private:
+  Statistics& stats_;
+  Clock::time_point start_;
+};
+
+int cuda_devices() {
+#if defined(TRIXEL_HAVE_CUDA)
+  return gpu::device_count();
+#else
+  return 0;
+#endif
+}
+
+/// The executor that will run: the CPU executor until the CUDA executor exists. An explicit GPU
+/// request never silently runs on the CPU.
+void choose_backend(Backend backend) {
+  if (backend == Backend::gpu) {
+    if (cuda_devices() == 0) {
+#if defined(TRIXEL_HAVE_CUDA)
+      throw DeviceError("backend gpu: no CUDA device is available on this machine");
+#else
+      throw DeviceError("backend gpu: this build has no CUDA support (configure with -DTRIXEL_CUDA=ON)");
+#endif
+    }
+    throw DeviceError("backend gpu: the CUDA executor of the CDT engine is not implemented in this version");
+  }
+  if (backend == Backend::automatic && cuda_devices() > 0) {
+    static std::once_flag said;
+    std::call_once(said, [] {
+      std::fprintf(stderr, "cdt: a CUDA device is present, but the CUDA executor is not implemented in this "
+                           "version; using the CPU executor\n");
+    });
+  }
+}
+
+} // namespace
+
+Triangulation triangulate(std::span<const Point> points, std::span<const Segment> segments,
+                          const Options& options) {
+  using namespace detail;
+  choose_backend(options.backend);
+  const auto t_start = Clock::now();
+  Triangulation result;
+  Statistics& stats = result.stats;
+  stats.backend = "cpu";
+  PhaseTimer timer(stats);
+  CpuExecutor executor(options.threads);
+
+  // Input checks and cleaning.
+  PreparedPslg pslg = prepare_pslg(points, segments, options.crossings);
+  timer.end("prepare");
+  stats.added_vertices = pslg.vertices.size() - points.size();
+  stats.zero_length_segments = pslg.zero_length_segments;
+
+  // Sites: the distinct vertices, numbered 0..n-1 in the mesh.
+  const auto n = static_cast<std::uint32_t>(pslg.sites.size());
+  std::vector<double> true_x(n);
+  std::vector<double> true_y(n);
+  std::vector<std::uint32_t> site_of_vertex(pslg.vertices.size(), kNoId);
+  for (std::uint32_t s = 0; s < n; ++s) {
+    true_x[s] = pslg.vertices[pslg.sites[s]].x;
+    true_y[s] = pslg.vertices[pslg.sites[s]].y;
+    site_of_vertex[pslg.sites[s]] = s;
+  }
+
+  // Phase 1.
+  const std::uint32_t m = options.grid_size != 0 ? options.grid_size : choose_grid_size(n);
+  stats.grid_size = m;
+  const GridMapping mapping = make_grid_mapping(true_x, true_y, m);
+  const GridSites grid = assign_sites(mapping, true_x, true_y, executor);
+  const std::vector<std::uint32_t> colour = compute_digital_voronoi(grid, m, executor);
+  timer.end("voronoi").missing = grid.missing.size();
+
+  // Phase 2: kept sites at their exact grid positions.
+  std::vector<double> x = true_x;
+  std::vector<double> y = true_y;
+  std::vector<std::uint8_t> kept(n, 0);
+  Box bounds{true_x[0], true_y[0], true_x[0], true_y[0]};
+  for (std::uint32_t s = 0; s < n; ++s) {
+    const std::size_t cell = static_cast<std::size_t>(grid.gy[s]) * m + grid.gx[s];
+    if (grid.cell_owner[cell] == s) {
+      kept[s] = 1;
+      x[s] = mapping.to_x(grid.gx[s]);
+      y[s] = mapping.to_y(grid.gy[s]);
+    }
+    bounds.min_x = std::min({bounds.min_x, x[s], true_x[s]});
+    bounds.min_y = std::min({bounds.min_y, y[s], true_y[s]});
+    bounds.max_x = std::max({bounds.max_x, x[s], true_x[s]});
+    bounds.max_y = std::max({bounds.max_y, y[s], true_y[s]});
+  }
+  Mesh mesh = dualize(colour, m, x, y, kept, bounds, executor);
+  std::vector<MissingPoint> missing;
+  missing.reserve(grid.missing.size());
+  for (std::size_t k = 0; k < grid.missing.size(); ++k)
+    missing.push_back({grid.missing[k], grid.missing_owner[k]});
+  // Kept sites the dual did not reach (degenerate diagrams) are inserted like missing points, starting
+  // from the fake boundary, which is always in the mesh.
+  for (std::uint32_t s = 0; s < n; ++s) {
+    if (kept[s] != 0 && mesh.vert_tri[s] == kNoId) missing.push_back({s, n});
+  }
+  timer.end("dualize");
+
+  // Phase 3.
+  const ShiftStats shift = shift_to_true_positions(mesh, n, true_x, true_y, missing, executor);
+  {
+    PhaseStats& p = timer.end("shift");
+    p.missing = shift.bad;
+    p.iterations = shift.rounds;
+  }
+
+  // Phase 4.
+  const InsertStats insert = insert_missing_points(mesh, missing, executor);
+  remove_fake_boundary(mesh, n, executor);
+  {
+    PhaseStats& p = timer.end("insert");
+    p.missing = missing.size();
+    p.iterations = insert.rounds;
+  }
+
+  // Step 2: constraints (pieces named by their index; seg holds the piece index).
+  std::vector<ConstraintPiece2> pieces(pslg.pieces.size());
+  for (std::size_t k = 0; k < pslg.pieces.size(); ++k) {
+    pieces[k] = {site_of_vertex[pslg.pieces[k].a], site_of_vertex[pslg.pieces[k].b],
+                 static_cast<std::uint32_t>(k)};
+  }
+  const ConstraintStats cons =
+      insert_constraints(mesh, pieces, std::max(1u, options.inner_iterations), executor);
+  {
+    PhaseStats& p = timer.end("constraints");
+    p.flips = cons.flips;
+    p.iterations = cons.outer_iterations;
+  }
+
+  // Step 3.
+  const FlipStats flips = flip_to_delaunay(mesh, executor);
+  {
+    PhaseStats& p = timer.end("flip");
+    p.flips = flips.flips;
+    p.iterations = flips.rounds;
+  }
+
+  // Output in input numbering: live slots in order, links renumbered to triangle indices.
+  result.vertices = std::move(pslg.vertices);
+  result.duplicate_of = std::move(pslg.duplicate_of);
+  std::vector<std::uint32_t> index_of_slot(mesh.num_slots(), kNoId);
+  std::uint32_t count = 0;
+  for (std::uint32_t t = 0; t < mesh.num_slots(); ++t) {
+    if (mesh.alive(t)) index_of_slot[t] = count++;
+  }
+  result.triangles.resize(count);
+  result.neighbors.resize(count);
+  result.segment_of_edge.resize(count);
+  for (std::uint32_t t = 0; t < mesh.num_slots(); ++t) {
+    const std::uint32_t out = index_of_slot[t];
+    if (out == kNoId) continue;
+    for (std::uint32_t i = 0; i < 3; ++i) {
+      result.triangles[out][i] = pslg.sites[mesh.tri[3 * t + i]];
+      const std::uint32_t e = mesh.adj[3 * t + i];
+      result.neighbors[out][i] = e == kNoId ? kNone : index_of_slot[edge_tri(e)];
+      const std::uint32_t piece = mesh.seg[3 * t + i];
+      result.segment_of_edge[out][i] = piece == kNoId ? kNone : pslg.pieces[piece].segment;
+    }
+  }
+  timer.end("output");
+  stats.total_milliseconds = std::chrono::duration<double, std::milli>(Clock::now() - t_start).count();
+  return result;
+}
+
+} // namespace cdt

@@ -1,0 +1,724 @@
+// verify(): exact checks of a triangulation against its input (see cdt/verify.hpp).
+//
+// Why these checks suffice for "the domain is the convex hull": every triangle is counter-clockwise,
+// every edge is shared by at most two triangles lying on opposite sides of it, the boundary is one
+// closed, locally convex cycle that turns around exactly once, and V - E + F = 1. The mesh is then a
+// disc mapped into the plane without folds, whose boundary is a convex polygon: it covers the polygon
+// exactly once. The explicit point-in-hull test adds a direct check for vertices the mesh does not use.
+//
+// Segments are checked in O(log) each rather than walked edge by edge, so that many overlapping input
+// segments cannot make the check quadratic: straight runs of constraint edges are numbered once
+// ("chains"), and a segment is present when the edge leaving rep(a) toward rep(b) and the edge arriving
+// at rep(b) from rep(a) lie on one chain, in that order. A segment split at a rounded crossing point is
+// not straight any more; only for those is the chain searched edge by edge, within a tolerance of a
+// few hundred ulps (see BentChainSearch). A missing segment is walked once more, to say where it stops.
+
+#include "cdt/verify.hpp"
+
+#include <algorithm>
+#include <array>
+#include <bit>
+#include <cmath>
+#include <cstdint>
+#include <sstream>
+#include <string>
+#include <utility>
+
+#include "cdt/detail/predicates.hpp"
+
+namespace cdt {
+namespace {
+
+using detail::incircle;
+using detail::orient2d;
+
+int orient(const Point& a, const Point& b, const Point& c) { return orient2d(a.x, a.y, b.x, b.y, c.x, c.y); }
+
+/// Counts every problem and keeps the first few messages.
+class Reporter {
+public:
+  explicit Reporter(VerifyReport& report) : report_(report) {}
+  template <class... Parts>
+  void add(const Parts&... parts) {
+    ++report_.num_problems;
+    if (!keeping()) return;
+    std::ostringstream message;
+    message.precision(17);
+    (message << ... << parts);
+    report_.problems.push_back(message.str());
+  }
+  /// Counts a problem without describing it (its message would not be kept).
+  void tally() { ++report_.num_problems; }
+  /// Whether the next message will be kept: expensive diagnostics are only worth it then.
+  bool keeping() const { return report_.problems.size() < VerifyReport::kMaxKept; }
+
+private:
+  VerifyReport& report_;
+};
+
+using Triangle = std::array<std::uint32_t, 3>;
+
+std::string id_or_none(std::uint32_t id) { return id == kNone ? std::string("none") : std::to_string(id); }
+
+constexpr std::uint32_t next(std::uint32_t i) { return i == 2 ? 0 : i + 1; }
+constexpr std::uint32_t prev(std::uint32_t i) { return i == 0 ? 2 : i - 1; }
+
+/// Edge i of a triangle, as the directed pair it has in counter-clockwise order.
+std::pair<std::uint32_t, std::uint32_t> edge_of(const Triangle& tri, std::uint32_t i) {
+  return {tri[next(i)], tri[prev(i)]};
+}
+
+/// The edge of u that is (p, q) reversed, or 3 when u has none or more than one.
+std::uint32_t reversed_edge(const Triangle& u, std::uint32_t p, std::uint32_t q) {
+  std::uint32_t found = 3;
+  for (std::uint32_t j = 0; j < 3; ++j) {
+    if (u[next(j)] == q && u[prev(j)] == p) {
+      if (found != 3) return 3;
+      found = j;
+    }
+  }
+  return found;
+}
+
+// --- sizes and indices -------------------------------------------------------------------------------
+
+/// Checks what every later check indexes with. Returns false when they cannot run safely.
+bool check_sizes(const Triangulation& t, std::span<const Point> points, std::span<const Segment> segments,
+                 Reporter& report) {
+  const std::size_t num_t = t.triangles.size();
+  bool ok = true;
+  if (t.neighbors.size() != num_t || t.segment_of_edge.size() != num_t) {
+    report.add("sizes differ: ", num_t, " triangles, ", t.neighbors.size(), " neighbour triples, ",
+               t.segment_of_edge.size(), " segment_of_edge triples");
+    ok = false;
+  }
+  if (t.duplicate_of.size() != points.size()) {
+    report.add("duplicate_of has ", t.duplicate_of.size(), " entries for ", points.size(), " input points");
+    ok = false;
+  }
+  if (t.vertices.size() < points.size()) {
+    report.add("only ", t.vertices.size(), " vertices for ", points.size(), " input points");
+    ok = false;
+  }
+  if (t.vertices.size() >= kNone || num_t >= kNone) {
+    report.add("more than 2^32 - 2 vertices or triangles");
+    ok = false;
+  }
+  if (!ok) return false;
+  for (std::size_t v = 0; v < t.vertices.size(); ++v) {
+    // Exact predicates (and the angular sorts built on them) need finite coordinates.
+    if (!std::isfinite(t.vertices[v].x) || !std::isfinite(t.vertices[v].y)) {
+      report.add("vertex ", v, " has a non-finite coordinate (", t.vertices[v].x, ", ", t.vertices[v].y, ")");
+      ok = false;
+    }
+  }
+  for (std::size_t i = 0; i < points.size(); ++i) {
+    const Point& v = t.vertices[i];
+    const Point& p = points[i];
+    if (std::bit_cast<std::uint64_t>(v.x) != std::bit_cast<std::uint64_t>(p.x) ||
+        std::bit_cast<std::uint64_t>(v.y) != std::bit_cast<std::uint64_t>(p.y)) {
+      report.add("vertex ", i, " (", v.x, ", ", v.y, ") differs from input point ", i, " (", p.x, ", ", p.y,
+                 ")");
+    }
+  }
+  for (std::size_t k = 0; k < num_t; ++k) {
+    for (std::uint32_t i = 0; i < 3; ++i) {
+      if (t.triangles[k][i] >= t.vertices.size()) {
+        report.add("triangle ", k, " has vertex index ", t.triangles[k][i], ", beyond the ",
+                   t.vertices.size(), " vertices");
+        ok = false;
+      }
+      if (t.neighbors[k][i] != kNone && t.neighbors[k][i] >= num_t) {
+        report.add("triangle ", k, " has neighbour index ", t.neighbors[k][i], ", beyond the ", num_t,
+                   " triangles");
+      }
+      if (t.segment_of_edge[k][i] != kNone && t.segment_of_edge[k][i] >= segments.size()) {
+        report.add("edge ", i, " of triangle ", k, " names segment ", t.segment_of_edge[k][i],
+                   ", beyond the ", segments.size(), " segments");
+      }
+    }
+  }
+  for (std::size_t i = 0; i < points.size(); ++i) {
+    if (t.duplicate_of[i] >= points.size()) {
+      report.add("duplicate_of[", i, "] = ", t.duplicate_of[i], " is not an input point");
+      ok = false;
+    }
+  }
+  return ok;
+}
+
+// --- triangles and links -----------------------------------------------------------------------------
+
+void check_orientation(const Triangulation& t, Reporter& report) {
+  for (std::size_t k = 0; k < t.triangles.size(); ++k) {
+    const Triangle& tri = t.triangles[k];
+    const int o = orient(t.vertices[tri[0]], t.vertices[tri[1]], t.vertices[tri[2]]);
+    if (o <= 0) {
+      report.add("triangle ", k, " (", tri[0], ", ", tri[1], ", ", tri[2], ") is ",
+                 o == 0 ? "degenerate (collinear vertices)" : "clockwise");
+    }
+  }
+}
+
+/// True when neighbour k of t is a proper link: a triangle holding the edge reversed, linked back.
+bool linked_back(const Triangulation& t, std::uint32_t k, std::uint32_t i, std::uint32_t& u,
+                 std::uint32_t& j) {
+  u = t.neighbors[k][i];
+  if (u == kNone || u >= t.triangles.size()) return false;
+  const auto [p, q] = edge_of(t.triangles[k], i);
+  j = reversed_edge(t.triangles[u], p, q);
+  return j != 3 && t.neighbors[u][j] == k;
+}
+
+void check_links(const Triangulation& t, Reporter& report) {
+  const auto num_t = static_cast<std::uint32_t>(t.triangles.size());
+  for (std::uint32_t k = 0; k < num_t; ++k) {
+    for (std::uint32_t i = 0; i < 3; ++i) {
+      const std::uint32_t u = t.neighbors[k][i];
+      if (u == kNone || u >= num_t) continue;
+      const auto [p, q] = edge_of(t.triangles[k], i);
+      const std::uint32_t j = reversed_edge(t.triangles[u], p, q);
+      if (j == 3) {
+        report.add("triangle ", k, " names ", u, " as its neighbour across edge (", p, ", ", q, "), but ", u,
+                   " does not have that edge reversed exactly once");
+      } else if (t.neighbors[u][j] != k) {
+        report.add("link not symmetric: triangle ", k, " -> ", u, " across edge (", p, ", ", q, "), but ", u,
+                   " -> ", id_or_none(t.neighbors[u][j]));
+      } else if (k < u && t.segment_of_edge[k][i] != t.segment_of_edge[u][j]) {
+        report.add("edge (", p, ", ", q, ") is constraint ", id_or_none(t.segment_of_edge[k][i]),
+                   " in triangle ", k, " but ", id_or_none(t.segment_of_edge[u][j]), " in triangle ", u);
+      }
+    }
+  }
+}
+
+/// Each undirected edge once, with the triangle edges (3 * triangle + i) that hold it.
+struct EdgeTable {
+  struct Entry {
+    std::uint64_t key; // (min vertex << 32) | max vertex
+    std::uint32_t slot;
+  };
+  std::vector<Entry> entries;       // sorted by key
+  std::vector<std::uint32_t> first; // group g is entries[first[g] .. first[g + 1])
+  std::size_t num_edges() const { return first.size() - 1; }
+  std::uint32_t low(std::size_t g) const { return static_cast<std::uint32_t>(entries[first[g]].key >> 32); }
+  std::uint32_t high(std::size_t g) const { return static_cast<std::uint32_t>(entries[first[g]].key); }
+};
+
+EdgeTable collect_edges(const Triangulation& t) {
+  EdgeTable table;
+  table.entries.reserve(3 * t.triangles.size());
+  for (std::size_t k = 0; k < t.triangles.size(); ++k) {
+    for (std::uint32_t i = 0; i < 3; ++i) {
+      const auto [p, q] = edge_of(t.triangles[k], i);
+      const std::uint64_t key = (std::uint64_t{std::min(p, q)} << 32) | std::max(p, q);
+      table.entries.push_back({key, static_cast<std::uint32_t>(3 * k + i)});
+    }
+  }
+  std::sort(table.entries.begin(), table.entries.end(),
+            [](const EdgeTable::Entry& a, const EdgeTable::Entry& b) {
+              return a.key != b.key ? a.key < b.key : a.slot < b.slot;
+            });
+  for (std::size_t e = 0; e < table.entries.size(); ++e) {
+    if (e == 0 || table.entries[e].key != table.entries[e - 1].key) {
+      table.first.push_back(static_cast<std::uint32_t>(e));
+    }
+  }
+  table.first.push_back(static_cast<std::uint32_t>(table.entries.size()));
+  return table;
+}
+
+void check_edge_sharing(const Triangulation& t, const EdgeTable& edges, Reporter& report) {
+  for (std::size_t g = 0; g < edges.num_edges(); ++g) {
+    const std::uint32_t begin = edges.first[g];
+    const std::uint32_t end = edges.first[g + 1];
+    if (end - begin > 2) {
+      report.add("edge (", edges.low(g), ", ", edges.high(g), ") is in ", end - begin, " triangles, first ",
+                 edges.entries[begin].slot / 3, " and ", edges.entries[begin + 1].slot / 3);
+    } else if (end - begin == 2) {
+      const std::uint32_t s0 = edges.entries[begin].slot;
+      const std::uint32_t s1 = edges.entries[begin + 1].slot;
+      const auto d0 = edge_of(t.triangles[s0 / 3], s0 % 3);
+      const auto d1 = edge_of(t.triangles[s1 / 3], s1 % 3);
+      if (d0 == d1) {
+        report.add("triangles ", s0 / 3, " and ", s1 / 3, " overlap: both have edge (", d0.first, ", ",
+                   d0.second, ") in the same direction");
+      } else if (t.neighbors[s0 / 3][s0 % 3] == kNone || t.neighbors[s1 / 3][s1 % 3] == kNone) {
+        report.add("edge (", edges.low(g), ", ", edges.high(g), ") is shared by triangles ", s0 / 3, " and ",
+                   s1 / 3, " but marked as a hull edge (no neighbour)");
+      }
+    }
+  }
+}
+
+// --- the domain --------------------------------------------------------------------------------------
+
+/// True when p, on the line through a and r, lies strictly between them.
+bool strictly_between(const Point& a, const Point& r, const Point& p) {
+  if (a.x != r.x) return a.x < r.x ? (a.x < p.x && p.x < r.x) : (r.x < p.x && p.x < a.x);
+  return a.y < r.y ? (a.y < p.y && p.y < r.y) : (r.y < p.y && p.y < a.y);
+}
+
+/// Point in a strictly convex counter-clockwise polygon (boundary counts as inside), O(log n): the fan
+/// from c[0] is searched for the wedge holding p.
+bool inside_convex(const std::vector<Point>& c, const Point& p) {
+  const std::size_t m = c.size();
+  if (orient(c[0], c[1], p) < 0 || orient(c[0], c[m - 1], p) > 0) return false;
+  std::size_t lo = 1;
+  std::size_t hi = m - 2; // largest k in [1, m-2] with orient(c0, ck, p) >= 0
+  while (lo < hi) {
+    const std::size_t mid = (lo + hi + 1) / 2;
+    if (orient(c[0], c[mid], p) >= 0) {
+      lo = mid;
+    } else {
+      hi = mid - 1;
+    }
+  }
+  return orient(c[lo], c[lo + 1], p) >= 0;
+}
+
+void check_hull(const Triangulation& t, std::span<const Point> points, const EdgeTable& edges,
+                const std::vector<std::uint8_t>& used, Reporter& report) {
+  const auto num_t = static_cast<std::uint32_t>(t.triangles.size());
+  if (num_t == 0) {
+    report.add("no triangles");
+    return;
+  }
+  std::size_t num_used = 0;
+  for (std::uint8_t u : used) num_used += u;
+  const auto euler = static_cast<std::int64_t>(num_used) - static_cast<std::int64_t>(edges.num_edges()) +
+                     static_cast<std::int64_t>(num_t);
+  if (euler != 1) {
+    report.add("Euler characteristic V - E + F = ", num_used, " - ", edges.num_edges(), " + ", num_t, " = ",
+               euler, ", not 1: the mesh is not one disc (a hole, or several pieces)");
+  }
+
+  // Hull edges run counter-clockwise around the domain, so each vertex starts at most one.
+  std::vector<std::uint32_t> hull_next(t.vertices.size(), kNone);
+  std::size_t num_hull = 0;
+  std::uint32_t start = kNone;
+  bool pinched = false;
+  for (std::uint32_t k = 0; k < num_t; ++k) {
+    for (std::uint32_t i = 0; i < 3; ++i) {
+      if (t.neighbors[k][i] != kNone) continue;
+      const auto [p, q] = edge_of(t.triangles[k], i);
+      ++num_hull;
+      start = p;
+      if (hull_next[p] != kNone) {
+        report.add("vertex ", p, " starts two hull edges (to ", hull_next[p], " and ", q,
+                   "): the domain is pinched");
+        pinched = true;
+      }
+      hull_next[p] = q;
+    }
+  }
+  if (num_hull < 3) {
+    report.add("only ", num_hull, " hull edges");
+    return;
+  }
+  if (pinched) return;
+  std::vector<std::uint32_t> cycle;
+  for (std::uint32_t v = start; cycle.size() <= num_hull;) {
+    cycle.push_back(v);
+    v = hull_next[v];
+    if (v == kNone || v == start) break;
+  }
+  if (cycle.size() != num_hull || hull_next[cycle.back()] != start) {
+    report.add("hull edges do not form one closed cycle: the cycle through vertex ", start, " has ",
+               cycle.size(), " of the ", num_hull, " hull edges (a hole, or an open boundary)");
+    return;
+  }
+
+  // Convex: no reflex turn, and a straight turn must go on, not back.
+  const std::size_t h = cycle.size();
+  std::vector<Point> corners;
+  bool convex = true;
+  for (std::size_t k = 0; k < h; ++k) {
+    const Point& a = t.vertices[cycle[k]];
+    const Point& b = t.vertices[cycle[(k + 1) % h]];
+    const Point& c = t.vertices[cycle[(k + 2) % h]];
+    const int o = orient(a, b, c);
+    if (o < 0) {
+      report.add("hull is not convex: reflex turn at vertex ", cycle[(k + 1) % h]);
+      convex = false;
+    } else if (o == 0 && !strictly_between(a, c, b)) {
+      report.add("hull folds back at vertex ", cycle[(k + 1) % h]);
+      convex = false;
+    } else if (o > 0) {
+      corners.push_back(b);
+    }
+  }
+  if (!convex) return;
+  // With only left turns, the boundary turns around once exactly when x goes up once and down once.
+  int changes = 0;
+  int first_sign = 0;
+  int last_sign = 0;
+  for (std::size_t k = 0; k < h; ++k) {
+    const double x0 = t.vertices[cycle[k]].x;
+    const double x1 = t.vertices[cycle[(k + 1) % h]].x;
+    const int sign = (x1 > x0) - (x1 < x0);
+    if (sign == 0) continue;
+    if (first_sign == 0) first_sign = sign;
+    if (last_sign != 0 && sign != last_sign) ++changes;
+    last_sign = sign;
+  }
+  if (last_sign != first_sign) ++changes;
+  if (changes != 2 || corners.size() < 3) {
+    report.add("hull turns around ", changes / 2, " times, not once");
+    return;
+  }
+  // corners[k] is the vertex after cycle[k]; any rotation is the same polygon.
+  for (std::size_t v = 0; v < t.vertices.size(); ++v) {
+    if (v < points.size() && t.duplicate_of[v] != v) continue; // at its representative's place
+    if (!inside_convex(corners, t.vertices[v])) report.add("vertex ", v, " lies outside the hull");
+  }
+}
+
+// --- duplicates and use ------------------------------------------------------------------------------
+
+void check_duplicates(const Triangulation& t, std::span<const Point> points,
+                      const std::vector<std::uint8_t>& used, Reporter& report) {
+  const auto num_points = static_cast<std::uint32_t>(points.size());
+  for (std::uint32_t i = 0; i < num_points; ++i) {
+    const std::uint32_t r = t.duplicate_of[i];
+    if (r == i) {
+      if (used[i] == 0) report.add("input point ", i, " is used by no triangle");
+      continue;
+    }
+    if (t.duplicate_of[r] != r) {
+      report.add("duplicate_of[", i, "] = ", r, ", which is not a representative (duplicate_of[", r,
+                 "] = ", t.duplicate_of[r], ")");
+    } else if (!(points[r] == points[i])) {
+      report.add("point ", i, " is mapped to ", r, " but their coordinates differ");
+    }
+    if (used[i] != 0) {
+      report.add("duplicate point ", i, " is used by a triangle instead of its representative ", r);
+    }
+  }
+  for (std::size_t v = num_points; v < t.vertices.size(); ++v) {
+    if (used[v] == 0) report.add("added vertex ", v, " is used by no triangle");
+  }
+  // Identical points must share one representative, or the mesh would hold two vertices at one place.
+  std::vector<std::uint32_t> order(num_points);
+  for (std::uint32_t i = 0; i < num_points; ++i) order[i] = i;
+  std::sort(order.begin(), order.end(), [&](std::uint32_t i, std::uint32_t j) {
+    if (points[i].x != points[j].x) return points[i].x < points[j].x;
+    if (points[i].y != points[j].y) return points[i].y < points[j].y;
+    return i < j;
+  });
+  for (std::size_t k = 1; k < order.size(); ++k) {
+    const std::uint32_t i = order[k - 1];
+    const std::uint32_t j = order[k];
+    if (points[i] == points[j] && t.duplicate_of[i] != t.duplicate_of[j]) {
+      report.add("points ", i, " and ", j, " are identical but not merged");
+    }
+  }
+}
+
+// --- segments ----------------------------------------------------------------------------------------
+
+/// The mesh edges around each vertex, sorted counter-clockwise by direction: entry e is the directed
+/// edge from(e) -> to(e). Directions are compared exactly: half-plane by coordinate comparisons, then
+/// orient2d.
+class Adjacency {
+public:
+  Adjacency(const Triangulation& t, const EdgeTable& edges) : t_(t), edges_(edges) {
+    const std::size_t num_v = t.vertices.size();
+    std::vector<std::uint32_t> start(num_v + 1, 0);
+    const auto usable = [&](std::size_t g) {
+      // A zero-length edge has no direction; its triangle is reported as degenerate already.
+      return !(t.vertices[edges.low(g)] == t.vertices[edges.high(g)]);
+    };
+    for (std::size_t g = 0; g < edges.num_edges(); ++g) {
+      if (!usable(g)) continue;
+      ++start[edges.low(g) + 1];
+      ++start[edges.high(g) + 1];
+    }
+    for (std::size_t v = 0; v < num_v; ++v) start[v + 1] += start[v];
+    const std::size_t n = start[num_v];
+    from_.resize(n);
+    to_.resize(n);
+    group_.resize(n);
+    std::vector<std::uint32_t> fill(start.begin(), start.end() - 1);
+    const auto add = [&](std::uint32_t p, std::uint32_t q, std::size_t g) {
+      from_[fill[p]] = p;
+      to_[fill[p]] = q;
+      group_[fill[p]++] = static_cast<std::uint32_t>(g);
+    };
+    for (std::size_t g = 0; g < edges.num_edges(); ++g) {
+      if (!usable(g)) continue;
+      add(edges.low(g), edges.high(g), g);
+      add(edges.high(g), edges.low(g), g);
+    }
+    std::vector<std::pair<std::uint32_t, std::uint32_t>> scratch;
+    for (std::uint32_t v = 0; v < num_v; ++v) {
+      scratch.clear();
+      for (std::uint32_t e = start[v]; e < start[v + 1]; ++e) scratch.emplace_back(to_[e], group_[e]);
+      const Point& c = t.vertices[v];
+      std::sort(scratch.begin(), scratch.end(), [&](const auto& a, const auto& b) {
+        return before(c, t.vertices[a.first], false, t.vertices[b.first], false);
+      });
+      for (std::uint32_t e = start[v]; e < start[v + 1]; ++e) {
+        to_[e] = scratch[e - start[v]].first;
+        group_[e] = scratch[e - start[v]].second;
+      }
+    }
+    start_ = std::move(start);
+  }
+
+  std::size_t num_entries() const { return to_.size(); }
+  std::uint32_t begin_of(std::uint32_t v) const { return start_[v]; }
+  std::uint32_t end_of(std::uint32_t v) const { return start_[v + 1]; }
+  std::uint32_t from(std::uint32_t e) const { return from_[e]; }
+  std::uint32_t to(std::uint32_t e) const { return to_[e]; }
+  bool is_constraint(std::uint32_t e) const {
+    const std::uint32_t slot = edges_.entries[edges_.first[group_[e]]].slot;
+    return t_.segment_of_edge[slot / 3][slot % 3] != kNone;
+  }
+
+  /// The nearest edge leaving v in the direction of target (of v - target when away is set), or kNone.
+  std::uint32_t toward(std::uint32_t v, const Point& target, bool away) const {
+    const Point& c = t_.vertices[v];
+    if (c == target) return kNone;
+    const auto begin = to_.begin() + start_[v];
+    const auto end = to_.begin() + start_[v + 1];
+    // kNone stands for the target direction in the comparisons.
+    const auto [lo, hi] = std::equal_range(begin, end, kNone, [&](std::uint32_t a, std::uint32_t b) {
+      const Point& pa = a == kNone ? target : t_.vertices[a];
+      const Point& pb = b == kNone ? target : t_.vertices[b];
+      return before(c, pa, a == kNone && away, pb, b == kNone && away);
+    });
+    std::uint32_t best = kNone;
+    for (auto it = lo; it != hi; ++it) {
+      const auto e = static_cast<std::uint32_t>(it - to_.begin());
+      if (best == kNone || nearer(c, t_.vertices[to_[e]], t_.vertices[to_[best]])) best = e;
+    }
+    return best;
+  }
+
+private:
+  /// Half-plane of direction p - c (c - p when flipped): 0 for angles in [0, pi), 1 for [pi, 2 pi).
+  static int half(const Point& c, const Point& p, bool flipped) {
+    const bool upper = p.y > c.y || (p.y == c.y && p.x > c.x);
+    return upper != flipped ? 0 : 1;
+  }
+  /// Counter-clockwise angular order of directions from c.
+  static bool before(const Point& c, const Point& p, bool p_flipped, const Point& q, bool q_flipped) {
+    const int hp = half(c, p, p_flipped);
+    const int hq = half(c, q, q_flipped);
+    if (hp != hq) return hp < hq;
+    return orient(c, p, q) * (p_flipped ? -1 : 1) * (q_flipped ? -1 : 1) > 0;
+  }
+  /// Of two points on one ray from c, whether p is nearer to c.
+  static bool nearer(const Point& c, const Point& p, const Point& q) {
+    if (p.x != q.x) return c.x < p.x ? p.x < q.x : p.x > q.x;
+    return c.y < p.y ? p.y < q.y : p.y > q.y;
+  }
+
+  const Triangulation& t_;
+  const EdgeTable& edges_;
+  std::vector<std::uint32_t> start_; // vertex v owns entries start_[v] .. start_[v + 1]
+  std::vector<std::uint32_t> from_;
+  std::vector<std::uint32_t> to_;
+  std::vector<std::uint32_t> group_;
+};
+
+/// Straight runs of constraint edges: every directed constraint edge e gets the id of its run and its
+/// rank along it, so that "is there a straight constraint path from e to f" is one comparison.
+class Chains {
+public:
+  Chains(const Triangulation& t, const Adjacency& adj)
+      : chain_(adj.num_entries(), kNone), rank_(adj.num_entries(), 0) {
+    const auto n = static_cast<std::uint32_t>(adj.num_entries());
+    std::vector<std::uint32_t> successor(n, kNone);
+    std::vector<std::uint8_t> has_predecessor(n, 0);
+    for (std::uint32_t e = 0; e < n; ++e) {
+      if (!adj.is_constraint(e)) continue;
+      const std::uint32_t s = adj.toward(adj.to(e), t.vertices[adj.from(e)], true);
+      if (s != kNone && adj.is_constraint(s) && has_predecessor[s] == 0) {
+        successor[e] = s;
+        has_predecessor[s] = 1;
+      }
+    }
+    for (std::uint32_t e = 0; e < n; ++e) {
+      if (!adj.is_constraint(e) || has_predecessor[e] != 0) continue;
+      std::uint32_t r = 0;
+      for (std::uint32_t f = e; f != kNone && chain_[f] == kNone; f = successor[f]) {
+        chain_[f] = e;
+        rank_[f] = r++;
+      }
+    }
+  }
+  /// Whether a straight run of constraint edges starts with edge first and reaches edge last.
+  bool connects(std::uint32_t first, std::uint32_t last) const {
+    return chain_[first] != kNone && chain_[first] == chain_[last] && rank_[first] <= rank_[last];
+  }
+
+private:
+  std::vector<std::uint32_t> chain_;
+  std::vector<std::uint32_t> rank_;
+};
+
+/// Walks segment s edge by edge from rep(a) toward rep(b) and reports where the chain of constraint
+/// edges breaks. Only run for a failing segment whose message will be kept.
+void explain_missing_segment(const Triangulation& t, const Adjacency& adj, std::size_t s, std::uint32_t ra,
+                             std::uint32_t rb, Reporter& report) {
+  const Point& target = t.vertices[rb];
+  std::uint32_t v = ra;
+  for (std::size_t steps = 0; v != rb && steps <= t.vertices.size(); ++steps) {
+    const std::uint32_t e = adj.toward(v, target, false);
+    if (e == kNone) {
+      report.add("segment ", s, " (", ra, " -> ", rb, ") is missing: no mesh edge leaves vertex ", v,
+                 " toward ", rb);
+      return;
+    }
+    const std::uint32_t w = adj.to(e);
+    if (!strictly_between(t.vertices[v], target, t.vertices[w]) && w != rb) {
+      report.add("segment ", s, " (", ra, " -> ", rb, ") is missing: edge (", v, ", ", w, ") passes beyond ",
+                 rb);
+      return;
+    }
+    if (!adj.is_constraint(e)) {
+      report.add("segment ", s, " (", ra, " -> ", rb, "): edge (", v, ", ", w, ") on it is not a constraint");
+      return;
+    }
+    v = w;
+  }
+  report.add("segment ", s, " (", ra, " -> ", rb, "): its constraint edges do not form one straight chain");
+}
+
+/// Finds a segment's chain when it bends. A crossing point rounded to doubles lies a little off both
+/// segments it splits (it may even stick out of their extent by an ulp); it may coincide with an input
+/// point and reuse it; and the bent pieces can in turn pass exactly through other vertices a few ulps
+/// off the segment. So the chain must run from rep(a) to rep(b) along constraint edges through vertices
+/// on the segment or within `tolerance` of it (and of its bounding box). Only constraint edges near the
+/// segment are explored, so the search stays on the chain and the few constraints touching it.
+class BentChainSearch {
+public:
+  BentChainSearch(const Triangulation& t, const Adjacency& adj, double tolerance)
+      : t_(t), adj_(adj), tolerance_(tolerance), stamp_(t.vertices.size(), 0) {}
+
+  bool present(const Point& pa, const Point& pb, std::uint32_t ra, std::uint32_t rb) {
+    ++current_;
+    const double dx = pb.x - pa.x;
+    const double dy = pb.y - pa.y;
+    const double reach = tolerance_ * std::max(std::abs(dx), std::abs(dy));
+    const double lo_x = std::min(pa.x, pb.x) - tolerance_;
+    const double hi_x = std::max(pa.x, pb.x) + tolerance_;
+    const double lo_y = std::min(pa.y, pb.y) - tolerance_;
+    const double hi_y = std::max(pa.y, pb.y) + tolerance_;
+    stack_.assign(1, ra);
+    stamp_[ra] = current_;
+    while (!stack_.empty()) {
+      const std::uint32_t v = stack_.back();
+      stack_.pop_back();
+      if (v == rb) return true;
+      for (std::uint32_t e = adj_.begin_of(v); e < adj_.end_of(v); ++e) {
+        const std::uint32_t w = adj_.to(e);
+        if (stamp_[w] == current_ || !adj_.is_constraint(e)) continue;
+        const Point& q = t_.vertices[w];
+        if (q.x < lo_x || q.x > hi_x || q.y < lo_y || q.y > hi_y) continue;
+        if (std::abs(dx * (q.y - pa.y) - dy * (q.x - pa.x)) > reach && orient(pa, pb, q) != 0) continue;
+        stamp_[w] = current_;
+        stack_.push_back(w);
+      }
+    }
+    return false;
+  }
+
+private:
+  const Triangulation& t_;
+  const Adjacency& adj_;
+  double tolerance_;
+  std::vector<std::uint32_t> stamp_;
+  std::vector<std::uint32_t> stack_;
+  std::uint32_t current_ = 0;
+};
+
+/// How far a bent chain may stray from its segment: 2^10 units of roundoff of the largest coordinate,
+/// room for the rounding of crossing points and a few rounds of repairs.
+double bend_tolerance(const Triangulation& t) {
+  double magnitude = 0.0;
+  for (const Point& p : t.vertices) magnitude = std::max({magnitude, std::abs(p.x), std::abs(p.y)});
+  return 1024.0 * detail::kEpsilon * magnitude;
+}
+
+void check_segments(const Triangulation& t, std::span<const Point> points, std::span<const Segment> segments,
+                    const Adjacency& adj, Reporter& report) {
+  const Chains chains(t, adj);
+  BentChainSearch bent(t, adj, bend_tolerance(t));
+  for (std::size_t s = 0; s < segments.size(); ++s) {
+    const Segment& g = segments[s];
+    if (g.a >= points.size() || g.b >= points.size()) {
+      report.add("segment ", s, " (", g.a, ", ", g.b, ") refers to a point beyond the ", points.size(),
+                 " points");
+      continue;
+    }
+    const std::uint32_t ra = t.duplicate_of[g.a];
+    const std::uint32_t rb = t.duplicate_of[g.b];
+    if (ra == rb) continue;
+    // The first edge of the chain leaves ra toward rb; the last arrives at rb from ra's side.
+    const std::uint32_t first = adj.toward(ra, t.vertices[rb], false);
+    const std::uint32_t back = adj.toward(rb, t.vertices[ra], false);
+    const std::uint32_t last = back == kNone ? kNone : adj.toward(adj.to(back), t.vertices[rb], false);
+    const bool present = first != kNone && last != kNone && adj.to(last) == rb &&
+                         chains.connects(first, last) &&
+                         orient(points[g.a], points[g.b], t.vertices[adj.to(first)]) == 0;
+    if (present || bent.present(points[g.a], points[g.b], ra, rb)) continue;
+    if (report.keeping()) {
+      explain_missing_segment(t, adj, s, ra, rb, report);
+    } else {
+      report.tally();
+    }
+  }
+}
+
+// --- Delaunay ----------------------------------------------------------------------------------------
+
+void check_delaunay(const Triangulation& t, Reporter& report) {
+  const auto num_t = static_cast<std::uint32_t>(t.triangles.size());
+  for (std::uint32_t k = 0; k < num_t; ++k) {
+    const Triangle& tri = t.triangles[k];
+    for (std::uint32_t i = 0; i < 3; ++i) {
+      std::uint32_t u = kNone;
+      std::uint32_t j = 3;
+      if (!linked_back(t, k, i, u, j) || u < k) continue;
+      if (t.segment_of_edge[k][i] != kNone || t.segment_of_edge[u][j] != kNone) continue;
+      // (a, b, c) is tri rotated so that the shared edge is a-b: still counter-clockwise.
+      const Point& a = t.vertices[tri[next(i)]];
+      const Point& b = t.vertices[tri[prev(i)]];
+      const Point& c = t.vertices[tri[i]];
+      const Point& d = t.vertices[t.triangles[u][j]];
+      if (incircle(a.x, a.y, b.x, b.y, c.x, c.y, d.x, d.y) > 0) {
+        report.add("edge (", tri[next(i)], ", ", tri[prev(i)], ") between triangles ", k, " and ", u,
+                   " is not locally Delaunay: vertex ", t.triangles[u][j],
+                   " lies inside the circumcircle of ", k);
+      }
+    }
+  }
+}
+
+} // namespace
+
+VerifyReport verify(const Triangulation& t, std::span<const Point> points,
+                    std::span<const Segment> segments) {
+  VerifyReport result;
+  Reporter report(result);
+  if (!check_sizes(t, points, segments, report)) return result;
+  std::vector<std::uint8_t> used(t.vertices.size(), 0);
+  for (const Triangle& tri : t.triangles) {
+    for (std::uint32_t v : tri) used[v] = 1;
+  }
+  check_orientation(t, report);
+  check_links(t, report);
+  const EdgeTable edges = collect_edges(t);
+  check_edge_sharing(t, edges, report);
+  check_hull(t, points, edges, used, report);
+  check_duplicates(t, points, used, report);
+  const Adjacency adjacency(t, edges);
+  check_segments(t, points, segments, adjacency, report);
+  check_delaunay(t, report);
+  return result;
+}
+
+} // namespace cdt

@@ -1,0 +1,614 @@
+// Tests of Step 2 (paper section 4, Algorithms 4 and 5): constraint insertion by flipping, the pair
+// configurations of Figure 4 and the look-ahead cases of Figure 5, then Step 3 to the constrained DT.
+
+#include "gcd/constraints.hpp"
+
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cstdint>
+#include <cstdio>
+#include <set>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include "cdt/errors.hpp"
+#include "executor/cpu_executor.hpp"
+#include "gcd/flip.hpp"
+#include "mesh_test_util.hpp"
+#include "pslg_generators.hpp"
+
+namespace {
+
+using namespace cdt::detail;
+using trixel_test::expect_valid_mesh;
+using trixel_test::triangle_set;
+
+// Tests fail instead of hanging when the inner loop runs away.
+constexpr std::uint64_t kInnerGuard = 1'000'000;
+
+struct Pt {
+  double x, y;
+};
+
+Mesh points_only(const std::vector<Pt>& pts) {
+  Mesh mesh;
+  for (const Pt& p : pts) {
+    mesh.x.push_back(p.x);
+    mesh.y.push_back(p.y);
+  }
+  mesh.vert_tri.assign(pts.size(), kNoId);
+  return mesh;
+}
+
+// A chain of triangles along the piece a = vertex 0 = (0, 0) to b = vertex 1 = (length, 0): the first
+// triangle is (a, l0, u0); each move 'U' adds (l_i, u_j+1, u_j), each 'L' adds (l_i, l_i+1, u_j); the last is
+// (l_last, b, u_last). Upper points come first (vertices 2..), then lower points. The triangles are listed in
+// chain order, so slot k is the k-th triangle the piece crosses.
+Mesh chain_mesh(double length, const std::vector<Pt>& upper, const std::vector<Pt>& lower,
+                const std::string& moves) {
+  std::vector<double> x{0, length}, y{0, 0};
+  for (const Pt& p : upper) {
+    x.push_back(p.x);
+    y.push_back(p.y);
+  }
+  for (const Pt& p : lower) {
+    x.push_back(p.x);
+    y.push_back(p.y);
+  }
+  const auto u = [](std::size_t j) { return static_cast<std::uint32_t>(2 + j); };
+  const auto l = [&](std::size_t i) { return static_cast<std::uint32_t>(2 + upper.size() + i); };
+  std::vector<trixel_test::Triangle> tris{{0, l(0), u(0)}};
+  std::size_t i = 0, j = 0;
+  for (const char move : moves) {
+    if (move == 'U') {
+      tris.push_back({l(i), u(j + 1), u(j)});
+      ++j;
+    } else {
+      tris.push_back({l(i), l(i + 1), u(j)});
+      ++i;
+    }
+  }
+  tris.push_back({l(i), 1, u(j)});
+  return trixel_test::mesh_from_triangles(x, y, tris);
+}
+
+// Marks every triangle the piece crosses with index 0, as the outer loop does for one piece.
+std::vector<std::uint32_t> mark_piece(Mesh& mesh, std::uint32_t a, std::uint32_t b,
+                                      std::uint32_t* crossings = nullptr) {
+  std::vector<std::uint32_t> cmark(mesh.num_slots(), kNoId);
+  std::uint32_t present = kNoId, count = 0;
+  const ConstraintStatus st = walk_piece(
+      mesh.view(), a, b, [&](std::uint32_t t) { cmark[t] = 0; }, present, count);
+  EXPECT_EQ(st, ConstraintStatus::ok);
+  if (crossings) *crossings = count;
+  return cmark;
+}
+
+// Figure 4 configuration of triangle t and the next triangle along the piece a -> b.
+PairConfig next_pair_config(Mesh& mesh, std::uint32_t t, std::uint32_t a, std::uint32_t b) {
+  const MeshView m = mesh.view();
+  ChainLinks links;
+  EXPECT_EQ(chain_links(m, t, a, b, links), ConstraintStatus::ok);
+  EXPECT_NE(links.exit, 3u);
+  const std::uint32_t e = m.adj[3 * t + links.exit];
+  return classify_pair(m, m.v(t, links.exit), m.v(t, next3(links.exit)), m.v(t, prev3(links.exit)),
+                       m.v(e / 3, e % 3), a, b);
+}
+
+// Whole Step 2 then Step 3 on a copy.
+Mesh insert_and_flip(const Mesh& input, const std::vector<ConstraintPiece2>& pieces, unsigned threads,
+                     unsigned inner, ConstraintStats* stats = nullptr) {
+  Mesh mesh = input;
+  CpuExecutor executor(threads);
+  const ConstraintStats s = insert_constraints(mesh, pieces, inner, executor, kInnerGuard);
+  if (stats) *stats = s;
+  flip_to_delaunay(mesh, executor);
+  return mesh;
+}
+
+// Every piece is an edge carrying its id (or a smaller id of a duplicate piece).
+void expect_pieces_present(const Mesh& mesh, const std::vector<ConstraintPiece2>& pieces) {
+  const auto edges = trixel_test::directed_edges(mesh);
+  for (std::size_t k = 0; k < pieces.size(); ++k) {
+    const auto it = edges.find(trixel_test::directed_key(pieces[k].a, pieces[k].b));
+    const auto jt = edges.find(trixel_test::directed_key(pieces[k].b, pieces[k].a));
+    ASSERT_TRUE(it != edges.end() || jt != edges.end()) << "piece " << k << " is not an edge";
+    const std::uint32_t e = it != edges.end() ? it->second : jt->second;
+    EXPECT_LE(mesh.seg[e], pieces[k].id) << "piece " << k;
+    EXPECT_NE(mesh.seg[e], kNoId) << "piece " << k;
+  }
+}
+
+// --- Figure 4: pair configurations --------------------------------------------------------------------
+
+TEST(ConstraintPairConfig, Figure4Configurations) {
+  // Vertices: 0 = a, 1 = b; the shared edges 2-3 and 2-10; apexes 4..7; a longer piece 8-9.
+  Mesh mesh = points_only(
+      {{0, 0}, {2, 0}, {1, -1}, {1, 1}, {0, 1}, {2, 1}, {2, -1.5}, {2, 4}, {-1, 0}, {3, 0}, {1, 2}});
+  const MeshView m = mesh.view();
+  // (a) zero: the new diagonal is the piece itself.
+  EXPECT_EQ(classify_pair(m, 0, 2, 3, 1, 0, 1), PairConfig::zero_intersection);
+  // (b) single: the diagonal starts at the endpoint a, or both apexes lie on one side of the piece.
+  EXPECT_EQ(classify_pair(m, 0, 2, 3, 5, 0, 9), PairConfig::single_intersection);
+  EXPECT_EQ(classify_pair(m, 4, 2, 10, 5, 8, 9), PairConfig::single_intersection);
+  // (c) double: apexes on opposite sides, the new diagonal crosses the piece.
+  EXPECT_EQ(classify_pair(m, 4, 2, 10, 6, 8, 9), PairConfig::double_intersection);
+  EXPECT_EQ(classify_pair(m, 6, 10, 2, 4, 9, 8), PairConfig::double_intersection) << "either orientation";
+  // (d) concave: both ends of the shared edge on one side of the would-be diagonal, or one on it.
+  EXPECT_EQ(classify_pair(m, 4, 2, 10, 7, 8, 9), PairConfig::concave);
+  Mesh flat = points_only({{-1, 0}, {3, 0}, {1, -1}, {1, 2}, {0, 1}, {2, 3}});
+  EXPECT_EQ(classify_pair(flat.view(), 4, 2, 3, 5, 0, 1), PairConfig::concave);
+}
+
+TEST(ConstraintPairConfig, TriangleCrossesSegment) {
+  Mesh mesh = trixel_test::mesh_from_triangles({0, 4, 0, -1, 5, 1, 2, 0, -1}, {0, 0, 4, 1, 1, 1, -1, 6, -1},
+                                               {{0, 1, 2}});
+  const MeshView m = mesh.view();
+  EXPECT_TRUE(triangle_crosses_segment(m, 0, 3, 4));  // through the interior
+  EXPECT_TRUE(triangle_crosses_segment(m, 0, 0, 5));  // from a vertex into the interior
+  EXPECT_TRUE(triangle_crosses_segment(m, 0, 6, 7));  // in through one edge, out through another
+  EXPECT_FALSE(triangle_crosses_segment(m, 0, 0, 1)); // an edge of it
+  EXPECT_FALSE(triangle_crosses_segment(m, 0, 0, 3)); // touches a vertex from outside
+  EXPECT_FALSE(triangle_crosses_segment(m, 0, 8, 6)); // below it
+}
+
+// --- Figure 5: the cases of a pair (A, C) with the look-ahead to B ------------------------------------
+
+struct CaseSetup {
+  Mesh mesh;
+  std::vector<std::uint32_t> cmark;
+  std::vector<ConstraintPiece2> pieces{{0, 1, 7}};
+};
+
+CaseSetup make_case(double length, const std::vector<Pt>& upper, const std::vector<Pt>& lower,
+                    const std::string& moves) {
+  CaseSetup s{chain_mesh(length, upper, lower, moves), {}};
+  std::uint32_t crossings = 0;
+  s.cmark = mark_piece(s.mesh, 0, 1, &crossings);
+  EXPECT_EQ(crossings, moves.size() + 2) << "every triangle of the chain is crossed";
+  return s;
+}
+
+FlipProposal propose(CaseSetup& s, std::uint32_t t) {
+  FlipProposal p;
+  EXPECT_EQ(propose_constraint_flip(s.mesh.view(), s.cmark.data(), s.pieces.data(), t, p),
+            ConstraintStatus::ok);
+  return p;
+}
+
+// Flips A's proposal serially and updates the marks as the inner loop does.
+void flip_proposal(CaseSetup& s, std::uint32_t t, const FlipProposal& p) {
+  const MeshView m = s.mesh.view();
+  const std::uint32_t u = m.adj[p.edge] / 3;
+  flip_edge(m, t, p.edge % 3);
+  mark_after_flip(m, s.cmark.data(), s.pieces.data(), t, u, 0);
+}
+
+void expect_inserts(const CaseSetup& s, std::uint64_t max_flips) {
+  Mesh mesh = s.mesh;
+  CpuExecutor executor(2);
+  const ConstraintStats stats = insert_constraints(mesh, s.pieces, 1, executor, kInnerGuard);
+  expect_valid_mesh(mesh);
+  expect_pieces_present(mesh, s.pieces);
+  EXPECT_LE(stats.flips, max_flips);
+}
+
+TEST(ConstraintCases, Case1ZeroIntersection) {
+  // Two triangles whose other diagonal is the piece: one flip inserts it and unmarks both.
+  CaseSetup s = make_case(2, {{1, 1}}, {{1, -1}}, "");
+  const FlipProposal p = propose(s, 0);
+  EXPECT_EQ(p.flip_case, FlipCase::case1);
+  EXPECT_EQ(p.prev, kNoId);
+  flip_proposal(s, 0, p);
+  EXPECT_EQ(s.cmark[0], kNoId);
+  EXPECT_EQ(s.cmark[1], kNoId);
+  EXPECT_EQ(s.mesh.seg[3 * 0 + 1], 7u) << "the new diagonal is flagged at once";
+  expect_valid_mesh(s.mesh);
+  expect_inserts(make_case(2, {{1, 1}}, {{1, -1}}, ""), 1);
+}
+
+TEST(ConstraintCases, Case1SingleIntersection) {
+  // A holds a: the new diagonal leaves a, so one of the two new triangles still meets the piece.
+  CaseSetup s = make_case(4, {{1, 1}, {3, 1}}, {{1, -1}}, "U");
+  const FlipProposal p = propose(s, 0);
+  EXPECT_EQ(p.flip_case, FlipCase::case1);
+  flip_proposal(s, 0, p);
+  EXPECT_EQ((s.cmark[0] == 0) + (s.cmark[1] == 0), 1) << "exactly one new triangle meets the piece";
+  expect_valid_mesh(s.mesh);
+}
+
+TEST(ConstraintCases, DoubleIntersectionWithoutLookAheadIsNotFlipped) {
+  // A strip of parallelograms: every inner pair is double, and after a flip B's pair would be concave
+  // (collinear apexes), so only the pairs at the ends (Case 1) may flip.
+  CaseSetup s = make_case(9, {{1, 1}, {3, 1}, {5, 1}, {7, 1}},
+                          {{0.5, -1}, {2, -1}, {4, -1}, {6, -1}, {8, -1}}, "LULULUL");
+  for (std::uint32_t t = 1; t + 2 < s.mesh.num_slots(); ++t) {
+    EXPECT_EQ(next_pair_config(s.mesh, t, 0, 1), PairConfig::double_intersection) << t;
+    EXPECT_EQ(propose(s, t).flip_case, FlipCase::none) << t;
+  }
+  EXPECT_EQ(propose(s, 0).flip_case, FlipCase::case1);
+  expect_inserts(s, 100);
+}
+
+TEST(ConstraintCases, Case2) {
+  // (B, A) and (A, C) double, B u A u C convex: after the flip B's pair is single ("11 becomes 01").
+  CaseSetup s = make_case(10, {{0, 1}, {5, 3}}, {{1, -1}, {5, -4}, {7, -2}}, "LUL");
+  const std::uint32_t B = 1, A = 2;
+  EXPECT_EQ(next_pair_config(s.mesh, B, 0, 1), PairConfig::double_intersection);
+  EXPECT_EQ(next_pair_config(s.mesh, A, 0, 1), PairConfig::double_intersection);
+  const FlipProposal p = propose(s, A);
+  ASSERT_EQ(p.flip_case, FlipCase::case2);
+  EXPECT_EQ(p.prev, B);
+  EXPECT_LT(constraint_flip_label(FlipCase::case1, 1000), constraint_flip_label(FlipCase::case2, 0));
+  flip_proposal(s, A, p);
+  EXPECT_EQ(next_pair_config(s.mesh, B, 0, 1), PairConfig::single_intersection);
+  EXPECT_EQ(propose(s, B).flip_case, FlipCase::case1);
+  expect_valid_mesh(s.mesh);
+  expect_inserts(make_case(10, {{0, 1}, {5, 3}}, {{1, -1}, {5, -4}, {7, -2}}, "LUL"), 10);
+}
+
+TEST(ConstraintCases, Case3a) {
+  // (B, A) concave, (A, C) double: after the flip B's pair is double ("21 becomes 11").
+  CaseSetup s = make_case(10, {{0, 5}, {4, 4}, {9, 6}}, {{4, -2}, {8, -2}}, "UUL");
+  const std::uint32_t B = 1, A = 2;
+  EXPECT_EQ(next_pair_config(s.mesh, B, 0, 1), PairConfig::concave);
+  EXPECT_EQ(next_pair_config(s.mesh, A, 0, 1), PairConfig::double_intersection);
+  const FlipProposal p = propose(s, A);
+  ASSERT_EQ(p.flip_case, FlipCase::case3a);
+  EXPECT_EQ(p.prev, B);
+  EXPECT_LT(constraint_flip_label(FlipCase::case2, 1000), constraint_flip_label(FlipCase::case3a, 0));
+  flip_proposal(s, A, p);
+  EXPECT_EQ(next_pair_config(s.mesh, B, 0, 1), PairConfig::double_intersection);
+  expect_valid_mesh(s.mesh);
+  expect_inserts(make_case(10, {{0, 5}, {4, 4}, {9, 6}}, {{4, -2}, {8, -2}}, "UUL"), 10);
+}
+
+TEST(ConstraintCases, Case3b) {
+  // (B, A) concave, (A, C) double: after the flip B's pair is single ("21 becomes 01"). The first pair
+  // is concave too, so nothing near a can flip first.
+  CaseSetup s = make_case(10, {{4, 2}, {5, 6}}, {{3, -1}, {5, -5}, {7, -4}}, "LUL");
+  const std::uint32_t B = 1, A = 2;
+  EXPECT_EQ(next_pair_config(s.mesh, 0, 0, 1), PairConfig::concave);
+  EXPECT_EQ(next_pair_config(s.mesh, B, 0, 1), PairConfig::concave);
+  const FlipProposal p = propose(s, A);
+  ASSERT_EQ(p.flip_case, FlipCase::case3b);
+  EXPECT_EQ(p.prev, B);
+  flip_proposal(s, A, p);
+  EXPECT_EQ(next_pair_config(s.mesh, B, 0, 1), PairConfig::single_intersection);
+  EXPECT_EQ(propose(s, B).flip_case, FlipCase::case1);
+  expect_valid_mesh(s.mesh);
+  expect_inserts(make_case(10, {{4, 2}, {5, 6}}, {{3, -1}, {5, -5}, {7, -4}}, "LUL"), 10);
+}
+
+TEST(ConstraintCases, ConcavePairIsNotProposed) {
+  // A triangle whose only pair is concave proposes nothing (Figure 4(d) is never flipped).
+  CaseSetup s = make_case(10, {{4, 2}, {5, 6}}, {{3, -1}, {5, -5}, {7, -4}}, "LUL");
+  EXPECT_EQ(propose(s, 0).flip_case, FlipCase::none);
+  EXPECT_EQ(propose(s, 1).flip_case, FlipCase::none);
+  EXPECT_EQ(propose(s, s.mesh.num_slots() - 1).flip_case, FlipCase::none) << "the last triangle holds b";
+}
+
+TEST(ConstraintCases, Figure7ConcaveRunThenDoubleRun) {
+  // The worst case of Claim 2: a fan of k - 1 concave pairs followed by a strip of double pairs that
+  // fulfil no Case 2, so concave pairs are pushed along by Case 3 flips one step per iteration.
+  const int k = 24;
+  std::vector<Pt> upper, lower;
+  // Fan tops on a flat parabola: each lies below the chord of its neighbours, so fan pairs are concave.
+  for (int i = 1; i <= k + 1; ++i)
+    upper.push_back({double(i), 2 + 4.0 * (i - k / 2 - 1) * (i - k / 2 - 1) / (k * k)});
+  lower.push_back({double(k / 2 + 1), -4});
+  const int xs = k + 2;
+  for (int j = 0; j < k; ++j) upper.push_back({double(xs + 2 * j + 1), 5});
+  for (int j = 0; j <= k; ++j) lower.push_back({double(xs + 2 * j), -5});
+  std::string moves(k, 'U');
+  moves += 'L';
+  for (int j = 0; j < k; ++j) moves += "UL";
+  CaseSetup s = make_case(xs + 2 * k + 3, upper, lower, moves);
+  int concave = 0, doubles = 0;
+  for (std::uint32_t t = 0; t + 1 < s.mesh.num_slots(); ++t) {
+    const PairConfig c = next_pair_config(s.mesh, t, 0, 1);
+    concave += c == PairConfig::concave;
+    doubles += c == PairConfig::double_intersection;
+  }
+  EXPECT_GE(concave, k - 1);
+  EXPECT_GE(doubles, 2 * k);
+  for (const unsigned inner : {1u, 5u}) {
+    Mesh mesh = s.mesh;
+    CpuExecutor executor(2);
+    const ConstraintStats stats = insert_constraints(mesh, s.pieces, inner, executor, kInnerGuard);
+    expect_valid_mesh(mesh);
+    expect_pieces_present(mesh, s.pieces);
+    EXPECT_EQ(stats.intersections, moves.size() + 2);
+    EXPECT_GE(stats.flips, moves.size());
+    EXPECT_GT(stats.inner_iterations, static_cast<std::uint64_t>(k)) << "flips propagate one step per pass";
+  }
+}
+
+TEST(ConstraintInsert, LongPieceThroughAFan) {
+  // A vertex below with a fan of k slivers to collinear points above: every inner pair is concave and
+  // the piece is inserted by Case 1 flips growing in from both ends, k flips, about k/2 iterations.
+  const std::uint32_t k = 200;
+  std::vector<double> x{-1, double(k) + 1, double(k) / 2}, y{0, 0, -3};
+  std::vector<trixel_test::Triangle> tris;
+  for (std::uint32_t i = 0; i <= k; ++i) {
+    x.push_back(i);
+    y.push_back(1);
+  }
+  const auto p = [](std::uint32_t i) { return 3 + i; };
+  tris.push_back({0, 2, p(0)});
+  for (std::uint32_t i = 0; i < k; ++i) tris.push_back({2, p(i + 1), p(i)});
+  tris.push_back({2, 1, p(k)});
+  const Mesh input = trixel_test::mesh_from_triangles(x, y, tris);
+  const std::vector<ConstraintPiece2> pieces{{0, 1, 42}};
+  for (const unsigned threads : {1u, 4u}) {
+    ConstraintStats stats;
+    Mesh mesh = input;
+    CpuExecutor executor(threads);
+    stats = insert_constraints(mesh, pieces, 8, executor, kInnerGuard);
+    expect_valid_mesh(mesh);
+    expect_pieces_present(mesh, pieces);
+    EXPECT_EQ(stats.intersections, k + 2);
+    EXPECT_EQ(stats.flips, k + 1);
+    EXPECT_GE(stats.inner_iterations, k / 2);
+    EXPECT_GE(stats.outer_iterations, k / 16);
+  }
+}
+
+// --- random and lattice inputs ------------------------------------------------------------------------
+
+struct Input {
+  std::vector<double> x, y;
+  std::vector<ConstraintPiece2> pieces;
+};
+
+bool properly_cross(const Input& in, std::uint32_t a, std::uint32_t b, std::uint32_t c, std::uint32_t d) {
+  const auto o = [&](std::uint32_t p, std::uint32_t q, std::uint32_t r) {
+    return orient2d(in.x[p], in.y[p], in.x[q], in.y[q], in.x[r], in.y[r]);
+  };
+  const int o1 = o(a, b, c), o2 = o(a, b, d), o3 = o(c, d, a), o4 = o(c, d, b);
+  return o1 * o2 < 0 && o3 * o4 < 0;
+}
+
+// True when a point other than a and b lies on the closed segment a-b (exact).
+bool contains_point(const Input& in, std::uint32_t a, std::uint32_t b) {
+  for (std::uint32_t p = 0; p < in.x.size(); ++p) {
+    if (p == a || p == b) continue;
+    if (orient2d(in.x[a], in.y[a], in.x[b], in.y[b], in.x[p], in.y[p]) != 0) continue;
+    if (std::min(in.x[a], in.x[b]) <= in.x[p] && in.x[p] <= std::max(in.x[a], in.x[b]) &&
+        std::min(in.y[a], in.y[b]) <= in.y[p] && in.y[p] <= std::max(in.y[a], in.y[b])) {
+      return true;
+    }
+  }
+  return false;
+}
+
+// Random points, then segments between random pairs (half of them between near points so that many
+// survive), keeping a segment only if it crosses no kept segment and contains no other point.
+Input random_input(std::size_t num_points, std::size_t attempts, std::uint64_t seed) {
+  trixel_gen::Random rng(seed);
+  Input in;
+  for (std::size_t i = 0; i < num_points; ++i) {
+    in.x.push_back(rng.unit());
+    in.y.push_back(rng.unit());
+  }
+  std::set<std::pair<std::uint32_t, std::uint32_t>> seen;
+  for (std::size_t k = 0; k < attempts; ++k) {
+    const auto a = static_cast<std::uint32_t>(rng.next() % num_points);
+    std::uint32_t b = static_cast<std::uint32_t>(rng.next() % num_points);
+    if (k % 2 == 0) {
+      // The nearest of a few random candidates: short segments.
+      double best = 1e9;
+      for (int c = 0; c < 40; ++c) {
+        const auto q = static_cast<std::uint32_t>(rng.next() % num_points);
+        const double d =
+            (in.x[q] - in.x[a]) * (in.x[q] - in.x[a]) + (in.y[q] - in.y[a]) * (in.y[q] - in.y[a]);
+        if (q != a && d < best) {
+          best = d;
+          b = q;
+        }
+      }
+    }
+    if (a == b || !seen.insert({std::min(a, b), std::max(a, b)}).second) continue;
+    bool ok = !contains_point(in, a, b);
+    for (std::size_t s = 0; ok && s < in.pieces.size(); ++s)
+      ok = !properly_cross(in, a, b, in.pieces[s].a, in.pieces[s].b);
+    if (ok) in.pieces.push_back({a, b, static_cast<std::uint32_t>(1000 + in.pieces.size())});
+  }
+  return in;
+}
+
+TEST(ConstraintInsert, RandomSegmentsGiveTheConstrainedDelaunayTriangulation) {
+  for (const std::uint64_t seed : {1u, 2u, 3u}) {
+    const Input in = random_input(1500, 800, seed);
+    ASSERT_GT(in.pieces.size(), 150u);
+    const Mesh input = trixel_test::sweep_triangulate(in.x, in.y);
+    ConstraintStats stats;
+    const Mesh mesh = insert_and_flip(input, in.pieces, 4, 5, &stats);
+    expect_valid_mesh(mesh);
+    expect_pieces_present(mesh, in.pieces);
+    EXPECT_TRUE(trixel_test::is_locally_delaunay(mesh)) << "constrained Delaunay";
+    EXPECT_GT(stats.flips, 0u);
+    EXPECT_GT(stats.intersections, 0u);
+    // The CDT of points in general position is unique: any thread count, any inner bound, and inserting
+    // into the Delaunay triangulation instead of the sweep all end in the same triangles.
+    EXPECT_EQ(triangle_set(mesh), triangle_set(insert_and_flip(input, in.pieces, 1, 1)));
+    const Mesh one_thread = insert_and_flip(input, in.pieces, 1, 5);
+    EXPECT_EQ(mesh.tri, one_thread.tri) << "the same flips whatever the thread count";
+    Mesh delaunay = input;
+    CpuExecutor executor(2);
+    flip_to_delaunay(delaunay, executor);
+    EXPECT_EQ(triangle_set(mesh), triangle_set(insert_and_flip(delaunay, in.pieces, 2, 10)));
+  }
+}
+
+TEST(ConstraintInsert, LatticeWithAxisAndDiagonalConstraints) {
+  // Lines along the lattice are split at every lattice point (a precondition), so each piece joins two
+  // neighbouring points; crossing unit diagonals of one cell are dropped. Co-circular everywhere.
+  const std::uint32_t k = 40;
+  Input in;
+  for (std::uint32_t j = 0; j < k; ++j)
+    for (std::uint32_t i = 0; i < k; ++i) {
+      in.x.push_back(i);
+      in.y.push_back(j);
+    }
+  trixel_gen::Random rng(17);
+  std::set<std::pair<std::uint32_t, std::uint32_t>> used;
+  std::set<std::pair<std::uint32_t, int>> diagonal_cells; // cell, direction
+  const int dirs[4][2] = {{1, 0}, {0, 1}, {1, 1}, {1, -1}};
+  for (std::uint32_t line = 0; line < 150; ++line) {
+    const int* d = dirs[rng.next() % 4];
+    auto px = static_cast<int>(rng.next() % k), py = static_cast<int>(rng.next() % k);
+    const int length = 1 + static_cast<int>(rng.next() % 12);
+    for (int s = 0; s < length; ++s) {
+      const int qx = px + d[0], qy = py + d[1];
+      if (qx < 0 || qy < 0 || qx >= int(k) || qy >= int(k)) break;
+      const auto a = static_cast<std::uint32_t>(py * int(k) + px),
+                 b = static_cast<std::uint32_t>(qy * int(k) + qx);
+      bool ok = used.insert({std::min(a, b), std::max(a, b)}).second;
+      if (ok && d[1] != 0 && d[0] != 0) {
+        // The cell's other diagonal would cross this one.
+        const auto cell = static_cast<std::uint32_t>(std::min(py, qy) * int(k) + px);
+        ok = !diagonal_cells.count({cell, -d[1]});
+        if (ok) diagonal_cells.insert({cell, d[1]});
+      }
+      if (ok) in.pieces.push_back({a, b, line});
+      px = qx;
+      py = qy;
+    }
+  }
+  ASSERT_GT(in.pieces.size(), 300u);
+  const Mesh input = trixel_test::sweep_triangulate(in.x, in.y);
+  ConstraintStats stats;
+  const Mesh mesh = insert_and_flip(input, in.pieces, 4, 5, &stats);
+  expect_valid_mesh(mesh);
+  expect_pieces_present(mesh, in.pieces);
+  EXPECT_TRUE(trixel_test::is_locally_delaunay(mesh));
+  EXPECT_EQ(mesh.tri, insert_and_flip(input, in.pieces, 1, 5).tri);
+}
+
+TEST(ConstraintInsert, LatticeWithPrimitiveSegments) {
+  // Segments with coprime steps (up to 8 x 8) pass through no lattice point but through many exactly
+  // collinear and co-circular configurations: flat quadrilaterals must count as concave, never flip.
+  const auto gcd = [](int a, int b) {
+    a = std::abs(a);
+    b = std::abs(b);
+    while (b != 0) a = std::exchange(b, a % b);
+    return a;
+  };
+  for (const std::uint64_t seed : {1u, 2u, 3u, 4u, 5u, 6u}) {
+    trixel_gen::Random rng(seed);
+    const int k = 16 + static_cast<int>(rng.next() % 16);
+    Input in;
+    for (int j = 0; j < k; ++j)
+      for (int i = 0; i < k; ++i) {
+        in.x.push_back(i);
+        in.y.push_back(j);
+      }
+    for (int attempt = 0; attempt < 4 * k; ++attempt) {
+      const int ax = static_cast<int>(rng.next() % k), ay = static_cast<int>(rng.next() % k);
+      const int dx = static_cast<int>(rng.range(-8, 8)), dy = static_cast<int>(rng.range(-8, 8));
+      if ((dx == 0 && dy == 0) || gcd(dx, dy) != 1 || ax + dx < 0 || ay + dy < 0 || ax + dx >= k ||
+          ay + dy >= k) {
+        continue;
+      }
+      const auto a = static_cast<std::uint32_t>(ay * k + ax),
+                 b = static_cast<std::uint32_t>((ay + dy) * k + ax + dx);
+      bool ok = true;
+      for (const ConstraintPiece2& p : in.pieces) {
+        // Pieces on one supporting line are skipped as well: that rules out overlaps and duplicates.
+        const bool collinear = orient2d(in.x[a], in.y[a], in.x[b], in.y[b], in.x[p.a], in.y[p.a]) == 0 &&
+                               orient2d(in.x[a], in.y[a], in.x[b], in.y[b], in.x[p.b], in.y[p.b]) == 0;
+        if (collinear || properly_cross(in, a, b, p.a, p.b)) {
+          ok = false;
+          break;
+        }
+      }
+      if (ok) in.pieces.push_back({a, b, static_cast<std::uint32_t>(in.pieces.size())});
+    }
+    ASSERT_GT(in.pieces.size(), 5u);
+    const Mesh input = trixel_test::sweep_triangulate(in.x, in.y);
+    const Mesh mesh = insert_and_flip(input, in.pieces, 3, 1 + static_cast<unsigned>(seed % 7));
+    expect_valid_mesh(mesh);
+    expect_pieces_present(mesh, in.pieces);
+    EXPECT_TRUE(trixel_test::is_locally_delaunay(mesh)) << seed;
+  }
+}
+
+TEST(ConstraintInsert, HullEdgesAndChords) {
+  // Pieces along the hull are edges already (flagged, no flip); chords from one hull vertex to all the
+  // others cross the interior and share an endpoint, which is allowed.
+  const Input in = random_input(400, 0, 9);
+  const Mesh input = trixel_test::sweep_triangulate(in.x, in.y);
+  std::vector<ConstraintPiece2> hull_edges;
+  for (std::uint32_t t = 0; t < input.num_slots(); ++t)
+    for (std::uint32_t i = 0; i < 3; ++i)
+      if (input.adj[3 * t + i] == kNoId) {
+        hull_edges.push_back({input.tri[3 * t + next3(i)], input.tri[3 * t + prev3(i)], t});
+      }
+  ConstraintStats stats;
+  Mesh mesh = insert_and_flip(input, hull_edges, 2, 5, &stats);
+  EXPECT_EQ(stats.flips, 0u);
+  EXPECT_EQ(stats.outer_iterations, 1u);
+  expect_pieces_present(mesh, hull_edges);
+  std::vector<ConstraintPiece2> chords;
+  for (std::size_t k = 2; k + 1 < hull_edges.size(); ++k) {
+    chords.push_back({hull_edges[0].a, hull_edges[k].a, static_cast<std::uint32_t>(k)});
+  }
+  mesh = insert_and_flip(input, chords, 2, 5, &stats);
+  EXPECT_GT(stats.flips, 0u);
+  expect_valid_mesh(mesh);
+  expect_pieces_present(mesh, chords);
+  EXPECT_TRUE(trixel_test::is_locally_delaunay(mesh));
+}
+
+TEST(ConstraintInsert, PresentAndDuplicatePieces) {
+  const Input in = random_input(200, 0, 4);
+  Mesh mesh = trixel_test::sweep_triangulate(in.x, in.y);
+  const std::uint32_t e = 3 * 5 + 1;
+  const std::uint32_t a = mesh.tri[3 * 5 + 2], b = mesh.tri[3 * 5 + 0];
+  // The same edge three times, both directions: the smallest id wins on both sides.
+  const std::vector<ConstraintPiece2> pieces{{a, b, 9}, {b, a, 3}, {a, b, 5}};
+  CpuExecutor executor(2);
+  const ConstraintStats stats = insert_constraints(mesh, pieces, 5, executor);
+  EXPECT_EQ(stats.flips, 0u);
+  EXPECT_EQ(stats.intersections, 0u);
+  EXPECT_EQ(mesh.seg[e], 3u);
+  EXPECT_EQ(mesh.seg[mesh.adj[e]], 3u);
+  expect_valid_mesh(mesh);
+  EXPECT_EQ(insert_constraints(mesh, {}, 5, executor).outer_iterations, 0u);
+}
+
+TEST(ConstraintInsert, ViolatedPreconditionsThrowInsteadOfLooping) {
+  CpuExecutor executor(2);
+  // A piece through a lattice point.
+  {
+    Mesh mesh = trixel_test::sweep_triangulate({0, 1, 2, 0, 1, 2}, {0, 0, 0, 1, 1, 1});
+    const std::vector<ConstraintPiece2> pieces{{0, 2, 0}};
+    EXPECT_THROW(insert_constraints(mesh, pieces, 5, executor, kInnerGuard), cdt::Error);
+  }
+  // The two diagonals of a convex quadrilateral cross.
+  {
+    Mesh mesh = trixel_test::sweep_triangulate({0, 4, 5, 1}, {0, 0.5, 4, 3});
+    const std::vector<ConstraintPiece2> pieces{{0, 2, 0}, {1, 3, 1}};
+    EXPECT_THROW(insert_constraints(mesh, pieces, 5, executor, kInnerGuard), cdt::Error);
+  }
+  // Bad endpoints.
+  {
+    Mesh mesh = trixel_test::sweep_triangulate({0, 1, 0}, {0, 0, 1});
+    EXPECT_THROW(insert_constraints(mesh, std::vector<ConstraintPiece2>{{0, 0, 0}}, 5, executor), cdt::Error);
+    EXPECT_THROW(insert_constraints(mesh, std::vector<ConstraintPiece2>{{0, 3, 0}}, 5, executor), cdt::Error);
+  }
+  // A vertex not in the mesh.
+  {
+    Mesh mesh = trixel_test::sweep_triangulate({0, 1, 0}, {0, 0, 1});
+    mesh.x.push_back(5);
+    mesh.y.push_back(5);
+    mesh.vert_tri.push_back(kNoId);
+    EXPECT_THROW(insert_constraints(mesh, std::vector<ConstraintPiece2>{{0, 3, 0}}, 5, executor), cdt::Error);
+  }
+}
+
+} // namespace

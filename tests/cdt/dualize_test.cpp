@@ -1,0 +1,159 @@
+#include "gcd/dualize.hpp"
+
+#include <gtest/gtest.h>
+
+#include <cstdint>
+#include <vector>
+
+#include "cdt/detail/predicates.hpp"
+#include "executor/cpu_executor.hpp"
+#include "predicate_cases.hpp"
+
+namespace {
+
+using namespace cdt::detail;
+
+// Nearest site by exact integer distance, ties to the lower index (the paper's Definition 1).
+std::vector<std::uint32_t> brute_force_colour(const std::vector<std::uint32_t>& gx,
+                                              const std::vector<std::uint32_t>& gy, std::uint32_t m) {
+  std::vector<std::uint32_t> colour(static_cast<std::size_t>(m) * m);
+  for (std::uint32_t y = 0; y < m; ++y)
+    for (std::uint32_t x = 0; x < m; ++x) {
+      std::int64_t best = -1;
+      std::uint32_t best_site = 0;
+      for (std::uint32_t s = 0; s < gx.size(); ++s) {
+        const std::int64_t dx = std::int64_t{gx[s]} - x, dy = std::int64_t{gy[s]} - y;
+        const std::int64_t d = dx * dx + dy * dy;
+        if (best < 0 || d < best) {
+          best = d;
+          best_site = s;
+        }
+      }
+      colour[static_cast<std::size_t>(y) * m + x] = best_site;
+    }
+  return colour;
+}
+
+// Links symmetric through encoded edges, every triangle CCW, vert_tri incident, boundary convex.
+void expect_valid(const Mesh& mesh) {
+  std::size_t boundary_edges = 0;
+  for (std::uint32_t t = 0; t < mesh.num_slots(); ++t) {
+    if (!mesh.alive(t)) continue;
+    const std::uint32_t a = mesh.tri[3 * t], b = mesh.tri[3 * t + 1], c = mesh.tri[3 * t + 2];
+    ASSERT_GT(orient2d(mesh.x[a], mesh.y[a], mesh.x[b], mesh.y[b], mesh.x[c], mesh.y[c]), 0)
+        << "triangle " << t;
+    for (std::uint32_t i = 0; i < 3; ++i) {
+      const std::uint32_t e = mesh.adj[3 * t + i];
+      if (e == kNoId) {
+        ++boundary_edges;
+        continue;
+      }
+      ASSERT_EQ(mesh.adj[e], 3 * t + i);
+      const std::uint32_t u = e / 3, j = e % 3;
+      EXPECT_EQ(mesh.tri[3 * u + next3(j)], mesh.tri[3 * t + prev3(i)]);
+      EXPECT_EQ(mesh.tri[3 * u + prev3(j)], mesh.tri[3 * t + next3(i)]);
+    }
+  }
+  for (std::uint32_t v = 0; v < mesh.num_vertices(); ++v) {
+    const std::uint32_t t = mesh.vert_tri[v];
+    if (t != kNoId) {
+      EXPECT_TRUE(mesh.tri[3 * t] == v || mesh.tri[3 * t + 1] == v || mesh.tri[3 * t + 2] == v);
+    }
+  }
+  EXPECT_GE(boundary_edges, 3u);
+}
+
+struct Sites {
+  std::vector<std::uint32_t> gx, gy;
+  std::vector<double> x, y;
+  std::vector<std::uint8_t> kept;
+};
+
+Sites random_sites(std::uint32_t m, std::uint32_t count, std::uint64_t seed) {
+  trixel_test::Rng rng(seed);
+  Sites s;
+  std::vector<std::uint8_t> used(static_cast<std::size_t>(m) * m, 0);
+  while (s.gx.size() < count) {
+    const auto x = static_cast<std::uint32_t>(rng.range(0, m - 1));
+    const auto y = static_cast<std::uint32_t>(rng.range(0, m - 1));
+    if (used[static_cast<std::size_t>(y) * m + x]) continue;
+    used[static_cast<std::size_t>(y) * m + x] = 1;
+    s.gx.push_back(x);
+    s.gy.push_back(y);
+    s.x.push_back(x);
+    s.y.push_back(y);
+    s.kept.push_back(1);
+  }
+  return s;
+}
+
+TEST(Dualize, RandomSitesGiveAValidMeshInsideTheFakeBoundary) {
+  CpuExecutor executor(2);
+  int dual_used = 0;
+  for (std::uint64_t seed = 1; seed <= 20; ++seed) {
+    const std::uint32_t m = 64;
+    const Sites s = random_sites(m, 40, seed);
+    const auto colour = brute_force_colour(s.gx, s.gy, m);
+    DualizeStats stats;
+    const Mesh mesh =
+        dualize(colour, m, s.x, s.y, s.kept, Box{0, 0, double(m - 1), double(m - 1)}, executor, &stats);
+    expect_valid(mesh);
+    const auto n = static_cast<std::uint32_t>(s.x.size());
+    EXPECT_EQ(mesh.num_vertices(), n + stats.fake_vertices);
+    dual_used += stats.dual_triangles > 0;
+    // Every site is in the mesh, and the outer boundary is exactly the fake polygon.
+    if (stats.dual_triangles > 0) {
+      for (std::uint32_t v = 0; v < n; ++v)
+        EXPECT_NE(mesh.vert_tri[v], kNoId) << "seed " << seed << " site " << v;
+    }
+    std::size_t live = 0;
+    for (std::uint32_t t = 0; t < mesh.num_slots(); ++t) live += mesh.alive(t);
+    // Euler for a triangulated disk whose boundary is the fake polygon: T = 2V - h - 2.
+    const std::size_t used = stats.dual_triangles > 0 ? n + stats.fake_vertices : stats.fake_vertices;
+    EXPECT_EQ(live, 2 * used - stats.fake_vertices - 2) << "seed " << seed;
+  }
+  // Brute-force colouring is not amended, so a diagram with debris may fall back; most must not.
+  EXPECT_GE(dual_used, 15);
+}
+
+// Too few sites for a Voronoi vertex: the mesh is the fake polygon and everything is left for
+// missing-point insertion rather than failing.
+TEST(Dualize, TwoSitesFallBackToTheFakePolygon) {
+  CpuExecutor executor(1);
+  const std::uint32_t m = 16;
+  Sites s;
+  s.gx = {2, 12};
+  s.gy = {3, 9};
+  s.x = {2, 12};
+  s.y = {3, 9};
+  s.kept = {1, 1};
+  const auto colour = brute_force_colour(s.gx, s.gy, m);
+  DualizeStats stats;
+  const Mesh mesh = dualize(colour, m, s.x, s.y, s.kept, Box{0, 0, 15, 15}, executor, &stats);
+  expect_valid(mesh);
+  EXPECT_EQ(stats.dual_triangles, 0u);
+  EXPECT_EQ(mesh.vert_tri[0], kNoId);
+  EXPECT_EQ(mesh.vert_tri[1], kNoId);
+}
+
+// Collinear sites on a lattice row produce ties everywhere; the dual must still be valid.
+TEST(Dualize, LatticeSitesWithTiesStayValid) {
+  CpuExecutor executor(2);
+  const std::uint32_t m = 32;
+  Sites s;
+  for (std::uint32_t y = 2; y < m; y += 6)
+    for (std::uint32_t x = 1; x < m; x += 5) {
+      s.gx.push_back(x);
+      s.gy.push_back(y);
+      s.x.push_back(x);
+      s.y.push_back(y);
+      s.kept.push_back(1);
+    }
+  const auto colour = brute_force_colour(s.gx, s.gy, m);
+  DualizeStats stats;
+  const Mesh mesh = dualize(colour, m, s.x, s.y, s.kept, Box{0, 0, 31, 31}, executor, &stats);
+  expect_valid(mesh);
+  EXPECT_GT(stats.dual_triangles, 0u);
+}
+
+} // namespace

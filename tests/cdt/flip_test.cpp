@@ -1,0 +1,269 @@
+// Tests of Phase 5 / Step 3 (paper section 3.5): parallel Lawson flipping and the two-step batch flip.
+
+#include "gcd/flip.hpp"
+
+#include <gtest/gtest.h>
+
+#include <chrono>
+#include <cmath>
+#include <cstdint>
+#include <cstdio>
+#include <vector>
+
+#include "cdt/errors.hpp"
+#include "executor/cpu_executor.hpp"
+#include "mesh_test_util.hpp"
+#include "pslg_generators.hpp"
+
+namespace {
+
+using namespace cdt::detail;
+using trixel_test::expect_valid_mesh;
+using trixel_test::is_locally_delaunay;
+using trixel_test::sweep_triangulate;
+using trixel_test::triangle_set;
+
+struct Points {
+  std::vector<double> x, y;
+};
+
+Points from_pslg(const trixel_gen::Pslg& p) {
+  Points out;
+  for (const auto& q : p.points) {
+    out.x.push_back(q.x);
+    out.y.push_back(q.y);
+  }
+  return out;
+}
+
+Points uniform_points(std::size_t n, std::uint64_t seed) {
+  return from_pslg(trixel_gen::random_points(n, trixel_gen::Distribution::uniform, seed));
+}
+
+// Runs the parallel flipping on a copy and checks validity and the Delaunay property.
+Mesh flipped(const Mesh& input, unsigned threads, FlipStats* stats = nullptr) {
+  Mesh mesh = input;
+  CpuExecutor executor(threads);
+  const FlipStats s = flip_to_delaunay(mesh, executor);
+  if (stats) *stats = s;
+  return mesh;
+}
+
+TEST(FlipTestUtil, SweepTriangulatorIsValid) {
+  // The reference triangulator itself, on inputs with collinear starts and collinear hull chains.
+  for (const auto& p :
+       {trixel_gen::lattice(7), trixel_gen::random_points(300, trixel_gen::Distribution::uniform, 3)}) {
+    const Points pts = from_pslg(p);
+    const Mesh mesh = sweep_triangulate(pts.x, pts.y);
+    expect_valid_mesh(mesh);
+    // Every point used: 2n - 2 - h triangles with h points on the hull boundary (the boundary edges).
+    std::size_t boundary = 0;
+    for (const std::uint32_t e : mesh.adj) boundary += e == kNoId;
+    EXPECT_EQ(triangle_set(mesh).size(), 2 * pts.x.size() - 2 - boundary);
+  }
+  // All collinear: no triangle.
+  EXPECT_TRUE(triangle_set(sweep_triangulate({0, 1, 2, 3}, {0, 1, 2, 3})).empty());
+}
+
+TEST(FlipToDelaunay, RandomUniformMatchesSerialReference) {
+  for (const std::size_t n : {10u, 100u, 1000u, 10000u}) {
+    const Points pts = uniform_points(n, 100 + n);
+    const Mesh input = sweep_triangulate(pts.x, pts.y);
+    FlipStats stats;
+    const Mesh mesh = flipped(input, 4, &stats);
+    expect_valid_mesh(mesh);
+    EXPECT_TRUE(is_locally_delaunay(mesh)) << n;
+    Mesh reference = input;
+    trixel_test::serial_lawson(reference);
+    // In general position the Delaunay triangulation is unique.
+    EXPECT_EQ(triangle_set(mesh), triangle_set(reference)) << n;
+    EXPECT_TRUE(n < 100 || stats.flips > 0) << n;
+    EXPECT_GE(stats.rounds, 1u);
+  }
+}
+
+TEST(FlipToDelaunay, SingleAndFourThreadsAgree) {
+  // Claims depend only on slot indices, so the rounds are the same however threads interleave.
+  const Points pts = uniform_points(20000, 7);
+  const Mesh input = sweep_triangulate(pts.x, pts.y);
+  FlipStats one_stats, four_stats;
+  const Mesh one = flipped(input, 1, &one_stats);
+  const Mesh four = flipped(input, 4, &four_stats);
+  EXPECT_EQ(triangle_set(one), triangle_set(four));
+  EXPECT_EQ(one.tri, four.tri);
+  EXPECT_EQ(one.adj, four.adj);
+  EXPECT_EQ(one_stats.flips, four_stats.flips);
+  EXPECT_EQ(one_stats.rounds, four_stats.rounds);
+  expect_valid_mesh(four);
+}
+
+TEST(FlipToDelaunay, LatticeTerminates) {
+  // A pixel lattice is co-circular everywhere: flipping on incircle == 0 would never stop.
+  for (const std::uint32_t k : {2u, 3u, 10u, 40u}) {
+    const Points pts = from_pslg(trixel_gen::lattice(k));
+    const Mesh input = sweep_triangulate(pts.x, pts.y);
+    const Mesh mesh = flipped(input, 4);
+    expect_valid_mesh(mesh);
+    EXPECT_TRUE(is_locally_delaunay(mesh)) << k;
+    EXPECT_EQ(triangle_set(mesh).size(), 2u * (k - 1) * (k - 1)) << k;
+    EXPECT_EQ(mesh.tri, flipped(input, 1).tri) << k;
+  }
+}
+
+TEST(FlipToDelaunay, LatticeWithJitteredPointsStaysValid) {
+  // Half the lattice shifted by a few ulps: near-degenerate incircle signs decided by the exact path.
+  const std::uint32_t k = 30;
+  Points pts = from_pslg(trixel_gen::lattice(k));
+  trixel_gen::Random rng(5);
+  for (std::size_t i = 0; i < pts.x.size(); i += 2) {
+    pts.x[i] = std::nextafter(pts.x[i], rng.unit() < 0.5 ? -1e9 : 1e9);
+  }
+  const Mesh mesh = flipped(sweep_triangulate(pts.x, pts.y), 4);
+  expect_valid_mesh(mesh);
+  EXPECT_TRUE(is_locally_delaunay(mesh));
+}
+
+TEST(FlipToDelaunay, PointsOnACircle) {
+  // Rounded cosines are only nearly co-circular: the exact signs are arbitrary but must be consistent.
+  {
+    Points pts;
+    for (int i = 0; i < 500; ++i) {
+      pts.x.push_back(std::cos(2 * 3.141592653589793 * i / 500));
+      pts.y.push_back(std::sin(2 * 3.141592653589793 * i / 500));
+    }
+    pts.x.push_back(0.0);
+    pts.y.push_back(0.0);
+    const Mesh mesh = flipped(sweep_triangulate(pts.x, pts.y), 4);
+    expect_valid_mesh(mesh);
+    EXPECT_TRUE(is_locally_delaunay(mesh));
+  }
+  // Exactly co-circular: the 48 integer points with x^2 + y^2 = 5525, a sweep gives a fan of slivers.
+  {
+    Points pts;
+    for (int xi = -75; xi <= 75; ++xi)
+      for (int yi = -75; yi <= 75; ++yi)
+        if (xi * xi + yi * yi == 5525) {
+          pts.x.push_back(xi);
+          pts.y.push_back(yi);
+        }
+    ASSERT_EQ(pts.x.size(), 48u);
+    const Mesh input = sweep_triangulate(pts.x, pts.y);
+    FlipStats stats;
+    const Mesh mesh = flipped(input, 4, &stats);
+    expect_valid_mesh(mesh);
+    EXPECT_TRUE(is_locally_delaunay(mesh));
+    EXPECT_EQ(stats.flips, 0u) << "every quadrilateral is co-circular";
+  }
+}
+
+TEST(FlipToDelaunay, ClusteredPoints) {
+  const Points pts = from_pslg(trixel_gen::clustered(5000, 7, 11));
+  const Mesh input = sweep_triangulate(pts.x, pts.y);
+  const Mesh mesh = flipped(input, 4);
+  expect_valid_mesh(mesh);
+  EXPECT_TRUE(is_locally_delaunay(mesh));
+  Mesh reference = input;
+  trixel_test::serial_lawson(reference);
+  EXPECT_EQ(triangle_set(mesh), triangle_set(reference));
+}
+
+TEST(FlipToDelaunay, ConstraintEdgesAreNeverFlipped) {
+  // Random edges fixed as constraints: the result is their constrained Delaunay triangulation.
+  const Points pts = uniform_points(3000, 21);
+  Mesh input = sweep_triangulate(pts.x, pts.y);
+  trixel_gen::Random rng(4);
+  std::vector<std::pair<std::uint32_t, std::uint32_t>> fixed;
+  for (std::uint32_t t = 0; t < input.num_slots(); ++t) {
+    for (std::uint32_t i = 0; i < 3; ++i) {
+      const std::uint32_t e = input.adj[3 * t + i];
+      if (e == kNoId || e < 3 * t + i || rng.unit() > 0.05) continue;
+      const std::uint32_t id = static_cast<std::uint32_t>(fixed.size());
+      input.seg[3 * t + i] = id;
+      input.seg[e] = id;
+      fixed.emplace_back(input.tri[3 * t + next3(i)], input.tri[3 * t + prev3(i)]);
+    }
+  }
+  ASSERT_GT(fixed.size(), 100u);
+  FlipStats stats;
+  const Mesh mesh = flipped(input, 4, &stats);
+  EXPECT_GT(stats.flips, 0u);
+  expect_valid_mesh(mesh);
+  EXPECT_TRUE(is_locally_delaunay(mesh));
+  for (std::uint32_t id = 0; id < fixed.size(); ++id) {
+    const std::uint32_t e = trixel_test::find_edge(mesh, fixed[id].first, fixed[id].second);
+    ASSERT_NE(e, kNoId) << "constraint " << id << " was flipped away";
+    EXPECT_EQ(mesh.seg[e], id);
+  }
+  Mesh reference = input;
+  trixel_test::serial_lawson(reference);
+  EXPECT_EQ(triangle_set(mesh), triangle_set(reference));
+}
+
+TEST(FlipToDelaunay, DelaunayInputNeedsNoFlip) {
+  const Points pts = uniform_points(2000, 8);
+  const Mesh once = flipped(sweep_triangulate(pts.x, pts.y), 2);
+  FlipStats stats;
+  const Mesh twice = flipped(once, 2, &stats);
+  EXPECT_EQ(stats.flips, 0u);
+  EXPECT_EQ(stats.rounds, 1u);
+  EXPECT_EQ(twice.tri, once.tri);
+}
+
+TEST(FlipToDelaunay, TinyAndEmptyMeshes) {
+  Mesh empty;
+  CpuExecutor executor(2);
+  EXPECT_EQ(flip_to_delaunay(empty, executor).flips, 0u);
+  const Mesh one = trixel_test::mesh_from_triangles({0, 1, 0}, {0, 0, 1}, {{0, 1, 2}});
+  FlipStats stats;
+  const Mesh out = flipped(one, 2, &stats);
+  EXPECT_EQ(stats.flips, 0u);
+  expect_valid_mesh(out);
+  // Two triangles whose shared edge fails: exactly one flip, to the other diagonal.
+  const Mesh quad = trixel_test::mesh_from_triangles({0, 10, 9, 0}, {0, 0, 9, 10}, {{0, 1, 3}, {1, 2, 3}});
+  const Mesh fixed = flipped(quad, 2, &stats);
+  EXPECT_EQ(stats.flips, 1u);
+  expect_valid_mesh(fixed);
+  EXPECT_NE(trixel_test::find_edge(fixed, 0, 2), kNoId);
+}
+
+TEST(FlipBatch, MatchesSequentialFlipEdge) {
+  // Disjoint pairs that border each other flip in one batch: the two-step update must give exactly the
+  // arrays of flipping them one after the other with flip_edge (which updates outer links directly).
+  const Points pts = uniform_points(4000, 31);
+  const Mesh input = sweep_triangulate(pts.x, pts.y);
+  const MeshView view = const_cast<Mesh&>(input).view();
+  std::vector<char> taken(input.num_slots(), 0);
+  std::vector<std::uint32_t> edges;
+  for (std::uint32_t t = 0; t < input.num_slots(); ++t) {
+    if (taken[t]) continue;
+    for (std::uint32_t i = 0; i < 3; ++i) {
+      const std::uint32_t e = input.adj[3 * t + i];
+      if (e == kNoId || taken[e / 3] || !flip_is_convex(view, t, i)) continue;
+      taken[t] = taken[e / 3] = 1;
+      edges.push_back(3 * t + i);
+      break;
+    }
+  }
+  ASSERT_GT(edges.size(), 1000u);
+  Mesh sequential = input;
+  for (const std::uint32_t e : edges) flip_edge(sequential.view(), e / 3, e % 3);
+  Mesh batched = input;
+  CpuExecutor executor(4);
+  FlipBatch batch(batched.num_slots());
+  batch.apply(batched, edges, executor);
+  EXPECT_EQ(batched.tri, sequential.tri);
+  EXPECT_EQ(batched.adj, sequential.adj);
+  EXPECT_EQ(batched.seg, sequential.seg);
+  expect_valid_mesh(batched);
+  for (const std::uint32_t e : edges) {
+    EXPECT_EQ(batch.partner()[e / 3], sequential.adj[3 * (e / 3) + 1] / 3);
+  }
+  // A second batch through the same scratch flips the diagonals back.
+  std::vector<std::uint32_t> back;
+  for (const std::uint32_t e : edges) back.push_back(3 * (e / 3) + 1);
+  batch.apply(batched, back, executor);
+  EXPECT_EQ(triangle_set(batched), triangle_set(input));
+  expect_valid_mesh(batched);
+}
+
+} // namespace

@@ -1,0 +1,570 @@
+// Tests of prepare_pslg(): input errors with their ids, duplicate merging, splitting at points on
+// segments, overlap merging, crossing resolution and rejection. Results are checked for the property
+// the triangulator relies on, exactly: no two pieces cross or overlap and no site lies inside a piece.
+#include "pslg.hpp"
+
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdint>
+#include <filesystem>
+#include <functional>
+#include <limits>
+#include <numeric>
+#include <string>
+#include <vector>
+
+#include "cdt/detail/predicates.hpp"
+#include "cdt/io.hpp"
+#include "pslg_generators.hpp"
+
+#ifndef TRIXEL_TEST_DATA_DIR
+#error "TRIXEL_TEST_DATA_DIR must name the tests/data folder"
+#endif
+
+namespace {
+
+using cdt::CrossingSegments;
+using cdt::Point;
+using cdt::Segment;
+using cdt::detail::ConstraintPiece;
+using cdt::detail::prepare_pslg;
+using cdt::detail::PreparedPslg;
+using Kind = cdt::InvalidInputError::Kind;
+
+int orient(const Point& a, const Point& b, const Point& c) {
+  return cdt::detail::orient2d(a.x, a.y, b.x, b.y, c.x, c.y);
+}
+
+bool strictly_inside(const Point& a, const Point& b, const Point& p) {
+  if (orient(a, b, p) != 0) return false;
+  if (a.x != b.x) return std::min(a.x, b.x) < p.x && p.x < std::max(a.x, b.x);
+  return std::min(a.y, b.y) < p.y && p.y < std::max(a.y, b.y);
+}
+
+/// Exact check of the output contract; returns the first problem or "" when there is none. Candidate
+/// pairs come from a uniform grid over bounding boxes (each pair tested in one cell only: the one
+/// holding the lower-left corner of the boxes' intersection), so it also runs on large outputs.
+std::string contract_violation(const PreparedPslg& out) {
+  const auto& v = out.vertices;
+  for (std::size_t k = 1; k < out.sites.size(); ++k) {
+    if (out.sites[k - 1] >= out.sites[k]) return "sites not increasing";
+  }
+  std::vector<std::uint8_t> is_site(v.size(), 0);
+  for (std::uint32_t s : out.sites) is_site[s] = 1;
+  for (std::size_t k = 0; k < out.pieces.size(); ++k) {
+    const ConstraintPiece& p = out.pieces[k];
+    if (p.a >= p.b || p.b >= v.size()) return "piece " + std::to_string(k) + " has bad indices";
+    if (is_site[p.a] == 0 || is_site[p.b] == 0) return "piece " + std::to_string(k) + " ends at a non-site";
+    if (k > 0 && (out.pieces[k - 1].a > p.a || (out.pieces[k - 1].a == p.a && out.pieces[k - 1].b >= p.b))) {
+      return "pieces not sorted and unique at " + std::to_string(k);
+    }
+  }
+  struct Box {
+    double x0, y0, x1, y1;
+  };
+  std::vector<Box> boxes;
+  for (const ConstraintPiece& p : out.pieces) {
+    boxes.push_back({std::min(v[p.a].x, v[p.b].x), std::min(v[p.a].y, v[p.b].y), std::max(v[p.a].x, v[p.b].x),
+                     std::max(v[p.a].y, v[p.b].y)});
+  }
+  double x0 = v[out.sites[0]].x, y0 = v[out.sites[0]].y, x1 = x0, y1 = y0;
+  for (std::uint32_t s : out.sites) {
+    x0 = std::min(x0, v[s].x), y0 = std::min(y0, v[s].y), x1 = std::max(x1, v[s].x),
+    y1 = std::max(y1, v[s].y);
+  }
+  const int side =
+      static_cast<int>(std::clamp(std::sqrt(static_cast<double>(out.pieces.size())), 1.0, 1024.0));
+  // Cell indices are monotone in the coordinate, which is all the pair dedupe below needs.
+  const auto cx = [&](double x) {
+    return std::clamp(static_cast<int>((x - x0) / (x1 - x0) * side), 0, side - 1);
+  };
+  const auto cy = [&](double y) {
+    return std::clamp(static_cast<int>((y - y0) / (y1 - y0) * side), 0, side - 1);
+  };
+  std::vector<std::vector<std::uint32_t>> cells(static_cast<std::size_t>(side) * side);
+  for (std::uint32_t k = 0; k < boxes.size(); ++k) {
+    for (int y = cy(boxes[k].y0); y <= cy(boxes[k].y1); ++y) {
+      for (int x = cx(boxes[k].x0); x <= cx(boxes[k].x1); ++x) cells[y * side + x].push_back(k);
+    }
+  }
+  for (int y = 0; y < side; ++y) {
+    for (int x = 0; x < side; ++x) {
+      const auto& list = cells[y * side + x];
+      for (std::size_t i = 0; i < list.size(); ++i) {
+        for (std::size_t j = i + 1; j < list.size(); ++j) {
+          const Box &bp = boxes[list[i]], &bq = boxes[list[j]];
+          const double lx = std::max(bp.x0, bq.x0), ly = std::max(bp.y0, bq.y0);
+          if (lx > std::min(bp.x1, bq.x1) || ly > std::min(bp.y1, bq.y1)) continue;
+          if (cx(lx) != x || cy(ly) != y) continue; // tested in another cell
+          const ConstraintPiece &p = out.pieces[list[i]], &q = out.pieces[list[j]];
+          const Point &a = v[p.a], &b = v[p.b], &c = v[q.a], &d = v[q.b];
+          const int oc = orient(a, b, c), od = orient(a, b, d), oa = orient(c, d, a), ob = orient(c, d, b);
+          const std::string pair = std::to_string(list[i]) + " and " + std::to_string(list[j]);
+          if (oc * od < 0 && oa * ob < 0) return "pieces " + pair + " cross";
+          if (oc == 0 && od == 0 &&
+              (strictly_inside(a, b, c) || strictly_inside(a, b, d) || strictly_inside(c, d, a) ||
+               strictly_inside(c, d, b) || (p.a == q.a && p.b == q.b))) {
+            return "pieces " + pair + " overlap";
+          }
+        }
+      }
+    }
+  }
+  for (std::uint32_t s : out.sites) {
+    for (std::uint32_t k : cells[cy(v[s].y) * side + cx(v[s].x)]) {
+      const ConstraintPiece& p = out.pieces[k];
+      if (strictly_inside(v[p.a], v[p.b], v[s])) {
+        return "site " + std::to_string(s) + " lies inside piece " + std::to_string(k);
+      }
+    }
+  }
+  return "";
+}
+
+/// Whether every input segment's representatives are joined by a path of pieces (bent pieces included).
+bool segments_connected(const PreparedPslg& out, const std::vector<Segment>& segments) {
+  std::vector<std::uint32_t> parent(out.vertices.size());
+  std::iota(parent.begin(), parent.end(), 0u);
+  const std::function<std::uint32_t(std::uint32_t)> find = [&](std::uint32_t x) {
+    while (parent[x] != x) x = parent[x] = parent[parent[x]];
+    return x;
+  };
+  for (const ConstraintPiece& p : out.pieces) parent[find(p.a)] = find(p.b);
+  for (const Segment& s : segments) {
+    if (find(out.duplicate_of[s.a]) != find(out.duplicate_of[s.b])) return false;
+  }
+  return true;
+}
+
+std::vector<std::pair<std::uint32_t, std::uint32_t>> piece_pairs(const PreparedPslg& out) {
+  std::vector<std::pair<std::uint32_t, std::uint32_t>> pairs;
+  for (const ConstraintPiece& p : out.pieces) pairs.emplace_back(p.a, p.b);
+  return pairs;
+}
+
+std::vector<std::uint32_t> piece_labels(const PreparedPslg& out) {
+  std::vector<std::uint32_t> labels;
+  for (const ConstraintPiece& p : out.pieces) labels.push_back(p.segment);
+  return labels;
+}
+
+/// Runs prepare_pslg expecting InvalidInputError; returns it for inspection.
+cdt::InvalidInputError invalid_input(const std::vector<Point>& points, const std::vector<Segment>& segments,
+                                     CrossingSegments policy = CrossingSegments::resolve) {
+  try {
+    prepare_pslg(points, segments, policy);
+  } catch (const cdt::InvalidInputError& e) {
+    return e;
+  }
+  ADD_FAILURE() << "no InvalidInputError";
+  return cdt::InvalidInputError(Kind::too_few_points, 0, "");
+}
+
+const std::vector<Point> kTriangle{{0, 0}, {1, 0}, {0, 1}};
+
+// The property tests below are only as good as this checker: it must see each kind of violation.
+TEST(PslgChecker, SeesCrossingsOverlapsAndSitesInsidePieces) {
+  PreparedPslg out;
+  out.vertices = {{0, 0}, {2, 2}, {0, 2}, {2, 0}, {1, 1}, {3, 3}};
+  out.sites = {0, 1, 2, 3, 5};
+  out.pieces = {{0, 1, 0}, {2, 3, 1}};
+  EXPECT_NE(contract_violation(out).find("cross"), std::string::npos);
+  out.pieces = {{0, 1, 0}, {0, 5, 1}};
+  EXPECT_NE(contract_violation(out).find("overlap"), std::string::npos);
+  out.pieces = {{0, 5, 0}};
+  out.sites = {0, 1, 5};
+  EXPECT_NE(contract_violation(out).find("site 1 lies inside piece 0"), std::string::npos);
+  out.pieces = {{0, 1, 0}, {1, 5, 0}};
+  EXPECT_EQ(contract_violation(out), "");
+}
+
+// --- errors ------------------------------------------------------------------------------------------
+
+TEST(PslgErrors, NonFiniteCoordinateNamesThePoint) {
+  const double nan = std::numeric_limits<double>::quiet_NaN();
+  const double inf = std::numeric_limits<double>::infinity();
+  const auto e = invalid_input({{0, 0}, {1, 0}, {nan, 2}}, {});
+  EXPECT_EQ(e.kind(), Kind::non_finite_coordinate);
+  EXPECT_EQ(e.item(), 2u);
+  EXPECT_NE(std::string(e.what()).find("point 2 has a non-finite coordinate (nan, 2)"), std::string::npos)
+      << e.what();
+  const auto f = invalid_input({{0, 0}, {0, -inf}, {1, 2}}, {});
+  EXPECT_EQ(f.kind(), Kind::non_finite_coordinate);
+  EXPECT_EQ(f.item(), 1u);
+}
+
+// Beyond the limit the fourth powers in incircle would overflow and the exact predicates lie.
+TEST(PslgErrors, HugeCoordinateIsOutOfRange) {
+  const auto e = invalid_input({{0, 0}, {1, 0}, {0, 1}, {-2e60, 5}}, {});
+  EXPECT_EQ(e.kind(), Kind::coordinate_out_of_range);
+  EXPECT_EQ(e.item(), 3u);
+  EXPECT_NE(std::string(e.what()).find("overflow"), std::string::npos) << e.what();
+  EXPECT_NO_THROW(
+      prepare_pslg(std::vector<Point>{{0, 0}, {1e60, 0}, {0, -1e60}}, {}, CrossingSegments::resolve));
+}
+
+TEST(PslgErrors, SegmentIndexOutOfRangeNamesTheSegment) {
+  const auto e = invalid_input(kTriangle, {{0, 1}, {1, 2}, {2, 3}});
+  EXPECT_EQ(e.kind(), Kind::index_out_of_range);
+  EXPECT_EQ(e.item(), 2u);
+  EXPECT_NE(std::string(e.what()).find("segment 2"), std::string::npos) << e.what();
+}
+
+TEST(PslgErrors, ZeroLengthSegmentsAreRejectedUnderRejectAndNamed) {
+  const auto same_index = invalid_input(kTriangle, {{0, 1}, {2, 2}}, CrossingSegments::reject);
+  EXPECT_EQ(same_index.kind(), Kind::degenerate_segment);
+  EXPECT_EQ(same_index.item(), 1u);
+  // Different indices, identical coordinates: zero length all the same.
+  const auto same_place =
+      invalid_input({{0, 0}, {1, 0}, {0, 1}, {1, 0}}, {{0, 2}, {1, 2}, {3, 1}}, CrossingSegments::reject);
+  EXPECT_EQ(same_place.kind(), Kind::degenerate_segment);
+  EXPECT_EQ(same_place.item(), 2u);
+}
+
+TEST(Pslg, ZeroLengthSegmentsAreIgnoredAndCountedUnderResolve) {
+  const std::vector<Point> points{{0, 0}, {1, 0}, {0, 1}, {1, 0}};
+  const std::vector<Segment> segments{{0, 2}, {2, 2}, {3, 1}};
+  const PreparedPslg out = prepare_pslg(points, segments, CrossingSegments::resolve);
+  EXPECT_EQ(out.zero_length_segments, 2u);
+  ASSERT_EQ(out.pieces.size(), 1u);
+  EXPECT_EQ(out.pieces[0].a, 0u);
+  EXPECT_EQ(out.pieces[0].b, 2u);
+  EXPECT_EQ(out.pieces[0].segment, 0u);
+}
+
+TEST(PslgErrors, TooFewDistinctPoints) {
+  EXPECT_EQ(invalid_input({}, {}).kind(), Kind::too_few_points);
+  EXPECT_EQ(invalid_input({{0, 0}, {1, 1}}, {}).kind(), Kind::too_few_points);
+  const auto e = invalid_input({{0, 0}, {1, 1}, {0, 0}, {1, 1}}, {{0, 1}});
+  EXPECT_EQ(e.kind(), Kind::too_few_points);
+  EXPECT_EQ(e.item(), 2u); // the number of distinct points
+}
+
+TEST(PslgErrors, AllCollinear) {
+  const auto e = invalid_input({{0, 0}, {1, 1}, {2, 2}, {0, 0}, {-5, -5}}, {{0, 2}});
+  EXPECT_EQ(e.kind(), Kind::all_collinear);
+  EXPECT_EQ(e.item(), 4u); // the number of distinct points
+}
+
+// --- duplicates --------------------------------------------------------------------------------------
+
+TEST(PslgDuplicates, MergedIntoTheLowestIndex) {
+  const std::vector<Point> p{{1, 0}, {0, 0}, {0, 1}, {0, 0}, {1, 0}, {0, 0}, {-0.0, 1}};
+  const PreparedPslg out = prepare_pslg(p, {}, CrossingSegments::resolve);
+  EXPECT_EQ(out.duplicate_of, (std::vector<std::uint32_t>{0, 1, 2, 1, 0, 1, 2}));
+  EXPECT_EQ(out.sites, (std::vector<std::uint32_t>{0, 1, 2}));
+  ASSERT_EQ(out.vertices.size(), p.size());
+  EXPECT_TRUE(std::equal(p.begin(), p.end(), out.vertices.begin()));
+  EXPECT_TRUE(out.pieces.empty());
+}
+
+TEST(PslgDuplicates, SegmentsBetweenDuplicatesKeptOnceWithLowestId) {
+  const std::vector<Point> p{{0, 0}, {1, 0}, {0, 1}, {0, 0}, {1, 0}};
+  const std::vector<Segment> s{{2, 0}, {4, 3}, {1, 0}, {0, 1}, {3, 2}};
+  const PreparedPslg out = prepare_pslg(p, s, CrossingSegments::resolve);
+  EXPECT_EQ(piece_pairs(out), (std::vector<std::pair<std::uint32_t, std::uint32_t>>{{0, 1}, {0, 2}}));
+  EXPECT_EQ(piece_labels(out), (std::vector<std::uint32_t>{1, 0}));
+}
+
+// --- points on segments and overlaps -----------------------------------------------------------------
+
+TEST(PslgSplit, PointsOnASegmentSplitItInOrder) {
+  const std::vector<Point> p{{0, 0}, {4, 2}, {3, 1.5}, {1, 0.5}, {2, 1}, {2, 0}, {0, 5}};
+  const PreparedPslg out = prepare_pslg(p, std::vector<Segment>{{1, 0}}, CrossingSegments::resolve);
+  EXPECT_EQ(piece_pairs(out),
+            (std::vector<std::pair<std::uint32_t, std::uint32_t>>{{0, 3}, {1, 2}, {2, 4}, {3, 4}}));
+  EXPECT_EQ(piece_labels(out), (std::vector<std::uint32_t>{0, 0, 0, 0}));
+  EXPECT_EQ(contract_violation(out), "");
+}
+
+// A point a hair off the segment must not split it: the decision is exact.
+TEST(PslgSplit, PointJustOffTheSegmentDoesNotSplit) {
+  const std::vector<Point> p{{0, 0}, {3, 3}, {1, std::nextafter(1.0, 2.0)}, {0, 3}};
+  const PreparedPslg out = prepare_pslg(p, std::vector<Segment>{{0, 1}}, CrossingSegments::resolve);
+  EXPECT_EQ(piece_pairs(out), (std::vector<std::pair<std::uint32_t, std::uint32_t>>{{0, 1}}));
+}
+
+TEST(PslgSplit, TJunctionSplitsTheCrossbarOnly) {
+  const std::vector<Point> p{{0, 0}, {4, 0}, {2, 0}, {2, 3}};
+  const PreparedPslg out = prepare_pslg(p, std::vector<Segment>{{0, 1}, {3, 2}}, CrossingSegments::reject);
+  EXPECT_EQ(piece_pairs(out), (std::vector<std::pair<std::uint32_t, std::uint32_t>>{{0, 2}, {1, 2}, {2, 3}}));
+  EXPECT_EQ(piece_labels(out), (std::vector<std::uint32_t>{0, 0, 1}));
+  EXPECT_EQ(out.vertices.size(), 4u);
+}
+
+TEST(PslgOverlap, PartialOverlapIsMergedWithLowestIds) {
+  //  0 ----- 2 ===== 1 ----- 3      segment 1: 0-1, segment 0: 2-3
+  const std::vector<Point> p{{0, 0}, {3, 0}, {1, 0}, {5, 0}, {0, 1}};
+  const PreparedPslg out = prepare_pslg(p, std::vector<Segment>{{2, 3}, {0, 1}}, CrossingSegments::reject);
+  EXPECT_EQ(piece_pairs(out), (std::vector<std::pair<std::uint32_t, std::uint32_t>>{{0, 2}, {1, 2}, {1, 3}}));
+  EXPECT_EQ(piece_labels(out), (std::vector<std::uint32_t>{1, 0, 0}));
+  EXPECT_EQ(contract_violation(out), "");
+}
+
+TEST(PslgOverlap, ContainedSegmentKeepsItsLowerId) {
+  const std::vector<Point> p{{0, 0}, {0, 5}, {0, 1}, {0, 3}, {1, 1}};
+  const PreparedPslg out = prepare_pslg(p, std::vector<Segment>{{3, 2}, {1, 0}}, CrossingSegments::reject);
+  EXPECT_EQ(piece_pairs(out), (std::vector<std::pair<std::uint32_t, std::uint32_t>>{{0, 2}, {1, 3}, {2, 3}}));
+  EXPECT_EQ(piece_labels(out), (std::vector<std::uint32_t>{1, 1, 0}));
+}
+
+TEST(PslgOverlap, ChainUnderALongSegmentKeepsTheChainIds) {
+  const std::vector<Point> p{{0, 0}, {1, 1}, {2, 2}, {3, 3}, {0, 1}};
+  const std::vector<Segment> s{{3, 0}, {0, 1}, {1, 2}, {2, 3}, {1, 3}};
+  const PreparedPslg out = prepare_pslg(p, s, CrossingSegments::reject);
+  EXPECT_EQ(piece_pairs(out), (std::vector<std::pair<std::uint32_t, std::uint32_t>>{{0, 1}, {1, 2}, {2, 3}}));
+  EXPECT_EQ(piece_labels(out), (std::vector<std::uint32_t>{0, 0, 0}));
+  // Without the long one, each piece is its own segment.
+  const PreparedPslg chain =
+      prepare_pslg(p, std::vector<Segment>{{0, 1}, {1, 2}, {2, 3}}, CrossingSegments::reject);
+  EXPECT_EQ(piece_labels(chain), (std::vector<std::uint32_t>{0, 1, 2}));
+}
+
+// --- crossings ---------------------------------------------------------------------------------------
+
+TEST(PslgCrossing, XIsResolvedIntoFourPiecesAndOneVertex) {
+  const std::vector<Point> p{{0, 0}, {2, 2}, {0, 2}, {2, 0}};
+  const PreparedPslg out = prepare_pslg(p, std::vector<Segment>{{0, 1}, {2, 3}}, CrossingSegments::resolve);
+  ASSERT_EQ(out.vertices.size(), 5u);
+  EXPECT_EQ(out.vertices[4], (Point{1, 1}));
+  EXPECT_EQ(out.sites, (std::vector<std::uint32_t>{0, 1, 2, 3, 4}));
+  EXPECT_EQ(piece_pairs(out),
+            (std::vector<std::pair<std::uint32_t, std::uint32_t>>{{0, 4}, {1, 4}, {2, 4}, {3, 4}}));
+  EXPECT_EQ(piece_labels(out), (std::vector<std::uint32_t>{0, 0, 1, 1}));
+}
+
+TEST(PslgCrossing, RejectedWithBothIdsLowerFirst) {
+  const std::vector<Point> p{{0, 0}, {2, 2}, {0, 2}, {2, 0}, {5, 5}};
+  const std::vector<Segment> s{{4, 2}, {2, 3}, {4, 3}, {1, 0}};
+  try {
+    prepare_pslg(p, s, CrossingSegments::reject);
+    FAIL() << "no CrossingSegmentsError";
+  } catch (const cdt::CrossingSegmentsError& e) {
+    EXPECT_EQ(e.first(), 1u);
+    EXPECT_EQ(e.second(), 3u);
+    EXPECT_NE(std::string(e.what()).find("segments 1 and 3"), std::string::npos) << e.what();
+  }
+}
+
+// Two segments crossing exactly at an input point need no new vertex, so reject does not object.
+TEST(PslgCrossing, CrossingAtAnInputPointIsASplitNotACrossing) {
+  const std::vector<Point> p{{0, 0}, {2, 2}, {0, 2}, {2, 0}, {1, 1}};
+  const std::vector<Segment> s{{0, 1}, {2, 3}};
+  const PreparedPslg out = prepare_pslg(p, s, CrossingSegments::reject);
+  EXPECT_EQ(out.vertices.size(), 5u);
+  EXPECT_EQ(piece_pairs(out),
+            (std::vector<std::pair<std::uint32_t, std::uint32_t>>{{0, 4}, {1, 4}, {2, 4}, {3, 4}}));
+}
+
+// The crossing point (1/3, 1/3) is not a double: the rounded vertex bends both segments slightly.
+TEST(PslgCrossing, InexactCrossingPointStillGivesValidPieces) {
+  const std::vector<Point> p{{0, 0}, {1, 1}, {0, 0.5}, {1, 0}};
+  const std::vector<Segment> s{{0, 1}, {2, 3}};
+  const PreparedPslg out = prepare_pslg(p, s, CrossingSegments::resolve);
+  ASSERT_EQ(out.vertices.size(), 5u);
+  EXPECT_NEAR(out.vertices[4].x, 1.0 / 3.0, 1e-15);
+  EXPECT_NEAR(out.vertices[4].y, 1.0 / 3.0, 1e-15);
+  EXPECT_EQ(out.pieces.size(), 4u);
+  EXPECT_EQ(contract_violation(out), "");
+}
+
+// Several segments crossing at (nearly) one point: the rounded crossings create new crossings between
+// the bent pieces, which later rounds must resolve.
+TEST(PslgCrossing, ManySegmentsThroughOnePointConverge) {
+  std::vector<Point> p;
+  std::vector<Segment> s;
+  const int n = 40;
+  for (int k = 0; k < n; ++k) {
+    const double angle = 3.141592653589793 * (k + 0.37) / n;
+    const auto a = static_cast<std::uint32_t>(p.size());
+    p.push_back({0.3 + std::cos(angle), 0.1 + std::sin(angle)});
+    p.push_back({0.3 - std::cos(angle), 0.1 - std::sin(angle)});
+    s.push_back({a, a + 1});
+  }
+  const PreparedPslg out = prepare_pslg(p, s, CrossingSegments::resolve);
+  EXPECT_GT(out.vertices.size(), p.size());
+  EXPECT_EQ(contract_violation(out), "");
+  EXPECT_TRUE(segments_connected(out, s));
+}
+
+TEST(PslgCrossing, NearlyParallelCrossingConverges) {
+  const std::vector<Point> p{{0, 0}, {1e6, 1}, {0, 1e-9}, {1e6, 1 - 1e-9}, {3, 7}};
+  const std::vector<Segment> s{{0, 1}, {2, 3}};
+  const PreparedPslg out = prepare_pslg(p, s, CrossingSegments::resolve);
+  EXPECT_EQ(contract_violation(out), "");
+  EXPECT_TRUE(segments_connected(out, s));
+}
+
+// Segments that overlap to within rounding error (points on one line, 1e9 from the origin, where an
+// ulp is 1e-7): every rounded crossing point lands a hair off the other segments, which cross its bent
+// pieces again. Without snapping new vertices into segments this snowballed (tripling each round).
+TEST(PslgCrossing, SegmentsOverlappingWithinRoundingErrorConverge) {
+  trixel_gen::Random rng(7);
+  std::vector<Point> p;
+  for (int k = 0; k < 200; ++k) {
+    const double t = rng.unit();
+    p.push_back({1e9 + t, 1e9 + 0.3 * t + 1e-12 * rng.unit()});
+  }
+  p.push_back({1e9, 1e9 + 1});
+  std::vector<Segment> s;
+  while (s.size() < 30) {
+    const auto a = static_cast<std::uint32_t>(rng.next() % 200);
+    const auto b = static_cast<std::uint32_t>(rng.next() % 200);
+    if (!(p[a] == p[b])) s.push_back({a, b});
+  }
+  const PreparedPslg out = prepare_pslg(p, s, CrossingSegments::resolve);
+  EXPECT_EQ(contract_violation(out), "");
+  EXPECT_TRUE(segments_connected(out, s));
+  EXPECT_LT(out.vertices.size(), 20 * p.size());
+}
+
+// --- property tests ----------------------------------------------------------------------------------
+
+/// Random segments on a k x k lattice: many collinear overlaps, points on segments, and crossings at
+/// lattice points and elsewhere.
+trixel_gen::Pslg lattice_segments(std::uint32_t k, std::size_t num_segments, std::uint64_t seed) {
+  trixel_gen::Random rng(seed);
+  trixel_gen::Pslg in = trixel_gen::lattice(k);
+  while (in.segments.size() < num_segments) {
+    const auto a = static_cast<std::uint32_t>(rng.next() % in.points.size());
+    const auto b = static_cast<std::uint32_t>(rng.next() % in.points.size());
+    if (a != b) in.segments.push_back({a, b});
+  }
+  return in;
+}
+
+TEST(PslgProperty, RandomLatticeSegmentsGiveCleanPieces) {
+  for (std::uint64_t seed = 1; seed <= 12; ++seed) {
+    trixel_gen::Pslg in = lattice_segments(16, 10 * seed, seed);
+    // Also short axis-parallel and diagonal ones, which overlap a lot.
+    const trixel_gen::Pslg shorts = trixel_gen::lattice_with_segments(16, 20 * seed, seed + 100);
+    in.segments.insert(in.segments.end(), shorts.segments.begin(), shorts.segments.end());
+    const PreparedPslg out = prepare_pslg(in.points, in.segments, CrossingSegments::resolve);
+    EXPECT_EQ(contract_violation(out), "") << "seed " << seed;
+    EXPECT_TRUE(segments_connected(out, in.segments)) << "seed " << seed;
+    for (std::size_t v = in.points.size(); v < out.vertices.size(); ++v) {
+      EXPECT_TRUE(out.vertices[v].x >= 0 && out.vertices[v].x <= 15 && out.vertices[v].y >= 0 &&
+                  out.vertices[v].y <= 15);
+    }
+  }
+}
+
+// Without crossings the result is exact: each segment is cut at exactly the sites on it.
+TEST(PslgProperty, AxisParallelLatticeSegmentsAreCutAtEveryLatticePoint) {
+  trixel_gen::Random rng(7);
+  const std::uint32_t k = 16;
+  trixel_gen::Pslg in = trixel_gen::lattice(k);
+  for (int n = 0; n < 60; ++n) {
+    const auto row = static_cast<std::uint32_t>(rng.next() % k);
+    const auto x0 = static_cast<std::uint32_t>(rng.next() % (k - 1));
+    const auto x1 = x0 + 1 + static_cast<std::uint32_t>(rng.next() % (k - 1 - x0));
+    in.segments.push_back({row * k + x0, row * k + x1});
+  }
+  const PreparedPslg out = prepare_pslg(in.points, in.segments, CrossingSegments::reject);
+  EXPECT_EQ(out.vertices.size(), in.points.size());
+  std::vector<std::pair<std::uint32_t, std::uint32_t>> expected;
+  for (const Segment& s : in.segments) {
+    for (std::uint32_t v = std::min(s.a, s.b); v < std::max(s.a, s.b); ++v) expected.emplace_back(v, v + 1);
+  }
+  std::sort(expected.begin(), expected.end());
+  expected.erase(std::unique(expected.begin(), expected.end()), expected.end());
+  EXPECT_EQ(piece_pairs(out), expected);
+}
+
+// Random inputs of several shapes (lattice, uniform, nearly collinear, on a circle, rational), scaled
+// from 1e-40 to 1e40 and sometimes shifted far from the origin: the grid, the crossing points and the
+// snapping all work relative to the input's magnitude.
+TEST(PslgProperty, RandomInputsAtManyScalesGiveCleanPieces) {
+  const double scales[] = {1e-40, 1e-6, 1, 1e6, 1e40};
+  for (std::uint64_t seed = 1; seed <= 60; ++seed) {
+    trixel_gen::Random rng(seed);
+    const int shape = static_cast<int>(seed % 5);
+    const double scale = scales[rng.next() % 5];
+    const double offset = rng.next() % 3 == 0 ? scale * 1e9 : 0.0;
+    std::vector<Point> p;
+    const std::size_t n = 20 + rng.next() % 200;
+    for (std::size_t k = 0; k < n; ++k) {
+      double x = 0;
+      double y = 0;
+      if (shape == 0) {
+        x = static_cast<double>(rng.next() % 8), y = static_cast<double>(rng.next() % 8);
+      } else if (shape == 1) {
+        x = rng.unit(), y = rng.unit();
+      } else if (shape == 2) {
+        x = rng.unit(), y = 0.3 * x + 1e-12 * rng.unit();
+      } else if (shape == 3) {
+        const double angle = 6.283185307179586 * rng.unit();
+        x = std::cos(angle), y = std::sin(angle);
+      } else {
+        x = std::round(rng.unit() * 1000) / 7.0, y = std::round(rng.unit() * 1000) / 3.0;
+      }
+      p.push_back({offset + x * scale, offset + y * scale});
+    }
+    p.push_back({offset, offset});
+    p.push_back({offset + scale, offset});
+    p.push_back({offset, offset + scale});
+    std::vector<Segment> s;
+    const std::size_t m = 5 + rng.next() % 150;
+    for (std::size_t k = 0; k < m; ++k) {
+      const auto a = static_cast<std::uint32_t>(rng.next() % p.size());
+      const auto b = static_cast<std::uint32_t>(rng.next() % p.size());
+      if (!(p[a] == p[b])) s.push_back({a, b});
+    }
+    const PreparedPslg out = prepare_pslg(p, s, CrossingSegments::resolve);
+    EXPECT_EQ(contract_violation(out), "") << "seed " << seed;
+    EXPECT_TRUE(segments_connected(out, s)) << "seed " << seed;
+  }
+}
+
+// cdt.txt lists segments from a point to itself: under reject they are reported (degenerate_segment,
+// the first id); under resolve they are ignored and counted.
+TEST(PslgProperty, ArtemOgreTestFilesPrepare) {
+  namespace fs = std::filesystem;
+  int files = 0;
+  for (const auto& entry :
+       fs::directory_iterator(fs::path(TRIXEL_TEST_DATA_DIR) / "cdt" / "artem-ogre-CDT")) {
+    if (entry.path().extension() != ".txt") continue;
+    ++files;
+    cdt::io::Pslg in = cdt::io::read_edge_list(entry.path());
+    const auto self =
+        std::find_if(in.segments.begin(), in.segments.end(), [](const Segment& s) { return s.a == s.b; });
+    if (self != in.segments.end()) {
+      const auto e = invalid_input(in.points, in.segments, CrossingSegments::reject);
+      EXPECT_EQ(e.kind(), Kind::degenerate_segment) << entry.path().filename();
+      EXPECT_EQ(e.item(), static_cast<std::uint64_t>(self - in.segments.begin())) << entry.path().filename();
+    }
+    try {
+      const PreparedPslg out = prepare_pslg(in.points, in.segments, CrossingSegments::resolve);
+      EXPECT_EQ(contract_violation(out), "") << entry.path().filename();
+      EXPECT_TRUE(segments_connected(out, in.segments)) << entry.path().filename();
+    } catch (const cdt::Error& e) {
+      ADD_FAILURE() << entry.path().filename() << ": " << e.what();
+    }
+  }
+  EXPECT_EQ(files, 36);
+}
+
+// Scale: short random segments with many crossings. No timing assertion (machines are shared).
+TEST(PslgProperty, HundredThousandRandomSegmentsFinish) {
+  trixel_gen::Random rng(42);
+  const std::size_t m = 100000;
+  std::vector<Point> p;
+  std::vector<Segment> s;
+  const double reach = 3.0 / std::sqrt(static_cast<double>(m));
+  for (std::size_t k = 0; k < m; ++k) {
+    const Point a{rng.unit(), rng.unit()};
+    const Point b{std::clamp(a.x + reach * (rng.unit() - 0.5), 0.0, 1.0),
+                  std::clamp(a.y + reach * (rng.unit() - 0.5), 0.0, 1.0)};
+    const auto i = static_cast<std::uint32_t>(p.size());
+    p.push_back(a);
+    p.push_back(b);
+    s.push_back({i, i + 1});
+  }
+  const PreparedPslg out = prepare_pslg(p, s, CrossingSegments::resolve);
+  EXPECT_GT(out.vertices.size(), p.size());
+  EXPECT_EQ(contract_violation(out), "");
+}
+
+} // namespace

@@ -1,0 +1,403 @@
+// Tests of Phase 3 (shifting, Algorithms 1-2) and Phase 4 (Algorithm 3, fake boundary removal) of gCD, paper
+// sections 3.3-3.4, on fixtures built by shift_test_util.hpp (independent of Phases 1-2).
+
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <random>
+#include <set>
+#include <utility>
+#include <vector>
+
+#include "cdt/errors.hpp"
+#include "gcd/insert.hpp"
+#include "gcd/shift.hpp"
+#include "shift_test_util.hpp"
+
+namespace {
+
+using cdt::detail::CpuExecutor;
+using cdt::detail::Mesh;
+using cdt::detail::MissingPoint;
+using shift_test::check_mesh;
+using shift_test::Fixture;
+using shift_test::FixtureOptions;
+using shift_test::make_fixture;
+using shift_test::run_phases;
+
+struct Points {
+  std::vector<double> x, y;
+  void add(double px, double py) {
+    x.push_back(px);
+    y.push_back(py);
+  }
+};
+
+/// Drops exact duplicates (the phases require distinct points; upstream merges them).
+Points distinct(const Points& p) {
+  std::set<std::pair<double, double>> seen;
+  Points out;
+  for (std::size_t i = 0; i < p.x.size(); ++i)
+    if (seen.emplace(p.x[i], p.y[i]).second) out.add(p.x[i], p.y[i]);
+  return out;
+}
+
+Points uniform(std::size_t n, double size, unsigned seed) {
+  std::mt19937_64 rng(seed);
+  std::uniform_real_distribution<double> d(0.0, size);
+  Points p;
+  for (std::size_t i = 0; i < n; ++i) {
+    const double px = d(rng);
+    p.add(px, d(rng));
+  }
+  return distinct(p);
+}
+
+Fixture fixture(const Points& p, FixtureOptions opt = {}) { return make_fixture(p.x, p.y, opt); }
+
+// A coarse grid moves sites up to four units from their grid positions, past many of their neighbours: many
+// bad cases, many points sharing a cell, and on the sweep fixture (long thin triangles) even more of both.
+TEST(ShiftInsert, RandomPointsOnCoarseGridHaveBadCasesAndMissingPoints) {
+  for (bool delaunay : {true, false}) {
+    Fixture f = fixture(uniform(3000, 64.0, 1), {.cell = 4.0, .fakes = 8, .delaunay = delaunay});
+    CpuExecutor ex(2);
+    const auto r = run_phases(f, ex);
+    ASSERT_EQ(r.error, "") << "delaunay " << delaunay;
+    EXPECT_GT(r.shift.bad, 0u);
+    EXPECT_GT(f.missing.size(), 0u);
+    EXPECT_EQ(r.insert.inserted, r.missing);
+    // Cells whose kept site was a bad case: their other points wait for it (the paper's delay).
+    EXPECT_GT(r.delayed_hints, 0u);
+  }
+}
+
+// A site already at its grid position has nothing to move across, so Algorithm 1 must call it good.
+TEST(ShiftInsert, SitesOnTheirGridPositionsAreAllGoodCases) {
+  Points p;
+  std::mt19937 rng(2);
+  for (int i = 0; i < 40; ++i)
+    for (int j = 0; j < 40; ++j)
+      if (rng() % 3 != 0) p.add(i, j);
+  Fixture f = fixture(p);
+  CpuExecutor ex(1);
+  const auto r = run_phases(f, ex);
+  ASSERT_EQ(r.error, "");
+  EXPECT_EQ(r.shift.bad, 0u);
+  EXPECT_EQ(r.shift.shifted, p.x.size());
+}
+
+// Four lattice points per cell: every missing point lies exactly on an edge (2->4 splits) or on a line
+// through vertices (the walk restarts at vertices on its segment).
+TEST(ShiftInsert, HalfLatticePutsMissingPointsOnEdges) {
+  Points p;
+  for (int i = 0; i < 48; ++i)
+    for (int j = 0; j < 48; ++j) p.add(i * 0.5, j * 0.5);
+  for (bool delaunay : {true, false}) {
+    Fixture f = fixture(p, {.cell = 1.0, .fakes = 8, .delaunay = delaunay});
+    CpuExecutor ex(2);
+    const auto r = run_phases(f, ex);
+    ASSERT_EQ(r.error, "") << "delaunay " << delaunay;
+    EXPECT_EQ(r.insert.inserted, 3u * 24 * 24);
+  }
+}
+
+// Sixteen points per cell on a quarter lattice, shuffled so kept sites are not the lower-left corners:
+// lattice shifts land on lines of neighbours (bad cases with collinear stars) and insertions chain along
+// rows.
+TEST(ShiftInsert, ShuffledQuarterLattice) {
+  Points p;
+  for (int i = 0; i < 40; ++i)
+    for (int j = 0; j < 40; ++j) p.add(i * 0.25, j * 0.25);
+  std::vector<std::size_t> order(p.x.size());
+  for (std::size_t i = 0; i < order.size(); ++i) order[i] = i;
+  std::shuffle(order.begin(), order.end(), std::mt19937(3));
+  Points q;
+  for (std::size_t i : order) q.add(p.x[i], p.y[i]);
+  Fixture f = fixture(q);
+  CpuExecutor ex(2);
+  const auto r = run_phases(f, ex);
+  ASSERT_EQ(r.error, "");
+  EXPECT_GT(r.shift.bad, 0u);
+}
+
+// Sites on the hull edges, some between grid points: the fake boundary keeps them interior until it goes, and
+// the removal must leave every one of them on the hull with no zero-area triangle (check_mesh verifies both).
+TEST(FakeBoundary, RemovalKeepsSitesCollinearWithTheHull) {
+  Points p;
+  for (int k = 0; k <= 80; ++k) {
+    const double t = k * 0.25;
+    p.add(t, 0);
+    p.add(t, 20);
+    if (k != 0 && k != 80) {
+      p.add(0, t);
+      p.add(20, t);
+    }
+  }
+  std::mt19937_64 rng(4);
+  std::uniform_real_distribution<double> d(0.0, 20.0);
+  for (int i = 0; i < 300; ++i) {
+    const double px = d(rng);
+    p.add(px, d(rng));
+  }
+  for (std::uint32_t fakes : {3u, 4u, 8u, 40u}) {
+    Fixture f = fixture(distinct(p), {.cell = 1.0, .fakes = fakes, .delaunay = true});
+    CpuExecutor ex(2);
+    const auto r = run_phases(f, ex);
+    ASSERT_EQ(r.error, "") << fakes << " fake vertices";
+  }
+}
+
+// The hull is a thin diagonal band: its boundary is far from axis-aligned and most fakes see long chains.
+TEST(FakeBoundary, ThinDiagonalBand) {
+  Points p;
+  std::mt19937_64 rng(5);
+  std::uniform_real_distribution<double> d(0.0, 1.0);
+  for (int i = 0; i < 2000; ++i) {
+    const double t = 500 * d(rng);
+    p.add(t, t + 3 * d(rng));
+  }
+  for (int k = 0; k <= 100; ++k) p.add(5.0 * k, 5.0 * k); // collinear with a hull edge
+  Fixture f = fixture(distinct(p), {.cell = 1.0, .fakes = 6, .delaunay = false});
+  CpuExecutor ex(2);
+  const auto r = run_phases(f, ex);
+  ASSERT_EQ(r.error, "");
+}
+
+// Dense clusters put many points into single cells (long insertion chains in one container) next to
+// sparse regions whose triangles are long and thin.
+TEST(ShiftInsert, ClusteredPoints) {
+  Points p;
+  std::mt19937_64 rng(6);
+  std::normal_distribution<double> tight(0.0, 0.3);
+  std::uniform_real_distribution<double> d(0.0, 200.0);
+  for (int c = 0; c < 12; ++c) {
+    const double cx = d(rng), cy = d(rng);
+    for (int i = 0; i < 300; ++i) {
+      const double px = cx + tight(rng);
+      p.add(px, cy + tight(rng));
+    }
+  }
+  for (int i = 0; i < 200; ++i) {
+    const double px = d(rng);
+    p.add(px, d(rng));
+  }
+  for (bool delaunay : {true, false}) {
+    Fixture f = fixture(distinct(p), {.cell = 1.0, .fakes = 8, .delaunay = delaunay});
+    CpuExecutor ex(2);
+    const auto r = run_phases(f, ex);
+    ASSERT_EQ(r.error, "") << "delaunay " << delaunay;
+  }
+}
+
+TEST(ShiftInsert, TinyInputs) {
+  Points three;
+  three.add(0.5, 0.5);
+  three.add(3.25, 0.75);
+  three.add(1.5, 2.5);
+  Points one_cell; // all points in one cell: a single kept site, the rest inserted around it
+  one_cell.add(0.1, 0.1);
+  one_cell.add(0.9, 0.2);
+  one_cell.add(0.5, 0.8);
+  one_cell.add(0.4, 0.3);
+  for (const Points* p : {&three, &one_cell}) {
+    Fixture f = fixture(*p, {.cell = 1.0, .fakes = 3, .delaunay = false});
+    CpuExecutor ex(1);
+    const auto r = run_phases(f, ex);
+    ASSERT_EQ(r.error, "");
+  }
+}
+
+// The CPU executor runs steps in parallel only above 4096 elements; both thread counts must give valid and,
+// since every step is deterministic, identical meshes. The sweep fixture makes nearly every kept site a bad
+// case, so Algorithms 2 and 3 also run rounds of thousands of elements.
+TEST(ShiftInsert, OneAndFourThreadsGiveTheSameValidMesh) {
+  const Points p = uniform(40000, 256.0, 7);
+  for (bool delaunay : {true, false}) {
+    Fixture f1 = fixture(p, {.cell = delaunay ? 2.0 : 1.0, .fakes = 16, .delaunay = delaunay});
+    Fixture f4 = f1;
+    CpuExecutor ex1(1), ex4(4);
+    const auto r1 = run_phases(f1, ex1);
+    const auto r4 = run_phases(f4, ex4);
+    ASSERT_EQ(r1.error, "") << "delaunay " << delaunay;
+    ASSERT_EQ(r4.error, "") << "delaunay " << delaunay;
+    EXPECT_GT(r1.shift.bad, delaunay ? 1000u : 10000u);
+    EXPECT_EQ(r1.shift.bad, r4.shift.bad);
+    EXPECT_EQ(f1.mesh.tri, f4.mesh.tri);
+    EXPECT_EQ(f1.mesh.adj, f4.mesh.adj);
+    EXPECT_EQ(f1.mesh.vert_tri, f4.mesh.vert_tri);
+  }
+}
+
+/// A square 0-1-2-3 (CCW) split into the two triangles of the diagonal 0-2; further vertices unplaced.
+Mesh square_mesh(std::vector<std::pair<double, double>> extra) {
+  Mesh m;
+  m.x = {0, 4, 4, 0};
+  m.y = {0, 0, 4, 4};
+  for (auto [px, py] : extra) {
+    m.x.push_back(px);
+    m.y.push_back(py);
+  }
+  m.add_triangle(0, 1, 2);
+  m.add_triangle(0, 2, 3);
+  CpuExecutor ex(1);
+  cdt::detail::link_triangles(m, ex);
+  return m;
+}
+
+// A point on the diagonal takes the 2->4 split; one inside a triangle the 1->3 split; both in one round.
+TEST(InsertMissing, SplitsOnEdgeAndInsideTriangle) {
+  Mesh m = square_mesh({{2, 2}, {3, 1}, {1, 3.5}});
+  CpuExecutor ex(1);
+  const std::vector<MissingPoint> missing{{4, 0}, {5, 1}, {6, 3}};
+  const auto stats = cdt::detail::insert_missing_points(m, missing, ex);
+  EXPECT_EQ(stats.inserted, 3u);
+  EXPECT_EQ(check_mesh(m), "");
+  std::size_t live = 0;
+  for (std::uint32_t t = 0; t < m.num_slots(); ++t) live += m.alive(t) ? 1 : 0;
+  EXPECT_EQ(live, 2u + 2u * 3u);
+}
+
+// Point location must report a duplicate instead of walking forever or splitting into zero-area triangles.
+TEST(InsertMissing, PointOnAVertexThrows) {
+  Mesh m = square_mesh({{4, 4}});
+  CpuExecutor ex(1);
+  const std::vector<MissingPoint> missing{{4, 0}};
+  EXPECT_THROW(cdt::detail::insert_missing_points(m, missing, ex), cdt::Error);
+}
+
+// Hints that point at each other can never be satisfied: the round must fail rather than spin.
+TEST(InsertMissing, CyclicHintsThrow) {
+  Mesh m = square_mesh({{1, 1}, {3, 1}});
+  CpuExecutor ex(1);
+  const std::vector<MissingPoint> missing{{4, 5}, {5, 4}};
+  EXPECT_THROW(cdt::detail::insert_missing_points(m, missing, ex), cdt::Error);
+}
+
+// A far hint along the lattice direction (2, 1) meets lattice vertices in the middle of crossed edges (the
+// walk restarts there), and a hint that never enters the mesh falls back to a mesh vertex instead of waiting
+// forever.
+TEST(InsertMissing, FarAndUselessHints) {
+  Points p;
+  for (int i = 0; i < 12; ++i)
+    for (int j = 0; j < 12; ++j) p.add(i, j);
+  p.add(8.5, 4.25);  // shares the cell of (8, 4)
+  p.add(9.25, 9.75); // shares the cell of (9, 9)
+  for (bool delaunay : {true, false}) {
+    Fixture f = fixture(p, {.cell = 1.0, .fakes = 8, .delaunay = delaunay});
+    ASSERT_EQ(f.missing.size(), 2u);
+    f.missing[0].hint = 0;                  // the site at (0, 0)
+    f.missing[1].hint = cdt::detail::kNoId; // no hint at all
+    CpuExecutor ex(1);
+    const auto r = run_phases(f, ex);
+    ASSERT_EQ(r.error, "") << "delaunay " << delaunay;
+    EXPECT_EQ(r.shift.bad, 0u);
+  }
+}
+
+/// Vertex 0 at (cx, cy) surrounded by ring vertices 1..n; triangles (0, i, i + 1).
+Mesh star_mesh(double cx, double cy, const std::vector<std::pair<double, double>>& ring) {
+  Mesh m;
+  m.x = {cx};
+  m.y = {cy};
+  for (auto [px, py] : ring) {
+    m.x.push_back(px);
+    m.y.push_back(py);
+  }
+  const auto n = static_cast<std::uint32_t>(ring.size());
+  for (std::uint32_t i = 1; i <= n; ++i) m.add_triangle(0, i, i == n ? 1 : i + 1);
+  CpuExecutor ex(1);
+  cdt::detail::link_triangles(m, ex);
+  return m;
+}
+
+void delete_centre(Mesh& m) {
+  CpuExecutor ex(1);
+  cdt::detail::HoleWorkspace ws;
+  const std::vector<std::uint32_t> active{0};
+  std::vector<std::uint32_t> hint(1);
+  cdt::detail::delete_vertex_round(m, active, cdt::detail::HoleShape::star, nullptr, hint.data(), ws, ex);
+}
+
+// The centre lies on both diagonals of the square, so no ear keeps it strictly in the kernel: the exact
+// emptiness test must take over.
+TEST(ShiftDelete, KernelOnEveryDiagonalFallsBackToExactEars) {
+  Mesh m = star_mesh(2, 2, {{0, 0}, {4, 0}, {4, 4}, {0, 4}});
+  delete_centre(m);
+  EXPECT_EQ(check_mesh(m), "");
+  std::size_t live = 0;
+  for (std::uint32_t t = 0; t < m.num_slots(); ++t) live += m.alive(t) ? 1 : 0;
+  EXPECT_EQ(live, 2u);
+  EXPECT_EQ(m.vert_tri[0], cdt::detail::kNoId);
+}
+
+// A deeply non-convex star with collinear ring vertices: every ear must be strictly CCW and empty.
+TEST(ShiftDelete, NonConvexStarWithCollinearRingIsRetriangulated) {
+  std::vector<std::pair<double, double>> ring;
+  const int n = 60;
+  for (int k = 0; k < n; ++k) {
+    const double a = 2 * 3.14159265358979323846 * k / n;
+    const double r = k % 2 == 0 ? 40 : 12 + (k % 7);
+    ring.emplace_back(std::round(r * std::cos(a) * 64) / 64, std::round(r * std::sin(a) * 64) / 64);
+  }
+  // Three ring vertices on one straight line (x = 40 near angle 0).
+  ring.insert(ring.begin() + 1, {40, 1});
+  ring.insert(ring.begin(), {40, -1});
+  Mesh m = star_mesh(0.125, 0.0625, ring);
+  ASSERT_EQ(shift_test::check_mesh(m, false), "");
+  delete_centre(m);
+  EXPECT_EQ(shift_test::check_mesh(m, false), "");
+}
+
+// Every other test trusts check_mesh, so it must reject each kind of damage it claims to detect.
+TEST(ShiftCheckMesh, RejectsBrokenMeshes) {
+  const Fixture good = fixture(uniform(200, 16.0, 9), {.cell = 1.0, .fakes = 5, .delaunay = true});
+  ASSERT_EQ(check_mesh(good.mesh), "");
+  std::uint32_t interior = cdt::detail::kNoId; // a triangle with no boundary edge
+  for (std::uint32_t t = 0; t < good.mesh.num_slots() && interior == cdt::detail::kNoId; ++t)
+    if (good.mesh.adj[3 * t] != cdt::detail::kNoId && good.mesh.adj[3 * t + 1] != cdt::detail::kNoId &&
+        good.mesh.adj[3 * t + 2] != cdt::detail::kNoId)
+      interior = t;
+  ASSERT_NE(interior, cdt::detail::kNoId);
+  const std::uint32_t t = interior;
+  {
+    Mesh m = good.mesh; // clockwise triangle
+    std::swap(m.tri[3 * t + 1], m.tri[3 * t + 2]);
+    EXPECT_NE(check_mesh(m), "");
+  }
+  {
+    Mesh m = good.mesh; // one-sided link
+    m.adj[m.adj[3 * t]] = cdt::detail::kNoId;
+    EXPECT_NE(check_mesh(m), "");
+  }
+  {
+    Mesh m = good.mesh; // a hole in the middle
+    for (std::uint32_t i = 0; i < 3; ++i) {
+      m.adj[m.adj[3 * t + i]] = cdt::detail::kNoId;
+      m.tri[3 * t + i] = m.adj[3 * t + i] = cdt::detail::kNoId;
+    }
+    for (std::uint32_t v = 0; v < m.num_vertices(); ++v)
+      if (m.vert_tri[v] == t) m.vert_tri[v] = cdt::detail::kNoId;
+    EXPECT_NE(check_mesh(m), "");
+  }
+  {
+    Mesh m = good.mesh; // vert_tri not incident
+    const std::uint32_t v = m.tri[3 * t];
+    m.vert_tri[v] = m.adj[3 * t] / 3;
+    EXPECT_NE(check_mesh(m), "");
+  }
+  {
+    Mesh m; // a valid triangulation of an L-shape: right everywhere except that it is not the convex hull
+    m.x = {0, 2, 2, 1, 1, 0};
+    m.y = {0, 0, 1, 1, 2, 2};
+    for (std::uint32_t k = 1; k + 1 < 6; ++k) m.add_triangle(0, k, k + 1);
+    CpuExecutor ex(1);
+    cdt::detail::link_triangles(m, ex);
+    EXPECT_EQ(check_mesh(m, false), "");
+    EXPECT_NE(check_mesh(m), "");
+  }
+}
+
+} // namespace

@@ -1,0 +1,167 @@
+// End-to-end tests of triangulate(): every result must pass the exact verifier.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <filesystem>
+#include <limits>
+#include <string>
+#include <vector>
+
+#include "cdt/cdt.hpp"
+#include "cdt/io.hpp"
+#include "cdt/verify.hpp"
+#include "pslg_generators.hpp"
+
+namespace {
+
+using trixel_gen::Distribution;
+
+void expect_verified(const trixel_gen::Pslg& in, const cdt::Options& options = {},
+                     const std::string& what = "") {
+  const cdt::Triangulation t = cdt::triangulate(in.points, in.segments, options);
+  const cdt::VerifyReport report = cdt::verify(t, in.points, in.segments);
+  EXPECT_TRUE(report.ok()) << what << ": " << report.num_problems << " problems, first: "
+                           << (report.problems.empty() ? "" : report.problems.front());
+}
+
+TEST(Triangulate, UniformPointsVerify) {
+  for (std::size_t n : {3u, 10u, 100u, 1000u, 20000u})
+    expect_verified(trixel_gen::random_points(n, Distribution::uniform, n), {}, std::to_string(n));
+}
+
+TEST(Triangulate, GaussianAndClusteredPointsVerify) {
+  expect_verified(trixel_gen::random_points(20000, Distribution::gaussian, 5), {}, "gaussian");
+  expect_verified(trixel_gen::clustered(20000, 7, 6), {}, "clustered");
+}
+
+// A pixel lattice is co-circular everywhere: flipping must terminate and the result verify.
+TEST(Triangulate, LatticeVerifies) {
+  for (std::uint32_t k : {3u, 10u, 64u})
+    expect_verified(trixel_gen::lattice(k), {}, "lattice " + std::to_string(k));
+}
+
+TEST(Triangulate, LatticeWithRandomSegmentsVerifies) {
+  expect_verified(trixel_gen::lattice_with_segments(32, 200, 3), {}, "lattice+segments");
+}
+
+TEST(Triangulate, SyntheticPslgVerifies) {
+  for (Distribution d : {Distribution::uniform, Distribution::gaussian}) {
+    expect_verified(trixel_gen::synthetic_pslg(20000, 2000, d, 9), {}, "synthetic");
+  }
+}
+
+// Thin circle and two lines: the inputs the digital Voronoi approximation handles worst.
+TEST(Triangulate, ThinCircleAndTwoLinesVerify) {
+  trixel_gen::Pslg circle;
+  for (int i = 0; i < 2000; ++i) {
+    const double a = 6.283185307179586 * i / 2000;
+    circle.points.push_back({std::cos(a), std::sin(a)});
+  }
+  expect_verified(circle, {}, "circle");
+  trixel_gen::Pslg lines;
+  for (int i = 0; i < 1000; ++i) {
+    lines.points.push_back({i * 0.001, 0.0});
+    lines.points.push_back({i * 0.001, 1.0});
+  }
+  expect_verified(lines, {}, "two lines");
+}
+
+TEST(Triangulate, SingleAndManyThreadsBothVerify) {
+  const auto in = trixel_gen::synthetic_pslg(5000, 500, Distribution::uniform, 4);
+  for (unsigned threads : {1u, 3u}) {
+    cdt::Options o;
+    o.threads = threads;
+    expect_verified(in, o, "threads " + std::to_string(threads));
+  }
+}
+
+// Every input file of the peer library's test suite (crossings, overlaps, hanging edges).
+TEST(Triangulate, ArtemOgreFilesVerify) {
+  const std::filesystem::path dir = std::filesystem::path(TRIXEL_TEST_DATA_DIR) / "cdt" / "artem-ogre-CDT";
+  int files = 0;
+  for (const auto& entry : std::filesystem::directory_iterator(dir)) {
+    if (entry.path().extension() != ".txt") continue;
+    ++files;
+    const cdt::io::Pslg in = cdt::io::read_edge_list(entry.path());
+    try {
+      const cdt::Triangulation t = cdt::triangulate(in.points, in.segments);
+      const cdt::VerifyReport report = cdt::verify(t, in.points, in.segments);
+      EXPECT_TRUE(report.ok()) << entry.path().filename() << ": "
+                               << (report.problems.empty() ? "" : report.problems.front());
+    } catch (const cdt::Error& e) {
+      ADD_FAILURE() << entry.path().filename() << ": " << e.what();
+    }
+  }
+  EXPECT_EQ(files, 36);
+}
+
+TEST(Triangulate, BadInputGivesTypedErrors) {
+  using Kind = cdt::InvalidInputError::Kind;
+  const auto kind_of = [](std::vector<cdt::Point> p, std::vector<cdt::Segment> s) {
+    try {
+      cdt::triangulate(p, s);
+    } catch (const cdt::InvalidInputError& e) {
+      return e.kind();
+    }
+    ADD_FAILURE() << "no InvalidInputError";
+    return Kind::too_few_points;
+  };
+  const double nan = std::numeric_limits<double>::quiet_NaN();
+  EXPECT_EQ(kind_of({{0, 0}, {1, 0}, {nan, 1}}, {}), Kind::non_finite_coordinate);
+  EXPECT_EQ(kind_of({{0, 0}, {1, 0}, {0, 1}}, {{0, 3}}), Kind::index_out_of_range);
+  EXPECT_EQ(kind_of({{0, 0}, {1, 0}, {0, 0}}, {}), Kind::too_few_points);
+  EXPECT_EQ(kind_of({{0, 0}, {1, 1}, {2, 2}, {3, 3}}, {}), Kind::all_collinear);
+}
+
+TEST(Triangulate, ZeroLengthSegmentsIgnoredUnderResolveRejectedUnderReject) {
+  const std::vector<cdt::Point> p{{0, 0}, {1, 0}, {0, 1}, {1, 0}};
+  const std::vector<cdt::Segment> s{{0, 1}, {1, 1}, {3, 1}};
+  const cdt::Triangulation t = cdt::triangulate(p, s);
+  EXPECT_EQ(t.stats.zero_length_segments, 2u);
+  EXPECT_TRUE(cdt::verify(t, p, s).ok());
+  cdt::Options strict;
+  strict.crossings = cdt::CrossingSegments::reject;
+  try {
+    cdt::triangulate(p, s, strict);
+    ADD_FAILURE() << "no error under reject";
+  } catch (const cdt::InvalidInputError& e) {
+    EXPECT_EQ(e.kind(), cdt::InvalidInputError::Kind::degenerate_segment);
+    EXPECT_EQ(e.item(), 1u);
+  }
+}
+
+TEST(Triangulate, CrossingsRejectedNameBothSegments) {
+  const std::vector<cdt::Point> p{{0, 0}, {2, 2}, {0, 2}, {2, 0}, {5, 5}};
+  const std::vector<cdt::Segment> s{{0, 1}, {2, 3}};
+  cdt::Options o;
+  o.crossings = cdt::CrossingSegments::reject;
+  try {
+    cdt::triangulate(p, s, o);
+    FAIL();
+  } catch (const cdt::CrossingSegmentsError& e) {
+    EXPECT_EQ(e.first(), 0u);
+    EXPECT_EQ(e.second(), 1u);
+  }
+  // Resolved, the crossing becomes a vertex after the inputs.
+  const cdt::Triangulation t = cdt::triangulate(p, s);
+  EXPECT_EQ(t.vertices.size(), 6u);
+  EXPECT_TRUE(cdt::verify(t, p, s).ok());
+}
+
+TEST(Triangulate, DuplicatesAreMergedWithTheMapInTheResult) {
+  const std::vector<cdt::Point> p{{0, 0}, {1, 0}, {0, 1}, {1, 0}, {1, 1}};
+  const cdt::Triangulation t = cdt::triangulate(p, {});
+  ASSERT_EQ(t.duplicate_of.size(), 5u);
+  EXPECT_EQ(t.duplicate_of[3], 1u);
+  EXPECT_EQ(t.triangles.size(), 2u);
+  EXPECT_TRUE(cdt::verify(t, p, {}).ok());
+}
+
+TEST(Triangulate, ExplicitGpuBackendWithoutDeviceIsAnError) {
+  cdt::Options o;
+  o.backend = cdt::Backend::gpu;
+  const std::vector<cdt::Point> p{{0, 0}, {1, 0}, {0, 1}};
+  EXPECT_THROW(cdt::triangulate(p, {}, o), cdt::DeviceError);
+}
+
+} // namespace
