@@ -119,7 +119,7 @@ Triangulation triangulate(std::span<const Point> points, std::span<const Segment
   stats.grid_size = m;
   const GridMapping mapping = make_grid_mapping(true_x, true_y, m);
   const GridSites grid = assign_sites(mapping, true_x, true_y, executor);
-  const std::vector<std::uint32_t> colour = compute_digital_voronoi(grid, m, executor);
+  std::vector<std::uint32_t> colour = compute_digital_voronoi(grid, m, executor);
   timer.end("voronoi").missing = grid.missing.size();
 
   // Phase 2: kept sites at their exact grid positions.
@@ -139,11 +139,26 @@ Triangulation triangulate(std::span<const Point> points, std::span<const Segment
     bounds.max_x = std::max({bounds.max_x, x[s], true_x[s]});
     bounds.max_y = std::max({bounds.max_y, y[s], true_y[s]});
   }
-  Mesh mesh = dualize(colour, m, x, y, kept, bounds, executor);
   std::vector<MissingPoint> missing;
   missing.reserve(grid.missing.size());
   for (std::size_t k = 0; k < grid.missing.size(); ++k)
     missing.push_back({grid.missing[k], grid.missing_owner[k]});
+  // Degenerate corners (collinear sites meeting at a grid corner) take their middle site out of the
+  // diagram; it becomes a missing point. A few passes settle every input met so far; should they not,
+  // the fake polygon alone is the start and every site a missing point.
+  Mesh mesh;
+  std::vector<std::uint32_t> degenerate;
+  for (int pass = 0;; ++pass) {
+    mesh = dualize(colour, m, x, y, kept, bounds, executor, nullptr, pass < 8 ? &degenerate : nullptr);
+    if (mesh.num_slots() > 0) break;
+    remove_sites_from_colouring(colour, grid, m, degenerate);
+    for (const std::uint32_t s : degenerate) {
+      kept[s] = 0;
+      x[s] = true_x[s];
+      y[s] = true_y[s];
+      missing.push_back({s, n}); // the fake boundary, always in the mesh, starts the search
+    }
+  }
   // Kept sites the dual did not reach (degenerate diagrams) are inserted like missing points, starting
   // from the fake boundary, which is always in the mesh.
   for (std::uint32_t s = 0; s < n; ++s) {

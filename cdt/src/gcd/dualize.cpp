@@ -56,6 +56,25 @@ CDT_HD_INLINE int corner_triangles(const std::uint32_t q[4], const double* x, co
   return -1;
 }
 
+/// The sites to take out of the diagram for an invalid corner (corner_triangles returned -1): the
+/// middle one of three collinear sites (the diagram degenerates there), else every site of the corner.
+void corner_culprits(const std::uint32_t q[4], const double* x, const double* y,
+                     std::vector<std::uint32_t>& out) {
+  std::uint32_t ring[4];
+  int n = 0;
+  for (int k = 0; k < 4; ++k) {
+    if (q[k] != q[(k + 3) % 4]) ring[n++] = q[k];
+  }
+  if (n == 3 && orient(x, y, ring[0], ring[1], ring[2]) == 0) {
+    const auto key = [&](std::uint32_t v) { return std::pair{x[v], y[v]}; };
+    std::uint32_t sorted[3] = {ring[0], ring[1], ring[2]};
+    std::sort(sorted, sorted + 3, [&](std::uint32_t a, std::uint32_t b) { return key(a) < key(b); });
+    out.push_back(sorted[1]);
+    return;
+  }
+  out.insert(out.end(), ring, ring + n);
+}
+
 /// The fake boundary: a regular polygon of k vertices around `bounds`, its inscribed circle three
 /// times as large as the box's circumscribed one, so every site position is strictly inside.
 void add_fake_polygon(Mesh& mesh, const Box& bounds, std::uint32_t k) {
@@ -145,7 +164,7 @@ Mesh fake_polygon_only(std::span<const double> x, std::span<const double> y, con
 
 Mesh dualize(std::span<const std::uint32_t> colour, std::uint32_t m, std::span<const double> x,
              std::span<const double> y, std::span<const std::uint8_t> kept, const Box& bounds,
-             CpuExecutor& executor, DualizeStats* stats) {
+             CpuExecutor& executor, DualizeStats* stats, std::vector<std::uint32_t>* degenerate) {
   const auto n = static_cast<std::uint32_t>(x.size());
   if (colour.size() != static_cast<std::size_t>(m) * m) throw Error("internal error: colour grid size");
 
@@ -153,6 +172,7 @@ Mesh dualize(std::span<const std::uint32_t> colour, std::uint32_t m, std::span<c
   const std::uint32_t rows = m > 1 ? m - 1 : 0;
   std::vector<std::vector<Tri>> per_row(rows);
   std::vector<std::uint8_t> row_invalid(rows, 0);
+  std::vector<std::vector<std::uint32_t>> row_culprits(degenerate != nullptr ? rows : 0);
   executor.for_each(rows, [&](std::size_t r) {
     const auto gy = static_cast<std::uint32_t>(r);
     auto& list = per_row[r];
@@ -164,6 +184,7 @@ Mesh dualize(std::span<const std::uint32_t> colour, std::uint32_t m, std::span<c
       const int count = corner_triangles(q, x.data(), y.data(), out);
       if (count < 0) {
         row_invalid[r] = 1;
+        if (degenerate != nullptr) corner_culprits(q, x.data(), y.data(), row_culprits[r]);
         continue;
       }
       for (int k = 0; k < count; ++k) list.push_back(out[k]);
@@ -173,6 +194,13 @@ Mesh dualize(std::span<const std::uint32_t> colour, std::uint32_t m, std::span<c
       std::any_of(row_invalid.begin(), row_invalid.end(), [](std::uint8_t v) { return v != 0; });
   std::vector<Tri> triangles;
   for (auto& list : per_row) triangles.insert(triangles.end(), list.begin(), list.end());
+  if (invalid && degenerate != nullptr) {
+    degenerate->clear();
+    for (const auto& list : row_culprits) degenerate->insert(degenerate->end(), list.begin(), list.end());
+    std::sort(degenerate->begin(), degenerate->end());
+    degenerate->erase(std::unique(degenerate->begin(), degenerate->end()), degenerate->end());
+    return Mesh{};
+  }
   if (invalid || triangles.empty()) return fake_polygon_only(x, y, bounds, executor, stats);
 
   Mesh mesh;

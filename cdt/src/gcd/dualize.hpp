@@ -4,6 +4,7 @@
 
 #include <cstdint>
 #include <span>
+#include <vector>
 
 #include "gcd/mesh.hpp"
 
@@ -34,8 +35,15 @@ struct DualizeStats {
 /// that every site position is strictly inside. All triangles are counter-clockwise. When the dual has
 /// no triangle (fewer than three kept sites, or all of them collinear) the mesh is the fake polygon
 /// alone and every site is left for missing-point insertion.
+///
+/// A grid corner can give a triangle that is not counter-clockwise: three collinear sites meeting at a
+/// corner (ties on a lattice do this), which the diagram's validity argument does not cover. With
+/// `degenerate` given, dualize then returns an empty mesh and lists there the sites to take out of the
+/// diagram (remove_sites_from_colouring) before trying again; without it, it falls back to the fake
+/// polygon alone.
 Mesh dualize(std::span<const std::uint32_t> colour, std::uint32_t m, std::span<const double> x,
              std::span<const double> y, std::span<const std::uint8_t> kept, const Box& bounds,
-             CpuExecutor& executor, DualizeStats* stats = nullptr);
+             CpuExecutor& executor, DualizeStats* stats = nullptr,
+             std::vector<std::uint32_t>* degenerate = nullptr);
 
 } // namespace cdt::detail

@@ -593,6 +593,57 @@ std::size_t amend_to_standard_flooding(std::vector<std::uint32_t>& colour, const
   return recolour_debris(colour, find_orphans(site.data(), m, scratch.get(), executor), sites, m);
 }
 
+void remove_sites_from_colouring(std::vector<std::uint32_t>& colour, const GridSites& sites, std::uint32_t m,
+                                 std::span<const std::uint32_t> removed) {
+  if (colour.size() != static_cast<std::size_t>(m) * m) throw Error("internal error: colour is not m * m");
+  FloodView v;
+  v.colour = colour.data();
+  v.site_x = sites.gx.data();
+  v.site_y = sites.gy.data();
+  v.m = m;
+  // Each removed site's region is 4-connected to its own cell: a breadth-first walk finds all of it.
+  std::vector<std::uint32_t> cleared;
+  for (const std::uint32_t s : removed) {
+    const std::size_t start = static_cast<std::size_t>(sites.gy[s]) * m + sites.gx[s];
+    if (colour[start] != s) continue;
+    const std::size_t first = cleared.size();
+    colour[start] = kNone;
+    cleared.push_back(static_cast<std::uint32_t>(start));
+    for (std::size_t k = first; k < cleared.size(); ++k) {
+      for_each_neighbour(m, cleared[k] % m, cleared[k] / m, [&](std::uint32_t x, std::uint32_t y) {
+        const std::size_t c = static_cast<std::size_t>(y) * m + x;
+        if (colour[c] != s) return;
+        colour[c] = kNone;
+        cleared.push_back(static_cast<std::uint32_t>(c));
+      });
+    }
+  }
+  // Flood the cleared cells from every coloured neighbour, nearest site first (Algorithm A.1 without
+  // its "closer to the own site" condition at the seeds: a cleared region's border need not be).
+  std::priority_queue<FloodEntry, std::vector<FloodEntry>, std::greater<>> queue;
+  const auto push_neighbours = [&](std::uint32_t cell) {
+    const std::uint32_t j = colour[cell];
+    for_each_neighbour(m, cell % m, cell / m, [&](std::uint32_t x, std::uint32_t y) {
+      const std::size_t c = static_cast<std::size_t>(y) * m + x;
+      if (colour[c] == kNone) queue.push({squared_distance(v, x, y, j), j, static_cast<std::uint32_t>(c)});
+    });
+  };
+  for (const std::uint32_t a : cleared) {
+    for_each_neighbour(m, a % m, a / m, [&](std::uint32_t x, std::uint32_t y) {
+      const std::size_t c = static_cast<std::size_t>(y) * m + x;
+      const std::uint32_t j = colour[c];
+      if (j != kNone) queue.push({squared_distance(v, a % m, a / m, j), j, a});
+    });
+  }
+  while (!queue.empty()) {
+    const FloodEntry e = queue.top();
+    queue.pop();
+    if (colour[e.cell] != kNone) continue;
+    colour[e.cell] = e.site;
+    push_neighbours(e.cell);
+  }
+}
+
 std::vector<std::uint32_t> compute_digital_voronoi(const GridSites& sites, std::uint32_t m,
                                                    CpuExecutor& executor) {
   Scratch scratch;
