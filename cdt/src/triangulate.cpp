@@ -148,15 +148,21 @@ Triangulation triangulate(std::span<const Point> points, std::span<const Segment
   // the fake polygon alone is the start and every site a missing point.
   Mesh mesh;
   std::vector<std::uint32_t> degenerate;
-  for (int pass = 0;; ++pass) {
-    mesh = dualize(colour, m, x, y, kept, bounds, executor, nullptr, pass < 8 ? &degenerate : nullptr);
+  int passes = 1;
+  for (;; ++passes) {
+    mesh = dualize(colour, m, x, y, kept, bounds, executor, nullptr, passes <= 8 ? &degenerate : nullptr);
     if (mesh.num_slots() > 0) break;
     remove_sites_from_colouring(colour, grid, m, degenerate);
     for (const std::uint32_t s : degenerate) {
       kept[s] = 0;
       x[s] = true_x[s];
       y[s] = true_y[s];
-      missing.push_back({s, n}); // the fake boundary, always in the mesh, starts the search
+    }
+    for (const std::uint32_t s : degenerate) {
+      // The site now owning the removed site's grid point is next to it; the fake boundary, always in
+      // the mesh, is the fallback start of the search.
+      const std::uint32_t owner = colour[static_cast<std::size_t>(grid.gy[s]) * m + grid.gx[s]];
+      missing.push_back({s, owner != kNone && kept[owner] != 0 ? owner : n});
     }
   }
   // Kept sites the dual did not reach (degenerate diagrams) are inserted like missing points, starting
@@ -164,7 +170,7 @@ Triangulation triangulate(std::span<const Point> points, std::span<const Segment
   for (std::uint32_t s = 0; s < n; ++s) {
     if (kept[s] != 0 && mesh.vert_tri[s] == kNoId) missing.push_back({s, n});
   }
-  timer.end("dualize");
+  timer.end("dualize").iterations = static_cast<std::uint64_t>(passes);
 
   // Phase 3.
   const ShiftStats shift = shift_to_true_positions(mesh, n, true_x, true_y, missing, executor);

@@ -26,49 +26,69 @@ std::uint32_t Mesh::grow_slots(std::uint32_t n) {
 
 void link_triangles(Mesh& mesh, CpuExecutor& executor) {
   const std::uint32_t slots = mesh.num_slots();
+  const std::uint32_t nv = mesh.num_vertices();
   const MeshView m = mesh.view();
-  // One record per directed edge (from, to), keyed by the undirected pair so the two sides of an
-  // edge sort next to each other.
-  struct EdgeRecord {
-    std::uint64_t key;
-    std::uint32_t edge;
-  };
-  std::vector<EdgeRecord> records(3 * static_cast<std::size_t>(slots));
-  executor.for_each(records.size(), [&](std::size_t k) {
-    const auto t = static_cast<std::uint32_t>(k / 3);
-    const auto i = static_cast<std::uint32_t>(k % 3);
-    if (!m.alive(t)) {
-      records[k] = {~std::uint64_t{0}, kNoId};
-      return;
+  // Directed edges bucketed by their lower vertex (a counting sort, linear time): the two sides of an
+  // undirected edge land in the same small bucket, where they are matched by their upper vertex.
+  std::vector<std::uint32_t> start(static_cast<std::size_t>(nv) + 1, 0);
+  for (std::uint32_t t = 0; t < slots; ++t) {
+    if (!m.alive(t)) continue;
+    for (std::uint32_t i = 0; i < 3; ++i) {
+      const std::uint32_t from = m.v(t, next3(i)), to = m.v(t, prev3(i));
+      ++start[(from < to ? from : to) + 1];
     }
-    const std::uint32_t from = m.v(t, next3(i));
-    const std::uint32_t to = m.v(t, prev3(i));
-    const std::uint64_t lo = from < to ? from : to;
-    const std::uint64_t hi = from < to ? to : from;
-    records[k] = {(lo << 32) | hi, edge_id(t, i)};
-  });
-  executor.sort(records, [](const EdgeRecord& p, const EdgeRecord& q) {
-    return p.key < q.key || (p.key == q.key && p.edge < q.edge);
-  });
+  }
+  for (std::uint32_t v = 0; v < nv; ++v) start[v + 1] += start[v];
+  std::vector<std::uint32_t> fill(start.begin(), start.end() - 1);
+  // Each entry: the edge's upper vertex (high half) and its encoded id (low half), so matching needs
+  // no further lookups.
+  std::vector<std::uint64_t> bucket(start[nv]);
+  for (std::uint32_t t = 0; t < slots; ++t) {
+    if (!m.alive(t)) continue;
+    for (std::uint32_t i = 0; i < 3; ++i) {
+      const std::uint32_t from = m.v(t, next3(i)), to = m.v(t, prev3(i));
+      const std::uint64_t hi = from < to ? to : from;
+      bucket[fill[from < to ? from : to]++] = (hi << 32) | edge_id(t, i);
+    }
+  }
   std::fill(mesh.adj.begin(), mesh.adj.end(), kNoId);
-  const std::size_t n = records.size();
-  std::size_t k = 0;
-  while (k < n && records[k].edge != kNoId) {
-    std::size_t end = k + 1;
-    while (end < n && records[end].key == records[k].key) ++end;
-    if (end - k > 2) {
-      throw Error("internal error: an edge is shared by " + std::to_string(end - k) + " triangles");
-    }
-    if (end - k == 2) {
-      const std::uint32_t e0 = records[k].edge, e1 = records[k + 1].edge;
-      // Two triangles on one edge must traverse it in opposite directions.
-      if (m.v(edge_tri(e0), next3(edge_index(e0))) == m.v(edge_tri(e1), next3(edge_index(e1)))) {
-        throw Error("internal error: two triangles overlap along an edge (same direction)");
+  std::vector<std::uint8_t> bad(nv, 0);
+  std::uint32_t* adj = mesh.adj.data();
+  executor.for_each(nv, [&, adj](std::size_t v) {
+    std::uint64_t* first = bucket.data() + start[v];
+    std::uint64_t* last = bucket.data() + start[v + 1];
+    // A bucket holds about a vertex's degree: insertion sort, unless a large fan makes it worth more.
+    if (last - first > 32) {
+      std::sort(first, last);
+    } else {
+      for (std::uint64_t* k = first + 1; k < last; ++k) {
+        const std::uint64_t key = *k;
+        std::uint64_t* j = k;
+        for (; j > first && *(j - 1) > key; --j) *j = *(j - 1);
+        *j = key;
       }
-      mesh.adj[e0] = e1;
-      mesh.adj[e1] = e0;
     }
-    k = end;
+    for (std::uint64_t* k = first; k < last;) {
+      std::uint64_t* end = k + 1;
+      while (end < last && (*end >> 32) == (*k >> 32)) ++end;
+      if (end - k > 2) {
+        bad[v] = 1; // an edge shared by more than two triangles
+      } else if (end - k == 2) {
+        const auto e0 = static_cast<std::uint32_t>(k[0]), e1 = static_cast<std::uint32_t>(k[1]);
+        // Two triangles on one edge must traverse it in opposite directions.
+        if (m.v(edge_tri(e0), next3(edge_index(e0))) == m.v(edge_tri(e1), next3(edge_index(e1)))) {
+          bad[v] = 2;
+        } else {
+          adj[e0] = e1;
+          adj[e1] = e0;
+        }
+      }
+      k = end;
+    }
+  });
+  for (std::uint32_t v = 0; v < nv; ++v) {
+    if (bad[v] == 1) throw Error("internal error: an edge is shared by more than two triangles");
+    if (bad[v] == 2) throw Error("internal error: two triangles overlap along an edge (same direction)");
   }
   mesh.vert_tri.assign(mesh.num_vertices(), kNoId);
   // Any incident triangle will do; races between writers are benign but not allowed by the memory

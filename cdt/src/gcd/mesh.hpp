@@ -74,7 +74,8 @@ struct Mesh {
 
 class CpuExecutor;
 
-/// Recomputes every link (adj) of the live triangles from their vertices by sorting edge keys, and
+/// Recomputes every link (adj) of the live triangles from their vertices (edges bucketed by their lower
+/// vertex, matched by the upper one), and
 /// points vert_tri at an incident live triangle. Throws Error if an edge is shared by more than two
 /// triangles or used twice in the same direction (not a valid triangulation).
 void link_triangles(Mesh& mesh, CpuExecutor& executor);
