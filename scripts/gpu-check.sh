@@ -33,6 +33,11 @@ if command -v compute-sanitizer >/dev/null 2>&1; then
   step racecheck compute-sanitizer --tool racecheck --error-exitcode 1 build-gpu/bin/kernels_tests
 fi
 step bench-predicates build-gpu/bin/bench_predicates 4000000
+# The CDT on this machine's CPU cores (the CUDA executor of gCD is not part of the build yet); the
+# coastlines are used when they were carried in .carry/data (scripts/bench-cdt.sh prepares them).
+coast=()
+[ -s .carry/data/gshhg-high.txt ] && coast=(--coast .carry/data/gshhg-high.txt)
+step bench-cdt build-gpu/bin/bench_cdt --repeat 3 "${coast[@]}"
 
 echo
 echo "## device: $(cat "$logs/device.txt")"
@@ -41,6 +46,8 @@ echo "| --- | --- | --- |"
 printf '%s\n' "${status[@]}"
 echo
 grep -h '^|' "$logs/bench-predicates.log" || true
+echo
+grep -h '^|' "$logs/bench-cdt.log" || true
 grep -h -E 'tests passed|tests failed|Skipped|Not Run' "$logs/gpu-tests.log" || true
 grep -q FAIL <<<"${status[*]}" && exit 1
 exit 0
