@@ -192,8 +192,11 @@ Mesh dualize(std::span<const std::uint32_t> colour, std::uint32_t m, std::span<c
   });
   const bool invalid =
       std::any_of(row_invalid.begin(), row_invalid.end(), [](std::uint8_t v) { return v != 0; });
-  std::vector<Tri> triangles;
-  for (auto& list : per_row) triangles.insert(triangles.end(), list.begin(), list.end());
+  // Row lists concatenated by a prefix sum, each row copied into the mesh by its own task.
+  std::vector<std::uint32_t> row_start(rows + 1, 0);
+  for (std::uint32_t r = 0; r < rows; ++r)
+    row_start[r + 1] = row_start[r] + static_cast<std::uint32_t>(per_row[r].size());
+  const std::uint32_t num_dual = row_start[rows];
   if (invalid && degenerate != nullptr) {
     degenerate->clear();
     for (const auto& list : row_culprits) degenerate->insert(degenerate->end(), list.begin(), list.end());
@@ -201,13 +204,20 @@ Mesh dualize(std::span<const std::uint32_t> colour, std::uint32_t m, std::span<c
     degenerate->erase(std::unique(degenerate->begin(), degenerate->end()), degenerate->end());
     return Mesh{};
   }
-  if (invalid || triangles.empty()) return fake_polygon_only(x, y, bounds, executor, stats);
+  if (invalid || num_dual == 0) return fake_polygon_only(x, y, bounds, executor, stats);
 
   Mesh mesh;
   mesh.x.assign(x.begin(), x.end());
   mesh.y.assign(y.begin(), y.end());
-  mesh.tri.reserve(3 * (triangles.size() + 64));
-  for (const Tri& t : triangles) mesh.add_triangle(t.a, t.b, t.c);
+  mesh.grow_slots(num_dual);
+  executor.for_each(rows, [&](std::size_t r) {
+    std::uint32_t* out = mesh.tri.data() + 3 * static_cast<std::size_t>(row_start[r]);
+    for (const Tri& t : per_row[r]) {
+      *out++ = t.a;
+      *out++ = t.b;
+      *out++ = t.c;
+    }
+  });
   try {
     link_triangles(mesh, executor);
   } catch (const Error&) {
@@ -245,12 +255,13 @@ Mesh dualize(std::span<const std::uint32_t> colour, std::uint32_t m, std::span<c
   px = mesh.x.data();
   py = mesh.y.data();
   for (std::uint32_t f = n; f < n + k_fake; ++f) add_outside_vertex(hull, f, px, py, added);
+  const std::uint32_t first_added = mesh.num_slots();
   for (const Tri& t : added) mesh.add_triangle(t.a, t.b, t.c);
-  link_triangles(mesh, executor);
+  link_new_triangles(mesh, first_added, executor);
   for (std::uint32_t v = 0; v < n; ++v) {
     if (kept[v] == 0 && mesh.vert_tri[v] != kNoId) throw Error("internal error: a missing site was dualized");
   }
-  if (stats != nullptr) *stats = DualizeStats{triangles.size(), hull_triangles, k_fake};
+  if (stats != nullptr) *stats = DualizeStats{num_dual, hull_triangles, k_fake};
   return mesh;
 }
 

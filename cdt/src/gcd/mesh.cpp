@@ -1,6 +1,7 @@
 #include "gcd/mesh.hpp"
 
 #include <algorithm>
+#include <atomic>
 #include <string>
 
 #include "cdt/errors.hpp"
@@ -31,26 +32,33 @@ void link_triangles(Mesh& mesh, CpuExecutor& executor) {
   // Directed edges bucketed by their lower vertex (a counting sort, linear time): the two sides of an
   // undirected edge land in the same small bucket, where they are matched by their upper vertex.
   std::vector<std::uint32_t> start(static_cast<std::size_t>(nv) + 1, 0);
-  for (std::uint32_t t = 0; t < slots; ++t) {
-    if (!m.alive(t)) continue;
+  std::uint32_t* count = start.data() + 1;
+  executor.for_each(slots, [&, count](std::size_t k) {
+    const auto t = static_cast<std::uint32_t>(k);
+    if (!m.alive(t)) return;
     for (std::uint32_t i = 0; i < 3; ++i) {
       const std::uint32_t from = m.v(t, next3(i)), to = m.v(t, prev3(i));
-      ++start[(from < to ? from : to) + 1];
+      std::atomic_ref<std::uint32_t>(count[from < to ? from : to]).fetch_add(1, std::memory_order_relaxed);
     }
-  }
+  });
   for (std::uint32_t v = 0; v < nv; ++v) start[v + 1] += start[v];
   std::vector<std::uint32_t> fill(start.begin(), start.end() - 1);
   // Each entry: the edge's upper vertex (high half) and its encoded id (low half), so matching needs
-  // no further lookups.
+  // no further lookups. Scattered in any order: each bucket is sorted below.
   std::vector<std::uint64_t> bucket(start[nv]);
-  for (std::uint32_t t = 0; t < slots; ++t) {
-    if (!m.alive(t)) continue;
+  std::uint32_t* cursor = fill.data();
+  std::uint64_t* out = bucket.data();
+  executor.for_each(slots, [&, cursor, out](std::size_t k) {
+    const auto t = static_cast<std::uint32_t>(k);
+    if (!m.alive(t)) return;
     for (std::uint32_t i = 0; i < 3; ++i) {
       const std::uint32_t from = m.v(t, next3(i)), to = m.v(t, prev3(i));
       const std::uint64_t hi = from < to ? to : from;
-      bucket[fill[from < to ? from : to]++] = (hi << 32) | edge_id(t, i);
+      const std::uint32_t at = std::atomic_ref<std::uint32_t>(cursor[from < to ? from : to])
+                                   .fetch_add(1, std::memory_order_relaxed);
+      out[at] = (hi << 32) | edge_id(t, i);
     }
-  }
+  });
   std::fill(mesh.adj.begin(), mesh.adj.end(), kNoId);
   std::vector<std::uint8_t> bad(nv, 0);
   std::uint32_t* adj = mesh.adj.data();
@@ -96,6 +104,53 @@ void link_triangles(Mesh& mesh, CpuExecutor& executor) {
   for (std::uint32_t t = 0; t < slots; ++t) {
     if (!m.alive(t)) continue;
     for (std::uint32_t i = 0; i < 3; ++i) mesh.vert_tri[m.v(t, i)] = t;
+  }
+}
+
+void link_new_triangles(Mesh& mesh, std::uint32_t first_new, CpuExecutor& executor) {
+  const std::uint32_t slots = mesh.num_slots();
+  const MeshView m = mesh.view();
+  // The open edges of the linked part, then every edge of the new triangles: few, so a sort will do.
+  const std::vector<std::uint32_t> open =
+      executor.compact(3 * static_cast<std::size_t>(first_new), [&](std::size_t e) {
+        return m.alive(static_cast<std::uint32_t>(e / 3)) && m.adj[e] == kNoId;
+      });
+  std::vector<std::pair<std::uint64_t, std::uint32_t>> records;
+  records.reserve(open.size() + 3 * static_cast<std::size_t>(slots - first_new));
+  const auto key = [&](std::uint32_t e) {
+    const std::uint64_t from = m.v(edge_tri(e), next3(edge_index(e)));
+    const std::uint64_t to = m.v(edge_tri(e), prev3(edge_index(e)));
+    return from < to ? (from << 32) | to : (to << 32) | from;
+  };
+  for (const std::uint32_t e : open) records.emplace_back(key(e), e);
+  for (std::uint32_t t = first_new; t < slots; ++t) {
+    if (!m.alive(t)) continue;
+    for (std::uint32_t i = 0; i < 3; ++i) {
+      m.adj[3 * t + i] = kNoId;
+      records.emplace_back(key(edge_id(t, i)), edge_id(t, i));
+    }
+  }
+  std::sort(records.begin(), records.end());
+  for (std::size_t k = 0; k < records.size();) {
+    std::size_t end = k + 1;
+    while (end < records.size() && records[end].first == records[k].first) ++end;
+    if (end - k > 2) throw Error("internal error: an edge is shared by more than two triangles");
+    if (end - k == 2) {
+      const std::uint32_t e0 = records[k].second, e1 = records[k + 1].second;
+      if (m.v(edge_tri(e0), next3(edge_index(e0))) == m.v(edge_tri(e1), next3(edge_index(e1)))) {
+        throw Error("internal error: two triangles overlap along an edge (same direction)");
+      }
+      m.adj[e0] = e1;
+      m.adj[e1] = e0;
+    }
+    k = end;
+  }
+  mesh.vert_tri.resize(mesh.num_vertices(), kNoId);
+  for (std::uint32_t t = first_new; t < slots; ++t) {
+    if (!m.alive(t)) continue;
+    for (std::uint32_t i = 0; i < 3; ++i) {
+      if (mesh.vert_tri[m.v(t, i)] == kNoId) mesh.vert_tri[m.v(t, i)] = t;
+    }
   }
 }
 
