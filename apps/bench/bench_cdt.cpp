@@ -92,10 +92,15 @@ double run_cgal(const trixel_gen::Pslg& in) {
     cdt.insert_constraints(points.begin(), points.end(), segments.begin(), segments.end());
   }
   const double ms = std::chrono::duration<double, std::milli>(Clock::now() - t0).count();
-  // Every input point must be a vertex (duplicates aside): CGAL did the whole job.
-  if (cdt.number_of_vertices() < in.points.size() - in.points.size() / 100 || cdt.number_of_faces() == 0) {
-    std::fprintf(stderr, "CGAL kept only %zu of %zu points\n",
-                 static_cast<std::size_t>(cdt.number_of_vertices()), in.points.size());
+  // Every distinct input point must be a vertex: CGAL did the whole job.
+  std::vector<std::pair<double, double>> distinct;
+  distinct.reserve(in.points.size());
+  for (const auto& p : in.points) distinct.emplace_back(p.x, p.y);
+  std::sort(distinct.begin(), distinct.end());
+  distinct.erase(std::unique(distinct.begin(), distinct.end()), distinct.end());
+  if (cdt.number_of_vertices() < distinct.size() || cdt.number_of_faces() == 0) {
+    std::fprintf(stderr, "CGAL kept only %zu of %zu distinct points\n",
+                 static_cast<std::size_t>(cdt.number_of_vertices()), distinct.size());
   }
   return ms;
 }
