@@ -247,9 +247,10 @@ public:
   SegmentGrid(const Box& box, std::size_t num_segments) : min_x_(box.min_x), min_y_(box.min_y) {
     const double width = box.max_x - box.min_x;
     const double height = box.max_y - box.min_y;
-    // About one cell per segment, but never more cells along a side than that, so that a very thin box
+    // About four cells per segment (clustered data such as coastlines crowds many segments into the
+    // cells of a uniform grid), but never more cells along a side than that, so that a very thin box
     // cannot ask for an absurd number of cells.
-    const double target = static_cast<double>(std::max<std::size_t>(num_segments, 1));
+    const double target = 4.0 * static_cast<double>(std::max<std::size_t>(num_segments, 1));
     size_ = std::max({std::sqrt(width * height / target), width / target, height / target});
     if (!(size_ > 0.0)) size_ = 1.0;
     nx_ = static_cast<std::uint32_t>(std::min(target, std::floor(width / size_)) + 1.0);
