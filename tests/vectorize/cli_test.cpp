@@ -2,6 +2,7 @@
 #include <gtest/gtest.h>
 
 #include <fstream>
+#include <iterator>
 #include <string>
 
 #include "../test_util.hpp"
@@ -74,21 +75,67 @@ TEST(VectorizeCli, CorruptInputNamesTheFile) {
   EXPECT_FALSE(std::filesystem::exists(dir / "out.svg"));
 }
 
-// Every bundled sample decodes; until the conversion stages exist the program must say so and write
-// no placeholder file.
-TEST(VectorizeCli, SamplesDecodeAndNothingFakeIsWritten) {
+std::string read_all(const std::filesystem::path& path) {
+  std::ifstream in(path, std::ios::binary);
+  return {std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()};
+}
+
+// Every bundled sample converts, with each preset, into a complete SVG document and nothing else in
+// the output folder (no temporary file left behind).
+TEST(VectorizeCli, SamplesConvertToCompleteSvg) {
   ScratchDir dir;
   int seen = 0;
   for (const auto& entry : std::filesystem::directory_iterator(kSamples)) {
     if (entry.path().extension() != ".png") continue;
     ++seen;
-    const auto out = dir / (entry.path().stem().string() + ".svg");
-    const auto r = run(shell_quote(kBin) + " " + shell_quote(entry.path()) + " " + shell_quote(out));
-    EXPECT_EQ(r.exit_code, 1) << r.output;
-    EXPECT_NE(r.output.find("not implemented"), std::string::npos) << r.output;
-    EXPECT_FALSE(std::filesystem::exists(out));
+    for (const char* preset : {"logo", "illustration", "photo"}) {
+      const auto out = dir / (entry.path().stem().string() + "-" + preset + ".svg");
+      const auto r = run(shell_quote(kBin) + " " + shell_quote(entry.path()) + " " + shell_quote(out) +
+                         " --preset " + preset);
+      EXPECT_EQ(r.exit_code, 0) << entry.path() << " " << preset << ": " << r.output;
+      const std::string svg = read_all(out);
+      EXPECT_EQ(svg.rfind("<svg", 0) == 0 || svg.rfind("<?xml", 0) == 0, true) << out;
+      EXPECT_NE(svg.find("viewBox=\"0 0 "), std::string::npos) << out;
+      EXPECT_NE(svg.find("<path"), std::string::npos) << out;
+      EXPECT_NE(svg.find("</svg>"), std::string::npos) << out;
+    }
   }
   EXPECT_GE(seen, 4);
+  int files = 0;
+  for ([[maybe_unused]] const auto& entry : std::filesystem::directory_iterator(dir.path())) ++files;
+  EXPECT_EQ(files, 3 * seen);
+}
+
+TEST(VectorizeCli, StatsAsJsonNameEveryStage) {
+  ScratchDir dir;
+  const auto r = run(shell_quote(kBin) + " " + shell_quote(kSamples / "logo.png") + " " +
+                     shell_quote(dir / "logo.svg") + " --stats json -q");
+  EXPECT_EQ(r.exit_code, 0) << r.output;
+  for (const char* key :
+       {"\"edges\"", "\"cdt\"", "\"grouping\"", "\"svg\"", "\"triangles\"", "\"paths\"", "\"bytes\""}) {
+    EXPECT_NE(r.output.find(key), std::string::npos) << key << " in " << r.output;
+  }
+}
+
+TEST(VectorizeCli, BadOptionValuesAreUsageErrors) {
+  ScratchDir dir;
+  const std::string base =
+      shell_quote(kBin) + " " + shell_quote(kSamples / "logo.png") + " " + shell_quote(dir / "x.svg");
+  EXPECT_EQ(run(base + " --preset poster").exit_code, 2);
+  EXPECT_EQ(run(base + " --colour-tolerance -1").exit_code, 2);
+  EXPECT_EQ(run(base + " --backend tpu").exit_code, 2);
+  EXPECT_EQ(run(base + " --stats xml").exit_code, 2);
+  EXPECT_FALSE(std::filesystem::exists(dir / "x.svg"));
+}
+
+// An existing output is replaced whole, never appended to or left half-written.
+TEST(VectorizeCli, ExistingOutputIsReplaced) {
+  ScratchDir dir;
+  std::ofstream(dir / "out.svg") << "old content that is not an svg";
+  const auto r = run(shell_quote(kBin) + " " + shell_quote(kSamples / "logo.png") + " " +
+                     shell_quote(dir / "out.svg") + " --preset logo");
+  EXPECT_EQ(r.exit_code, 0) << r.output;
+  EXPECT_EQ(read_all(dir / "out.svg").find("old content"), std::string::npos);
 }
 
 } // namespace

@@ -1,0 +1,175 @@
+#include "vectorize/trixels.hpp"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <random>
+#include <vector>
+
+#include "cdt/detail/predicates.hpp"
+
+namespace {
+
+// The rectangle [0, w] x [0, h] as a constrained border plus the given interior points.
+cdt::Triangulation triangulate_rectangle(int width, int height, std::vector<cdt::Point> points,
+                                         std::vector<cdt::Segment> segments = {}) {
+  const auto base = static_cast<std::uint32_t>(points.size());
+  points.push_back({0, 0});
+  points.push_back({double(width), 0});
+  points.push_back({double(width), double(height)});
+  points.push_back({0, double(height)});
+  for (std::uint32_t i = 0; i < 4; ++i) segments.push_back({base + i, base + (i + 1) % 4});
+  cdt::Options options;
+  options.backend = cdt::Backend::cpu;
+  options.threads = 1;
+  return cdt::triangulate(points, segments, options);
+}
+
+std::vector<cdt::Point> random_points(int width, int height, int count, unsigned seed) {
+  std::mt19937 rng(seed);
+  std::uniform_real_distribution<double> x(0.0, width);
+  std::uniform_real_distribution<double> y(0.0, height);
+  std::vector<cdt::Point> points;
+  for (int i = 0; i < count; ++i) points.push_back({x(rng), y(rng)});
+  return points;
+}
+
+// Pixel centres, pixel corners and half-way points: edges and vertices right on pixel centres, with
+// horizontal and vertical edges through rows and columns of centres.
+std::vector<cdt::Point> lattice_points(int width, int height, int count, unsigned seed) {
+  std::mt19937 rng(seed);
+  std::uniform_int_distribution<int> x(1, 2 * width - 1);
+  std::uniform_int_distribution<int> y(1, 2 * height - 1);
+  std::vector<cdt::Point> points;
+  for (int i = 0; i < count; ++i) points.push_back({x(rng) * 0.5, y(rng) * 0.5});
+  return points;
+}
+
+vectorize::Image make_image(int width, int height, float (*channel)(int x, int y, int c)) {
+  vectorize::Image image;
+  image.width = width;
+  image.height = height;
+  image.rgba.resize(static_cast<std::size_t>(width) * height * 4);
+  for (int y = 0; y < height; ++y)
+    for (int x = 0; x < width; ++x)
+      for (int c = 0; c < 4; ++c) image.pixel(x, y)[c] = channel(x, y, c);
+  return image;
+}
+
+float flat(int, int, int c) { return c == 0 ? 0.2f : c == 1 ? 0.4f : c == 2 ? 0.6f : 1.0f; }
+float gradient(int x, int y, int c) {
+  return c == 3 ? 1.0f : static_cast<float>((x * 7 + y * 3 + c) % 11) / 10;
+}
+
+// Checks the fill rule's promise on one triangulation: every centre has one owner whose closed
+// triangle contains it, and the per-triangle counts add up to the pixel count.
+void expect_each_pixel_once(int width, int height, const cdt::Triangulation& t) {
+  const auto owner = vectorize::owner_of_pixels(width, height, t);
+  ASSERT_EQ(owner.size(), static_cast<std::size_t>(width) * height);
+  for (int y = 0; y < height; ++y)
+    for (int x = 0; x < width; ++x) {
+      const std::uint32_t tri = owner[static_cast<std::size_t>(y) * width + x];
+      ASSERT_NE(tri, cdt::kNone) << "pixel " << x << "," << y << " has no owner";
+      for (int i = 0; i < 3; ++i) {
+        const cdt::Point& a = t.vertices[t.triangles[tri][i]];
+        const cdt::Point& b = t.vertices[t.triangles[tri][(i + 1) % 3]];
+        EXPECT_GE(cdt::detail::orient2d(a.x, a.y, b.x, b.y, x + 0.5, y + 0.5), 0)
+            << "pixel " << x << "," << y << " outside its owner " << tri;
+      }
+    }
+  const auto image = make_image(width, height, flat);
+  const auto trixels = vectorize::colour_trixels(image, t);
+  ASSERT_EQ(trixels.size(), t.triangles.size());
+  std::uint64_t total = 0;
+  for (const auto& trixel : trixels) total += trixel.pixel_count;
+  EXPECT_EQ(total, static_cast<std::uint64_t>(width) * height);
+}
+
+TEST(TrixelColours, EveryPixelCountedOnceOnRandomTriangulations) {
+  for (unsigned seed = 1; seed <= 6; ++seed) {
+    SCOPED_TRACE(seed);
+    const int width = 17 + static_cast<int>(seed) * 5;
+    const int height = 9 + static_cast<int>(seed) * 3;
+    expect_each_pixel_once(width, height,
+                           triangulate_rectangle(width, height, random_points(width, height, 150, seed)));
+  }
+}
+
+// Vertices and edges exactly on pixel centres are where a naive inside test counts twice or never.
+TEST(TrixelColours, EveryPixelCountedOnceWithLatticePointsOnCentres) {
+  for (unsigned seed = 1; seed <= 6; ++seed) {
+    SCOPED_TRACE(seed);
+    const int width = 12 + static_cast<int>(seed);
+    const int height = 10;
+    expect_each_pixel_once(width, height,
+                           triangulate_rectangle(width, height, lattice_points(width, height, 80, seed)));
+  }
+}
+
+// Every pixel centre as a vertex: each centre is a vertex of six or so triangles.
+TEST(TrixelColours, EveryPixelCountedOnceWhenEveryCentreIsAVertex) {
+  std::vector<cdt::Point> centres;
+  for (int y = 0; y < 7; ++y)
+    for (int x = 0; x < 9; ++x) centres.push_back({x + 0.5, y + 0.5});
+  expect_each_pixel_once(9, 7, triangulate_rectangle(9, 7, centres));
+}
+
+TEST(TrixelColours, MeanOfOwnedPixelsAndAreas) {
+  const int width = 24;
+  const int height = 16;
+  const auto t = triangulate_rectangle(width, height, random_points(width, height, 40, 7));
+  const auto image = make_image(width, height, gradient);
+  const auto trixels = vectorize::colour_trixels(image, t);
+  const auto owner = vectorize::owner_of_pixels(width, height, t);
+
+  std::vector<std::array<double, 4>> sums(t.triangles.size());
+  std::vector<int> counts(t.triangles.size());
+  for (int y = 0; y < height; ++y)
+    for (int x = 0; x < width; ++x) {
+      const auto tri = owner[static_cast<std::size_t>(y) * width + x];
+      for (int c = 0; c < 4; ++c) sums[tri][c] += image.pixel(x, y)[c];
+      ++counts[tri];
+    }
+  double area = 0;
+  for (std::size_t tri = 0; tri < t.triangles.size(); ++tri) {
+    area += trixels[tri].area;
+    EXPECT_GT(trixels[tri].area, 0.0);
+    ASSERT_EQ(trixels[tri].pixel_count, static_cast<std::uint32_t>(counts[tri]));
+    if (counts[tri] == 0) continue;
+    for (int c = 0; c < 4; ++c) EXPECT_NEAR(trixels[tri].rgba[c], sums[tri][c] / counts[tri], 1e-5);
+  }
+  EXPECT_NEAR(area, width * height, 1e-9 * width * height);
+}
+
+// Many points in few pixels make triangles that own no centre; on a flat image their sampled colour
+// must still be the flat colour.
+TEST(TrixelColours, SliversTakeTheSampledColour) {
+  const auto t = triangulate_rectangle(6, 5, random_points(6, 5, 300, 3));
+  const auto trixels = vectorize::colour_trixels(make_image(6, 5, flat), t);
+  int slivers = 0;
+  for (const auto& trixel : trixels) {
+    slivers += trixel.pixel_count == 0;
+    for (int c = 0; c < 4; ++c) EXPECT_NEAR(trixel.rgba[c], flat(0, 0, c), 1e-6);
+  }
+  EXPECT_GT(slivers, 0);
+}
+
+// Alpha below one half is "no shape"; RGB is alpha-weighted so hidden colour does not leak in.
+TEST(TrixelColours, TransparencyAndAlphaWeightedColour) {
+  auto image = make_image(4, 4, [](int x, int, int c) -> float {
+    if (x < 2) return c == 3 ? 0.0f : 0.0f;      // transparent black
+    return c == 0 ? 1.0f : c == 3 ? 1.0f : 0.0f; // opaque red
+  });
+  // The square split by a diagonal: each triangle owns pixels of both halves.
+  const auto t = triangulate_rectangle(4, 4, {});
+  const auto trixels = vectorize::colour_trixels(image, t);
+  ASSERT_EQ(trixels.size(), 2u);
+  for (const auto& trixel : trixels) {
+    EXPECT_NEAR(trixel.rgba[0], 1.0f, 1e-6); // only the opaque pixels give colour
+    EXPECT_GT(trixel.pixel_count, 0u);
+  }
+  image = make_image(4, 4, [](int, int, int c) -> float { return c == 3 ? 0.25f : 0.5f; });
+  for (const auto& trixel : vectorize::colour_trixels(image, t)) EXPECT_TRUE(trixel.transparent());
+}
+
+} // namespace

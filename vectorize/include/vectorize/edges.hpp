@@ -1,0 +1,50 @@
+#pragma once
+// Stage 2 of the pipeline: edge pixels of an image (Canny on a colour-aware gradient).
+
+#include <cstdint>
+#include <vector>
+
+#include "vectorize/image.hpp"
+
+namespace vectorize {
+
+/// A binary edge map of width x height pixels, row-major from the top-left.
+struct EdgeMap {
+  int width = 0;
+  int height = 0;
+  /// 1 for an edge pixel, 0 otherwise; width * height entries.
+  std::vector<std::uint8_t> on;
+
+  /// Whether pixel (x, y) is an edge; 0 <= x < width, 0 <= y < height.
+  bool at(int x, int y) const { return on[static_cast<std::size_t>(y) * width + x] != 0; }
+};
+
+/// Options of detect_edges(), in human units.
+struct EdgeOptions {
+  /// Hysteresis thresholds on the gradient magnitude, in the units of a 3x3 Sobel filter on 8-bit
+  /// values (a step of k levels between flat areas has magnitude 4k). 0 derives the threshold from the
+  /// image (both 0: high from a quantile of the magnitudes, low = 0.4 * high; only high given:
+  /// low = 0.4 * high; only low given: high = 2.5 * low).
+  double low = 0.0;
+  double high = 0.0;
+  /// Standard deviation of the Gaussian blur applied before the gradient, in pixels; 0 for none.
+  double blur_sigma_px = 1.0;
+  /// For automatic thresholds: the fraction of pixels assumed not to be edges (the high threshold is
+  /// this quantile of the gradient magnitude), in (0, 1).
+  double non_edge_fraction = 0.85;
+  /// For automatic thresholds: the high threshold never goes below this (same units as high), so that
+  /// a flat or nearly flat image yields no edges from noise.
+  double min_auto_high = 40.0;
+};
+
+/// Edge pixels of the image: Canny (non-maximum suppression and hysteresis) on the per-pixel gradient
+/// of the colour channel with the largest gradient magnitude. Pixels with alpha < 0.5 are "no shape":
+/// they are never edges, their colour is replaced by the nearest shape pixel's so that it neither makes
+/// edges in the transparent area nor at its border, and the shape pixels that have a no-shape
+/// 4-neighbour (the inside of the shape's outline) are always edges. Grey and 16-bit inputs need
+/// nothing special (Image holds floats). An empty image gives an empty map; throws
+/// std::invalid_argument when image.rgba does not hold width * height * 4 values or an option is out
+/// of range.
+EdgeMap detect_edges(const Image& image, const EdgeOptions& options = {});
+
+} // namespace vectorize

@@ -1,0 +1,103 @@
+#pragma once
+// The whole conversion, raster to SVG: the stages of the pipeline composed in order. The CLI and any
+// other front end call convert(); nothing here does file I/O except write_file_atomically().
+
+#include <cstddef>
+#include <cstdint>
+#include <filesystem>
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include "cdt/cdt.hpp"
+#include "vectorize/chains.hpp"
+#include "vectorize/edges.hpp"
+#include "vectorize/grouping.hpp"
+#include "vectorize/image.hpp"
+#include "vectorize/polygons.hpp"
+#include "vectorize/pslg_build.hpp"
+#include "vectorize/simplify.hpp"
+#include "vectorize/svg.hpp"
+#include "vectorize/trixels.hpp"
+
+namespace vectorize {
+
+/// Named starting points for the options, from flat artwork to photographs.
+enum class Preset {
+  logo,         ///< flat colours, crisp shapes: no interior points, generous colour merging
+  illustration, ///< flat areas with some shading (the default)
+  photo,        ///< smooth shading everywhere: dense interior points, fine colour tolerance
+};
+
+/// Every knob of the pipeline, in human units (pixels, Delta E).
+struct Options {
+  EdgeOptions edges;
+  /// Largest distance of a simplified polyline from its edge pixels, pixels.
+  double simplify_tolerance_px = 0.75;
+  InteriorOptions interior;
+  GroupingOptions grouping;
+  SvgOptions svg;
+  cdt::Backend backend = cdt::Backend::automatic;
+};
+
+/// The options of a preset.
+Options preset_options(Preset preset);
+
+/// Parses "logo", "illustration" or "photo"; throws std::invalid_argument naming the valid ones.
+Preset parse_preset(std::string_view name);
+
+/// Time of one stage.
+struct StageTime {
+  std::string name;
+  double milliseconds = 0.0;
+};
+
+/// What one conversion did.
+struct Stats {
+  int width = 0;
+  int height = 0;
+  std::size_t edge_pixels = 0;
+  std::size_t chains = 0;
+  std::size_t points = 0;   ///< PSLG points (chain vertices, border, interior points)
+  std::size_t segments = 0; ///< PSLG segments
+  std::size_t triangles = 0;
+  std::size_t regions = 0; ///< opaque and transparent regions after grouping
+  std::size_t paths = 0;   ///< <path> elements written
+  std::size_t bytes = 0;   ///< size of the SVG document
+  std::string cdt_backend; ///< "cpu" or "gpu"
+  std::vector<StageTime> stages;
+  double total_milliseconds = 0.0;
+};
+
+/// The result of convert().
+struct Conversion {
+  std::string svg;
+  Stats stats;
+};
+
+/// Every stage's output of one conversion, kept for debug overlays and inspection.
+struct StageRecord {
+  EdgeMap edges;
+  std::vector<Chain> chains;
+  std::vector<Polyline> polylines;
+  Pslg pslg;
+  cdt::Triangulation triangulation;
+  TrixelColours trixels;
+  Regions regions;
+  /// Every region's polygon, transparent ones included (the SVG draws only the opaque ones).
+  std::vector<RegionPolygon> polygons;
+};
+
+/// Converts a decoded image into an SVG document: edges, chains, simplification, PSLG, CDT, trixel
+/// colours, grouping, polygons, SVG. With `record`, every stage's output is also copied there.
+/// Throws Error (or cdt::Error from the CDT engine) on failure; an image of zero size is an Error.
+Conversion convert(const Image& image, const Options& options = {}, StageRecord* record = nullptr);
+
+/// Writes `content` to `path` through a temporary file in the same directory, renamed over `path`
+/// once complete, so that a failure never leaves a partial file. Throws FileError naming the path.
+void write_file_atomically(const std::filesystem::path& path, std::string_view content);
+
+/// The statistics as one JSON object (stable keys; times in milliseconds).
+std::string stats_to_json(const Stats& stats);
+
+} // namespace vectorize

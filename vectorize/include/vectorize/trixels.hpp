@@ -1,0 +1,50 @@
+#pragma once
+// Stage 7 of the pipeline: the colour of each triangle ("trixel", after Prasad and Skourikhine,
+// "Vectorized image segmentation via trixel agglomeration", Pattern Recognition 39(4), 2006, sec. 2).
+//
+// Coordinates are pixel units with y down: the image covers [0, width] x [0, height] and pixel (x, y)
+// has its centre at (x + 0.5, y + 0.5).
+
+#include <array>
+#include <cstdint>
+#include <vector>
+
+#include "cdt/cdt.hpp"
+#include "vectorize/image.hpp"
+
+namespace vectorize {
+
+/// The colour of one triangle of the triangulation.
+struct Trixel {
+  /// Mean non-premultiplied RGBA in [0, 1] of the pixels the triangle owns: alpha is the plain mean,
+  /// RGB the alpha-weighted mean (so that the colour under fully transparent pixels does not bleed
+  /// in). For a triangle that owns no pixel centre, the image sampled bilinearly at its centroid.
+  std::array<float, 4> rgba{};
+  /// Number of pixel centres the triangle owns under the fill rule (see owner_of_pixels()).
+  std::uint32_t pixel_count = 0;
+  /// Geometric area in square pixels (positive).
+  double area = 0.0;
+  /// A trixel whose mean alpha is below one half is "no shape" (DESIGN.md, stage 1).
+  bool transparent() const noexcept { return rgba[3] < 0.5f; }
+};
+
+/// One Trixel per triangle, indexed like Triangulation::triangles.
+using TrixelColours = std::vector<Trixel>;
+
+/// The colour, pixel count and area of every triangle of t over image.
+///
+/// Preconditions: t is a valid triangulation (counter-clockwise, non-degenerate triangles) whose
+/// domain covers [0, image.width] x [0, image.height]; image.rgba holds width * height * 4 values.
+/// Every pixel centre is then owned by exactly one triangle; pixel centres outside the domain (a
+/// violated precondition) are ignored. Time O(pixels + triangles + the summed heights of the
+/// triangles in pixel rows), memory O(triangles).
+TrixelColours colour_trixels(const Image& image, const cdt::Triangulation& t);
+
+/// The triangle that owns each pixel centre, row-major from the top-left (width * height entries),
+/// cdt::kNone for a centre outside the domain of t. The fill rule: a centre p belongs to the
+/// triangle whose interior contains p moved by an infinitesimal step right and an even smaller step
+/// down; decided with exact predicates, so a centre on an edge or on a vertex has exactly one owner.
+/// colour_trixels() uses the same rule. Preconditions as for colour_trixels(), width, height >= 0.
+std::vector<std::uint32_t> owner_of_pixels(int width, int height, const cdt::Triangulation& t);
+
+} // namespace vectorize

@@ -1,0 +1,221 @@
+// Stage 8: trixel grouping (Prasad and Skourikhine 2006, sec. 3). Their perceptual grouping joins
+// neighbouring trixels of similar colour unless a detected edge separates them; here the join is a
+// union-find over edges in order of colour difference, followed by a small-region cleanup.
+
+#include "vectorize/grouping.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <cstddef>
+#include <functional>
+#include <numeric>
+#include <queue>
+#include <tuple>
+
+namespace vectorize {
+namespace {
+
+// Union-find whose roots carry the region's running totals.
+class RegionForest {
+public:
+  explicit RegionForest(const TrixelColours& trixels) : parent_(trixels.size()), totals_(trixels.size()) {
+    std::iota(parent_.begin(), parent_.end(), 0u);
+    for (std::uint32_t t = 0; t < trixels.size(); ++t) {
+      Totals& r = totals_[t];
+      r.area = trixels[t].area;
+      for (int c = 0; c < 3; ++c) r.weighted_rgb[c] = trixels[t].area * trixels[t].rgba[c];
+      r.triangle_count = 1;
+      r.first_triangle = t;
+      r.transparent = trixels[t].transparent();
+      r.lab = srgb_to_lab(rgb(t));
+    }
+  }
+
+  std::uint32_t find(std::uint32_t x) {
+    while (parent_[x] != x) {
+      parent_[x] = parent_[parent_[x]]; // path halving
+      x = parent_[x];
+    }
+    return x;
+  }
+
+  // Joins two distinct roots; the one with more triangles stays root (keeps the trees shallow). Returns it.
+  std::uint32_t unite(std::uint32_t a, std::uint32_t b) {
+    if (totals_[a].triangle_count < totals_[b].triangle_count) std::swap(a, b);
+    parent_[b] = a;
+    Totals& ra = totals_[a];
+    const Totals& rb = totals_[b];
+    ra.area += rb.area;
+    for (int c = 0; c < 3; ++c) ra.weighted_rgb[c] += rb.weighted_rgb[c];
+    ra.triangle_count += rb.triangle_count;
+    ra.first_triangle = std::min(ra.first_triangle, rb.first_triangle);
+    ra.lab = srgb_to_lab(rgb(a));
+    return a;
+  }
+
+  std::array<float, 3> rgb(std::uint32_t root) const {
+    const Totals& r = totals_[root];
+    std::array<float, 3> out{};
+    for (int c = 0; c < 3; ++c) out[c] = r.area > 0 ? static_cast<float>(r.weighted_rgb[c] / r.area) : 0.0f;
+    return out;
+  }
+  // CIELAB of the mean colour, cached: the join compares it once per candidate edge.
+  const std::array<double, 3>& lab(std::uint32_t root) const { return totals_[root].lab; }
+  double area(std::uint32_t root) const { return totals_[root].area; }
+  std::uint32_t triangle_count(std::uint32_t root) const { return totals_[root].triangle_count; }
+  std::uint32_t first_triangle(std::uint32_t root) const { return totals_[root].first_triangle; }
+  bool transparent(std::uint32_t root) const { return totals_[root].transparent; }
+
+private:
+  struct Totals {
+    double area = 0.0;
+    double weighted_rgb[3] = {0, 0, 0};
+    std::uint32_t triangle_count = 0;
+    std::uint32_t first_triangle = 0;
+    bool transparent = false;
+    std::array<double, 3> lab{};
+  };
+  std::vector<std::uint32_t> parent_;
+  std::vector<Totals> totals_;
+};
+
+double srgb_to_linear(double c) { return c <= 0.04045 ? c / 12.92 : std::pow((c + 0.055) / 1.055, 2.4); }
+
+double lab_f(double t) {
+  constexpr double delta = 6.0 / 29.0;
+  return t > delta * delta * delta ? std::cbrt(t) : t / (3 * delta * delta) + 4.0 / 29.0;
+}
+
+// Merges every region smaller than min_area into its closest-colour neighbour of the same transparency.
+void merge_small_regions(const cdt::Triangulation& t, RegionForest& forest, double min_area) {
+  const std::size_t n = t.triangles.size();
+  // Neighbour lists per root; entries may go stale (non-roots, duplicates) and are cleaned when read.
+  std::vector<std::vector<std::uint32_t>> adjacent(n);
+  for (std::uint32_t tri = 0; tri < n; ++tri)
+    for (int i = 0; i < 3; ++i) {
+      const std::uint32_t other = t.neighbors[tri][i];
+      if (other == cdt::kNone) continue;
+      const std::uint32_t a = forest.find(tri);
+      const std::uint32_t b = forest.find(other);
+      if (a != b) adjacent[a].push_back(b);
+    }
+
+  using Entry = std::tuple<double, std::uint32_t, std::uint32_t>; // area, first triangle, root
+  std::priority_queue<Entry, std::vector<Entry>, std::greater<>> smallest;
+  for (std::uint32_t tri = 0; tri < n; ++tri)
+    if (forest.find(tri) == tri && forest.area(tri) < min_area)
+      smallest.emplace(forest.area(tri), forest.first_triangle(tri), tri);
+
+  while (!smallest.empty()) {
+    const auto [area, first, root] = smallest.top();
+    smallest.pop();
+    // Stale entries: the region was merged away or has grown since it was queued.
+    if (forest.find(root) != root || forest.area(root) != area) continue;
+
+    std::vector<std::uint32_t>& list = adjacent[root];
+    for (std::uint32_t& r : list) r = forest.find(r);
+    std::sort(list.begin(), list.end());
+    list.erase(std::unique(list.begin(), list.end()), list.end());
+    std::erase(list, root);
+
+    const auto lab = forest.lab(root);
+    std::uint32_t best = cdt::kNone;
+    double best_distance = 0.0;
+    for (std::uint32_t r : list) {
+      if (forest.transparent(r) != forest.transparent(root)) continue;
+      const double d = delta_e(lab, forest.lab(r));
+      if (best == cdt::kNone || d < best_distance ||
+          (d == best_distance && forest.first_triangle(r) < forest.first_triangle(best))) {
+        best = r;
+        best_distance = d;
+      }
+    }
+    if (best == cdt::kNone) continue; // e.g. an opaque speck surrounded by transparency
+
+    const std::uint32_t merged = forest.unite(root, best);
+    const std::uint32_t absorbed = merged == root ? best : root;
+    // Append the shorter list to the longer one so that each entry moves O(log n) times.
+    if (adjacent[merged].size() < adjacent[absorbed].size()) std::swap(adjacent[merged], adjacent[absorbed]);
+    adjacent[merged].insert(adjacent[merged].end(), adjacent[absorbed].begin(), adjacent[absorbed].end());
+    adjacent[absorbed] = {};
+    if (forest.area(merged) < min_area)
+      smallest.emplace(forest.area(merged), forest.first_triangle(merged), merged);
+  }
+}
+
+} // namespace
+
+std::array<double, 3> srgb_to_lab(const std::array<float, 3>& rgb) {
+  const double r = srgb_to_linear(std::clamp(static_cast<double>(rgb[0]), 0.0, 1.0));
+  const double g = srgb_to_linear(std::clamp(static_cast<double>(rgb[1]), 0.0, 1.0));
+  const double b = srgb_to_linear(std::clamp(static_cast<double>(rgb[2]), 0.0, 1.0));
+  // sRGB (D65) to XYZ, normalised by the D65 white point.
+  const double x = (0.4124564 * r + 0.3575761 * g + 0.1804375 * b) / 0.95047;
+  const double y = 0.2126729 * r + 0.7151522 * g + 0.0721750 * b;
+  const double z = (0.0193339 * r + 0.1191920 * g + 0.9503041 * b) / 1.08883;
+  const double fx = lab_f(x);
+  const double fy = lab_f(y);
+  const double fz = lab_f(z);
+  return {116.0 * fy - 16.0, 500.0 * (fx - fy), 200.0 * (fy - fz)};
+}
+
+double delta_e(const std::array<double, 3>& lab1, const std::array<double, 3>& lab2) {
+  return std::hypot(lab1[0] - lab2[0], lab1[1] - lab2[1], lab1[2] - lab2[2]);
+}
+
+Regions group_trixels(const cdt::Triangulation& t, const TrixelColours& trixels,
+                      const GroupingOptions& options) {
+  const std::size_t n = t.triangles.size();
+  RegionForest forest(trixels);
+  std::vector<std::array<double, 3>> lab(n);
+  for (std::size_t tri = 0; tri < n; ++tri)
+    lab[tri] = srgb_to_lab({trixels[tri].rgba[0], trixels[tri].rgba[1], trixels[tri].rgba[2]});
+
+  struct Candidate {
+    double distance;
+    std::uint32_t triangle;
+    std::uint32_t edge;
+  };
+  std::vector<Candidate> candidates;
+  for (std::uint32_t tri = 0; tri < n; ++tri)
+    for (std::uint32_t i = 0; i < 3; ++i) {
+      const std::uint32_t other = t.neighbors[tri][i];
+      if (other == cdt::kNone || other < tri) continue; // each interior edge once
+      const bool clear_a = trixels[tri].transparent();
+      const bool clear_b = trixels[other].transparent();
+      if (clear_a && clear_b) {
+        const std::uint32_t ra = forest.find(tri);
+        const std::uint32_t rb = forest.find(other);
+        if (ra != rb) forest.unite(ra, rb);
+      } else if (!clear_a && !clear_b && t.segment_of_edge[tri][i] == cdt::kNone) {
+        candidates.push_back({delta_e(lab[tri], lab[other]), tri, i});
+      }
+    }
+  std::sort(candidates.begin(), candidates.end(), [](const Candidate& x, const Candidate& y) {
+    return std::tie(x.distance, x.triangle, x.edge) < std::tie(y.distance, y.triangle, y.edge);
+  });
+  for (const Candidate& c : candidates) {
+    const std::uint32_t a = forest.find(c.triangle);
+    const std::uint32_t b = forest.find(t.neighbors[c.triangle][c.edge]);
+    if (a == b) continue;
+    if (delta_e(forest.lab(a), forest.lab(b)) <= options.colour_tolerance) forest.unite(a, b);
+  }
+
+  if (options.min_region_area > 0) merge_small_regions(t, forest, options.min_region_area);
+
+  Regions out;
+  out.region_of_triangle.assign(n, cdt::kNone);
+  std::vector<std::uint32_t> id_of_root(n, cdt::kNone);
+  for (std::uint32_t tri = 0; tri < n; ++tri) {
+    const std::uint32_t root = forest.find(tri);
+    if (id_of_root[root] == cdt::kNone) {
+      id_of_root[root] = static_cast<std::uint32_t>(out.regions.size());
+      out.regions.push_back(
+          {forest.rgb(root), forest.area(root), forest.triangle_count(root), forest.transparent(root)});
+    }
+    out.region_of_triangle[tri] = id_of_root[root];
+  }
+  return out;
+}
+
+} // namespace vectorize

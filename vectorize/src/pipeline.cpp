@@ -1,0 +1,184 @@
+// The pipeline: stages composed in the order of DESIGN.md, with their times and counts.
+#include "vectorize/pipeline.hpp"
+
+#include <chrono>
+#include <cstdio>
+#include <fstream>
+#include <random>
+#include <sstream>
+#include <stdexcept>
+#include <system_error>
+
+#include "vectorize/chains.hpp"
+#include "vectorize/errors.hpp"
+#include "vectorize/polygons.hpp"
+#include "vectorize/simplify.hpp"
+#include "vectorize/trixels.hpp"
+
+namespace vectorize {
+
+Options preset_options(Preset preset) {
+  Options o;
+  switch (preset) {
+  case Preset::logo:
+    // Flat colours: edges carry the shapes; interior points would only split flat areas.
+    o.edges.blur_sigma_px = 0.7;
+    o.simplify_tolerance_px = 0.6;
+    o.interior.cell_size_px = 0;
+    o.grouping.colour_tolerance = 14.0;
+    o.grouping.min_region_area = 6.0;
+    break;
+  case Preset::illustration:
+    o.edges.blur_sigma_px = 1.0;
+    o.simplify_tolerance_px = 0.75;
+    o.interior.cell_size_px = 16;
+    o.grouping.colour_tolerance = 10.0;
+    o.grouping.min_region_area = 4.0;
+    break;
+  case Preset::photo:
+    // Shading everywhere: many interior points so trixels follow it, and a fine colour tolerance.
+    o.edges.blur_sigma_px = 1.2;
+    o.simplify_tolerance_px = 0.9;
+    o.interior.cell_size_px = 6;
+    o.interior.min_std_dev = 0.01;
+    o.grouping.colour_tolerance = 5.0;
+    o.grouping.min_region_area = 3.0;
+    break;
+  }
+  return o;
+}
+
+Preset parse_preset(std::string_view name) {
+  if (name == "logo") return Preset::logo;
+  if (name == "illustration") return Preset::illustration;
+  if (name == "photo") return Preset::photo;
+  throw std::invalid_argument("unknown preset '" + std::string(name) +
+                              "' (choose logo, illustration or photo)");
+}
+
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+class StageTimer {
+public:
+  explicit StageTimer(Stats& stats) : stats_(stats), start_(Clock::now()), last_(start_) {}
+  void end(const char* name) {
+    const auto now = Clock::now();
+    stats_.stages.push_back({name, std::chrono::duration<double, std::milli>(now - last_).count()});
+    last_ = now;
+  }
+  void finish() {
+    stats_.total_milliseconds = std::chrono::duration<double, std::milli>(Clock::now() - start_).count();
+  }
+
+private:
+  Stats& stats_;
+  Clock::time_point start_;
+  Clock::time_point last_;
+};
+
+} // namespace
+
+Conversion convert(const Image& image, const Options& options, StageRecord* record) {
+  if (image.width <= 0 || image.height <= 0) throw Error("the image has zero size");
+  Conversion out;
+  Stats& stats = out.stats;
+  stats.width = image.width;
+  stats.height = image.height;
+  StageTimer timer(stats);
+
+  const EdgeMap edges = detect_edges(image, options.edges);
+  for (const std::uint8_t e : edges.on) stats.edge_pixels += e;
+  timer.end("edges");
+  const std::vector<Chain> chains = trace_chains(edges);
+  stats.chains = chains.size();
+  timer.end("chains");
+  const std::vector<Polyline> polylines = simplify_chains(chains, options.simplify_tolerance_px);
+  timer.end("simplify");
+  const Pslg pslg = build_pslg(polylines, image.width, image.height, image, options.interior);
+  stats.points = pslg.points.size();
+  stats.segments = pslg.segments.size();
+  timer.end("pslg");
+
+  cdt::Options cdt_options;
+  cdt_options.backend = options.backend;
+  const cdt::Triangulation triangulation = cdt::triangulate(pslg.points, pslg.segments, cdt_options);
+  stats.triangles = triangulation.triangles.size();
+  stats.cdt_backend = triangulation.stats.backend;
+  timer.end("cdt");
+
+  const TrixelColours trixels = colour_trixels(image, triangulation);
+  timer.end("trixels");
+  const Regions regions = group_trixels(triangulation, trixels, options.grouping);
+  stats.regions = regions.regions.size();
+  timer.end("grouping");
+  const std::vector<RegionPolygon> polygons = trace_polygons(triangulation, regions);
+  timer.end("polygons");
+  std::ostringstream svg;
+  write_svg(svg, polygons, regions, image.width, image.height, options.svg);
+  out.svg = std::move(svg).str();
+  stats.bytes = out.svg.size();
+  for (std::size_t at = out.svg.find("<path"); at != std::string::npos; at = out.svg.find("<path", at + 5)) {
+    ++stats.paths;
+  }
+  timer.end("svg");
+  timer.finish();
+  // Copied after timing, so that recording does not show in the stage times.
+  if (record != nullptr) {
+    record->edges = edges;
+    record->chains = chains;
+    record->polylines = polylines;
+    record->pslg = pslg;
+    record->polygons = trace_polygons(triangulation, regions, TransparentRegions::include);
+    record->trixels = trixels;
+    record->regions = regions;
+    record->triangulation = triangulation;
+  }
+  return out;
+}
+
+void write_file_atomically(const std::filesystem::path& path, std::string_view content) {
+  namespace fs = std::filesystem;
+  // A name unique to this process and call, beside the target so that the rename stays on one
+  // file system.
+  static thread_local std::mt19937_64 rng{std::random_device{}()};
+  fs::path temporary = path;
+  temporary += ".tmp-" + std::to_string(rng() % 1000000000);
+  {
+    std::ofstream file(temporary, std::ios::binary | std::ios::trunc);
+    if (!file) throw FileError(path, "cannot create a temporary file beside it (" + temporary.string() + ")");
+    file.write(content.data(), static_cast<std::streamsize>(content.size()));
+    file.flush();
+    if (!file) {
+      std::error_code ignored;
+      fs::remove(temporary, ignored);
+      throw FileError(path, "write failed (disk full?)");
+    }
+  }
+  std::error_code ec;
+  fs::rename(temporary, path, ec);
+  if (ec) {
+    std::error_code ignored;
+    fs::remove(temporary, ignored);
+    throw FileError(path, "cannot rename the temporary file to it: " + ec.message());
+  }
+}
+
+std::string stats_to_json(const Stats& s) {
+  std::ostringstream j;
+  j << "{\"width\":" << s.width << ",\"height\":" << s.height << ",\"edge_pixels\":" << s.edge_pixels
+    << ",\"chains\":" << s.chains << ",\"points\":" << s.points << ",\"segments\":" << s.segments
+    << ",\"triangles\":" << s.triangles << ",\"regions\":" << s.regions << ",\"paths\":" << s.paths
+    << ",\"bytes\":" << s.bytes << ",\"cdt_backend\":\"" << s.cdt_backend << "\",\"stages_ms\":{";
+  char number[32];
+  for (std::size_t k = 0; k < s.stages.size(); ++k) {
+    std::snprintf(number, sizeof number, "%.3f", s.stages[k].milliseconds);
+    j << (k ? "," : "") << '"' << s.stages[k].name << "\":" << number;
+  }
+  std::snprintf(number, sizeof number, "%.3f", s.total_milliseconds);
+  j << "},\"total_ms\":" << number << "}";
+  return j.str();
+}
+
+} // namespace vectorize

@@ -1,0 +1,106 @@
+// Stage 9: region boundaries. Each ring follows boundary edges (region on the left); at a vertex the
+// walk turns to the next boundary edge of the same region counter-clockwise, rotating through the
+// triangles outside the region, so that pinch vertices split rings instead of joining them.
+
+#include "vectorize/polygons.hpp"
+
+#include <array>
+#include <cstddef>
+#include <tuple>
+#include <utility>
+
+namespace vectorize {
+namespace {
+
+std::uint32_t slot_of(const std::array<std::uint32_t, 3>& triangle, std::uint32_t vertex) {
+  return triangle[0] == vertex ? 0u : triangle[1] == vertex ? 1u : 2u;
+}
+
+class Tracer {
+public:
+  Tracer(const cdt::Triangulation& t, const std::vector<std::uint32_t>& region)
+      : t_(t), region_(region), hull_out_(t.vertices.size(), cdt::kNone) {
+    // The hull edge c[i+1] -> c[i+2] has the domain on its left; the domain is convex, so each hull
+    // vertex starts exactly one of them.
+    for (std::uint32_t tri = 0; tri < t.triangles.size(); ++tri)
+      for (int i = 0; i < 3; ++i)
+        if (t.neighbors[tri][i] == cdt::kNone) hull_out_[t.triangles[tri][(i + 1) % 3]] = tri;
+  }
+
+  bool is_boundary(std::uint32_t tri, int edge) const {
+    const std::uint32_t other = t_.neighbors[tri][edge];
+    return other == cdt::kNone || region_[other] != region_[tri];
+  }
+
+  // The boundary edge (triangle, edge index) that follows boundary edge `edge` of `tri`, at its end
+  // vertex c[edge + 2].
+  std::pair<std::uint32_t, std::uint32_t> next(std::uint32_t tri, std::uint32_t edge) const {
+    const std::uint32_t region = region_[tri];
+    const std::uint32_t vertex = t_.triangles[tri][(edge + 2) % 3];
+    std::uint32_t current = tri;
+    std::uint32_t slot = (edge + 2) % 3;
+    // Rotate counter-clockwise around the vertex: leave each triangle through its edge
+    // c[slot + 2] - c[slot], which is edge index slot + 1. Beyond the hull, come back in through the
+    // vertex's outgoing hull edge.
+    for (;;) {
+      std::uint32_t across = t_.neighbors[current][(slot + 1) % 3];
+      if (across == cdt::kNone) across = hull_out_[vertex];
+      const std::uint32_t across_slot = slot_of(t_.triangles[across], vertex);
+      if (region_[across] == region) return {across, (across_slot + 2) % 3};
+      current = across;
+      slot = across_slot;
+    }
+  }
+
+private:
+  const cdt::Triangulation& t_;
+  const std::vector<std::uint32_t>& region_;
+  std::vector<std::uint32_t> hull_out_;
+};
+
+} // namespace
+
+std::vector<RegionPolygon> trace_polygons(const cdt::Triangulation& t, const Regions& regions,
+                                          TransparentRegions transparent) {
+  const std::vector<std::uint32_t>& region_of = regions.region_of_triangle;
+  std::vector<RegionPolygon> by_region(regions.regions.size());
+  for (std::uint32_t r = 0; r < by_region.size(); ++r) by_region[r].region = r;
+
+  const Tracer tracer(t, region_of);
+  std::vector<std::array<bool, 3>> visited(t.triangles.size(), {false, false, false});
+  for (std::uint32_t tri = 0; tri < t.triangles.size(); ++tri) {
+    const std::uint32_t r = region_of[tri];
+    if (transparent == TransparentRegions::skip && regions.regions[r].transparent) continue;
+    for (std::uint32_t edge = 0; edge < 3; ++edge) {
+      if (visited[tri][edge] || !tracer.is_boundary(tri, edge)) continue;
+      Ring ring;
+      std::uint32_t cur_tri = tri;
+      std::uint32_t cur_edge = edge;
+      do {
+        visited[cur_tri][cur_edge] = true;
+        ring.vertices.push_back(t.triangles[cur_tri][(cur_edge + 1) % 3]);
+        std::tie(cur_tri, cur_edge) = tracer.next(cur_tri, cur_edge);
+      } while (cur_tri != tri || cur_edge != edge);
+
+      ring.points.reserve(ring.vertices.size());
+      for (std::uint32_t v : ring.vertices) ring.points.push_back(t.vertices[v]);
+      // Shoelace about the first point, which keeps the products small for far-from-origin rings.
+      const cdt::Point origin = ring.points.front();
+      double twice_area = 0.0;
+      for (std::size_t k = 1; k + 1 < ring.points.size(); ++k) {
+        const cdt::Point& p = ring.points[k];
+        const cdt::Point& q = ring.points[k + 1];
+        twice_area += (p.x - origin.x) * (q.y - origin.y) - (q.x - origin.x) * (p.y - origin.y);
+      }
+      ring.signed_area = 0.5 * twice_area;
+      by_region[r].rings.push_back(std::move(ring));
+    }
+  }
+
+  std::vector<RegionPolygon> out;
+  for (RegionPolygon& polygon : by_region)
+    if (!polygon.rings.empty()) out.push_back(std::move(polygon));
+  return out;
+}
+
+} // namespace vectorize

@@ -1,0 +1,208 @@
+// Stage 5: the PSLG for the CDT engine: polyline vertices at pixel centres, the image border as
+// segments, and free interior points where the colour of a region varies.
+#include "vectorize/pslg_build.hpp"
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <cstddef>
+#include <cstdint>
+#include <stdexcept>
+#include <unordered_map>
+#include <unordered_set>
+#include <utility>
+#include <vector>
+
+namespace vectorize {
+namespace {
+
+constexpr double kCentre = 0.5; // offset of a pixel's centre from its top-left corner
+
+class Builder {
+public:
+  std::uint32_t pixel_point(const PixelPoint& p) {
+    const std::uint64_t key =
+        (static_cast<std::uint64_t>(static_cast<std::uint32_t>(p.y)) << 32) | static_cast<std::uint32_t>(p.x);
+    const auto [it, inserted] =
+        pixel_index_.try_emplace(key, static_cast<std::uint32_t>(pslg_.points.size()));
+    if (inserted) pslg_.points.push_back({p.x + kCentre, p.y + kCentre});
+    return it->second;
+  }
+
+  std::uint32_t free_point(double x, double y) {
+    pslg_.points.push_back({x, y});
+    return static_cast<std::uint32_t>(pslg_.points.size() - 1);
+  }
+
+  void segment(std::uint32_t a, std::uint32_t b) {
+    if (a == b) return;
+    const std::uint64_t key = (static_cast<std::uint64_t>(std::min(a, b)) << 32) | std::max(a, b);
+    if (!segment_keys_.insert(key).second) return;
+    pslg_.segments.push_back({a, b});
+    if (degree_.size() < pslg_.points.size()) degree_.resize(pslg_.points.size() * 2, 0);
+    ++degree_[a];
+    ++degree_[b];
+  }
+
+  std::uint32_t degree(std::uint32_t p) const { return p < degree_.size() ? degree_[p] : 0; }
+  Pslg& pslg() { return pslg_; }
+
+private:
+  Pslg pslg_;
+  std::unordered_map<std::uint64_t, std::uint32_t> pixel_index_;
+  std::unordered_set<std::uint64_t> segment_keys_;
+  std::vector<std::uint32_t> degree_;
+};
+
+// Pixels a segment passes through or next to (the 3x3 neighbourhood of every pixel it passes through):
+// a pixel left unmarked has its centre at least half a pixel from the segment. Sampling every quarter
+// pixel can miss a pixel whose corner the segment just clips, but that pixel neighbours two sampled
+// ones and is marked by the widening.
+void mark_near_segment(std::vector<std::uint8_t>& near, int width, int height, const cdt::Point& a,
+                       const cdt::Point& b) {
+  const double length = std::hypot(b.x - a.x, b.y - a.y);
+  const int steps = std::max(1, static_cast<int>(std::ceil(length / 0.25)));
+  for (int i = 0; i <= steps; ++i) {
+    const double t = static_cast<double>(i) / steps;
+    const int px = static_cast<int>(std::floor(a.x + t * (b.x - a.x)));
+    const int py = static_cast<int>(std::floor(a.y + t * (b.y - a.y)));
+    for (int dy = -1; dy <= 1; ++dy)
+      for (int dx = -1; dx <= 1; ++dx) {
+        const int x = px + dx;
+        const int y = py + dy;
+        if (x >= 0 && y >= 0 && x < width && y < height) near[static_cast<std::size_t>(y) * width + x] = 1;
+      }
+  }
+}
+
+void add_interior_points(Builder& builder, const Image& image, const InteriorOptions& options,
+                         std::size_t num_constrained_segments) {
+  const int w = image.width;
+  const int h = image.height;
+  std::vector<std::uint8_t> unusable(static_cast<std::size_t>(w) * h, 0);
+  const Pslg& pslg = builder.pslg();
+  for (std::size_t s = 0; s < num_constrained_segments; ++s)
+    mark_near_segment(unusable, w, h, pslg.points[pslg.segments[s].a], pslg.points[pslg.segments[s].b]);
+  for (int y = 0; y < h; ++y)
+    for (int x = 0; x < w; ++x)
+      if (image.pixel(x, y)[3] < 0.5f) unusable[static_cast<std::size_t>(y) * w + x] = 1;
+
+  const int cell = options.cell_size_px;
+  // Too few usable pixels say nothing about shading (the cell is mostly edges or transparency).
+  const int min_count = std::max(4, cell * cell / 4);
+  for (int y0 = 0; y0 < h; y0 += cell)
+    for (int x0 = 0; x0 < w; x0 += cell) {
+      const int x1 = std::min(w, x0 + cell);
+      const int y1 = std::min(h, y0 + cell);
+      std::array<double, 3> sum{};
+      std::array<double, 3> sum_sq{};
+      int count = 0;
+      const double cx = 0.5 * (x0 + x1);
+      const double cy = 0.5 * (y0 + y1);
+      double best_dist = 0.0;
+      int best_x = -1;
+      int best_y = -1;
+      for (int y = y0; y < y1; ++y)
+        for (int x = x0; x < x1; ++x) {
+          if (unusable[static_cast<std::size_t>(y) * w + x]) continue;
+          const float* p = image.pixel(x, y);
+          for (int c = 0; c < 3; ++c) {
+            sum[c] += p[c];
+            sum_sq[c] += static_cast<double>(p[c]) * p[c];
+          }
+          ++count;
+          const double d = (x + kCentre - cx) * (x + kCentre - cx) + (y + kCentre - cy) * (y + kCentre - cy);
+          if (best_x < 0 || d < best_dist) {
+            best_dist = d;
+            best_x = x;
+            best_y = y;
+          }
+        }
+      if (count < min_count) continue;
+      double variance = 0.0;
+      for (int c = 0; c < 3; ++c) {
+        const double mean = sum[c] / count;
+        variance += std::max(0.0, sum_sq[c] / count - mean * mean);
+      }
+      const double std_dev = std::sqrt(variance / 3.0);
+      if (options.min_std_dev == 0.0 || std_dev > options.min_std_dev)
+        builder.free_point(best_x + kCentre, best_y + kCentre);
+    }
+}
+
+} // namespace
+
+Pslg build_pslg(const std::vector<Polyline>& simplified, int width, int height, const Image& image,
+                const InteriorOptions& options) {
+  if (width < 1 || height < 1) throw std::invalid_argument("build_pslg: width and height must be >= 1");
+  const bool have_image = !image.rgba.empty();
+  if (have_image && (image.width != width || image.height != height ||
+                     image.rgba.size() != static_cast<std::size_t>(width) * height * 4))
+    throw std::invalid_argument("build_pslg: image must be empty or width x height");
+  if (options.cell_size_px < 0 || !(options.min_std_dev >= 0.0))
+    throw std::invalid_argument("build_pslg: cell_size_px and min_std_dev must be >= 0");
+  for (const Polyline& line : simplified)
+    for (const PixelPoint& p : line.points)
+      if (p.x < 0 || p.y < 0 || p.x >= width || p.y >= height)
+        throw std::invalid_argument("build_pslg: polyline point outside the image");
+
+  Builder builder;
+  for (const Polyline& line : simplified) {
+    const std::size_t n = line.points.size();
+    std::vector<std::uint32_t> ids(n);
+    for (std::size_t i = 0; i < n; ++i) ids[i] = builder.pixel_point(line.points[i]);
+    for (std::size_t i = 0; i + 1 < n; ++i) builder.segment(ids[i], ids[i + 1]);
+    if (line.closed && n >= 3) builder.segment(ids[n - 1], ids[0]);
+  }
+
+  // Border points as (side, position along the side); sides 0 top, 1 right, 2 bottom, 3 left.
+  const double w = width;
+  const double h = height;
+  std::array<std::vector<std::pair<double, std::uint32_t>>, 4> sides;
+  const std::array<std::uint32_t, 4> corners = {builder.free_point(0.0, 0.0), builder.free_point(w, 0.0),
+                                                builder.free_point(w, h), builder.free_point(0.0, h)};
+  for (int s = 0; s < 4; ++s) {
+    const double along = (s == 0 || s == 2) ? w : h;
+    sides[s].push_back({0.0, corners[s]});
+    sides[s].push_back({along, corners[(s + 1) % 4]});
+  }
+  // A dangling end in the outermost pixel ring would leave a half-pixel gap to the border through which
+  // the regions on its two sides would connect; a segment straight out to the border closes it.
+  std::unordered_set<std::uint32_t> extended;
+  for (const Polyline& line : simplified) {
+    if (line.closed || line.points.empty()) continue;
+    for (const PixelPoint& p : {line.points.front(), line.points.back()}) {
+      const std::uint32_t id = builder.pixel_point(p);
+      if (builder.degree(id) > 1 || !extended.insert(id).second) continue;
+      const double cx = p.x + kCentre;
+      const double cy = p.y + kCentre;
+      std::uint32_t border = 0;
+      if (p.x == 0) {
+        border = builder.free_point(0.0, cy);
+        sides[3].push_back({h - cy, border});
+      } else if (p.x == width - 1) {
+        border = builder.free_point(w, cy);
+        sides[1].push_back({cy, border});
+      } else if (p.y == 0) {
+        border = builder.free_point(cx, 0.0);
+        sides[0].push_back({cx, border});
+      } else if (p.y == height - 1) {
+        border = builder.free_point(cx, h);
+        sides[2].push_back({w - cx, border});
+      } else {
+        continue;
+      }
+      builder.segment(id, border);
+    }
+  }
+  const std::size_t num_constrained = builder.pslg().segments.size();
+  for (auto& side : sides) {
+    std::sort(side.begin(), side.end());
+    for (std::size_t i = 0; i + 1 < side.size(); ++i) builder.segment(side[i].second, side[i + 1].second);
+  }
+
+  if (have_image && options.cell_size_px > 0) add_interior_points(builder, image, options, num_constrained);
+  return std::move(builder.pslg());
+}
+
+} // namespace vectorize

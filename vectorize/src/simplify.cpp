@@ -1,0 +1,382 @@
+// Stage 4: topology-preserving polyline simplification. Greedy point removal in order of deviation
+// (in the spirit of Visvalingam and Whyatt, "Line generalisation by repeated elimination of points",
+// 1993, with the Hausdorff deviation from the original chain as the cost and a hard tolerance), where
+// a removal is accepted only when the new segment meets no other segment and sweeps over no point,
+// checked with exact orientation tests against the segments of a uniform grid.
+#include "vectorize/simplify.hpp"
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <cstddef>
+#include <cstdint>
+#include <limits>
+#include <optional>
+#include <queue>
+#include <stdexcept>
+#include <vector>
+
+#include "cdt/detail/predicates.hpp"
+
+namespace vectorize {
+namespace {
+
+struct Vec {
+  double x = 0.0;
+  double y = 0.0;
+  friend bool operator==(const Vec&, const Vec&) = default;
+};
+
+// Pixel coordinates are small integers, so every product in these tests is exact even without the
+// expansion arithmetic; orient2d keeps them exact for any input anyway.
+int orient(const Vec& a, const Vec& b, const Vec& c) {
+  return cdt::detail::orient2d(a.x, a.y, b.x, b.y, c.x, c.y);
+}
+
+// p on the closed segment ab, given that a, b, p are collinear.
+bool within_box(const Vec& a, const Vec& b, const Vec& p) {
+  return std::min(a.x, b.x) <= p.x && p.x <= std::max(a.x, b.x) && std::min(a.y, b.y) <= p.y &&
+         p.y <= std::max(a.y, b.y);
+}
+
+bool on_segment(const Vec& a, const Vec& b, const Vec& p) {
+  return orient(a, b, p) == 0 && within_box(a, b, p);
+}
+
+// Closed segments ab and cd share at least one point.
+bool segments_meet(const Vec& a, const Vec& b, const Vec& c, const Vec& d) {
+  const int o1 = orient(a, b, c);
+  const int o2 = orient(a, b, d);
+  const int o3 = orient(c, d, a);
+  const int o4 = orient(c, d, b);
+  if (o1 * o2 < 0 && o3 * o4 < 0) return true;
+  return (o1 == 0 && within_box(a, b, c)) || (o2 == 0 && within_box(a, b, d)) ||
+         (o3 == 0 && within_box(c, d, a)) || (o4 == 0 && within_box(c, d, b));
+}
+
+// p in the closed triangle abc (which may be degenerate).
+bool in_triangle(const Vec& a, const Vec& b, const Vec& c, const Vec& p) {
+  const int o = orient(a, b, c);
+  if (o == 0) return on_segment(a, b, p) || on_segment(b, c, p) || on_segment(a, c, p);
+  const int s1 = orient(a, b, p);
+  const int s2 = orient(b, c, p);
+  const int s3 = orient(c, a, p);
+  return s1 * o >= 0 && s2 * o >= 0 && s3 * o >= 0;
+}
+
+// Distance from p to the segment ab; exactly 0 for a point on it (the cross product of integer
+// coordinates is exact), so that tolerance 0 removes the middle points of straight runs.
+double distance_to_segment(const Vec& a, const Vec& b, const Vec& p) {
+  const double dx = b.x - a.x;
+  const double dy = b.y - a.y;
+  if ((p.x - a.x) * dx + (p.y - a.y) * dy <= 0.0) return std::hypot(p.x - a.x, p.y - a.y);
+  if ((p.x - b.x) * dx + (p.y - b.y) * dy >= 0.0) return std::hypot(p.x - b.x, p.y - b.y);
+  return std::abs(dx * (p.y - a.y) - dy * (p.x - a.x)) / std::hypot(dx, dy);
+}
+
+struct Segment {
+  Vec a;
+  Vec b;
+  bool alive = true;
+};
+
+// Uniform grid of segment ids. A segment is entered in every cell its (slightly widened) extent meets
+// row by row, so two segments that meet share a cell. Dead ids are dropped lazily while querying.
+class SegmentGrid {
+public:
+  SegmentGrid(Vec lo, Vec hi, double cell) : lo_(lo), cell_(cell) {
+    nx_ = static_cast<int>(std::floor((hi.x - lo.x) / cell)) + 1;
+    ny_ = static_cast<int>(std::floor((hi.y - lo.y) / cell)) + 1;
+    cells_.resize(static_cast<std::size_t>(nx_) * ny_);
+  }
+
+  void insert(std::uint32_t id, const Vec& a, const Vec& b) {
+    const std::array<Vec, 3> poly = {a, b, b};
+    for_cells(poly, 2, [&](std::vector<std::uint32_t>& cell) { cell.push_back(id); });
+  }
+
+  // Calls f(id) once for every live segment in the cells met by the polygon (2 or 3 points, convex).
+  template <class F>
+  void query(const std::array<Vec, 3>& poly, int n, const std::vector<Segment>& segments, F&& f) {
+    ++stamp_;
+    if (seen_.size() < segments.size()) seen_.resize(segments.size() * 2, 0);
+    for_cells(poly, n, [&](std::vector<std::uint32_t>& cell) {
+      for (std::size_t i = 0; i < cell.size();) {
+        const std::uint32_t id = cell[i];
+        if (!segments[id].alive) {
+          cell[i] = cell.back();
+          cell.pop_back();
+          continue;
+        }
+        ++i;
+        if (seen_[id] == stamp_) continue;
+        seen_[id] = stamp_;
+        f(id);
+      }
+    });
+  }
+
+private:
+  int col(double x) const {
+    return std::clamp(static_cast<int>(std::floor((x - lo_.x) / cell_)), 0, nx_ - 1);
+  }
+  int row(double y) const {
+    return std::clamp(static_cast<int>(std::floor((y - lo_.y) / cell_)), 0, ny_ - 1);
+  }
+
+  template <class F>
+  void for_cells(const std::array<Vec, 3>& poly, int n, F&& f) {
+    const double margin = 1e-3 * cell_;
+    double ymin = poly[0].y;
+    double ymax = poly[0].y;
+    for (int i = 1; i < n; ++i) {
+      ymin = std::min(ymin, poly[i].y);
+      ymax = std::max(ymax, poly[i].y);
+    }
+    const int r0 = row(ymin - margin);
+    const int r1 = row(ymax + margin);
+    for (int r = r0; r <= r1; ++r) {
+      const double band_lo = std::max(ymin, lo_.y + r * cell_ - margin);
+      const double band_hi = std::min(ymax, lo_.y + (r + 1) * cell_ + margin);
+      double xmin = std::numeric_limits<double>::infinity();
+      double xmax = -xmin;
+      for (int i = 0; i < n; ++i) {
+        const Vec& p = poly[i];
+        const Vec& q = poly[(i + 1) % n];
+        const double ey_lo = std::min(p.y, q.y);
+        const double ey_hi = std::max(p.y, q.y);
+        if (ey_hi < band_lo || ey_lo > band_hi) continue;
+        if (p.y == q.y) {
+          xmin = std::min({xmin, p.x, q.x});
+          xmax = std::max({xmax, p.x, q.x});
+          continue;
+        }
+        for (const double y : {std::max(ey_lo, band_lo), std::min(ey_hi, band_hi)}) {
+          const double x = p.x + (q.x - p.x) * (y - p.y) / (q.y - p.y);
+          xmin = std::min(xmin, x);
+          xmax = std::max(xmax, x);
+        }
+      }
+      if (xmin > xmax) continue;
+      const int c0 = col(xmin - margin);
+      const int c1 = col(xmax + margin);
+      for (int c = c0; c <= c1; ++c) f(cells_[static_cast<std::size_t>(r) * nx_ + c]);
+    }
+  }
+
+  Vec lo_;
+  double cell_;
+  int nx_ = 1;
+  int ny_ = 1;
+  std::vector<std::vector<std::uint32_t>> cells_;
+  std::vector<std::uint32_t> seen_;
+  std::uint32_t stamp_ = 0;
+};
+
+struct ChainState {
+  std::vector<Vec> points; // the original points, consecutive duplicates dropped
+  bool closed = false;
+  std::vector<int> prev;
+  std::vector<int> next;
+  std::vector<std::uint32_t> segment_from; // id of the live segment from i to next[i]
+  std::vector<std::uint32_t> version;
+  std::vector<std::uint8_t> alive;
+  int num_alive = 0;
+  int min_alive = 2;
+};
+
+struct Candidate {
+  double cost;
+  std::uint32_t chain;
+  std::uint32_t vertex;
+  std::uint32_t version;
+  // A min-heap on cost; ties in input order so the result is deterministic.
+  bool operator<(const Candidate& o) const {
+    if (cost != o.cost) return cost > o.cost;
+    if (chain != o.chain) return chain > o.chain;
+    return vertex > o.vertex;
+  }
+};
+
+class Simplifier {
+public:
+  Simplifier(const std::vector<Chain>& chains, double tolerance) : tolerance_(tolerance) {
+    Vec lo{std::numeric_limits<double>::infinity(), std::numeric_limits<double>::infinity()};
+    Vec hi{-lo.x, -lo.y};
+    states_.resize(chains.size());
+    for (std::size_t c = 0; c < chains.size(); ++c) {
+      ChainState& s = states_[c];
+      s.closed = chains[c].closed;
+      for (const PixelPoint& p : chains[c].points) {
+        const Vec v{static_cast<double>(p.x), static_cast<double>(p.y)};
+        if (!s.points.empty() && s.points.back() == v) continue;
+        s.points.push_back(v);
+        lo = {std::min(lo.x, v.x), std::min(lo.y, v.y)};
+        hi = {std::max(hi.x, v.x), std::max(hi.y, v.y)};
+      }
+      if (s.closed && s.points.size() > 1 && s.points.front() == s.points.back()) s.points.pop_back();
+    }
+    if (!(lo.x <= hi.x)) lo = hi = Vec{};
+    // Cells of a few pixels suit image chains; the cap keeps sparse, far-flung input from allocating a
+    // huge grid.
+    const double extent = std::max(hi.x - lo.x, hi.y - lo.y);
+    const double cell = std::max({8.0, 2.0 * tolerance_, extent / 2048.0});
+    grid_.emplace(lo, hi, cell);
+
+    for (ChainState& s : states_) {
+      const int n = static_cast<int>(s.points.size());
+      s.prev.resize(n);
+      s.next.resize(n);
+      s.segment_from.assign(n, kNoSegment);
+      s.version.assign(n, 0);
+      s.alive.assign(n, 1);
+      s.num_alive = n;
+      s.min_alive = s.closed ? 3 : (n > 1 && s.points.front() == s.points.back() ? 4 : 2);
+      for (int i = 0; i < n; ++i) {
+        s.prev[i] = s.closed ? (i + n - 1) % n : i - 1;
+        s.next[i] = s.closed ? (i + 1) % n : i + 1;
+      }
+      const int num_segments = s.closed ? (n >= 3 ? n : 0) : n - 1;
+      for (int i = 0; i < num_segments; ++i)
+        s.segment_from[i] = add_segment(s.points[i], s.points[s.next[i]]);
+    }
+  }
+
+  void run() {
+    // Removing a point can unblock another (a point that stood in a triangle is gone), so passes repeat
+    // while they make progress; each pass is near-linear.
+    for (int pass = 0; pass < 8; ++pass) {
+      std::priority_queue<Candidate> queue;
+      for (std::uint32_t c = 0; c < states_.size(); ++c)
+        for (int v = 0; v < static_cast<int>(states_[c].points.size()); ++v) push(queue, c, v);
+      bool blocked = false;
+      std::size_t removed = 0;
+      while (!queue.empty()) {
+        const Candidate cand = queue.top();
+        queue.pop();
+        ChainState& s = states_[cand.chain];
+        const int v = static_cast<int>(cand.vertex);
+        if (!s.alive[v] || s.version[v] != cand.version || s.num_alive <= s.min_alive) continue;
+        if (!removable(s, v)) {
+          blocked = true;
+          continue;
+        }
+        remove(s, v);
+        ++removed;
+        push(queue, cand.chain, s.prev[v]);
+        push(queue, cand.chain, s.next[v]);
+      }
+      if (!blocked || removed == 0) break;
+    }
+  }
+
+  std::vector<Polyline> result() const {
+    std::vector<Polyline> out(states_.size());
+    for (std::size_t c = 0; c < states_.size(); ++c) {
+      const ChainState& s = states_[c];
+      out[c].closed = s.closed;
+      for (std::size_t i = 0; i < s.points.size(); ++i)
+        if (s.alive[i])
+          out[c].points.push_back({static_cast<int>(s.points[i].x), static_cast<int>(s.points[i].y)});
+    }
+    return out;
+  }
+
+private:
+  static constexpr std::uint32_t kNoSegment = std::numeric_limits<std::uint32_t>::max();
+
+  std::uint32_t add_segment(const Vec& a, const Vec& b) {
+    const auto id = static_cast<std::uint32_t>(segments_.size());
+    segments_.push_back({a, b, true});
+    grid_->insert(id, a, b);
+    return id;
+  }
+
+  bool interior(const ChainState& s, int v) const {
+    if (s.closed) return s.points.size() >= 3;
+    return v > 0 && v + 1 < static_cast<int>(s.points.size());
+  }
+
+  // The largest distance of the original points from u to w (exclusive) to the segment uw.
+  double deviation(const ChainState& s, int u, int w) const {
+    const int n = static_cast<int>(s.points.size());
+    double worst = 0.0;
+    for (int i = (u + 1) % n; i != w; i = (i + 1) % n)
+      worst = std::max(worst, distance_to_segment(s.points[u], s.points[w], s.points[i]));
+    return worst;
+  }
+
+  void push(std::priority_queue<Candidate>& queue, std::uint32_t c, int v) {
+    const ChainState& s = states_[c];
+    if (!s.alive[v] || !interior(s, v) || s.num_alive <= s.min_alive) return;
+    const int u = s.prev[v];
+    const int w = s.next[v];
+    if (s.points[u] == s.points[w]) return;
+    const double cost = deviation(s, u, w);
+    if (cost <= tolerance_) queue.push({cost, c, static_cast<std::uint32_t>(v), s.version[v]});
+  }
+
+  // Whether replacing u-v-w by u-w creates no contact with another segment and sweeps over no point.
+  bool removable(const ChainState& s, int v) {
+    const int u = s.prev[v];
+    const int w = s.next[v];
+    const Vec& pu = s.points[u];
+    const Vec& pv = s.points[v];
+    const Vec& pw = s.points[w];
+    const std::uint32_t skip_a = s.segment_from[u];
+    const std::uint32_t skip_b = s.segment_from[v];
+    bool ok = true;
+    grid_->query({pu, pv, pw}, 3, segments_, [&](std::uint32_t id) {
+      if (!ok || id == skip_a || id == skip_b) return;
+      const Segment& t = segments_[id];
+      const bool a_shared = t.a == pu || t.a == pw;
+      const bool b_shared = t.b == pu || t.b == pw;
+      if (a_shared && b_shared) {
+        ok = false; // the same segment twice, or a zero-length one at an end
+      } else if (a_shared || b_shared) {
+        const Vec& p = a_shared ? t.a : t.b;
+        const Vec& r = a_shared ? t.b : t.a;
+        const Vec& q = p == pu ? pw : pu;
+        const bool overlap =
+            orient(p, q, r) == 0 && (q.x - p.x) * (r.x - p.x) + (q.y - p.y) * (r.y - p.y) > 0.0;
+        if (overlap || in_triangle(pu, pv, pw, r)) ok = false;
+      } else if (segments_meet(pu, pw, t.a, t.b) || in_triangle(pu, pv, pw, t.a) ||
+                 in_triangle(pu, pv, pw, t.b)) {
+        ok = false;
+      }
+    });
+    return ok;
+  }
+
+  void remove(ChainState& s, int v) {
+    const int u = s.prev[v];
+    const int w = s.next[v];
+    segments_[s.segment_from[u]].alive = false;
+    segments_[s.segment_from[v]].alive = false;
+    s.segment_from[v] = kNoSegment;
+    s.segment_from[u] = add_segment(s.points[u], s.points[w]);
+    s.alive[v] = 0;
+    --s.num_alive;
+    s.next[u] = w;
+    s.prev[w] = u;
+    ++s.version[u];
+    ++s.version[w];
+  }
+
+  double tolerance_;
+  std::vector<ChainState> states_;
+  std::vector<Segment> segments_;
+  std::optional<SegmentGrid> grid_;
+};
+
+} // namespace
+
+std::vector<Polyline> simplify_chains(const std::vector<Chain>& chains, double tolerance_px) {
+  if (!(tolerance_px >= 0.0) || !std::isfinite(tolerance_px))
+    throw std::invalid_argument("simplify_chains: tolerance_px must be finite and >= 0");
+  Simplifier simplifier(chains, tolerance_px);
+  simplifier.run();
+  return simplifier.result();
+}
+
+} // namespace vectorize

@@ -1,0 +1,158 @@
+// Stage 10: SVG output. Coordinates are quantised to integers once (units of 10^-precision pixels) and
+// relative moves are differences of those integers, so relative path data never drift and a vertex
+// shared by two regions lands on the same spot in both paths.
+
+#include "vectorize/svg.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <numeric>
+#include <stdexcept>
+
+namespace vectorize {
+namespace {
+
+// Appends path commands and numbers, leaving out every separator the SVG path grammar can do without.
+class PathData {
+public:
+  explicit PathData(int decimals) : decimals_(decimals) {}
+
+  // A command letter; a repeat of the previous one is implied by the grammar (except after moveto,
+  // whose implied repeat is an absolute lineto, so it is never elided here).
+  void command(char letter) {
+    if (letter == last_command_ && letter != 'M' && letter != 'z') return;
+    text_ += letter;
+    last_command_ = letter;
+    previous_had_point_ = false;
+    after_command_ = true;
+  }
+
+  void number(std::int64_t units) {
+    const std::string n = compact_decimal(units, decimals_);
+    const bool needs_separator =
+        !after_command_ && n.front() != '-' && !(n.front() == '.' && previous_had_point_);
+    if (needs_separator) text_ += ' ';
+    text_ += n;
+    previous_had_point_ = n.find('.') != std::string::npos;
+    after_command_ = false;
+  }
+
+  const std::string& text() const { return text_; }
+
+private:
+  int decimals_;
+  std::string text_;
+  char last_command_ = 0;
+  bool previous_had_point_ = false;
+  bool after_command_ = true;
+};
+
+std::string path_data(const RegionPolygon& polygon, int precision) {
+  const double scale = std::pow(10.0, precision);
+  PathData d(precision);
+  for (const Ring& ring : polygon.rings) {
+    std::int64_t x = std::llround(ring.points.front().x * scale);
+    std::int64_t y = std::llround(ring.points.front().y * scale);
+    d.command('M');
+    d.number(x);
+    d.number(y);
+    for (std::size_t k = 1; k < ring.points.size(); ++k) {
+      const std::int64_t nx = std::llround(ring.points[k].x * scale);
+      const std::int64_t ny = std::llround(ring.points[k].y * scale);
+      const std::int64_t dx = nx - x;
+      const std::int64_t dy = ny - y;
+      if (dx == 0 && dy == 0) continue; // two vertices closer than the precision: one is enough
+      if (dy == 0) {
+        d.command('h');
+        d.number(dx);
+      } else if (dx == 0) {
+        d.command('v');
+        d.number(dy);
+      } else {
+        d.command('l');
+        d.number(dx);
+        d.number(dy);
+      }
+      x = nx;
+      y = ny;
+    }
+    d.command('z');
+  }
+  return d.text();
+}
+
+} // namespace
+
+std::string compact_decimal(std::int64_t units, int decimals) {
+  std::string digits = std::to_string(units < 0 ? -static_cast<std::uint64_t>(units) : units);
+  if (static_cast<int>(digits.size()) <= decimals)
+    digits.insert(0, static_cast<std::size_t>(decimals) + 1 - digits.size(), '0');
+  std::string whole = digits.substr(0, digits.size() - static_cast<std::size_t>(decimals));
+  std::string fraction = digits.substr(whole.size());
+  while (!fraction.empty() && fraction.back() == '0') fraction.pop_back();
+  if (whole == "0" && !fraction.empty()) whole.clear(); // ".5" is a valid SVG number
+  std::string out = units < 0 ? "-" : "";
+  out += whole;
+  if (!fraction.empty()) out += "." + fraction;
+  return out;
+}
+
+std::string svg_colour(const std::array<float, 3>& rgb) {
+  static constexpr char hex[] = "0123456789abcdef";
+  int byte[3];
+  for (int c = 0; c < 3; ++c)
+    byte[c] = static_cast<int>(std::lround(std::clamp(static_cast<double>(rgb[c]), 0.0, 1.0) * 255.0));
+  const bool short_form = std::all_of(byte, byte + 3, [](int b) { return b % 17 == 0; });
+  std::string out = "#";
+  for (int c = 0; c < 3; ++c) {
+    if (short_form) {
+      out += hex[byte[c] / 17];
+    } else {
+      out += hex[byte[c] >> 4];
+      out += hex[byte[c] & 15];
+    }
+  }
+  return out;
+}
+
+void write_svg(std::ostream& out, const std::vector<RegionPolygon>& polygons, const Regions& regions,
+               int width, int height, const SvgOptions& options) {
+  if (options.precision < 0 || options.precision > 6)
+    throw std::invalid_argument("write_svg: precision must be 0 to 6, got " +
+                                std::to_string(options.precision));
+  if (!(options.seam_width >= 0)) throw std::invalid_argument("write_svg: seam_width must be >= 0");
+
+  std::vector<std::size_t> order(polygons.size());
+  std::iota(order.begin(), order.end(), std::size_t{0});
+  std::stable_sort(order.begin(), order.end(), [&](std::size_t a, std::size_t b) {
+    const Region& ra = regions.regions[polygons[a].region];
+    const Region& rb = regions.regions[polygons[b].region];
+    if (ra.area != rb.area) return ra.area > rb.area;
+    return polygons[a].region < polygons[b].region;
+  });
+
+  const std::string w = std::to_string(width);
+  const std::string h = std::to_string(height);
+  out << "<?xml version=\"1.0\" encoding=\"UTF-8\"?>\n"
+      << "<svg xmlns=\"http://www.w3.org/2000/svg\" width=\"" << w << "\" height=\"" << h
+      << "\" viewBox=\"0 0 " << w << ' ' << h << "\">\n";
+  const bool seams = options.seams && options.seam_width > 0;
+  if (seams) {
+    // The seam width as a compact number at a fixed 3 decimals.
+    const std::string seam = compact_decimal(std::llround(options.seam_width * 1000.0), 3);
+    out << "<g stroke-width=\"" << seam << "\" stroke-linejoin=\"round\">\n";
+  }
+  for (std::size_t index : order) {
+    const RegionPolygon& polygon = polygons[index];
+    const Region& region = regions.regions[polygon.region];
+    if (region.transparent || polygon.rings.empty()) continue;
+    const std::string colour = svg_colour(region.rgb);
+    out << "<path fill=\"" << colour << '"';
+    if (seams) out << " stroke=\"" << colour << '"';
+    out << " d=\"" << path_data(polygon, options.precision) << "\"/>\n";
+  }
+  if (seams) out << "</g>\n";
+  out << "</svg>\n";
+}
+
+} // namespace vectorize

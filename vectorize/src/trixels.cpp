@@ -1,0 +1,165 @@
+// Stage 7: trixel colours (Prasad and Skourikhine 2006, sec. 2: the colour of a triangle is the mean
+// of the pixels it covers). The fill rule is a symbolic perturbation of the pixel centre, decided with
+// the engine's exact orient2d, so that centres on shared edges and vertices are counted exactly once.
+
+#include "vectorize/trixels.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <cstddef>
+
+#include "cdt/detail/predicates.hpp"
+
+namespace vectorize {
+namespace {
+
+// Does the interior of the counter-clockwise triangle abc contain p + (eps, eps^2) for an infinitesimal
+// eps > 0? On edge a->b (interior on its left) the perturbed point's orientation is
+// orient(a, b, p) + (b.x - a.x) eps^2 - (b.y - a.y) eps, so a zero orientation is decided by the sign
+// of -(b.y - a.y), then of (b.x - a.x). The perturbed point never lies on a line through p, hence in
+// exactly one triangle of a mesh that covers a neighbourhood of p.
+bool owns(const cdt::Point& a, const cdt::Point& b, const cdt::Point& c, double px, double py) {
+  const cdt::Point* v[3] = {&a, &b, &c};
+  for (int i = 0; i < 3; ++i) {
+    const cdt::Point& s = *v[i];
+    const cdt::Point& e = *v[(i + 1) % 3];
+    const int o = cdt::detail::orient2d(s.x, s.y, e.x, e.y, px, py);
+    if (o < 0) return false;
+    if (o == 0 && !(e.y < s.y || (e.y == s.y && e.x > s.x))) return false;
+  }
+  return true;
+}
+
+// Calls visit(triangle, row, x_begin, x_end) for each run of pixels [x_begin, x_end) of a row whose
+// centres the triangle owns. Rows and runs are first estimated in floating point, then every candidate
+// is decided exactly; the estimate is off by far less than a pixel, so probing one pixel beyond each
+// end finds the exact run (a convex set meets a row of centres in one run).
+template <class Visit>
+void for_each_run(int width, int height, const cdt::Triangulation& t, Visit&& visit) {
+  if (width <= 0 || height <= 0) return;
+  for (std::uint32_t tri = 0; tri < t.triangles.size(); ++tri) {
+    const cdt::Point& a = t.vertices[t.triangles[tri][0]];
+    const cdt::Point& b = t.vertices[t.triangles[tri][1]];
+    const cdt::Point& c = t.vertices[t.triangles[tri][2]];
+    const double y_min = std::min({a.y, b.y, c.y});
+    const double y_max = std::max({a.y, b.y, c.y});
+    // One row of slack on each side absorbs the rounding of y - 0.5.
+    const double row_lo = std::clamp(std::ceil(y_min - 0.5) - 1.0, 0.0, static_cast<double>(height - 1));
+    const double row_hi = std::clamp(std::floor(y_max - 0.5) + 1.0, 0.0, static_cast<double>(height - 1));
+    for (int row = static_cast<int>(row_lo); row <= static_cast<int>(row_hi); ++row) {
+      const double yc = row + 0.5;
+      double x_lo = INFINITY;
+      double x_hi = -INFINITY;
+      const cdt::Point* v[3] = {&a, &b, &c};
+      for (int i = 0; i < 3; ++i) {
+        const cdt::Point& s = *v[i];
+        const cdt::Point& e = *v[(i + 1) % 3];
+        if (yc < std::min(s.y, e.y) || yc > std::max(s.y, e.y)) continue;
+        double x0 = s.x;
+        double x1 = e.x;
+        if (s.y != e.y) {
+          const double x = s.x + (yc - s.y) * (e.x - s.x) / (e.y - s.y);
+          x0 = x1 = std::clamp(x, std::min(s.x, e.x), std::max(s.x, e.x));
+        }
+        x_lo = std::min({x_lo, x0, x1});
+        x_hi = std::max({x_hi, x0, x1});
+      }
+      if (x_lo > x_hi) continue; // the row misses the triangle
+      const int first =
+          static_cast<int>(std::clamp(std::ceil(x_lo - 0.5) - 1.0, 0.0, static_cast<double>(width - 1)));
+      const int last =
+          static_cast<int>(std::clamp(std::floor(x_hi - 0.5) + 1.0, 0.0, static_cast<double>(width - 1)));
+      int begin = first;
+      while (begin <= last && !owns(a, b, c, begin + 0.5, yc)) ++begin;
+      if (begin > last) continue;
+      while (begin > 0 && owns(a, b, c, begin - 0.5, yc)) --begin;
+      int end = begin + 1;
+      while (end < width && owns(a, b, c, end + 0.5, yc)) ++end;
+      visit(tri, row, begin, end);
+    }
+  }
+}
+
+// Bilinear interpolation between pixel centres, clamped at the border, of premultiplied colour so that
+// the RGB under transparent pixels does not bleed in.
+std::array<float, 4> sample(const Image& image, double x, double y) {
+  const double fx = std::clamp(x - 0.5, 0.0, static_cast<double>(image.width - 1));
+  const double fy = std::clamp(y - 0.5, 0.0, static_cast<double>(image.height - 1));
+  const int x0 = static_cast<int>(fx);
+  const int y0 = static_cast<int>(fy);
+  const int x1 = std::min(x0 + 1, image.width - 1);
+  const int y1 = std::min(y0 + 1, image.height - 1);
+  const double tx = fx - x0;
+  const double ty = fy - y0;
+  const float* p[4] = {image.pixel(x0, y0), image.pixel(x1, y0), image.pixel(x0, y1), image.pixel(x1, y1)};
+  const double w[4] = {(1 - tx) * (1 - ty), tx * (1 - ty), (1 - tx) * ty, tx * ty};
+  double premultiplied[3] = {0, 0, 0};
+  double straight[3] = {0, 0, 0};
+  double alpha = 0;
+  for (int k = 0; k < 4; ++k) {
+    for (int ch = 0; ch < 3; ++ch) {
+      premultiplied[ch] += w[k] * p[k][ch] * p[k][3];
+      straight[ch] += w[k] * p[k][ch];
+    }
+    alpha += w[k] * p[k][3];
+  }
+  std::array<float, 4> out{};
+  for (int ch = 0; ch < 3; ++ch)
+    out[ch] = static_cast<float>(alpha > 0 ? premultiplied[ch] / alpha : straight[ch]);
+  out[3] = static_cast<float>(alpha);
+  return out;
+}
+
+} // namespace
+
+std::vector<std::uint32_t> owner_of_pixels(int width, int height, const cdt::Triangulation& t) {
+  std::vector<std::uint32_t> owner(static_cast<std::size_t>(std::max(width, 0)) * std::max(height, 0),
+                                   cdt::kNone);
+  for_each_run(width, height, t, [&](std::uint32_t tri, int row, int begin, int end) {
+    std::fill_n(owner.begin() + static_cast<std::ptrdiff_t>(row) * width + begin, end - begin, tri);
+  });
+  return owner;
+}
+
+TrixelColours colour_trixels(const Image& image, const cdt::Triangulation& t) {
+  struct Sums {
+    double premultiplied[3] = {0, 0, 0};
+    double straight[3] = {0, 0, 0};
+    double alpha = 0;
+  };
+  std::vector<Sums> sums(t.triangles.size());
+  TrixelColours trixels(t.triangles.size());
+  for_each_run(image.width, image.height, t, [&](std::uint32_t tri, int row, int begin, int end) {
+    Sums& s = sums[tri];
+    for (int x = begin; x < end; ++x) {
+      const float* p = image.pixel(x, row);
+      for (int ch = 0; ch < 3; ++ch) {
+        s.premultiplied[ch] += static_cast<double>(p[ch]) * p[3];
+        s.straight[ch] += p[ch];
+      }
+      s.alpha += p[3];
+    }
+    trixels[tri].pixel_count += static_cast<std::uint32_t>(end - begin);
+  });
+
+  for (std::size_t tri = 0; tri < t.triangles.size(); ++tri) {
+    Trixel& trixel = trixels[tri];
+    const cdt::Point& a = t.vertices[t.triangles[tri][0]];
+    const cdt::Point& b = t.vertices[t.triangles[tri][1]];
+    const cdt::Point& c = t.vertices[t.triangles[tri][2]];
+    trixel.area = 0.5 * std::abs((b.x - a.x) * (c.y - a.y) - (b.y - a.y) * (c.x - a.x));
+    if (trixel.pixel_count == 0) {
+      if (image.width > 0 && image.height > 0)
+        trixel.rgba = sample(image, (a.x + b.x + c.x) / 3.0, (a.y + b.y + c.y) / 3.0);
+      continue;
+    }
+    const Sums& s = sums[tri];
+    const double n = trixel.pixel_count;
+    for (int ch = 0; ch < 3; ++ch)
+      trixel.rgba[ch] = static_cast<float>(s.alpha > 0 ? s.premultiplied[ch] / s.alpha : s.straight[ch] / n);
+    trixel.rgba[3] = static_cast<float>(s.alpha / n);
+  }
+  return trixels;
+}
+
+} // namespace vectorize
