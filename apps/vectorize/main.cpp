@@ -3,14 +3,21 @@
 
 #include <CLI/CLI.hpp>
 
+#include <unistd.h>
+
+#include <atomic>
+#include <chrono>
+#include <csignal>
 #include <cstdio>
 #include <filesystem>
+#include <fstream>
 #include <iostream>
 #include <optional>
 #include <string>
 #include <system_error>
 
 #include "cdt/errors.hpp"
+#include "vectorize/batch.hpp"
 #include "vectorize/errors.hpp"
 #include "vectorize/image.hpp"
 #include "vectorize/pipeline.hpp"
@@ -38,6 +45,131 @@ void print_stats_text(const vectorize::Stats& s, const std::filesystem::path& in
   std::fprintf(stderr, "  %-10s %10.2f\n", "total", s.total_milliseconds);
 }
 
+std::atomic<bool> g_stop{false};
+volatile std::sig_atomic_t g_interrupts = 0;
+
+// First Ctrl-C: no new image starts, the ones under way finish (their outputs are whole). Second:
+// abandon them, removing their temporary files, and exit at once.
+extern "C" void on_interrupt(int) {
+  g_interrupts = g_interrupts + 1;
+  g_stop.store(true);
+  if (g_interrupts >= 2) {
+    vectorize::remove_unfinished_outputs();
+    _exit(130);
+  }
+  static const char message[] =
+      "\nvectorize: stopping after the images under way (Ctrl-C again to abandon them)\n";
+  [[maybe_unused]] const auto ignored = ::write(2, message, sizeof message - 1);
+}
+
+std::string format_duration(double seconds) {
+  const auto s = static_cast<long>(seconds + 0.5);
+  char buf[32];
+  if (s >= 3600) {
+    std::snprintf(buf, sizeof buf, "%ld:%02ld:%02ld", s / 3600, s / 60 % 60, s % 60);
+  } else {
+    std::snprintf(buf, sizeof buf, "%ld:%02ld", s / 60, s % 60);
+  }
+  return buf;
+}
+
+struct BatchCli {
+  std::vector<std::filesystem::path> inputs;
+  std::filesystem::path out_dir;
+  std::filesystem::path from_list;
+  std::filesystem::path report;
+  bool recursive = false;
+  bool skip_existing = false;
+  unsigned jobs = 0;
+  std::size_t max_pixels = std::size_t{1} << 27;
+};
+
+int run_batch_cli(const BatchCli& cli, const vectorize::Options& options, bool quiet) {
+  using vectorize::JobStatus;
+  std::vector<std::filesystem::path> inputs = cli.inputs;
+  if (!cli.from_list.empty()) {
+    const auto listed = vectorize::read_input_list(cli.from_list);
+    inputs.insert(inputs.end(), listed.begin(), listed.end());
+  }
+  std::error_code ec;
+  std::filesystem::create_directories(cli.out_dir, ec);
+  if (!std::filesystem::is_directory(cli.out_dir, ec)) {
+    std::cerr << "vectorize: " << cli.out_dir.string() << ": cannot create the output directory\n";
+    return kExitFailure;
+  }
+  std::vector<std::string> collisions;
+  const std::vector<vectorize::BatchJob> jobs =
+      vectorize::plan_batch(inputs, cli.out_dir, cli.recursive, collisions);
+  for (const auto& c : collisions) std::cerr << "vectorize: " << c << '\n';
+  if (jobs.empty()) {
+    std::cerr << "vectorize: no images to convert" << (collisions.empty() ? "" : " (see above)") << '\n';
+    return kExitFailure;
+  }
+
+  const bool terminal = isatty(2) != 0;
+  const auto start = std::chrono::steady_clock::now();
+  std::size_t failures = 0;
+  vectorize::BatchOptions batch;
+  batch.conversion = options;
+  batch.workers = cli.jobs;
+  batch.skip_existing = cli.skip_existing;
+  batch.max_pixels = cli.max_pixels;
+  batch.stop = &g_stop;
+  batch.on_done = [&](const vectorize::JobResult& r, std::size_t done, std::size_t total) {
+    const double elapsed = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    if (r.status == JobStatus::failed) {
+      ++failures;
+      if (terminal && !quiet) std::fputs("\r\033[K", stderr);
+      std::fprintf(stderr, "vectorize: FAILED %s\n", r.error.c_str());
+    } else if (!quiet && !terminal) {
+      std::fprintf(stderr, "vectorize: [%zu/%zu] %s %s -> %s (%.2f s)\n", done, total,
+                   r.status == JobStatus::skipped ? "skipped (exists)" : "converted",
+                   r.job.input.string().c_str(), r.job.output.string().c_str(), r.seconds);
+    }
+    if (!quiet && terminal) {
+      const double rate = elapsed > 0 ? static_cast<double>(done) / elapsed : 0.0;
+      const double eta = rate > 0 ? static_cast<double>(total - done) / rate : 0.0;
+      constexpr int kWidth = 30;
+      const int filled = static_cast<int>(kWidth * done / total);
+      std::string bar(static_cast<std::size_t>(filled), '=');
+      bar.resize(kWidth, ' ');
+      std::fprintf(stderr, "\r\033[K[%s] %zu/%zu  %.1f img/s  ETA %s  failures %zu", bar.c_str(), done, total,
+                   rate, format_duration(eta).c_str(), failures);
+      if (done == total) std::fputc('\n', stderr);
+    }
+  };
+  const std::vector<vectorize::JobResult> results = vectorize::run_batch(jobs, batch);
+  const double wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  if (terminal && !quiet && results.size() < jobs.size()) std::fputc('\n', stderr);
+
+  std::size_t converted = 0, skipped = 0;
+  std::vector<const vectorize::JobResult*> failed;
+  for (const auto& r : results) {
+    converted += r.status == JobStatus::converted;
+    skipped += r.status == JobStatus::skipped;
+    if (r.status == JobStatus::failed) failed.push_back(&r);
+  }
+  const std::size_t not_started = jobs.size() - results.size();
+  if (!cli.report.empty()) {
+    try {
+      vectorize::write_file_atomically(cli.report, vectorize::batch_report_json(results, wall));
+    } catch (const vectorize::FileError& e) {
+      std::cerr << "vectorize: " << e.what() << '\n';
+      return kExitFailure;
+    }
+  }
+  if (!quiet || !failed.empty() || not_started > 0) {
+    std::fprintf(stderr, "vectorize: %zu converted, %zu skipped, %zu failed", converted, skipped,
+                 failed.size());
+    if (not_started > 0) std::fprintf(stderr, ", %zu not started (interrupted)", not_started);
+    std::fprintf(stderr, " in %.1f s (%.2f images/s)\n", wall,
+                 wall > 0 ? static_cast<double>(converted) / wall : 0.0);
+    for (const auto* r : failed) std::fprintf(stderr, "  failed: %s\n", r->error.c_str());
+  }
+  if (g_interrupts > 0) return 130;
+  return failed.empty() && collisions.empty() ? 0 : kExitFailure;
+}
+
 } // namespace
 
 int main(int argc, char** argv) {
@@ -46,23 +178,31 @@ int main(int argc, char** argv) {
                "grouping of its triangles (trixels) by colour. Transparent areas (alpha < 0.5) stay empty.",
                "vectorize"};
   app.set_version_flag("--version", std::string("vectorize ") + TRIXEL_VERSION);
-  app.footer("Presets set every knob; the options after --preset adjust it.\n"
-             "  logo          flat colours, crisp shapes (no interior points, broad colour merging)\n"
-             "  illustration  flat areas with some shading (default)\n"
-             "  photo         smooth shading everywhere (dense interior points, fine colour tolerance)\n"
-             "\n"
-             "Examples:\n"
-             "  vectorize samples/logo.png logo.svg --preset logo\n"
-             "  vectorize photo.jpg photo.svg --preset photo --stats\n"
-             "  vectorize scan.png scan.svg --colour-tolerance 6 --min-area 20 --simplify 1.5\n"
-             "  vectorize icon.png icon.svg --stats json -q\n"
-             "\n"
-             "Exit status: 0 on success, 1 on failure (the message names the file and the reason), 2 on bad\n"
-             "usage. The output is written to a temporary file and renamed, so a failure leaves no partial\n"
-             "file, and OUT may not be IN.");
+  app.footer(
+      "Presets set every knob; the options after --preset adjust it.\n"
+      "  logo          flat colours, crisp shapes (no interior points, broad colour merging)\n"
+      "  illustration  flat areas with some shading (default)\n"
+      "  photo         smooth shading everywhere (dense interior points, fine colour tolerance)\n"
+      "\n"
+      "Examples:\n"
+      "  vectorize samples/logo.png logo.svg --preset logo\n"
+      "  vectorize photo.jpg photo.svg --preset photo --stats\n"
+      "  vectorize scan.png scan.svg --colour-tolerance 6 --min-area 20 --simplify 1.5\n"
+      "  vectorize icon.png icon.svg --stats json -q\n"
+      "  vectorize photos/ -r -o svg/ -j 4 --report report.json     (batch: mirrors photos/ under svg/)\n"
+      "  find . -name '*.png' | vectorize --from-list - -o out/ --skip-existing\n"
+      "\n"
+      "Batch mode (-o OUTDIR): every image is tried; a bad one gets one line naming it and the reason,\n"
+      "the rest go on, and the summary lists the failures. Ctrl-C lets the images under way finish\n"
+      "(press it again to abandon them); rerun with --skip-existing to resume.\n"
+      "\n"
+      "Exit status: 0 on success, 1 on failure (the message names the file and the reason; in batch\n"
+      "mode, when any image failed), 2 on bad usage, 130 when interrupted. Outputs are written to a\n"
+      "temporary file and renamed, so a failure leaves no partial file, and an input is never\n"
+      "overwritten.");
 
-  std::filesystem::path input;
-  std::filesystem::path output;
+  std::vector<std::filesystem::path> positional;
+  BatchCli batch;
   std::string preset_name = "illustration";
   std::optional<double> colour_tolerance, min_area, simplify, blur, edge_low, edge_high, seam_width;
   std::optional<int> detail, precision;
@@ -71,8 +211,25 @@ int main(int argc, char** argv) {
   std::string stats_format;
   bool quiet = false;
   bool verbose = false;
-  app.add_option("IN", input, "Input raster image")->required();
-  app.add_option("OUT", output, "Output SVG file")->required();
+  app.add_option("IN OUT.svg | IN...", positional,
+                 "One image and its SVG; or, with -o, any number of images and directories");
+  auto* out_dir_option = app.add_option("-o,--output-dir", batch.out_dir,
+                                        "Batch mode: write IN... as SVGs under this directory (created if "
+                                        "missing), mirroring the input tree");
+  app.add_flag("-r,--recursive", batch.recursive, "Batch mode: also convert images in subdirectories");
+  app.add_option("--from-list", batch.from_list,
+                 "Batch mode: read more input paths from FILE, one per line ('-' = stdin)");
+  app.add_option("-j,--jobs", batch.jobs,
+                 "Batch mode: images converted at once (default: every core). Memory grows with it: about "
+                 "600 bytes per pixel of the largest image per worker, plus 100 MB")
+      ->check(CLI::Range(0u, 1024u));
+  app.add_flag("--skip-existing", batch.skip_existing,
+               "Batch mode: leave images whose SVG exists (resume a batch)");
+  app.add_option("--report", batch.report,
+                 "Batch mode: write a JSON report (status, error, times, counts per image)");
+  app.add_option("--max-pixels", batch.max_pixels, "Refuse images larger than this many pixels")
+      ->check(CLI::Range(std::size_t{1}, std::size_t{1} << 40))
+      ->capture_default_str();
   app.add_option("-p,--preset", preset_name, "Starting point: logo, illustration or photo")
       ->check(CLI::IsMember({"logo", "illustration", "photo"}))
       ->capture_default_str();
@@ -115,16 +272,19 @@ int main(int argc, char** argv) {
     return code == 0 ? 0 : kExitUsage;
   }
   if (app.count("--stats") > 0 && stats_format.empty()) stats_format = "text";
-
-  if (same_file(input, output)) {
-    std::cerr << "vectorize: refusing to overwrite the input " << input << " with the output\n";
+  const bool batch_mode = out_dir_option->count() > 0;
+  if (!batch_mode &&
+      (batch.recursive || !batch.from_list.empty() || batch.skip_existing || !batch.report.empty())) {
+    std::cerr << "vectorize: --recursive, --from-list, --skip-existing and --report need -o OUTDIR\n";
     return kExitUsage;
   }
-  const auto out_dir = output.has_parent_path() ? output.parent_path() : std::filesystem::path(".");
-  std::error_code ec;
-  if (!std::filesystem::is_directory(out_dir, ec)) {
-    std::cerr << "vectorize: " << output.string() << ": output directory " << out_dir << " does not exist\n";
-    return kExitFailure;
+  if (!batch_mode && positional.size() != 2) {
+    std::cerr << "vectorize: expected IN OUT.svg (or IN... -o OUTDIR); see --help\n";
+    return kExitUsage;
+  }
+  if (batch_mode && positional.empty() && batch.from_list.empty()) {
+    std::cerr << "vectorize: no inputs given (IN... or --from-list FILE)\n";
+    return kExitUsage;
   }
 
   vectorize::Options options = vectorize::preset_options(vectorize::parse_preset(preset_name));
@@ -142,8 +302,33 @@ int main(int argc, char** argv) {
                     : backend_name == "gpu" ? cdt::Backend::gpu
                                             : cdt::Backend::automatic;
 
+  if (batch_mode) {
+    batch.inputs = positional;
+    std::signal(SIGINT, on_interrupt);
+    std::signal(SIGTERM, on_interrupt);
+    try {
+      return run_batch_cli(batch, options, quiet);
+    } catch (const std::exception& e) {
+      std::cerr << "vectorize: " << e.what() << '\n';
+      return kExitFailure;
+    }
+  }
+
+  const std::filesystem::path input = positional[0];
+  const std::filesystem::path output = positional[1];
+  if (same_file(input, output)) {
+    std::cerr << "vectorize: refusing to overwrite the input " << input << " with the output\n";
+    return kExitUsage;
+  }
+  const auto out_dir = output.has_parent_path() ? output.parent_path() : std::filesystem::path(".");
+  std::error_code ec;
+  if (!std::filesystem::is_directory(out_dir, ec)) {
+    std::cerr << "vectorize: " << output.string() << ": output directory " << out_dir << " does not exist\n";
+    return kExitFailure;
+  }
+
   try {
-    const vectorize::Image image = vectorize::load_image(input);
+    const vectorize::Image image = vectorize::load_image(input, batch.max_pixels);
     vectorize::Conversion result = vectorize::convert(image, options);
     vectorize::write_file_atomically(output, result.svg);
     if (stats_format == "json") {

@@ -1,8 +1,12 @@
 // The pipeline: stages composed in the order of DESIGN.md, with their times and counts.
 #include "vectorize/pipeline.hpp"
 
+#include <unistd.h>
+
+#include <atomic>
 #include <chrono>
 #include <cstdio>
+#include <cstring>
 #include <fstream>
 #include <random>
 #include <sstream>
@@ -103,6 +107,7 @@ Conversion convert(const Image& image, const Options& options, StageRecord* reco
 
   cdt::Options cdt_options;
   cdt_options.backend = options.backend;
+  cdt_options.threads = options.cdt_threads;
   const cdt::Triangulation triangulation = cdt::triangulate(pslg.points, pslg.segments, cdt_options);
   stats.triangles = triangulation.triangles.size();
   stats.cdt_backend = triangulation.stats.backend;
@@ -138,6 +143,51 @@ Conversion convert(const Image& image, const Options& options, StageRecord* reco
   return out;
 }
 
+namespace {
+
+// Temporary files being written, so that a signal handler can remove them: fixed slots of plain
+// characters, claimed and released with atomics (nothing a signal handler may not touch).
+constexpr std::size_t kSlots = 256;
+constexpr std::size_t kPathMax = 4096;
+char temporary_names[kSlots][kPathMax];
+std::atomic<bool> slot_used[kSlots];
+
+class TemporaryRegistration {
+public:
+  explicit TemporaryRegistration(const std::filesystem::path& path) {
+    const std::string name = path.string();
+    if (name.size() >= kPathMax) return;
+    for (std::size_t k = 0; k < kSlots; ++k) {
+      bool expected = false;
+      if (slot_used_claimed_[k].compare_exchange_strong(expected, true)) {
+        std::memcpy(temporary_names[k], name.c_str(), name.size() + 1);
+        slot_used[k].store(true);
+        slot_ = k;
+        return;
+      }
+    }
+  }
+  ~TemporaryRegistration() {
+    if (slot_ == kSlots) return;
+    slot_used[slot_].store(false);
+    slot_used_claimed_[slot_].store(false);
+  }
+  TemporaryRegistration(const TemporaryRegistration&) = delete;
+  TemporaryRegistration& operator=(const TemporaryRegistration&) = delete;
+
+private:
+  static inline std::atomic<bool> slot_used_claimed_[kSlots];
+  std::size_t slot_ = kSlots;
+};
+
+} // namespace
+
+void remove_unfinished_outputs() noexcept {
+  for (std::size_t k = 0; k < kSlots; ++k) {
+    if (slot_used[k].load()) ::unlink(temporary_names[k]);
+  }
+}
+
 void write_file_atomically(const std::filesystem::path& path, std::string_view content) {
   namespace fs = std::filesystem;
   // A name unique to this process and call, beside the target so that the rename stays on one
@@ -145,6 +195,7 @@ void write_file_atomically(const std::filesystem::path& path, std::string_view c
   static thread_local std::mt19937_64 rng{std::random_device{}()};
   fs::path temporary = path;
   temporary += ".tmp-" + std::to_string(rng() % 1000000000);
+  const TemporaryRegistration registration(temporary);
   {
     std::ofstream file(temporary, std::ios::binary | std::ios::trunc);
     if (!file) throw FileError(path, "cannot create a temporary file beside it (" + temporary.string() + ")");

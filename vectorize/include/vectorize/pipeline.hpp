@@ -38,6 +38,8 @@ struct Options {
   GroupingOptions grouping;
   SvgOptions svg;
   cdt::Backend backend = cdt::Backend::automatic;
+  /// Threads of the CDT engine's CPU executor; 0 uses every hardware thread.
+  unsigned cdt_threads = 0;
 };
 
 /// The options of a preset.
@@ -96,6 +98,11 @@ Conversion convert(const Image& image, const Options& options = {}, StageRecord*
 /// Writes `content` to `path` through a temporary file in the same directory, renamed over `path`
 /// once complete, so that a failure never leaves a partial file. Throws FileError naming the path.
 void write_file_atomically(const std::filesystem::path& path, std::string_view content);
+
+/// Removes the temporary files that write_file_atomically() calls are writing at this moment.
+/// Async-signal-safe: for a handler that ends the program (a second Ctrl-C) without leaving partial
+/// files behind.
+void remove_unfinished_outputs() noexcept;
 
 /// The statistics as one JSON object (stable keys; times in milliseconds).
 std::string stats_to_json(const Stats& stats);

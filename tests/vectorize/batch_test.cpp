@@ -1,0 +1,179 @@
+// Batch conversion as a user runs it: mixed good and bad inputs, resuming, determinism across worker
+// counts, interruption.
+#include <gtest/gtest.h>
+
+#include <fstream>
+#include <iterator>
+#include <string>
+#include <vector>
+
+#include "../test_util.hpp"
+
+namespace {
+
+namespace fs = std::filesystem;
+using trixel_test::run;
+using trixel_test::ScratchDir;
+using trixel_test::shell_quote;
+
+const std::string kBin = TRIXEL_VECTORIZE_BIN;
+const fs::path kSamples = fs::path(TRIXEL_SOURCE_DIR) / "samples";
+
+std::string read_all(const fs::path& path) {
+  std::ifstream in(path, std::ios::binary);
+  return {std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()};
+}
+
+/// Every file under dir, relative to it.
+std::vector<std::string> files_under(const fs::path& dir) {
+  std::vector<std::string> out;
+  for (const auto& e : fs::recursive_directory_iterator(dir)) {
+    if (e.is_regular_file()) out.push_back(e.path().lexically_relative(dir).string());
+  }
+  std::sort(out.begin(), out.end());
+  return out;
+}
+
+bool complete_svg(const fs::path& path) {
+  const std::string svg = read_all(path);
+  return svg.find("<svg") != std::string::npos && svg.find("</svg>") != std::string::npos;
+}
+
+/// A folder of inputs: the samples, one in a subfolder, and every kind of bad file.
+void make_mixed_inputs(const fs::path& in) {
+  fs::create_directories(in / "sub");
+  for (const char* name : {"logo.png", "strokes.png", "gradient.png", "photo.png"}) {
+    fs::copy_file(kSamples / name, in / name);
+  }
+  fs::copy_file(kSamples / "logo.png", in / "sub" / "nested.png");
+  std::ofstream(in / "corrupt.png") << "this is not a PNG";
+  std::ofstream(in / "zero.png").flush();
+  const std::string photo = read_all(kSamples / "photo.png");
+  std::ofstream(in / "sub" / "truncated.png", std::ios::binary) << photo.substr(0, photo.size() / 3);
+  std::ofstream(in / "notes.txt") << "not an image, and not named like one";
+}
+
+// Every good image converted, every bad one reported by name, exit status 1, no partial files.
+TEST(VectorizeBatch, MixedInputsConvertTheGoodReportTheBad) {
+  ScratchDir dir;
+  make_mixed_inputs(dir / "in");
+  const auto r =
+      run(shell_quote(kBin) + " " + shell_quote(dir / "in") + " " + shell_quote(dir / "in" / "notes.txt") +
+          " -r -o " + shell_quote(dir / "out") + " --report " + shell_quote(dir / "report.json"));
+  EXPECT_EQ(r.exit_code, 1) << r.output;
+  EXPECT_EQ(files_under(dir / "out"), (std::vector<std::string>{"gradient.svg", "logo.svg", "photo.svg",
+                                                                "strokes.svg", "sub/nested.svg"}))
+      << r.output;
+  for (const auto& f : files_under(dir / "out")) EXPECT_TRUE(complete_svg(dir / "out" / f)) << f;
+  for (const char* bad : {"corrupt.png", "zero.png", "truncated.png", "notes.txt"}) {
+    EXPECT_NE(r.output.find(bad), std::string::npos) << bad << " not reported:\n" << r.output;
+  }
+  EXPECT_NE(r.output.find("5 converted, 0 skipped, 4 failed"), std::string::npos) << r.output;
+  const std::string report = read_all(dir / "report.json");
+  EXPECT_NE(report.find("\"converted\":5"), std::string::npos) << report;
+  EXPECT_NE(report.find("\"failed\":4"), std::string::npos) << report;
+  EXPECT_NE(report.find("truncated.png"), std::string::npos) << report;
+}
+
+// An output folder that cannot be written (a file stands where a subfolder must go): the image is
+// reported, the others still convert.
+TEST(VectorizeBatch, UnwritableOutputIsReportedAndTheRestGoOn) {
+  ScratchDir dir;
+  fs::create_directories(dir / "in" / "sub");
+  fs::copy_file(kSamples / "logo.png", dir / "in" / "logo.png");
+  fs::copy_file(kSamples / "strokes.png", dir / "in" / "sub" / "strokes.png");
+  fs::create_directories(dir / "out");
+  std::ofstream(dir / "out" / "sub") << "a file in the way";
+  const auto r =
+      run(shell_quote(kBin) + " " + shell_quote(dir / "in") + " -r -o " + shell_quote(dir / "out"));
+  EXPECT_EQ(r.exit_code, 1) << r.output;
+  EXPECT_TRUE(complete_svg(dir / "out" / "logo.svg")) << r.output;
+  EXPECT_NE(r.output.find("sub"), std::string::npos) << r.output;
+  EXPECT_EQ(files_under(dir / "out"), (std::vector<std::string>{"logo.svg", "sub"}));
+}
+
+// An interrupted batch resumes: --skip-existing converts only what is missing.
+TEST(VectorizeBatch, SkipExistingConvertsOnlyWhatIsMissing) {
+  ScratchDir dir;
+  fs::create_directories(dir / "in");
+  for (const char* name : {"logo.png", "strokes.png", "gradient.png", "photo.png"}) {
+    fs::copy_file(kSamples / name, dir / "in" / name);
+  }
+  const std::string base =
+      shell_quote(kBin) + " " + shell_quote(dir / "in") + " -o " + shell_quote(dir / "out");
+  ASSERT_EQ(run(base).exit_code, 0);
+  const std::string kept = read_all(dir / "out" / "logo.svg");
+  fs::remove(dir / "out" / "photo.svg");
+  fs::remove(dir / "out" / "strokes.svg");
+  std::ofstream(dir / "out" / "logo.svg", std::ios::app) << "<!-- marker -->";
+  const auto r = run(base + " --skip-existing --report " + shell_quote(dir / "report.json"));
+  EXPECT_EQ(r.exit_code, 0) << r.output;
+  EXPECT_NE(r.output.find("2 converted, 2 skipped, 0 failed"), std::string::npos) << r.output;
+  EXPECT_EQ(read_all(dir / "out" / "logo.svg"), kept + "<!-- marker -->"); // left alone
+  EXPECT_TRUE(complete_svg(dir / "out" / "photo.svg"));
+  EXPECT_TRUE(complete_svg(dir / "out" / "strokes.svg"));
+}
+
+// The worker count changes nothing in the output.
+TEST(VectorizeBatch, SameBytesWithOneAndTwoWorkers) {
+  ScratchDir dir;
+  const std::string inputs = shell_quote(kSamples / "logo.png") + " " + shell_quote(kSamples / "photo.png") +
+                             " " + shell_quote(kSamples / "strokes.png") + " " +
+                             shell_quote(kSamples / "gradient.png");
+  ASSERT_EQ(run(shell_quote(kBin) + " " + inputs + " -j 1 -o " + shell_quote(dir / "j1")).exit_code, 0);
+  ASSERT_EQ(run(shell_quote(kBin) + " " + inputs + " -j 2 -o " + shell_quote(dir / "j2")).exit_code, 0);
+  const auto names = files_under(dir / "j1");
+  ASSERT_EQ(names.size(), 4u);
+  EXPECT_EQ(names, files_under(dir / "j2"));
+  for (const auto& n : names) EXPECT_EQ(read_all(dir / "j1" / n), read_all(dir / "j2" / n)) << n;
+}
+
+TEST(VectorizeBatch, InputListFromStandardInput) {
+  ScratchDir dir;
+  const auto r = run("printf '%s\\n# a comment\\n\\n%s\\n' " + shell_quote(kSamples / "logo.png") + " " +
+                     shell_quote(kSamples / "strokes.png") + " | " + shell_quote(kBin) +
+                     " --from-list - -o " + shell_quote(dir / "out") + " -q");
+  EXPECT_EQ(r.exit_code, 0) << r.output;
+  EXPECT_EQ(files_under(dir / "out"), (std::vector<std::string>{"logo.svg", "strokes.svg"}));
+  EXPECT_EQ(r.output, ""); // -q: silence
+}
+
+TEST(VectorizeBatch, ImagesOverThePixelLimitAreRefused) {
+  ScratchDir dir;
+  const auto r = run(shell_quote(kBin) + " " + shell_quote(kSamples / "logo.png") + " -o " +
+                     shell_quote(dir / "out") + " --max-pixels 1000");
+  EXPECT_EQ(r.exit_code, 1) << r.output;
+  EXPECT_NE(r.output.find("logo.png"), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find("1000"), std::string::npos) << r.output;
+  EXPECT_FALSE(fs::exists(dir / "out" / "logo.svg"));
+}
+
+TEST(VectorizeBatch, BatchOnlyOptionsNeedAnOutputDirectory) {
+  EXPECT_EQ(run(shell_quote(kBin) + " a.png b.svg --recursive").exit_code, 2);
+  EXPECT_EQ(run(shell_quote(kBin) + " a.png b.png c.png").exit_code, 2);
+  EXPECT_EQ(run(shell_quote(kBin) + " -o out").exit_code, 2);
+}
+
+// Ctrl-C: the batch stops, the images under way finish, nothing partial is left, exit status 130.
+TEST(VectorizeBatch, InterruptStopsCleanly) {
+  ScratchDir dir;
+  fs::create_directories(dir / "in");
+  for (int k = 0; k < 120; ++k) {
+    std::string name = std::to_string(k);
+    name += ".png"; // built by appending: gcc 12 warns falsely (-Wrestrict) on "p" + to_string(k) + ".png"
+    fs::copy_file(kSamples / "photo.png", dir / "in" / name);
+  }
+  const auto r =
+      run("{ " + shell_quote(kBin) + " " + shell_quote(dir / "in") + " -o " + shell_quote(dir / "out") +
+          " -j 2 & pid=$!; sleep 0.4; kill -INT $pid; wait $pid; echo \"exit=$?\"; }");
+  EXPECT_NE(r.output.find("exit=130"), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find("not started (interrupted)"), std::string::npos) << r.output;
+  const auto written = files_under(dir / "out");
+  EXPECT_LT(written.size(), 120u);
+  for (const auto& f : written) {
+    EXPECT_EQ(fs::path(f).extension(), ".svg") << f; // no temporary file left
+    EXPECT_TRUE(complete_svg(dir / "out" / f)) << f;
+  }
+}
+
+} // namespace

@@ -1,0 +1,76 @@
+#pragma once
+// Batch conversion: many images, several workers, every failure reported and none fatal to the rest.
+
+#include <atomic>
+#include <cstddef>
+#include <filesystem>
+#include <functional>
+#include <string>
+#include <vector>
+
+#include "vectorize/pipeline.hpp"
+
+namespace vectorize {
+
+/// One image to convert and where its SVG goes.
+struct BatchJob {
+  std::filesystem::path input;
+  std::filesystem::path output;
+};
+
+/// The file name extensions (lower case, with the dot) that directory scans pick up as images.
+const std::vector<std::string>& image_extensions();
+
+/// Expands command-line inputs into jobs writing under out_dir, mirroring the input tree:
+/// - a file gives out_dir / (its stem + ".svg") — given explicitly, it is converted whatever its
+///   extension (a non-image then fails with a clear message);
+/// - a directory gives its images (image_extensions()), directly inside it or, with `recursive`, in
+///   any subdirectory, each at out_dir / (path relative to the directory, extension ".svg").
+/// Inputs that do not exist are returned as jobs too (they fail with "no such file" when run), so
+/// that they are reported with the rest. Two inputs mapping to one output keep the first; the others
+/// are listed in `collisions` with a message. The result is sorted by output path and duplicates of
+/// the same input are removed.
+std::vector<BatchJob> plan_batch(const std::vector<std::filesystem::path>& inputs,
+                                 const std::filesystem::path& out_dir, bool recursive,
+                                 std::vector<std::string>& collisions);
+
+/// Reads input paths, one per line (blank lines and lines starting with '#' skipped), from a file or,
+/// for "-", from standard input. Throws FileError when the list cannot be read.
+std::vector<std::filesystem::path> read_input_list(const std::filesystem::path& list);
+
+enum class JobStatus { converted, skipped, failed };
+
+/// The outcome of one job.
+struct JobResult {
+  BatchJob job;
+  JobStatus status = JobStatus::failed;
+  std::string error;    ///< the reason, for a failed job
+  double seconds = 0.0; ///< wall time of load + convert + write
+  std::size_t input_bytes = 0;
+  Stats stats; ///< of a converted job
+};
+
+struct BatchOptions {
+  Options conversion;
+  /// Worker threads; 0 uses every hardware thread.
+  unsigned workers = 0;
+  /// Leave jobs whose output already exists alone (resuming an interrupted batch).
+  bool skip_existing = false;
+  /// Images with more pixels than this are refused before decoding their pixels.
+  std::size_t max_pixels = std::size_t{1} << 27;
+  /// Set (e.g. from a signal handler) to stop: no new job starts, jobs under way finish.
+  const std::atomic<bool>* stop = nullptr;
+  /// Called after each job, from the worker that ran it, one call at a time.
+  std::function<void(const JobResult&, std::size_t done, std::size_t total)> on_done;
+};
+
+/// Runs the jobs on `workers` threads, each converting one image at a time (so memory stays bounded by
+/// workers x one image's working set), the CDT engine's threads shared out between them. Every job's
+/// result is returned in the order of `jobs`; jobs never started because of `stop` are absent.
+std::vector<JobResult> run_batch(const std::vector<BatchJob>& jobs, const BatchOptions& options);
+
+/// The results as a JSON report (one object per image: input, output, status, error, seconds, sizes,
+/// counts and stage times).
+std::string batch_report_json(const std::vector<JobResult>& results, double wall_seconds);
+
+} // namespace vectorize

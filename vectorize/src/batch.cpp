@@ -1,0 +1,246 @@
+// Batch conversion: planning the jobs, running them on a pool of workers, reporting.
+#include "vectorize/batch.hpp"
+
+#include <algorithm>
+#include <chrono>
+#include <cstdio>
+#include <fstream>
+#include <iostream>
+#include <map>
+#include <mutex>
+#include <set>
+#include <sstream>
+#include <system_error>
+#include <thread>
+
+#include "vectorize/errors.hpp"
+#include "vectorize/image.hpp"
+
+namespace vectorize {
+
+namespace fs = std::filesystem;
+
+const std::vector<std::string>& image_extensions() {
+  static const std::vector<std::string> extensions{".png",  ".jpg", ".jpeg", ".tif", ".tiff", ".bmp",
+                                                   ".webp", ".gif", ".tga",  ".ppm", ".pgm",  ".pnm",
+                                                   ".exr",  ".hdr", ".psd",  ".jp2", ".dpx",  ".sgi"};
+  return extensions;
+}
+
+namespace {
+
+bool is_image_name(const fs::path& p) {
+  std::string ext = p.extension().string();
+  std::transform(ext.begin(), ext.end(), ext.begin(),
+                 [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
+  const auto& known = image_extensions();
+  return std::find(known.begin(), known.end(), ext) != known.end();
+}
+
+fs::path svg_name(fs::path relative) { return relative.replace_extension(".svg"); }
+
+} // namespace
+
+std::vector<BatchJob> plan_batch(const std::vector<fs::path>& inputs, const fs::path& out_dir, bool recursive,
+                                 std::vector<std::string>& collisions) {
+  std::vector<BatchJob> jobs;
+  for (const fs::path& input : inputs) {
+    std::error_code ec;
+    if (fs::is_directory(input, ec)) {
+      const auto add = [&](const fs::directory_entry& entry) {
+        std::error_code e;
+        if (!entry.is_regular_file(e) || !is_image_name(entry.path())) return;
+        jobs.push_back({entry.path(), out_dir / svg_name(entry.path().lexically_relative(input))});
+      };
+      if (recursive) {
+        for (fs::recursive_directory_iterator it(input, fs::directory_options::skip_permission_denied, ec),
+             end;
+             !ec && it != end; it.increment(ec)) {
+          add(*it);
+        }
+      } else {
+        for (fs::directory_iterator it(input, fs::directory_options::skip_permission_denied, ec), end;
+             !ec && it != end; it.increment(ec)) {
+          add(*it);
+        }
+      }
+      continue;
+    }
+    jobs.push_back({input, out_dir / svg_name(input.filename())});
+  }
+  std::stable_sort(jobs.begin(), jobs.end(),
+                   [](const BatchJob& a, const BatchJob& b) { return a.output < b.output; });
+  std::vector<BatchJob> unique;
+  std::set<fs::path> inputs_seen;
+  for (const BatchJob& job : jobs) {
+    const fs::path key = job.input.lexically_normal();
+    if (!inputs_seen.insert(key).second) continue; // the same input named twice
+    if (!unique.empty() && unique.back().output == job.output) {
+      collisions.push_back(job.input.string() + ": its output " + job.output.string() +
+                           " is already the output of " + unique.back().input.string() + "; not converted");
+      continue;
+    }
+    unique.push_back(job);
+  }
+  return unique;
+}
+
+std::vector<fs::path> read_input_list(const fs::path& list) {
+  std::ifstream file;
+  std::istream* in = &std::cin;
+  if (list != "-") {
+    file.open(list);
+    if (!file) throw FileError(list, "cannot read the input list");
+    in = &file;
+  }
+  std::vector<fs::path> paths;
+  std::string line;
+  while (std::getline(*in, line)) {
+    if (!line.empty() && line.back() == '\r') line.pop_back();
+    if (line.empty() || line[0] == '#') continue;
+    paths.emplace_back(line);
+  }
+  if (in->bad()) throw FileError(list, "read error in the input list");
+  return paths;
+}
+
+namespace {
+
+JobResult run_job(const BatchJob& job, const BatchOptions& options, const Options& conversion) {
+  JobResult r;
+  r.job = job;
+  const auto start = std::chrono::steady_clock::now();
+  std::error_code ec;
+  if (options.skip_existing && fs::exists(job.output, ec)) {
+    r.status = JobStatus::skipped;
+    return r;
+  }
+  try {
+    if (fs::exists(job.output, ec) && fs::equivalent(job.output, job.input, ec)) {
+      throw FileError(job.output, "is the input itself; refusing to overwrite it");
+    }
+    r.input_bytes =
+        fs::is_regular_file(job.input, ec) ? static_cast<std::size_t>(fs::file_size(job.input, ec)) : 0;
+    const Image image = load_image(job.input, options.max_pixels);
+    const Conversion result = convert(image, conversion);
+    fs::create_directories(job.output.parent_path(), ec);
+    if (ec) throw FileError(job.output.parent_path(), "cannot create the output directory: " + ec.message());
+    write_file_atomically(job.output, result.svg);
+    r.stats = result.stats;
+    r.status = JobStatus::converted;
+  } catch (const FileError& e) {
+    r.error = e.what();
+  } catch (const std::exception& e) {
+    r.error = job.input.string() + ": " + e.what();
+  }
+  r.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  return r;
+}
+
+} // namespace
+
+std::vector<JobResult> run_batch(const std::vector<BatchJob>& jobs, const BatchOptions& options) {
+  const unsigned hardware = std::max(1u, std::thread::hardware_concurrency());
+  const unsigned workers =
+      std::max(1u, std::min<unsigned>(options.workers == 0 ? hardware : options.workers,
+                                      static_cast<unsigned>(std::max<std::size_t>(jobs.size(), 1))));
+  // The cores are shared out: each worker's CDT gets its part, so N workers never run N x cores threads.
+  Options conversion = options.conversion;
+  if (conversion.cdt_threads == 0) conversion.cdt_threads = std::max(1u, hardware / workers);
+
+  std::vector<JobResult> results(jobs.size());
+  std::vector<char> ran(jobs.size(), 0);
+  std::atomic<std::size_t> next{0};
+  std::size_t done = 0;
+  std::mutex report;
+  const auto work = [&] {
+    for (;;) {
+      if (options.stop != nullptr && options.stop->load()) return;
+      const std::size_t k = next.fetch_add(1);
+      if (k >= jobs.size()) return;
+      JobResult r = run_job(jobs[k], options, conversion);
+      std::lock_guard lock(report);
+      results[k] = std::move(r);
+      ran[k] = 1;
+      ++done;
+      if (options.on_done) options.on_done(results[k], done, jobs.size());
+    }
+  };
+  std::vector<std::thread> pool;
+  for (unsigned w = 1; w < workers; ++w) pool.emplace_back(work);
+  work();
+  for (auto& t : pool) t.join();
+  std::vector<JobResult> out;
+  out.reserve(done);
+  for (std::size_t k = 0; k < jobs.size(); ++k) {
+    if (ran[k]) out.push_back(std::move(results[k]));
+  }
+  return out;
+}
+
+namespace {
+
+std::string json_string(const std::string& s) {
+  std::string out = "\"";
+  for (const char c : s) {
+    switch (c) {
+    case '"':
+      out += "\\\"";
+      break;
+    case '\\':
+      out += "\\\\";
+      break;
+    case '\n':
+      out += "\\n";
+      break;
+    case '\t':
+      out += "\\t";
+      break;
+    case '\r':
+      out += "\\r";
+      break;
+    default:
+      if (static_cast<unsigned char>(c) < 0x20) {
+        char buf[8];
+        std::snprintf(buf, sizeof buf, "\\u%04x", c);
+        out += buf;
+      } else {
+        out += c;
+      }
+    }
+  }
+  return out + "\"";
+}
+
+} // namespace
+
+std::string batch_report_json(const std::vector<JobResult>& results, double wall_seconds) {
+  std::size_t converted = 0, skipped = 0, failed = 0;
+  for (const auto& r : results) {
+    converted += r.status == JobStatus::converted;
+    skipped += r.status == JobStatus::skipped;
+    failed += r.status == JobStatus::failed;
+  }
+  std::ostringstream j;
+  char number[32];
+  std::snprintf(number, sizeof number, "%.3f", wall_seconds);
+  j << "{\"converted\":" << converted << ",\"skipped\":" << skipped << ",\"failed\":" << failed
+    << ",\"wall_seconds\":" << number << ",\"images\":[";
+  for (std::size_t k = 0; k < results.size(); ++k) {
+    const JobResult& r = results[k];
+    const char* status = r.status == JobStatus::converted ? "converted"
+                         : r.status == JobStatus::skipped ? "skipped"
+                                                          : "failed";
+    std::snprintf(number, sizeof number, "%.3f", r.seconds);
+    j << (k ? ",\n" : "\n") << "{\"input\":" << json_string(r.job.input.string())
+      << ",\"output\":" << json_string(r.job.output.string()) << ",\"status\":\"" << status << "\"";
+    if (r.status == JobStatus::failed) j << ",\"error\":" << json_string(r.error);
+    j << ",\"seconds\":" << number << ",\"input_bytes\":" << r.input_bytes;
+    if (r.status == JobStatus::converted) j << ",\"stats\":" << stats_to_json(r.stats);
+    j << "}";
+  }
+  j << "\n]}\n";
+  return j.str();
+}
+
+} // namespace vectorize
