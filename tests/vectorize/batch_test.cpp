@@ -155,6 +155,8 @@ TEST(VectorizeBatch, BatchOnlyOptionsNeedAnOutputDirectory) {
 }
 
 // Ctrl-C: the batch stops, the images under way finish, nothing partial is left, exit status 130.
+// The signal is sent once the first image is written: a background job of a non-interactive shell
+// starts with SIGINT ignored, so a signal sent before the handler is installed would be lost.
 TEST(VectorizeBatch, InterruptStopsCleanly) {
   ScratchDir dir;
   fs::create_directories(dir / "in");
@@ -165,7 +167,9 @@ TEST(VectorizeBatch, InterruptStopsCleanly) {
   }
   const auto r =
       run("{ " + shell_quote(kBin) + " " + shell_quote(dir / "in") + " -o " + shell_quote(dir / "out") +
-          " -j 2 & pid=$!; sleep 0.4; kill -INT $pid; wait $pid; echo \"exit=$?\"; }");
+          " -j 2 & pid=$!; n=0; until ls " + shell_quote(dir / "out") +
+          "/*.svg >/dev/null 2>&1 || [ $n -ge 600 ]; do sleep 0.05; n=$((n+1)); done; kill -INT $pid; "
+          "wait $pid; echo \"exit=$?\"; }");
   EXPECT_NE(r.output.find("exit=130"), std::string::npos) << r.output;
   EXPECT_NE(r.output.find("not started (interrupted)"), std::string::npos) << r.output;
   const auto written = files_under(dir / "out");
