@@ -25,26 +25,35 @@ if(NOT TRIXEL_VECTORIZE STREQUAL "OFF")
   if(NOT OpenCV_FOUND)
     list(APPEND _missing "OpenCV (libopencv-dev)")
   endif()
-  # OpenImageIO is located by hand: Debian's exported config fails hard when the optional
-  # openimageio-tools package (its command-line tools) is not installed.
-  find_path(TRIXEL_OIIO_INCLUDE_DIR OpenImageIO/imageio.h)
-  find_library(TRIXEL_OIIO_LIBRARY OpenImageIO)
-  find_library(TRIXEL_OIIO_UTIL_LIBRARY OpenImageIO_Util)
-  if(TRIXEL_OIIO_INCLUDE_DIR AND TRIXEL_OIIO_LIBRARY AND TRIXEL_OIIO_UTIL_LIBRARY
-     AND NOT CMAKE_DISABLE_FIND_PACKAGE_OpenImageIO)
-    if(NOT TARGET OpenImageIO::OpenImageIO)
-      add_library(OpenImageIO::OpenImageIO UNKNOWN IMPORTED)
-      set_target_properties(OpenImageIO::OpenImageIO PROPERTIES
-        IMPORTED_LOCATION "${TRIXEL_OIIO_LIBRARY}"
-        INTERFACE_INCLUDE_DIRECTORIES "${TRIXEL_OIIO_INCLUDE_DIR}"
-        INTERFACE_LINK_LIBRARIES "${TRIXEL_OIIO_UTIL_LIBRARY}")
-    endif()
-    file(STRINGS "${TRIXEL_OIIO_INCLUDE_DIR}/OpenImageIO/oiioversion.h" _oiio_v
-         REGEX "^#define OIIO_VERSION_(MAJOR|MINOR|PATCH) ")
-    string(REGEX REPLACE ".*MAJOR ([0-9]+).*MINOR ([0-9]+).*PATCH ([0-9]+).*" "\\1.\\2.\\3"
-           OpenImageIO_VERSION "${_oiio_v}")
+  find_package(PNG QUIET)
+  if(NOT PNG_FOUND)
+    list(APPEND _missing "libpng (libpng-dev)")
+  endif()
+  if(TRIXEL_IMAGE_IO STREQUAL "png")
+    set(_image_reader "libpng ${PNG_VERSION_STRING}, PNG only")
   else()
-    list(APPEND _missing "OpenImageIO (libopenimageio-dev)")
+    # OpenImageIO is located by hand: Debian's exported config fails hard when the optional
+    # openimageio-tools package (its command-line tools) is not installed.
+    find_path(TRIXEL_OIIO_INCLUDE_DIR OpenImageIO/imageio.h)
+    find_library(TRIXEL_OIIO_LIBRARY OpenImageIO)
+    find_library(TRIXEL_OIIO_UTIL_LIBRARY OpenImageIO_Util)
+    if(TRIXEL_OIIO_INCLUDE_DIR AND TRIXEL_OIIO_LIBRARY AND TRIXEL_OIIO_UTIL_LIBRARY
+       AND NOT CMAKE_DISABLE_FIND_PACKAGE_OpenImageIO)
+      if(NOT TARGET OpenImageIO::OpenImageIO)
+        add_library(OpenImageIO::OpenImageIO UNKNOWN IMPORTED)
+        set_target_properties(OpenImageIO::OpenImageIO PROPERTIES
+          IMPORTED_LOCATION "${TRIXEL_OIIO_LIBRARY}"
+          INTERFACE_INCLUDE_DIRECTORIES "${TRIXEL_OIIO_INCLUDE_DIR}"
+          INTERFACE_LINK_LIBRARIES "${TRIXEL_OIIO_UTIL_LIBRARY}")
+      endif()
+      file(STRINGS "${TRIXEL_OIIO_INCLUDE_DIR}/OpenImageIO/oiioversion.h" _oiio_v
+           REGEX "^#define OIIO_VERSION_(MAJOR|MINOR|PATCH) ")
+      string(REGEX REPLACE ".*MAJOR ([0-9]+).*MINOR ([0-9]+).*PATCH ([0-9]+).*" "\\1.\\2.\\3"
+             OpenImageIO_VERSION "${_oiio_v}")
+      set(_image_reader "OpenImageIO ${OpenImageIO_VERSION}")
+    else()
+      list(APPEND _missing "OpenImageIO (libopenimageio-dev; or configure with TRIXEL_IMAGE_IO=png)")
+    endif()
   endif()
   find_package(PkgConfig QUIET)
   if(PkgConfig_FOUND)
@@ -64,7 +73,7 @@ if(NOT TRIXEL_VECTORIZE STREQUAL "OFF")
     set(TRIXEL_VECTORIZE_REASON "missing ${_m}")
   else()
     set(TRIXEL_HAVE_VECTORIZE ON)
-    set(TRIXEL_VECTORIZE_REASON "OpenCV ${OpenCV_VERSION}, OpenImageIO ${OpenImageIO_VERSION}, Cairo ${CAIRO_VERSION}")
+    set(TRIXEL_VECTORIZE_REASON "OpenCV ${OpenCV_VERSION}, ${_image_reader}, Cairo ${CAIRO_VERSION}")
   endif()
 endif()
 

@@ -9,6 +9,10 @@ set(TRIXEL_VECTORIZE AUTO CACHE STRING
     "Build the vectorize pipeline and app: AUTO (when OpenCV, OpenImageIO and Cairo are found), ON (fail without them), OFF")
 set_property(CACHE TRIXEL_VECTORIZE PROPERTY STRINGS AUTO ON OFF)
 
+set(TRIXEL_IMAGE_IO oiio CACHE STRING
+    "Image reader of the vectorize pipeline: oiio (OpenImageIO: PNG, JPEG, TIFF, BMP, WebP, ...) or png (libpng only, for machines without OpenImageIO)")
+set_property(CACHE TRIXEL_IMAGE_IO PROPERTY STRINGS oiio png)
+
 option(TRIXEL_BUILD_TESTS "Build the GoogleTest suites" ${TRIXEL_TOP_LEVEL})
 option(TRIXEL_BUILD_BENCHMARKS "Build the benchmark programs" ${TRIXEL_TOP_LEVEL})
 option(TRIXEL_WERROR "Treat compiler warnings as errors (CI turns this on)" OFF)
@@ -22,3 +26,8 @@ foreach(opt TRIXEL_CUDA TRIXEL_VECTORIZE)
   endif()
   set(${opt} "${_v}" CACHE STRING "" FORCE)
 endforeach()
+string(TOLOWER "${TRIXEL_IMAGE_IO}" _v)
+if(NOT _v MATCHES "^(oiio|png)$")
+  message(FATAL_ERROR "TRIXEL_IMAGE_IO must be oiio or png (got '${TRIXEL_IMAGE_IO}')")
+endif()
+set(TRIXEL_IMAGE_IO "${_v}" CACHE STRING "" FORCE)

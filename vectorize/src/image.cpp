@@ -1,6 +1,10 @@
 #include "vectorize/image.hpp"
 
+#if TRIXEL_WITH_OIIO
 #include <OpenImageIO/imageio.h>
+#else
+#include <png.h>
+#endif
 
 #include <algorithm>
 #include <cerrno>
@@ -15,6 +19,7 @@
 namespace vectorize {
 namespace {
 
+#if TRIXEL_WITH_OIIO
 // OpenImageIO's messages are multi-line and sometimes repeat the path; keep the first useful line.
 std::string first_line(std::string message) {
   const auto nl = message.find('\n');
@@ -22,6 +27,7 @@ std::string first_line(std::string message) {
   while (!message.empty() && (message.back() == ' ' || message.back() == '\r')) message.pop_back();
   return message;
 }
+#endif
 
 void check_readable_file(const std::filesystem::path& path) {
   std::error_code ec;
@@ -35,6 +41,22 @@ void check_readable_file(const std::filesystem::path& path) {
 }
 
 } // namespace
+
+#if !TRIXEL_WITH_OIIO
+
+const char* image_reader_name() { return "libpng " PNG_LIBPNG_VER_STRING " (PNG only)"; }
+
+Image load_image(const std::filesystem::path& path, std::size_t max_pixels) {
+  check_readable_file(path);
+  if (!is_png_file(path))
+    throw FileError(path,
+                    "unsupported format: this build reads PNG only (configured with TRIXEL_IMAGE_IO=png)");
+  return load_png(path, max_pixels);
+}
+
+#else
+
+const char* image_reader_name() { return "OpenImageIO " OIIO_VERSION_STRING; }
 
 Image load_image(const std::filesystem::path& path, std::size_t max_pixels) {
   check_readable_file(path);
@@ -92,5 +114,7 @@ Image load_image(const std::filesystem::path& path, std::size_t max_pixels) {
   }
   return image;
 }
+
+#endif
 
 } // namespace vectorize

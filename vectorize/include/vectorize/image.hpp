@@ -26,6 +26,18 @@ struct Image {
 /// grey+alpha, RGB or RGBA; grey is replicated to RGB and a missing alpha is 1. Only the first
 /// subimage is read. Throws FileError naming the file and the reason: missing, not a regular file,
 /// unreadable, unsupported format, corrupt or truncated data, zero size, or more than max_pixels.
+/// A build configured with TRIXEL_IMAGE_IO=png has no OpenImageIO and reads PNG only (load_png).
 Image load_image(const std::filesystem::path& path, std::size_t max_pixels = std::size_t{1} << 28);
+
+/// Reads a PNG file with libpng: 1 to 16 bits per sample, grey, grey+alpha, palette, RGB or RGBA,
+/// interlaced or not; palette and transparency chunks become RGB and alpha. Same result and errors
+/// as load_image() gives for a PNG.
+Image load_png(const std::filesystem::path& path, std::size_t max_pixels = std::size_t{1} << 28);
+
+/// True when the file starts with the PNG signature.
+bool is_png_file(const std::filesystem::path& path);
+
+/// "OpenImageIO x.y.z" or "libpng x.y.z (PNG only)": what load_image() reads with in this build.
+const char* image_reader_name();
 
 } // namespace vectorize

@@ -1,0 +1,173 @@
+// PNG decoding through libpng alone: the image reader of builds without OpenImageIO (a GPU machine
+// that carries only a few small libraries), and a second reader the tests compare with the first.
+
+#include <png.h>
+
+#include <algorithm>
+#include <array>
+#include <cerrno>
+#include <csetjmp>
+#include <cstdio>
+#include <cstring>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "vectorize/errors.hpp"
+#include "vectorize/image.hpp"
+
+namespace vectorize {
+namespace {
+
+// libpng reports errors by longjmp. Everything a jump can cross is trivially destructible: the state
+// below, and the two small functions that call setjmp. C++ objects live in load_png(), outside them.
+struct PngState {
+  png_structp png = nullptr;
+  png_infop info = nullptr;
+  std::FILE* file = nullptr;
+  char message[256] = {};
+};
+
+extern "C" void on_png_error(png_structp png, png_const_charp message) {
+  auto* state = static_cast<PngState*>(png_get_error_ptr(png));
+  std::snprintf(state->message, sizeof state->message, "%s", message ? message : "unknown error");
+  png_longjmp(png, 1);
+}
+
+// Warnings (an unknown chunk, a bad checksum in an ancillary chunk) do not stop decoding and are not
+// printed: the reader reports errors through exceptions only.
+extern "C" void on_png_warning(png_structp, png_const_charp) {}
+
+struct PngHeader {
+  png_uint_32 width = 0;
+  png_uint_32 height = 0;
+  int channels = 0;        // after the transformations below: 1 to 4
+  int bit_depth = 0;       // after the transformations below: 8 or 16
+  int source_channels = 0; // in the file
+};
+
+// Reads the header and sets up the transformations: palette to RGB, grey below 8 bits to 8 bits,
+// transparency chunks to an alpha channel, interlaced rows merged.
+bool read_header(PngState& state, PngHeader& header) {
+  if (setjmp(png_jmpbuf(state.png))) return false;
+  png_init_io(state.png, state.file);
+  png_read_info(state.png, state.info);
+  const int colour_type = png_get_color_type(state.png, state.info);
+  const bool has_trns = png_get_valid(state.png, state.info, PNG_INFO_tRNS) != 0;
+  switch (colour_type) {
+  case PNG_COLOR_TYPE_GRAY:
+    header.source_channels = has_trns ? 2 : 1;
+    break;
+  case PNG_COLOR_TYPE_GRAY_ALPHA:
+    header.source_channels = 2;
+    break;
+  case PNG_COLOR_TYPE_PALETTE:
+    header.source_channels = has_trns ? 4 : 3;
+    break;
+  case PNG_COLOR_TYPE_RGB:
+    header.source_channels = has_trns ? 4 : 3;
+    break;
+  default:
+    header.source_channels = 4;
+    break;
+  }
+  png_set_expand(state.png);
+  png_set_interlace_handling(state.png);
+  png_read_update_info(state.png, state.info);
+  header.width = png_get_image_width(state.png, state.info);
+  header.height = png_get_image_height(state.png, state.info);
+  header.channels = png_get_channels(state.png, state.info);
+  header.bit_depth = png_get_bit_depth(state.png, state.info);
+  return true;
+}
+
+bool read_rows(PngState& state, png_bytepp rows) {
+  if (setjmp(png_jmpbuf(state.png))) return false;
+  png_read_image(state.png, rows);
+  png_read_end(state.png, nullptr);
+  return true;
+}
+
+struct PngReader {
+  PngState state;
+  ~PngReader() {
+    if (state.png) png_destroy_read_struct(&state.png, state.info ? &state.info : nullptr, nullptr);
+    if (state.file) std::fclose(state.file);
+  }
+};
+
+std::string reason_of(const PngState& state, const char* fallback) {
+  return state.message[0] ? std::string(state.message) : std::string(fallback);
+}
+
+} // namespace
+
+bool is_png_file(const std::filesystem::path& path) {
+  std::FILE* file = std::fopen(path.c_str(), "rb");
+  if (!file) return false;
+  std::array<unsigned char, 8> signature{};
+  const bool whole = std::fread(signature.data(), 1, signature.size(), file) == signature.size();
+  std::fclose(file);
+  return whole && png_sig_cmp(signature.data(), 0, signature.size()) == 0;
+}
+
+Image load_png(const std::filesystem::path& path, std::size_t max_pixels) {
+  PngReader reader;
+  PngState& state = reader.state;
+  state.file = std::fopen(path.c_str(), "rb");
+  if (!state.file) throw FileError(path, std::string("cannot open for reading: ") + std::strerror(errno));
+  if (!is_png_file(path)) throw FileError(path, "not a PNG file");
+  state.png = png_create_read_struct(PNG_LIBPNG_VER_STRING, &state, on_png_error, on_png_warning);
+  if (!state.png) throw FileError(path, "cannot start the PNG decoder (out of memory)");
+  state.info = png_create_info_struct(state.png);
+  if (!state.info) throw FileError(path, "cannot start the PNG decoder (out of memory)");
+
+  PngHeader header;
+  if (!read_header(state, header))
+    throw FileError(path, "cannot decode: " + reason_of(state, "bad PNG header"));
+  if (header.width == 0 || header.height == 0) throw FileError(path, "image has zero size");
+  const std::size_t pixels = static_cast<std::size_t>(header.width) * header.height;
+  if (pixels > max_pixels) {
+    throw FileError(path, "image is " + std::to_string(header.width) + " x " + std::to_string(header.height) +
+                              " pixels, more than the limit of " + std::to_string(max_pixels));
+  }
+  if (header.channels < 1 || header.channels > 4 || (header.bit_depth != 8 && header.bit_depth != 16))
+    throw FileError(path, "unsupported PNG layout");
+
+  const std::size_t bytes_per_sample = header.bit_depth / 8;
+  const std::size_t row_bytes = static_cast<std::size_t>(header.width) * header.channels * bytes_per_sample;
+  std::vector<png_byte> data(row_bytes * header.height);
+  std::vector<png_bytep> rows(header.height);
+  for (png_uint_32 y = 0; y < header.height; ++y) rows[y] = data.data() + y * row_bytes;
+  if (!read_rows(state, rows.data()))
+    throw FileError(path, "corrupt or truncated image data: " + reason_of(state, "read failed"));
+
+  Image image;
+  image.width = static_cast<int>(header.width);
+  image.height = static_cast<int>(header.height);
+  image.source_channels = header.source_channels;
+  image.rgba.resize(pixels * 4);
+  const int channels = header.channels;
+  const bool has_alpha = channels == 2 || channels == 4;
+  const float scale = header.bit_depth == 16 ? 1.0f / 65535.0f : 1.0f / 255.0f;
+  for (std::size_t i = 0; i < pixels; ++i) {
+    float sample[4] = {};
+    for (int c = 0; c < channels; ++c) {
+      const png_byte* p = data.data() + (i * channels + c) * bytes_per_sample;
+      const unsigned value = header.bit_depth == 16 ? (unsigned{p[0]} << 8) | p[1] : p[0];
+      sample[c] = static_cast<float>(value) * scale;
+    }
+    float* dst = image.rgba.data() + i * 4;
+    if (channels >= 3) {
+      dst[0] = sample[0];
+      dst[1] = sample[1];
+      dst[2] = sample[2];
+    } else {
+      dst[0] = dst[1] = dst[2] = sample[0];
+    }
+    dst[3] = has_alpha ? sample[channels - 1] : 1.0f;
+  }
+  return image;
+}
+
+} // namespace vectorize
