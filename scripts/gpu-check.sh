@@ -38,6 +38,13 @@ step bench-predicates build-gpu/bin/bench_predicates 4000000
 coast=()
 [ -s .carry/data/gshhg-high.txt ] && coast=(--coast .carry/data/gshhg-high.txt)
 step bench-cdt build-gpu/bin/bench_cdt --repeat 3 "${coast[@]}"
+# The real vectorize pipeline, when its bundle was carried (scripts/device-bundle.sh prepares it: the
+# app with libpng as its only image reader and its shared libraries): 200 Kodak-size images.
+if [ -x .carry/bundle/vectorize ] && [ -d .carry/kodak ]; then
+  export LD_LIBRARY_PATH=$PWD/.carry/bundle/lib${LD_LIBRARY_PATH:+:$LD_LIBRARY_PATH}
+  step bench-batch bash scripts/bench-batch.sh --bin .carry/bundle/vectorize --images .carry/kodak \
+    -n 200 -j "1 4 $(nproc)"
+fi
 
 echo
 echo "## device: $(cat "$logs/device.txt")"
@@ -48,6 +55,7 @@ echo
 grep -h '^|' "$logs/bench-predicates.log" || true
 echo
 grep -h '^|' "$logs/bench-cdt.log" || true
+[ -f "$logs/bench-batch.log" ] && { echo; grep -h '^|' "$logs/bench-batch.log" || true; }
 grep -h -E 'tests passed|tests failed|Skipped|Not Run' "$logs/gpu-tests.log" || true
 grep -q FAIL <<<"${status[*]}" && exit 1
 exit 0
