@@ -18,6 +18,7 @@
 
 #include "cdt/errors.hpp"
 #include "vectorize/batch.hpp"
+#include "vectorize/debug_overlays.hpp"
 #include "vectorize/errors.hpp"
 #include "vectorize/image.hpp"
 #include "vectorize/pipeline.hpp"
@@ -84,7 +85,20 @@ struct BatchCli {
   std::size_t max_pixels = std::size_t{1} << 27;
 };
 
-int run_batch_cli(const BatchCli& cli, const vectorize::Options& options, bool quiet) {
+// --debug DIR and --debug-format.
+struct DebugCli {
+  std::filesystem::path dir;
+  std::string format = "png";
+  bool on() const { return !dir.empty(); }
+  vectorize::DebugOptions options(const std::filesystem::path& source) const {
+    vectorize::DebugOptions o;
+    o.format = vectorize::parse_overlay_format(format);
+    o.source = source;
+    return o;
+  }
+};
+
+int run_batch_cli(const BatchCli& cli, const DebugCli& debug, const vectorize::Options& options, bool quiet) {
   using vectorize::JobStatus;
   std::vector<std::filesystem::path> inputs = cli.inputs;
   if (!cli.from_list.empty()) {
@@ -98,8 +112,9 @@ int run_batch_cli(const BatchCli& cli, const vectorize::Options& options, bool q
     return kExitFailure;
   }
   std::vector<std::string> collisions;
-  const std::vector<vectorize::BatchJob> jobs =
+  std::vector<vectorize::BatchJob> jobs =
       vectorize::plan_batch(inputs, cli.out_dir, cli.recursive, collisions);
+  if (debug.on()) vectorize::assign_debug_folders(jobs, cli.out_dir, debug.dir);
   for (const auto& c : collisions) std::cerr << "vectorize: " << c << '\n';
   if (jobs.empty()) {
     std::cerr << "vectorize: no images to convert" << (collisions.empty() ? "" : " (see above)") << '\n';
@@ -115,6 +130,12 @@ int run_batch_cli(const BatchCli& cli, const vectorize::Options& options, bool q
   batch.skip_existing = cli.skip_existing;
   batch.max_pixels = cli.max_pixels;
   batch.stop = &g_stop;
+  if (debug.on()) {
+    batch.write_debug = [&debug](const vectorize::BatchJob& job, const vectorize::Image& image,
+                                 const vectorize::Conversion& result, const vectorize::StageRecord& record) {
+      vectorize::write_debug_folder(job.debug, image, record, result.svg, debug.options(job.input));
+    };
+  }
   batch.on_done = [&](const vectorize::JobResult& r, std::size_t done, std::size_t total) {
     const double elapsed = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
     if (r.status == JobStatus::failed) {
@@ -191,6 +212,17 @@ int main(int argc, char** argv) {
       "  vectorize icon.png icon.svg --stats json -q\n"
       "  vectorize photos/ -r -o svg/ -j 4 --report report.json     (batch: mirrors photos/ under svg/)\n"
       "  find . -name '*.png' | vectorize --from-list - -o out/ --skip-existing\n"
+      "  vectorize samples/logo.png logo.svg --debug logo-debug/   (then open logo-debug/index.html)\n"
+      "  vectorize art/ -r -o svg/ --debug debug/ --debug-format svg (one debug folder per image)\n"
+      "\n"
+      "Debugging (--debug DIR): DIR (created if missing) gets one overlay per stage drawn over the\n"
+      "dimmed input -- 01-edges, 02-chains (chains, simplified polylines, endpoints, junctions), 03-pslg,\n"
+      "04-cdt (constraint edges in red), 05-trixel-colours, 06-trixel-groups, 07-polygons -- as PNG, or SVG\n"
+      "or PDF with --debug-format; a copy of the input, result.svg, regions.json (every region's id,\n"
+      "colour, area, triangle count and rings) and index.html: an inspector page that stacks input,\n"
+      "overlays and result as layers (checkbox and opacity each, wheel zoom, drag to pan) and names\n"
+      "the region under the pointer. It works offline, from file://. In batch mode, DIR mirrors the\n"
+      "input tree like the SVGs: debug/a/b/ for the input a/b.png.\n"
       "\n"
       "Batch mode (-o OUTDIR): every image is tried; a bad one gets one line naming it and the reason,\n"
       "the rest go on, and the summary lists the failures. Ctrl-C lets the images under way finish\n"
@@ -262,6 +294,14 @@ int main(int argc, char** argv) {
       ->expected(0, 1)
       ->default_str("text")
       ->check(CLI::IsMember({"text", "json"}));
+  DebugCli debug;
+  app.add_option("--debug", debug.dir,
+                 "Write per-stage overlays and an inspector page (index.html) into this directory (created "
+                 "if missing); in batch mode one folder per image under it");
+  auto* debug_format_option =
+      app.add_option("--debug-format", debug.format, "Format of the --debug overlays: png, svg or pdf")
+          ->check(CLI::IsMember({"png", "svg", "pdf"}))
+          ->capture_default_str();
   app.add_flag("-q,--quiet", quiet, "Print nothing but errors (and --stats)");
   app.add_flag("-v,--verbose", verbose, "Say what was written");
 
@@ -286,6 +326,19 @@ int main(int argc, char** argv) {
     std::cerr << "vectorize: no inputs given (IN... or --from-list FILE)\n";
     return kExitUsage;
   }
+  if (debug_format_option->count() > 0 && !debug.on()) {
+    std::cerr << "vectorize: --debug-format needs --debug DIR\n";
+    return kExitUsage;
+  }
+  if (debug.on()) {
+    // Before any work: a file in the way fails at once and leaves nothing behind.
+    try {
+      vectorize::check_debug_folder(debug.dir);
+    } catch (const vectorize::FileError& e) {
+      std::cerr << "vectorize: " << e.what() << '\n';
+      return kExitFailure;
+    }
+  }
 
   vectorize::Options options = vectorize::preset_options(vectorize::parse_preset(preset_name));
   if (colour_tolerance) options.grouping.colour_tolerance = *colour_tolerance;
@@ -307,7 +360,7 @@ int main(int argc, char** argv) {
     std::signal(SIGINT, on_interrupt);
     std::signal(SIGTERM, on_interrupt);
     try {
-      return run_batch_cli(batch, options, quiet);
+      return run_batch_cli(batch, debug, options, quiet);
     } catch (const std::exception& e) {
       std::cerr << "vectorize: " << e.what() << '\n';
       return kExitFailure;
@@ -329,7 +382,14 @@ int main(int argc, char** argv) {
 
   try {
     const vectorize::Image image = vectorize::load_image(input, batch.max_pixels);
-    vectorize::Conversion result = vectorize::convert(image, options);
+    vectorize::StageRecord record;
+    vectorize::Conversion result = vectorize::convert(image, options, debug.on() ? &record : nullptr);
+    // The debug folder first: when it cannot be written, the run fails without an SVG.
+    std::size_t debug_files = 0;
+    if (debug.on()) {
+      debug_files =
+          vectorize::write_debug_folder(debug.dir, image, record, result.svg, debug.options(input)).size();
+    }
     vectorize::write_file_atomically(output, result.svg);
     if (stats_format == "json") {
       std::cerr << vectorize::stats_to_json(result.stats) << '\n';
@@ -339,6 +399,10 @@ int main(int argc, char** argv) {
     if (verbose && !quiet) {
       std::cerr << "vectorize: wrote " << output.string() << " (" << result.stats.paths << " paths, "
                 << result.stats.bytes << " bytes)\n";
+      if (debug.on()) {
+        std::cerr << "vectorize: wrote " << debug_files << " debug files into " << debug.dir.string()
+                  << "; open " << (debug.dir / "index.html").string() << '\n';
+      }
     }
     return 0;
   } catch (const vectorize::FileError& e) {

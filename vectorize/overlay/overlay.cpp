@@ -7,24 +7,51 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
+#include <random>
+#include <stdexcept>
+#include <string>
 #include <system_error>
+#include <vector>
 
 #include "vectorize/errors.hpp"
 
 namespace vectorize {
 
+OverlayFormat parse_overlay_format(std::string_view name) {
+  if (name == "png") return OverlayFormat::png;
+  if (name == "svg") return OverlayFormat::svg;
+  if (name == "pdf") return OverlayFormat::pdf;
+  throw std::invalid_argument("unknown overlay format '" + std::string(name) +
+                              "' (expected png, svg or pdf)");
+}
+
+const char* overlay_extension(OverlayFormat format) noexcept {
+  switch (format) {
+  case OverlayFormat::png:
+    return "png";
+  case OverlayFormat::svg:
+    return "svg";
+  case OverlayFormat::pdf:
+    return "pdf";
+  }
+  return "png";
+}
+
 // Drawing goes to a recording surface so the same strokes can be replayed onto a raster, SVG or PDF
-// surface when saved.
+// surface when saved, with or without the dimmed input under them.
 struct OverlayCanvas::State {
   int width = 0;
   int height = 0;
   cairo_surface_t* background = nullptr; // ARGB32, the dimmed input
   cairo_surface_t* recording = nullptr;
   cairo_t* cr = nullptr;
+  // Pixel layers painted into the recording; kept alive until the recording is gone.
+  std::vector<cairo_surface_t*> images;
 
   ~State() {
     if (cr != nullptr) cairo_destroy(cr);
     if (recording != nullptr) cairo_surface_destroy(recording);
+    for (cairo_surface_t* image : images) cairo_surface_destroy(image);
     if (background != nullptr) cairo_surface_destroy(background);
   }
 };
@@ -35,17 +62,49 @@ std::uint8_t to_byte(float v) {
   return static_cast<std::uint8_t>(std::lround(std::clamp(v, 0.0f, 1.0f) * 255.0f));
 }
 
+cairo_surface_t* create_image_surface(int width, int height) {
+  cairo_surface_t* surface = cairo_image_surface_create(CAIRO_FORMAT_ARGB32, width, height);
+  if (cairo_surface_status(surface) != CAIRO_STATUS_SUCCESS) {
+    cairo_surface_destroy(surface);
+    throw Error("cannot create a " + std::to_string(width) + " x " + std::to_string(height) +
+                " overlay surface");
+  }
+  return surface;
+}
+
+// A name beside the target, unique to this call, so that workers writing in parallel never share one.
+std::filesystem::path temporary_beside(const std::filesystem::path& path) {
+  static thread_local std::mt19937_64 rng{std::random_device{}()};
+  std::filesystem::path tmp = path;
+  tmp += ".tmp-" + std::to_string(rng() % 1000000000);
+  return tmp;
+}
+
+void finish_atomically(const std::filesystem::path& tmp, const std::filesystem::path& path,
+                       cairo_status_t status, const char* what = "overlay") {
+  std::error_code ec;
+  if (status != CAIRO_STATUS_SUCCESS) {
+    std::filesystem::remove(tmp, ec);
+    throw FileError(path, std::string("cannot write ") + what + ": " + cairo_status_to_string(status));
+  }
+  std::filesystem::rename(tmp, path, ec);
+  if (ec) {
+    std::filesystem::remove(tmp, ec);
+    throw FileError(path, std::string("cannot write ") + what + ": " + ec.message());
+  }
+}
+
+void set_colour(cairo_t* cr, const float rgba[4]) {
+  cairo_set_source_rgba(cr, rgba[0], rgba[1], rgba[2], rgba[3]);
+}
+
 } // namespace
 
 OverlayCanvas::OverlayCanvas(const Image& input, double dim) : state_(std::make_unique<State>()) {
   State& s = *state_;
   s.width = input.width;
   s.height = input.height;
-  s.background = cairo_image_surface_create(CAIRO_FORMAT_ARGB32, input.width, input.height);
-  if (cairo_surface_status(s.background) != CAIRO_STATUS_SUCCESS) {
-    throw Error("cannot create a " + std::to_string(input.width) + " x " + std::to_string(input.height) +
-                " overlay surface");
-  }
+  s.background = create_image_surface(input.width, input.height);
   cairo_surface_flush(s.background);
   unsigned char* data = cairo_image_surface_get_data(s.background);
   const int stride = cairo_image_surface_get_stride(s.background);
@@ -76,26 +135,98 @@ OverlayCanvas::~OverlayCanvas() = default;
 int OverlayCanvas::width() const noexcept { return state_->width; }
 int OverlayCanvas::height() const noexcept { return state_->height; }
 
-void OverlayCanvas::polyline(const float* xy, int num_points, bool closed, const float rgba[4],
-                             double width) {
+void OverlayCanvas::polyline(const float* xy, int num_points, bool closed, const float rgba[4], double width,
+                             double dash) {
   if (num_points < 2) return;
   cairo_t* cr = state_->cr;
   cairo_new_path(cr);
   cairo_move_to(cr, xy[0], xy[1]);
   for (int i = 1; i < num_points; ++i) cairo_line_to(cr, xy[2 * i], xy[2 * i + 1]);
   if (closed) cairo_close_path(cr);
-  cairo_set_source_rgba(cr, rgba[0], rgba[1], rgba[2], rgba[3]);
+  set_colour(cr, rgba);
+  cairo_set_line_width(cr, width);
+  if (dash > 0) cairo_set_dash(cr, &dash, 1, 0.0);
+  cairo_stroke(cr);
+  if (dash > 0) cairo_set_dash(cr, nullptr, 0, 0.0);
+}
+
+void OverlayCanvas::segments(const float* xy, std::size_t num_segments, const float rgba[4], double width) {
+  if (num_segments == 0) return;
+  cairo_t* cr = state_->cr;
+  cairo_new_path(cr);
+  for (std::size_t i = 0; i < num_segments; ++i) {
+    cairo_move_to(cr, xy[4 * i], xy[4 * i + 1]);
+    cairo_line_to(cr, xy[4 * i + 2], xy[4 * i + 3]);
+  }
+  set_colour(cr, rgba);
   cairo_set_line_width(cr, width);
   cairo_stroke(cr);
+}
+
+void OverlayCanvas::fill_polygon(const float* xy, int num_points, const float rgba[4], double seam) {
+  if (num_points < 3) return;
+  cairo_t* cr = state_->cr;
+  cairo_new_path(cr);
+  cairo_move_to(cr, xy[0], xy[1]);
+  for (int i = 1; i < num_points; ++i) cairo_line_to(cr, xy[2 * i], xy[2 * i + 1]);
+  cairo_close_path(cr);
+  set_colour(cr, rgba);
+  if (seam > 0) {
+    cairo_fill_preserve(cr);
+    cairo_set_line_width(cr, seam);
+    cairo_stroke(cr);
+  } else {
+    cairo_fill(cr);
+  }
+}
+
+void OverlayCanvas::dots(const float* xy, std::size_t num_points, double radius, const float rgba[4]) {
+  if (num_points == 0) return;
+  cairo_t* cr = state_->cr;
+  cairo_new_path(cr);
+  for (std::size_t i = 0; i < num_points; ++i) {
+    cairo_new_sub_path(cr);
+    cairo_arc(cr, xy[2 * i], xy[2 * i + 1], radius, 0.0, 2.0 * M_PI);
+  }
+  set_colour(cr, rgba);
+  cairo_fill_preserve(cr);
+  cairo_set_source_rgba(cr, 0, 0, 0, 0.8 * rgba[3]);
+  cairo_set_line_width(cr, std::max(0.25, radius * 0.3));
+  cairo_stroke(cr);
+}
+
+void OverlayCanvas::pixels(const std::uint8_t* mask, const float rgba[4]) {
+  State& s = *state_;
+  cairo_surface_t* image = create_image_surface(s.width, s.height);
+  s.images.push_back(image);
+  cairo_surface_flush(image);
+  unsigned char* data = cairo_image_surface_get_data(image);
+  const int stride = cairo_image_surface_get_stride(image);
+  // ARGB32 is premultiplied.
+  const float a = std::clamp(rgba[3], 0.0f, 1.0f);
+  const std::uint32_t colour =
+      (std::uint32_t{to_byte(a)} << 24) | (std::uint32_t{to_byte(rgba[0] * a)} << 16) |
+      (std::uint32_t{to_byte(rgba[1] * a)} << 8) | std::uint32_t{to_byte(rgba[2] * a)};
+  for (int y = 0; y < s.height; ++y) {
+    auto* row = reinterpret_cast<std::uint32_t*>(data + static_cast<std::ptrdiff_t>(y) * stride);
+    const std::uint8_t* m = mask + static_cast<std::size_t>(y) * s.width;
+    for (int x = 0; x < s.width; ++x) row[x] = m[x] != 0 ? colour : 0u;
+  }
+  cairo_surface_mark_dirty(image);
+  cairo_set_source_surface(s.cr, image, 0, 0);
+  cairo_pattern_set_filter(cairo_get_source(s.cr), CAIRO_FILTER_NEAREST);
+  cairo_paint(s.cr);
 }
 
 namespace {
 
 void paint_onto(cairo_surface_t* target, cairo_surface_t* background, cairo_surface_t* recording) {
   cairo_t* cr = cairo_create(target);
-  cairo_set_source_surface(cr, background, 0, 0);
-  cairo_pattern_set_filter(cairo_get_source(cr), CAIRO_FILTER_NEAREST);
-  cairo_paint(cr);
+  if (background != nullptr) {
+    cairo_set_source_surface(cr, background, 0, 0);
+    cairo_pattern_set_filter(cairo_get_source(cr), CAIRO_FILTER_NEAREST);
+    cairo_paint(cr);
+  }
   cairo_set_source_surface(cr, recording, 0, 0);
   cairo_paint(cr);
   cairo_destroy(cr);
@@ -103,16 +234,17 @@ void paint_onto(cairo_surface_t* target, cairo_surface_t* background, cairo_surf
 
 } // namespace
 
-void OverlayCanvas::save(const std::filesystem::path& path, OverlayFormat format) const {
+void OverlayCanvas::save(const std::filesystem::path& path, OverlayFormat format,
+                         OverlayBackground background) const {
   const State& s = *state_;
-  std::filesystem::path tmp = path;
-  tmp += ".tmp";
+  const std::filesystem::path tmp = temporary_beside(path);
   const std::string tmp_name = tmp.string();
+  cairo_surface_t* under = background == OverlayBackground::dimmed_input ? s.background : nullptr;
   cairo_status_t status = CAIRO_STATUS_SUCCESS;
   switch (format) {
   case OverlayFormat::png: {
-    cairo_surface_t* target = cairo_image_surface_create(CAIRO_FORMAT_ARGB32, s.width, s.height);
-    paint_onto(target, s.background, s.recording);
+    cairo_surface_t* target = create_image_surface(s.width, s.height);
+    paint_onto(target, under, s.recording);
     status = cairo_surface_write_to_png(target, tmp_name.c_str());
     cairo_surface_destroy(target);
     break;
@@ -122,23 +254,35 @@ void OverlayCanvas::save(const std::filesystem::path& path, OverlayFormat format
     cairo_surface_t* target = format == OverlayFormat::svg
                                   ? cairo_svg_surface_create(tmp_name.c_str(), s.width, s.height)
                                   : cairo_pdf_surface_create(tmp_name.c_str(), s.width, s.height);
-    paint_onto(target, s.background, s.recording);
+    paint_onto(target, under, s.recording);
     cairo_surface_finish(target);
     status = cairo_surface_status(target);
     cairo_surface_destroy(target);
     break;
   }
   }
-  std::error_code ec;
-  if (status != CAIRO_STATUS_SUCCESS) {
-    std::filesystem::remove(tmp, ec);
-    throw FileError(path, std::string("cannot write overlay: ") + cairo_status_to_string(status));
+  finish_atomically(tmp, path, status);
+}
+
+void save_image_png(const Image& image, const std::filesystem::path& path) {
+  cairo_surface_t* surface = create_image_surface(image.width, image.height);
+  cairo_surface_flush(surface);
+  unsigned char* data = cairo_image_surface_get_data(surface);
+  const int stride = cairo_image_surface_get_stride(surface);
+  for (int y = 0; y < image.height; ++y) {
+    auto* row = reinterpret_cast<std::uint32_t*>(data + static_cast<std::ptrdiff_t>(y) * stride);
+    for (int x = 0; x < image.width; ++x) {
+      const float* p = image.pixel(x, y);
+      const float a = std::clamp(p[3], 0.0f, 1.0f);
+      row[x] = (std::uint32_t{to_byte(a)} << 24) | (std::uint32_t{to_byte(p[0] * a)} << 16) |
+               (std::uint32_t{to_byte(p[1] * a)} << 8) | std::uint32_t{to_byte(p[2] * a)};
+    }
   }
-  std::filesystem::rename(tmp, path, ec);
-  if (ec) {
-    std::filesystem::remove(tmp, ec);
-    throw FileError(path, "cannot write overlay: " + ec.message());
-  }
+  cairo_surface_mark_dirty(surface);
+  const std::filesystem::path tmp = temporary_beside(path);
+  const cairo_status_t status = cairo_surface_write_to_png(surface, tmp.string().c_str());
+  cairo_surface_destroy(surface);
+  finish_atomically(tmp, path, status, "image");
 }
 
 } // namespace vectorize

@@ -85,6 +85,15 @@ std::vector<BatchJob> plan_batch(const std::vector<fs::path>& inputs, const fs::
   return unique;
 }
 
+void assign_debug_folders(std::vector<BatchJob>& jobs, const fs::path& out_dir, const fs::path& debug_dir) {
+  for (BatchJob& job : jobs) {
+    fs::path relative = job.output.lexically_relative(out_dir);
+    // An output not under out_dir (not from plan_batch) keeps its name, never a path out of debug_dir.
+    if (relative.empty() || *relative.begin() == "..") relative = job.output.filename();
+    job.debug = debug_dir / relative.replace_extension();
+  }
+}
+
 std::vector<fs::path> read_input_list(const fs::path& list) {
   std::ifstream file;
   std::istream* in = &std::cin;
@@ -122,9 +131,13 @@ JobResult run_job(const BatchJob& job, const BatchOptions& options, const Option
     r.input_bytes =
         fs::is_regular_file(job.input, ec) ? static_cast<std::size_t>(fs::file_size(job.input, ec)) : 0;
     const Image image = load_image(job.input, options.max_pixels);
-    const Conversion result = convert(image, conversion);
+    const bool debug = !job.debug.empty() && options.write_debug;
+    StageRecord record;
+    const Conversion result = convert(image, conversion, debug ? &record : nullptr);
     fs::create_directories(job.output.parent_path(), ec);
     if (ec) throw FileError(job.output.parent_path(), "cannot create the output directory: " + ec.message());
+    // Debug folder first: when it fails, the image fails without an SVG (so --skip-existing retries it).
+    if (debug) options.write_debug(job, image, result, record);
     write_file_atomically(job.output, result.svg);
     r.stats = result.stats;
     r.status = JobStatus::converted;
@@ -234,6 +247,9 @@ std::string batch_report_json(const std::vector<JobResult>& results, double wall
     std::snprintf(number, sizeof number, "%.3f", r.seconds);
     j << (k ? ",\n" : "\n") << "{\"input\":" << json_string(r.job.input.string())
       << ",\"output\":" << json_string(r.job.output.string()) << ",\"status\":\"" << status << "\"";
+    if (r.status == JobStatus::converted && !r.job.debug.empty()) {
+      j << ",\"debug\":" << json_string(r.job.debug.string());
+    }
     if (r.status == JobStatus::failed) j << ",\"error\":" << json_string(r.error);
     j << ",\"seconds\":" << number << ",\"input_bytes\":" << r.input_bytes;
     if (r.status == JobStatus::converted) j << ",\"stats\":" << stats_to_json(r.stats);

@@ -16,6 +16,8 @@ namespace vectorize {
 struct BatchJob {
   std::filesystem::path input;
   std::filesystem::path output;
+  /// Where its debug folder goes (BatchOptions::write_debug); empty for none.
+  std::filesystem::path debug = {};
 };
 
 /// The file name extensions (lower case, with the dot) that directory scans pick up as images.
@@ -33,6 +35,11 @@ const std::vector<std::string>& image_extensions();
 std::vector<BatchJob> plan_batch(const std::vector<std::filesystem::path>& inputs,
                                  const std::filesystem::path& out_dir, bool recursive,
                                  std::vector<std::string>& collisions);
+
+/// Gives every job a debug folder under debug_dir that mirrors its output under out_dir: the output
+/// out_dir/a/b.svg gets debug_dir/a/b (the output's path relative to out_dir without its extension).
+void assign_debug_folders(std::vector<BatchJob>& jobs, const std::filesystem::path& out_dir,
+                          const std::filesystem::path& debug_dir);
 
 /// Reads input paths, one per line (blank lines and lines starting with '#' skipped), from a file or,
 /// for "-", from standard input. Throws FileError when the list cannot be read.
@@ -60,6 +67,10 @@ struct BatchOptions {
   std::size_t max_pixels = std::size_t{1} << 27;
   /// Set (e.g. from a signal handler) to stop: no new job starts, jobs under way finish.
   const std::atomic<bool>* stop = nullptr;
+  /// Writes the debug folder of a converted image whose job has one (BatchJob::debug), with every
+  /// stage's output; called from the worker, before the SVG is written, so that an exception from it
+  /// fails the image and leaves no SVG. Unset: no debug folders.
+  std::function<void(const BatchJob&, const Image&, const Conversion&, const StageRecord&)> write_debug;
   /// Called after each job, from the worker that ran it, one call at a time.
   std::function<void(const JobResult&, std::size_t done, std::size_t total)> on_done;
 };
