@@ -1,33 +1,23 @@
 #include "vectorize/image.hpp"
 
-#if TRIXEL_WITH_OIIO
-#include <OpenImageIO/imageio.h>
-#else
+#include <dlfcn.h>
 #include <png.h>
-#endif
 
 #include <algorithm>
 #include <cerrno>
+#include <cstdlib>
 #include <cstring>
 #include <fstream>
 #include <memory>
 #include <string>
 #include <system_error>
+#include <vector>
 
+#include "oiio_module.hpp"
 #include "vectorize/errors.hpp"
 
 namespace vectorize {
 namespace {
-
-#if TRIXEL_WITH_OIIO
-// OpenImageIO's messages are multi-line and sometimes repeat the path; keep the first useful line.
-std::string first_line(std::string message) {
-  const auto nl = message.find('\n');
-  if (nl != std::string::npos) message.resize(nl);
-  while (!message.empty() && (message.back() == ' ' || message.back() == '\r')) message.pop_back();
-  return message;
-}
-#endif
 
 void check_readable_file(const std::filesystem::path& path) {
   std::error_code ec;
@@ -40,81 +30,72 @@ void check_readable_file(const std::filesystem::path& path) {
   if (std::filesystem::file_size(path, ec) == 0 && !ec) throw FileError(path, "empty file (0 bytes)");
 }
 
-} // namespace
+#if TRIXEL_WITH_OIIO
 
-#if !TRIXEL_WITH_OIIO
+// The OpenImageIO module: opened once, on the first input that is not a PNG. The program's own
+// folder is searched first (the build tree keeps programs and module together), then ../lib/trixel,
+// then the system's library path.
+struct OiioModule {
+  detail::OiioLoadFunction load = nullptr;
+  std::string error;
+};
 
-const char* image_reader_name() { return "libpng " PNG_LIBPNG_VER_STRING " (PNG only)"; }
-
-Image load_image(const std::filesystem::path& path, std::size_t max_pixels) {
-  check_readable_file(path);
-  if (!is_png_file(path))
-    throw FileError(path,
-                    "unsupported format: this build reads PNG only (configured with TRIXEL_IMAGE_IO=png)");
-  return load_png(path, max_pixels);
-}
-
-#else
-
-const char* image_reader_name() { return "OpenImageIO " OIIO_VERSION_STRING; }
-
-Image load_image(const std::filesystem::path& path, std::size_t max_pixels) {
-  check_readable_file(path);
-  // Ask for unassociated (straight) alpha: PNG stores it that way and OpenImageIO would otherwise
-  // premultiply, darkening the colour of every partly transparent edge pixel.
-  OIIO::ImageSpec config;
-  config.attribute("oiio:UnassociatedAlpha", 1);
-  auto input = OIIO::ImageInput::open(path.string(), &config);
-  if (!input) {
-    std::string reason = first_line(OIIO::geterror());
-    if (reason.empty()) reason = "not an image in a format this build can read";
-    throw FileError(path, "cannot decode: " + reason);
-  }
-  const OIIO::ImageSpec& spec = input->spec();
-  if (spec.width <= 0 || spec.height <= 0) throw FileError(path, "image has zero size");
-  if (spec.depth > 1) throw FileError(path, "volume images are not supported");
-  const int channels = spec.nchannels;
-  if (channels < 1) throw FileError(path, "image has no channels");
-  const std::size_t pixels = static_cast<std::size_t>(spec.width) * static_cast<std::size_t>(spec.height);
-  if (pixels > max_pixels) {
-    throw FileError(path, "image is " + std::to_string(spec.width) + " x " + std::to_string(spec.height) +
-                              " pixels, more than the limit of " + std::to_string(max_pixels));
-  }
-
-  std::vector<float> raw(pixels * static_cast<std::size_t>(channels));
-  if (!input->read_image(0, 0, 0, channels, OIIO::TypeDesc::FLOAT, raw.data())) {
-    std::string reason = first_line(input->geterror());
-    if (reason.empty()) reason = "read failed";
-    throw FileError(path, "corrupt or truncated image data: " + reason);
-  }
-  input->close();
-
-  // Which channel is alpha: OIIO reports it, with the usual 2- and 4-channel layouts as fallback.
-  int alpha = spec.alpha_channel;
-  if (alpha < 0 && (channels == 2 || channels == 4)) alpha = channels - 1;
-  const int colour_channels = alpha >= 0 ? std::min(channels - 1, 3) : std::min(channels, 3);
-
-  Image image;
-  image.width = spec.width;
-  image.height = spec.height;
-  image.source_channels = channels;
-  image.rgba.resize(pixels * 4);
-  for (std::size_t i = 0; i < pixels; ++i) {
-    const float* src = raw.data() + i * static_cast<std::size_t>(channels);
-    float* dst = image.rgba.data() + i * 4;
-    if (colour_channels >= 3) {
-      dst[0] = src[0];
-      dst[1] = src[1];
-      dst[2] = src[2];
-    } else {
-      dst[0] = dst[1] = dst[2] = src[0];
+const OiioModule& oiio_module() {
+  static const OiioModule module = [] {
+    OiioModule m;
+    std::vector<std::string> candidates;
+    if (const char* env = std::getenv("TRIXEL_OIIO_READER"); env && *env) candidates.emplace_back(env);
+    std::error_code ec;
+    const auto exe_dir = std::filesystem::read_symlink("/proc/self/exe", ec).parent_path();
+    if (!ec) {
+      candidates.push_back((exe_dir / detail::kOiioModuleFile).string());
+      candidates.push_back((exe_dir / ".." / "lib" / "trixel" / detail::kOiioModuleFile).string());
     }
-    dst[3] = alpha >= 0 ? src[alpha] : 1.0f;
-    for (int c = 0; c < 4; ++c) dst[c] = std::clamp(dst[c], 0.0f, 1.0f);
-  }
-  return image;
+    candidates.emplace_back(detail::kOiioModuleFile);
+    for (const auto& candidate : candidates) {
+      void* handle = dlopen(candidate.c_str(), RTLD_NOW | RTLD_LOCAL);
+      if (!handle) {
+        if (m.error.empty()) m.error = dlerror();
+        continue;
+      }
+      m.load = reinterpret_cast<detail::OiioLoadFunction>(dlsym(handle, detail::kOiioLoadSymbol));
+      if (m.load) return m;
+      m.error = candidate + " has no " + detail::kOiioLoadSymbol;
+    }
+    return m;
+  }();
+  return module;
 }
 
 #endif
+
+} // namespace
+
+const char* image_reader_name() {
+#if TRIXEL_WITH_OIIO
+  return "libpng " PNG_LIBPNG_VER_STRING " for PNG, OpenImageIO (loaded on first use) for other formats";
+#else
+  return "libpng " PNG_LIBPNG_VER_STRING " (PNG only)";
+#endif
+}
+
+Image load_image(const std::filesystem::path& path, std::size_t max_pixels) {
+  check_readable_file(path);
+  if (is_png_file(path)) return load_png(path, max_pixels);
+#if TRIXEL_WITH_OIIO
+  const OiioModule& module = oiio_module();
+  if (!module.load) {
+    throw FileError(path, "not a PNG, and the OpenImageIO reader for other formats cannot be loaded (" +
+                              module.error + ")");
+  }
+  Image image;
+  char reason[512] = {};
+  if (!module.load(path.c_str(), max_pixels, &image, reason, sizeof reason)) throw FileError(path, reason);
+  return image;
+#else
+  throw FileError(path,
+                  "unsupported format: this build reads PNG only (configured with TRIXEL_IMAGE_IO=png)");
+#endif
+}
 
 } // namespace vectorize
