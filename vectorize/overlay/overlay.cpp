@@ -254,6 +254,8 @@ void OverlayCanvas::save(const std::filesystem::path& path, OverlayFormat format
     cairo_surface_t* target = format == OverlayFormat::svg
                                   ? cairo_svg_surface_create(tmp_name.c_str(), s.width, s.height)
                                   : cairo_pdf_surface_create(tmp_name.c_str(), s.width, s.height);
+    // One SVG unit per image pixel (Cairo's default is points, which viewers scale by 4/3).
+    if (format == OverlayFormat::svg) cairo_svg_surface_set_document_unit(target, CAIRO_SVG_UNIT_PX);
     paint_onto(target, under, s.recording);
     cairo_surface_finish(target);
     status = cairo_surface_status(target);
