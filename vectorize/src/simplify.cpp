@@ -64,14 +64,20 @@ bool in_triangle(const Vec& a, const Vec& b, const Vec& c, const Vec& p) {
   return s1 * o >= 0 && s2 * o >= 0 && s3 * o >= 0;
 }
 
-// Distance from p to the segment ab; exactly 0 for a point on it (the cross product of integer
-// coordinates is exact), so that tolerance 0 removes the middle points of straight runs.
-double distance_to_segment(const Vec& a, const Vec& b, const Vec& p) {
+// Squared distance from p to the segment ab; exactly 0 for a point on it (the cross product of integer
+// coordinates is exact), so that tolerance 0 removes the middle points of straight runs. Squared, so
+// that no square root is taken: costs are only compared, with each other and with the tolerance.
+double squared_distance_to_segment(const Vec& a, const Vec& b, const Vec& p) {
   const double dx = b.x - a.x;
   const double dy = b.y - a.y;
-  if ((p.x - a.x) * dx + (p.y - a.y) * dy <= 0.0) return std::hypot(p.x - a.x, p.y - a.y);
-  if ((p.x - b.x) * dx + (p.y - b.y) * dy >= 0.0) return std::hypot(p.x - b.x, p.y - b.y);
-  return std::abs(dx * (p.y - a.y) - dy * (p.x - a.x)) / std::hypot(dx, dy);
+  const double ax = p.x - a.x;
+  const double ay = p.y - a.y;
+  if (ax * dx + ay * dy <= 0.0) return ax * ax + ay * ay;
+  const double bx = p.x - b.x;
+  const double by = p.y - b.y;
+  if (bx * dx + by * dy >= 0.0) return bx * bx + by * by;
+  const double cross = dx * ay - dy * ax;
+  return cross * cross / (dx * dx + dy * dy);
 }
 
 struct Segment {
@@ -200,7 +206,8 @@ struct Candidate {
 
 class Simplifier {
 public:
-  Simplifier(const std::vector<Chain>& chains, double tolerance) : tolerance_(tolerance) {
+  Simplifier(const std::vector<Chain>& chains, double tolerance)
+      : tolerance_(tolerance), squared_tolerance_(tolerance * tolerance) {
     Vec lo{std::numeric_limits<double>::infinity(), std::numeric_limits<double>::infinity()};
     Vec hi{-lo.x, -lo.y};
     states_.resize(chains.size());
@@ -297,12 +304,12 @@ private:
     return v > 0 && v + 1 < static_cast<int>(s.points.size());
   }
 
-  // The largest distance of the original points from u to w (exclusive) to the segment uw.
-  double deviation(const ChainState& s, int u, int w) const {
+  // The largest squared distance of the original points from u to w (exclusive) to the segment uw.
+  double squared_deviation(const ChainState& s, int u, int w) const {
     const int n = static_cast<int>(s.points.size());
     double worst = 0.0;
-    for (int i = (u + 1) % n; i != w; i = (i + 1) % n)
-      worst = std::max(worst, distance_to_segment(s.points[u], s.points[w], s.points[i]));
+    for (int i = u + 1 == n ? 0 : u + 1; i != w; i = i + 1 == n ? 0 : i + 1)
+      worst = std::max(worst, squared_distance_to_segment(s.points[u], s.points[w], s.points[i]));
     return worst;
   }
 
@@ -312,8 +319,8 @@ private:
     const int u = s.prev[v];
     const int w = s.next[v];
     if (s.points[u] == s.points[w]) return;
-    const double cost = deviation(s, u, w);
-    if (cost <= tolerance_) queue.push({cost, c, static_cast<std::uint32_t>(v), s.version[v]});
+    const double cost = squared_deviation(s, u, w);
+    if (cost <= squared_tolerance_) queue.push({cost, c, static_cast<std::uint32_t>(v), s.version[v]});
   }
 
   // Whether replacing u-v-w by u-w creates no contact with another segment and sweeps over no point.
@@ -325,10 +332,19 @@ private:
     const Vec& pw = s.points[w];
     const std::uint32_t skip_a = s.segment_from[u];
     const std::uint32_t skip_b = s.segment_from[v];
+    // Most segments of the cells lie clear of the triangle's bounding box: they can neither meet uw
+    // nor have an end inside the triangle, and are dismissed without an orientation test.
+    const double box_x0 = std::min({pu.x, pv.x, pw.x});
+    const double box_x1 = std::max({pu.x, pv.x, pw.x});
+    const double box_y0 = std::min({pu.y, pv.y, pw.y});
+    const double box_y1 = std::max({pu.y, pv.y, pw.y});
     bool ok = true;
     grid_->query({pu, pv, pw}, 3, segments_, [&](std::uint32_t id) {
       if (!ok || id == skip_a || id == skip_b) return;
       const Segment& t = segments_[id];
+      if (std::max(t.a.x, t.b.x) < box_x0 || std::min(t.a.x, t.b.x) > box_x1 ||
+          std::max(t.a.y, t.b.y) < box_y0 || std::min(t.a.y, t.b.y) > box_y1)
+        return;
       const bool a_shared = t.a == pu || t.a == pw;
       const bool b_shared = t.b == pu || t.b == pw;
       if (a_shared && b_shared) {
@@ -364,6 +380,7 @@ private:
   }
 
   double tolerance_;
+  double squared_tolerance_;
   std::vector<ChainState> states_;
   std::vector<Segment> segments_;
   std::optional<SegmentGrid> grid_;
