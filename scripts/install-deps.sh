@@ -9,6 +9,7 @@ packages=(
   libcli11-dev                                       # command-line parsing
   libgtest-dev libcgal-dev                           # tests; CGAL is a test and benchmark oracle only
   clang-format                                       # the format check of the test suite
+  chromium chromium-driver librsvg2-bin              # tests: the inspector page, SVG overlay renders
 )
 
 if [ "$(id -u)" -eq 0 ]; then
