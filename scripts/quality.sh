@@ -31,7 +31,9 @@
 # *.magenta.png, SET/TOOL/results.csv (one row per image), SET.md (the table and the versions).
 #
 # Wall time is the whole conversion command per image (process start included, Node's for the peers),
-# because that is what a user waits for.
+# because that is what a user waits for. Images are taken one at a time and every tool converts each
+# image in turn, so a drifting load on a shared machine weighs on all tools alike; the table gives
+# each tool's time over VTracer's when VTracer runs.
 set -euo pipefail
 
 repo=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
@@ -228,7 +230,8 @@ run_set() { # run_set SET
   local listed
   listed=$(images_of "$set")
   mapfile -t images <<<"$listed"
-  local rows=() tool variant label slug dir img name svg size w h t0 t1 times secs metrics status r
+  # The runs: one per tool, ours once per --ours-args.
+  local run_tool=() run_variant=() run_label=() run_dir=() tool variant label slug
   for tool in "${tool_list[@]}"; do
     local variants=("")
     [[ $tool == ours ]] && variants=("${ours_variants[@]}")
@@ -236,46 +239,61 @@ run_set() { # run_set SET
       label=$tool
       [[ -n $variant ]] && label="$tool ${variant//,/;}"
       slug=$(echo "$label" | tr -c 'A-Za-z0-9.=_\n' '-' | tr -s '-')
-      dir=$out/$set/$slug
-      mkdir -p "$dir"
-      echo "$csv_header" >"$dir/results.csv"
-      echo "quality.sh: $set: $label (${#images[@]} images)" >&2
-      for img in "${images[@]}"; do
-        name=$(basename "${img%.*}")
+      run_tool+=("$tool")
+      run_variant+=("$variant")
+      run_label+=("$label")
+      run_dir+=("$out/$set/$slug")
+      mkdir -p "$out/$set/$slug"
+      echo "$csv_header" >"$out/$set/$slug/results.csv"
+    done
+  done
+
+  # Image by image, every run in turn (and every repeat in turn), so that the load of this shared
+  # machine drifting over time weighs on all tools alike and the time ratios stay fair.
+  local rows=() i k r img name svg size w h t0 t1 secs metrics dir
+  local -A times status
+  for ((i = 0; i < ${#images[@]}; ++i)); do
+    img=${images[i]}
+    name=$(basename "${img%.*}")
+    size=$(png_size "$img")
+    read -r w h <<<"$size"
+    echo "quality.sh: $set: [$((i + 1))/${#images[@]}] $name" >&2
+    times=()
+    status=()
+    for ((r = 0; r < repeat; ++r)); do
+      for k in "${!run_tool[@]}"; do
+        [[ ${status[$k]:-ok} == ok ]] || continue
+        dir=${run_dir[k]}
         svg=$dir/$name.svg
-        size=$(png_size "$img")
-        read -r w h <<<"$size"
-        times=()
-        status=ok
-        for ((r = 0; r < repeat; ++r)); do
-          rm -f "$svg"
-          t0=$(now)
-          if ! convert_with "$tool" "$variant" "$img" "$svg" 2>"$dir/$name.log"; then
-            status=failed
-            echo "quality.sh: $set: $label: $img failed: $(tail -1 "$dir/$name.log")" >&2
-            break
-          fi
-          t1=$(now)
-          times+=("$(awk -v a="$t0" -v b="$t1" 'BEGIN { printf "%.4f", b - a }')")
-        done
-        metrics=,,,,,,,,
-        if [[ $status == ok ]]; then
-          secs=$(printf '%s\n' "${times[@]}" | sort -g | awk '{ v[NR] = $1 } END { print v[int((NR + 1) / 2)] }')
-          if rsvg-convert -w "$w" -h "$h" --background-color white -o "$dir/$name.white.png" "$svg" &&
-            rsvg-convert -w "$w" -h "$h" --background-color magenta -o "$dir/$name.magenta.png" "$svg" &&
-            metrics=$("$compare_bin" --csv "$img" "$dir/$name.white.png" "$dir/$name.magenta.png"); then
-            :
-          else
-            status=render-failed
-            metrics=,,,,,,,,
-            echo "quality.sh: $set: $label: $svg: render or comparison failed" >&2
-          fi
-          rows+=("$set,$label,$name,$status,$secs,$(stat -c %s "$svg"),$(grep -o '<path' "$svg" | wc -l),$metrics")
-        else
-          rows+=("$set,$label,$name,$status,,,,$metrics")
+        rm -f "$svg"
+        t0=$(now)
+        if ! convert_with "${run_tool[k]}" "${run_variant[k]}" "$img" "$svg" 2>"$dir/$name.log"; then
+          status[$k]=failed
+          echo "quality.sh: $set: ${run_label[k]}: $img failed: $(head -n 1 "$dir/$name.log")" >&2
+          continue
         fi
-        echo "${rows[-1]}" >>"$dir/results.csv"
+        t1=$(now)
+        times[$k]+="$(awk -v a="$t0" -v b="$t1" 'BEGIN { printf "%.4f", b - a }') "
       done
+    done
+    for k in "${!run_tool[@]}"; do
+      dir=${run_dir[k]}
+      svg=$dir/$name.svg
+      metrics=,,,,,,,,
+      if [[ ${status[$k]:-ok} == ok ]]; then
+        secs=$(printf '%s\n' ${times[$k]} | sort -g | awk '{ v[NR] = $1 } END { print v[int((NR + 1) / 2)] }')
+        if rsvg-convert -w "$w" -h "$h" --background-color white -o "$dir/$name.white.png" "$svg" &&
+          rsvg-convert -w "$w" -h "$h" --background-color magenta -o "$dir/$name.magenta.png" "$svg" &&
+          metrics=$("$compare_bin" --csv "$img" "$dir/$name.white.png" "$dir/$name.magenta.png"); then
+          rows+=("$set,${run_label[k]},$name,ok,$secs,$(stat -c %s "$svg"),$(grep -o '<path' "$svg" | wc -l),$metrics")
+        else
+          echo "quality.sh: $set: ${run_label[k]}: $svg: render or comparison failed" >&2
+          rows+=("$set,${run_label[k]},$name,render-failed,,,,,,,,,,,,")
+        fi
+      else
+        rows+=("$set,${run_label[k]},$name,failed,,,,,,,,,,,,")
+      fi
+      echo "${rows[-1]}" >>"$dir/results.csv"
     done
   done
 
