@@ -247,6 +247,29 @@ TEST(DebugFolder, FailureRemovesWhatWasWritten) {
   EXPECT_FALSE(fs::exists(dir / "new"));
 }
 
+// An input kept in the debug folder under a name the folder uses is never overwritten; an input named
+// like the copy is left as it is (and kept when the folder fails).
+TEST(DebugFolder, NeverOverwritesTheInput) {
+  ScratchDir dir;
+  const Converted& c = logo();
+  fs::create_directories(dir / "d");
+  fs::copy_file(kLogo, dir / "d" / "04-cdt.png");
+  vectorize::DebugOptions options;
+  options.source = dir / "d" / "04-cdt.png";
+  EXPECT_THROW(vectorize::write_debug_folder(dir / "d", c.image, c.record, c.svg, options),
+               vectorize::FileError);
+  EXPECT_EQ(read_all(dir / "d" / "04-cdt.png"), read_all(kLogo));
+  std::size_t entries = 0;
+  for ([[maybe_unused]] const auto& entry : fs::directory_iterator(dir / "d")) ++entries;
+  EXPECT_EQ(entries, 1u);
+
+  fs::create_directories(dir / "e");
+  fs::copy_file(kLogo, dir / "e" / "input.png");
+  options.source = dir / "e" / "input.png";
+  vectorize::write_debug_folder(dir / "e", c.image, c.record, c.svg, options);
+  EXPECT_EQ(read_all(dir / "e" / "input.png"), read_all(kLogo));
+}
+
 TEST(DebugFolder, PageEscapesTheTitle) {
   const std::string page = vectorize::detail::inspector_html("<b>&\"x\"", "{\"regions\":[]}");
   EXPECT_NE(page.find("&lt;b&gt;&amp;&quot;x&quot;"), std::string::npos);

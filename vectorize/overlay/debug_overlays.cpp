@@ -19,7 +19,7 @@ DebugStageNames debug_stage_names(DebugStage stage) noexcept {
   case DebugStage::edges:
     return {"01-edges", "Edge pixels"};
   case DebugStage::chains:
-    return {"02-chains", "Chains and polylines"};
+    return {"02-chains", "Chains, polylines"};
   case DebugStage::pslg:
     return {"03-pslg", "PSLG"};
   case DebugStage::cdt:
@@ -366,9 +366,10 @@ bool browser_shows(const fs::path& file) {
   return ext == ".png" || ext == ".jpg" || ext == ".jpeg" || ext == ".gif" || ext == ".webp" || ext == ".bmp";
 }
 
-void copy_atomically(const fs::path& from, const fs::path& to) {
+// Returns false when `to` is `from` itself (the input already sits in the folder).
+bool copy_atomically(const fs::path& from, const fs::path& to) {
   std::error_code ec;
-  if (fs::exists(to, ec) && fs::equivalent(from, to, ec)) return; // the input already sits there
+  if (fs::exists(to, ec) && fs::equivalent(from, to, ec)) return false;
   static thread_local std::mt19937_64 rng{std::random_device{}()};
   fs::path tmp = to;
   tmp += ".tmp-" + std::to_string(rng() % 1000000000);
@@ -382,6 +383,7 @@ void copy_atomically(const fs::path& from, const fs::path& to) {
     fs::remove(tmp, ec);
     throw FileError(to, "cannot copy the input here: " + ec.message());
   }
+  return true;
 }
 
 std::string json_escape(std::string_view s) {
@@ -418,32 +420,53 @@ std::string layer_json(std::string_view key, std::string_view title, const std::
 std::vector<fs::path> write_debug_folder(const fs::path& dir, const Image& image, const StageRecord& record,
                                          std::string_view svg, const DebugOptions& options) {
   check_debug_folder(dir);
+  // The page needs layers a browser draws: PDF overlays get PNG layers.
+  const OverlayFormat layer_format =
+      options.format == OverlayFormat::svg ? OverlayFormat::svg : OverlayFormat::png;
+  const auto overlay_name = [&](DebugStage stage) {
+    return std::string(debug_stage_names(stage).stem) + "." + overlay_extension(options.format);
+  };
+  const auto layer_name = [&](DebugStage stage) {
+    return std::string("layers/") + debug_stage_names(stage).stem + "." + overlay_extension(layer_format);
+  };
+  // An input is never overwritten, even one kept in the debug folder under a name written here.
+  if (!options.source.empty()) {
+    std::vector<fs::path> targets{dir / "result.svg", dir / "regions.json", dir / "index.html"};
+    for (const DebugStage stage : kDebugStages) {
+      targets.push_back(dir / overlay_name(stage));
+      targets.push_back(dir / layer_name(stage));
+    }
+    std::error_code ec;
+    for (const fs::path& target : targets) {
+      if (fs::exists(target, ec) && fs::equivalent(target, options.source, ec)) {
+        throw FileError(target, "is the input; refusing to overwrite it with the debug output");
+      }
+    }
+  }
   FolderTransaction folder(dir);
   folder.make_directory(dir);
   folder.make_directory(dir / "layers");
 
-  // The page needs layers a browser draws: PDF overlays get PNG layers.
-  const OverlayFormat layer_format =
-      options.format == OverlayFormat::svg ? OverlayFormat::svg : OverlayFormat::png;
   std::string layers = "[";
 
   fs::path input_file;
   if (!options.source.empty() && browser_shows(options.source)) {
     input_file = dir / ("input" + lower(options.source.extension().string()));
-    copy_atomically(options.source, input_file);
+    // Never recorded as written when it is the input itself: a failure must not remove it.
+    if (copy_atomically(options.source, input_file)) folder.wrote(input_file);
   } else {
     input_file = dir / "input.png";
     save_image_png(image, input_file);
+    folder.wrote(input_file);
   }
-  folder.wrote(input_file);
   layers += layer_json("input", "Input", input_file.filename().string(), "", true, 0.55);
 
   for (const DebugStage stage : kDebugStages) {
     const DebugStageNames names = debug_stage_names(stage);
     OverlayCanvas canvas(image, options.dim);
     draw_debug_stage(canvas, stage, record);
-    const std::string overlay = std::string(names.stem) + "." + overlay_extension(options.format);
-    const std::string layer = std::string("layers/") + names.stem + "." + overlay_extension(layer_format);
+    const std::string overlay = overlay_name(stage);
+    const std::string layer = layer_name(stage);
     canvas.save(dir / overlay, options.format, OverlayBackground::dimmed_input);
     folder.wrote(dir / overlay);
     canvas.save(dir / layer, layer_format, OverlayBackground::none);

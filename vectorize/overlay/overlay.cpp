@@ -7,13 +7,12 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
-#include <random>
 #include <stdexcept>
 #include <string>
-#include <system_error>
 #include <vector>
 
 #include "vectorize/errors.hpp"
+#include "vectorize/pipeline.hpp"
 
 namespace vectorize {
 
@@ -72,26 +71,19 @@ cairo_surface_t* create_image_surface(int width, int height) {
   return surface;
 }
 
-// A name beside the target, unique to this call, so that workers writing in parallel never share one.
-std::filesystem::path temporary_beside(const std::filesystem::path& path) {
-  static thread_local std::mt19937_64 rng{std::random_device{}()};
-  std::filesystem::path tmp = path;
-  tmp += ".tmp-" + std::to_string(rng() % 1000000000);
-  return tmp;
+// Cairo writes into memory; the file is then written through write_file_atomically(), the one place
+// that handles temporary names, renaming and cleaning up after an interrupt.
+cairo_status_t append_to_string(void* closure, const unsigned char* data, unsigned int length) {
+  static_cast<std::string*>(closure)->append(reinterpret_cast<const char*>(data), length);
+  return CAIRO_STATUS_SUCCESS;
 }
 
-void finish_atomically(const std::filesystem::path& tmp, const std::filesystem::path& path,
-                       cairo_status_t status, const char* what = "overlay") {
-  std::error_code ec;
+void write_encoded(const std::filesystem::path& path, const std::string& bytes, cairo_status_t status,
+                   const char* what) {
   if (status != CAIRO_STATUS_SUCCESS) {
-    std::filesystem::remove(tmp, ec);
     throw FileError(path, std::string("cannot write ") + what + ": " + cairo_status_to_string(status));
   }
-  std::filesystem::rename(tmp, path, ec);
-  if (ec) {
-    std::filesystem::remove(tmp, ec);
-    throw FileError(path, std::string("cannot write ") + what + ": " + ec.message());
-  }
+  write_file_atomically(path, bytes);
 }
 
 void set_colour(cairo_t* cr, const float rgba[4]) {
@@ -237,23 +229,23 @@ void paint_onto(cairo_surface_t* target, cairo_surface_t* background, cairo_surf
 void OverlayCanvas::save(const std::filesystem::path& path, OverlayFormat format,
                          OverlayBackground background) const {
   const State& s = *state_;
-  const std::filesystem::path tmp = temporary_beside(path);
-  const std::string tmp_name = tmp.string();
+  std::string bytes;
   cairo_surface_t* under = background == OverlayBackground::dimmed_input ? s.background : nullptr;
   cairo_status_t status = CAIRO_STATUS_SUCCESS;
   switch (format) {
   case OverlayFormat::png: {
     cairo_surface_t* target = create_image_surface(s.width, s.height);
     paint_onto(target, under, s.recording);
-    status = cairo_surface_write_to_png(target, tmp_name.c_str());
+    status = cairo_surface_write_to_png_stream(target, append_to_string, &bytes);
     cairo_surface_destroy(target);
     break;
   }
   case OverlayFormat::svg:
   case OverlayFormat::pdf: {
-    cairo_surface_t* target = format == OverlayFormat::svg
-                                  ? cairo_svg_surface_create(tmp_name.c_str(), s.width, s.height)
-                                  : cairo_pdf_surface_create(tmp_name.c_str(), s.width, s.height);
+    cairo_surface_t* target =
+        format == OverlayFormat::svg
+            ? cairo_svg_surface_create_for_stream(append_to_string, &bytes, s.width, s.height)
+            : cairo_pdf_surface_create_for_stream(append_to_string, &bytes, s.width, s.height);
     // One SVG unit per image pixel (Cairo's default is points, which viewers scale by 4/3).
     if (format == OverlayFormat::svg) cairo_svg_surface_set_document_unit(target, CAIRO_SVG_UNIT_PX);
     paint_onto(target, under, s.recording);
@@ -263,7 +255,7 @@ void OverlayCanvas::save(const std::filesystem::path& path, OverlayFormat format
     break;
   }
   }
-  finish_atomically(tmp, path, status);
+  write_encoded(path, bytes, status, "overlay");
 }
 
 void save_image_png(const Image& image, const std::filesystem::path& path) {
@@ -281,10 +273,10 @@ void save_image_png(const Image& image, const std::filesystem::path& path) {
     }
   }
   cairo_surface_mark_dirty(surface);
-  const std::filesystem::path tmp = temporary_beside(path);
-  const cairo_status_t status = cairo_surface_write_to_png(surface, tmp.string().c_str());
+  std::string bytes;
+  const cairo_status_t status = cairo_surface_write_to_png_stream(surface, append_to_string, &bytes);
   cairo_surface_destroy(surface);
-  finish_atomically(tmp, path, status, "image");
+  write_encoded(path, bytes, status, "image");
 }
 
 } // namespace vectorize
