@@ -118,9 +118,13 @@ struct PbaLayout {
   /// Tasks of the phase-1 steps (row band, column group) and of phases 2 and 3 (row, column band).
   CDT_HD std::size_t group_tasks() const { return static_cast<std::size_t>(row_bands) * groups(); }
   CDT_HD std::size_t row_tasks() const { return static_cast<std::size_t>(col_bands) * m; }
-  /// Tasks of the merge round that joins groups of `width` column bands into groups of 2 * width.
+  /// Pairs of groups per row in the merge round that joins groups of `width` column bands into
+  /// groups of 2 * width, and the round's tasks: one per (row, pair).
+  CDT_HD std::uint32_t merge_pairs(std::uint32_t width) const {
+    return (col_bands + 2 * width - 1) / (2 * width);
+  }
   CDT_HD std::size_t merge_tasks(std::uint32_t width) const {
-    return static_cast<std::size_t>((col_bands + 2 * width - 1) / (2 * width)) * m;
+    return static_cast<std::size_t>(merge_pairs(width)) * m;
   }
   /// Entries of the buffers below: m * m for owner, column and stack.
   std::size_t stack_size_entries() const { return static_cast<std::size_t>(m) * col_bands; }
@@ -380,9 +384,11 @@ CDT_HD_INLINE std::uint32_t owner_at(const std::uint32_t* owner, std::uint32_t m
 }
 
 /// The three phases of PBA on an executor: v.column receives the packed nearest site of every cell
-/// (kNone when no cell is occupied). Task indices: t = band * (tasks per band) + task in phase 1 and
-/// t = band * m + row in phases 2 and 3, so the tasks next to each other (one thread's run on a CPU,
-/// one warp on a device) work on neighbouring columns or rows. Each for_each is a global barrier.
+/// (kNone when no cell is occupied). Task indices: t = band * (groups) + group in phase 1 and
+/// t = row * (bands or pairs) + band or pair in phases 2 and 3, so the tasks next to each other (one
+/// thread's run on a CPU, one warp on a device) work on neighbouring columns of one row; a warp whose
+/// threads took one row each would stride by the row length, a power of two that makes its accesses
+/// collide in the caches. Each for_each is a global barrier.
 template <class Executor>
 void run_pba(Executor& executor, const PbaView& v) {
   const std::uint32_t groups = v.groups();
@@ -394,18 +400,21 @@ void run_pba(Executor& executor, const PbaView& v) {
     pba_column_sweep(v, static_cast<std::uint32_t>(t / groups), static_cast<std::uint32_t>(t % groups));
   });
   executor.for_each(v.row_tasks(), [v] CDT_HD(std::size_t t) {
-    pba_band_stack(v, static_cast<std::uint32_t>(t % v.m), static_cast<std::uint32_t>(t / v.m));
+    pba_band_stack(v, static_cast<std::uint32_t>(t / v.col_bands),
+                   static_cast<std::uint32_t>(t % v.col_bands));
   });
   // Pairwise merges: after the round with group width w, the groups of 2w bands hold merged stacks.
   for (std::uint32_t width = 1; width < v.col_bands; width *= 2) {
-    executor.for_each(v.merge_tasks(width), [v, width] CDT_HD(std::size_t t) {
-      const auto left = static_cast<std::uint32_t>(t / v.m) * 2 * width;
+    const std::uint32_t pairs = v.merge_pairs(width);
+    executor.for_each(v.merge_tasks(width), [v, width, pairs] CDT_HD(std::size_t t) {
+      const auto left = static_cast<std::uint32_t>(t % pairs) * 2 * width;
       if (left + width < v.col_bands)
-        pba_merge_stacks(v, static_cast<std::uint32_t>(t % v.m), left, left + width);
+        pba_merge_stacks(v, static_cast<std::uint32_t>(t / pairs), left, left + width);
     });
   }
   executor.for_each(v.row_tasks(), [v] CDT_HD(std::size_t t) {
-    pba_colour_band(v, static_cast<std::uint32_t>(t % v.m), static_cast<std::uint32_t>(t / v.m));
+    pba_colour_band(v, static_cast<std::uint32_t>(t / v.col_bands),
+                    static_cast<std::uint32_t>(t % v.col_bands));
   });
 }
 
