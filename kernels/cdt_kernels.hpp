@@ -3,7 +3,10 @@
 // tests can include it from plain C++.
 
 #include <cstddef>
+#include <cstdint>
+#include <span>
 #include <string>
+#include <vector>
 
 namespace cdt::gpu {
 
@@ -24,5 +27,52 @@ void orient2d_signs(const double* coords, int* signs, std::size_t num);
 /// Signs of incircle for num queries on the device; coords holds ax ay bx by cx cy dx dy per query
 /// (8 * num doubles). Throws DeviceError on any CUDA failure.
 void incircle_signs(const double* coords, int* signs, std::size_t num);
+
+// --- Phase 1 of gCD on the device: the digital Voronoi diagram (paper section 3.1, Appendix A) ---------
+
+/// Options of compute_digital_voronoi on the device. The defaults suit every grid size.
+struct VoronoiOptions {
+  /// true: the Standard-flooding colouring (Algorithm A.1), as triangulation needs; false: the
+  /// Euclidean colouring of the Parallel Banding Algorithm alone (Definition 1).
+  bool amend = true;
+  /// Bands of rows of PBA's phase 1 and bands of columns of its phases 2 and 3; 0 picks them from m.
+  /// Every count in [1, m] gives the same colouring (tests vary them to exercise the band merging).
+  std::uint32_t row_bands = 0;
+  std::uint32_t col_bands = 0;
+  /// Device memory the call may use, in bytes; 0: whatever the device has free. An input that needs
+  /// more fails with DeviceError before anything is allocated.
+  std::size_t memory_limit = 0;
+};
+
+/// What the device computation found and did.
+struct VoronoiStats {
+  std::uint64_t orphans = 0;       ///< cells cut off from their site next to them (Appendix A)
+  std::uint64_t debris = 0;        ///< orphans and the cells reachable only through them: recoloured
+  std::uint32_t debris_rounds = 0; ///< rounds of the worklist that grows orphans into debris
+  std::uint32_t flood_rounds = 0;  ///< rounds of the flood until no debris cell changed colour
+  std::size_t device_bytes = 0;    ///< the estimate checked against the memory available
+  /// Device time of the steps in milliseconds (CUDA events): copies to the device and the input
+  /// check, PBA, the amendment (orphans, debris, flood; with amend false: the owners' lookup), the
+  /// copy of the colouring back.
+  float upload_ms = 0, pba_ms = 0, amend_ms = 0, download_ms = 0;
+};
+
+/// Device memory that compute_digital_voronoi needs for an m x m grid and num_points points, in bytes
+/// (the buffers of every step, CUB's scratch, and a margin for the debris worklist).
+std::size_t voronoi_device_bytes(std::uint32_t m, std::size_t num_points, const VoronoiOptions& options = {});
+
+/// The digital Voronoi diagram on the device, the same colouring as the CPU executor's
+/// cdt::detail::compute_digital_voronoi (or compute_euclidean_colouring with options.amend false):
+/// colour[gy*m+gx] = the kept point nearest to grid point (gx, gy), ties to the smaller index, amended
+/// so that every region is 4-connected to its site; kNone everywhere when no cell is occupied.
+/// cell_owner: m * m point indices or kNone, row-major (GridSites::cell_owner); site_x, site_y: the grid
+/// cell of every point (GridSites::gx, gy), each owner sitting in its own cell. 1 <= m <= 32768.
+/// Throws Error for inconsistent input (sizes, an owner out of range or not in its cell) and
+/// DeviceError when there is no device, the input does not fit in device memory, or CUDA fails.
+std::vector<std::uint32_t> compute_digital_voronoi(std::span<const std::uint32_t> cell_owner,
+                                                   std::span<const std::uint32_t> site_x,
+                                                   std::span<const std::uint32_t> site_y, std::uint32_t m,
+                                                   const VoronoiOptions& options = {},
+                                                   VoronoiStats* stats = nullptr);
 
 } // namespace cdt::gpu

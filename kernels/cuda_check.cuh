@@ -1,9 +1,11 @@
 #pragma once
-// The one choke point through which CUDA failures become exceptions.
+// The one choke point through which CUDA failures become exceptions, and the device buffer.
 
 #include <cuda_runtime.h>
 
+#include <cstddef>
 #include <string>
+#include <utility>
 
 #include "cdt/errors.hpp"
 
@@ -24,7 +26,13 @@ inline void check_launch(const char* kernel, const char* file, int line) {
   if (debug_sync()) check(cudaDeviceSynchronize(), kernel, file, line);
 }
 
-/// A device buffer owned by RAII; plain cudaMalloc, never managed memory.
+/// Throws DeviceError when the device has less than `bytes` free.
+void check_free_memory(std::size_t bytes);
+inline constexpr std::size_t kCheckFreeAbove = std::size_t{64} << 20;
+
+/// A device buffer owned by RAII; plain cudaMalloc, never managed memory. resize() keeps the
+/// allocation when it is large enough, so one buffer serves several phases; the contents are not
+/// kept when it grows.
 template <class T>
 class DeviceBuffer {
 public:
@@ -32,26 +40,54 @@ public:
   explicit DeviceBuffer(std::size_t count) { resize(count); }
   DeviceBuffer(const DeviceBuffer&) = delete;
   DeviceBuffer& operator=(const DeviceBuffer&) = delete;
-  ~DeviceBuffer() {
-    if (d_ptr_ != nullptr) cudaFree(d_ptr_);
+  DeviceBuffer(DeviceBuffer&& other) noexcept
+      : d_ptr_(std::exchange(other.d_ptr_, nullptr)), num_(std::exchange(other.num_, 0)),
+        capacity_(std::exchange(other.capacity_, 0)) {}
+  DeviceBuffer& operator=(DeviceBuffer&& other) noexcept {
+    if (this != &other) {
+      release();
+      d_ptr_ = std::exchange(other.d_ptr_, nullptr);
+      num_ = std::exchange(other.num_, 0);
+      capacity_ = std::exchange(other.capacity_, 0);
+    }
+    return *this;
   }
+  ~DeviceBuffer() { release(); }
+
   void resize(std::size_t count) {
     if (count <= capacity_) {
       num_ = count;
       return;
     }
-    if (d_ptr_ != nullptr) cudaFree(d_ptr_);
-    d_ptr_ = nullptr;
-    capacity_ = 0;
-    check(cudaMalloc(reinterpret_cast<void**>(&d_ptr_), count * sizeof(T)), "cudaMalloc", __FILE__, __LINE__);
+    release();
+    // A large request is checked against the free memory first: a clear message, and no failing API
+    // call for compute-sanitizer to report.
+    if (count * sizeof(T) >= kCheckFreeAbove) check_free_memory(count * sizeof(T));
+    void* d_new = nullptr;
+    const cudaError_t status = cudaMalloc(&d_new, count * sizeof(T));
+    if (status != cudaSuccess) {
+      cudaGetLastError(); // an allocation failure is not sticky; leave no error behind for the next check
+      raise_cuda_error(status, ("cudaMalloc of " + std::to_string(count * sizeof(T)) + " bytes").c_str(),
+                       __FILE__, __LINE__);
+    }
+    d_ptr_ = static_cast<T*>(d_new);
     capacity_ = count;
     num_ = count;
   }
   T* data() noexcept { return d_ptr_; }
   const T* data() const noexcept { return d_ptr_; }
   std::size_t size() const noexcept { return num_; }
+  std::size_t capacity() const noexcept { return capacity_; }
 
 private:
+  void release() noexcept {
+    // A failing cudaFree (a sticky error from an earlier fault) was already reported where it arose.
+    if (d_ptr_ != nullptr) cudaFree(d_ptr_);
+    d_ptr_ = nullptr;
+    num_ = 0;
+    capacity_ = 0;
+  }
+
   T* d_ptr_ = nullptr;
   std::size_t num_ = 0;
   std::size_t capacity_ = 0;

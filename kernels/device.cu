@@ -1,5 +1,6 @@
 // Device discovery and the error choke point of the CUDA executor.
 
+#include <algorithm>
 #include <atomic>
 #include <cstdlib>
 #include <cstring>
@@ -7,6 +8,7 @@
 
 #include "cdt_kernels.hpp"
 #include "cuda_check.cuh"
+#include "cuda_executor.cuh"
 
 namespace cdt::gpu {
 namespace {
@@ -27,6 +29,143 @@ bool debug_sync() noexcept {
   }();
   return from_env || g_debug_sync.load(std::memory_order_relaxed);
 }
+
+void check_free_memory(std::size_t bytes) {
+  std::size_t free_bytes = 0, total_bytes = 0;
+  CDT_CUDA_CHECK(cudaMemGetInfo(&free_bytes, &total_bytes));
+  if (bytes > free_bytes)
+    throw DeviceError("cannot allocate " + std::to_string(bytes >> 20) +
+                      " MiB of device memory: " + std::to_string(free_bytes >> 20) + " MiB free of " +
+                      std::to_string(total_bytes >> 20) + " MiB");
+}
+
+DeviceMemory device_memory() {
+  DeviceMemory memory;
+  CDT_CUDA_CHECK(cudaMemGetInfo(&memory.free_bytes, &memory.total_bytes));
+  return memory;
+}
+
+void require_device_memory(std::size_t needed_bytes, std::size_t limit_bytes, const std::string& what) {
+  const auto mib = [](std::size_t bytes) { return std::to_string((bytes + (1u << 20) - 1) >> 20) + " MiB"; };
+  if (limit_bytes != 0) {
+    if (needed_bytes > limit_bytes)
+      throw DeviceError(what + " needs " + mib(needed_bytes) + " of device memory, more than the limit of " +
+                        mib(limit_bytes) + " it was given");
+    return;
+  }
+  const DeviceMemory memory = device_memory();
+  if (needed_bytes > memory.free_bytes)
+    throw DeviceError(what + " needs " + mib(needed_bytes) + " of device memory, but the device has only " +
+                      mib(memory.free_bytes) + " free (of " + mib(memory.total_bytes) +
+                      "); use a smaller grid or the CPU backend");
+}
+
+CudaExecutor::CudaExecutor() {
+  if (device_count() == 0) throw DeviceError("no CUDA device is available");
+  int device = 0;
+  CDT_CUDA_CHECK(cudaGetDevice(&device));
+  int sms = 0;
+  CDT_CUDA_CHECK(cudaDeviceGetAttribute(&sms, cudaDevAttrMultiProcessorCount, device));
+  // Enough blocks of 256 threads to fill every SM several times; longer ranges loop in the kernel.
+  max_blocks_ = static_cast<std::size_t>(sms > 0 ? sms : 1) * 32;
+  CDT_CUDA_CHECK(cudaStreamCreateWithFlags(&stream_, cudaStreamNonBlocking));
+  try {
+    scalar_.resize(1);
+  } catch (...) {
+    cudaStreamDestroy(stream_);
+    throw;
+  }
+}
+
+CudaExecutor::~CudaExecutor() {
+  // Buffers are freed by their own destructors (cudaFree waits for the device); errors here were
+  // reported by the call that caused them.
+  if (stream_ != nullptr) cudaStreamSynchronize(stream_);
+  for (int k = 0; k < 2; ++k) {
+    if (h_staging_[k] != nullptr) cudaFreeHost(h_staging_[k]);
+    if (staged_[k] != nullptr) cudaEventDestroy(staged_[k]);
+  }
+  if (stream_ != nullptr) cudaStreamDestroy(stream_);
+}
+
+namespace {
+/// Copies up to this size go straight from pageable memory; larger ones are split into blocks of
+/// this size and staged through two pinned blocks, the host's memcpy of one block overlapping the
+/// bus transfer of the other.
+constexpr std::size_t kStagingBytes = std::size_t{8} << 20;
+} // namespace
+
+void CudaExecutor::make_staging() {
+  for (int k = 0; k < 2; ++k) {
+    if (h_staging_[k] == nullptr) CDT_CUDA_CHECK(cudaMallocHost(&h_staging_[k], kStagingBytes));
+    if (staged_[k] == nullptr) CDT_CUDA_CHECK(cudaEventCreateWithFlags(&staged_[k], cudaEventDisableTiming));
+  }
+}
+
+void CudaExecutor::copy_to_device(void* d_dst, const void* h_src, std::size_t bytes) {
+  if (bytes == 0) return;
+  if (bytes <= kStagingBytes) {
+    CDT_CUDA_CHECK(cudaMemcpyAsync(d_dst, h_src, bytes, cudaMemcpyHostToDevice, stream_));
+    return;
+  }
+  make_staging();
+  auto* dst = static_cast<unsigned char*>(d_dst);
+  const auto* src = static_cast<const unsigned char*>(h_src);
+  for (std::size_t at = 0, k = 0; at < bytes; at += kStagingBytes, ++k) {
+    const std::size_t len = std::min(kStagingBytes, bytes - at);
+    const int buf = static_cast<int>(k % 2);
+    // The block's last transfer (two blocks back, or of an earlier upload) must be done before it is
+    // refilled; an event never recorded counts as done.
+    CDT_CUDA_CHECK(cudaEventSynchronize(staged_[buf]));
+    std::memcpy(h_staging_[buf], src + at, len);
+    CDT_CUDA_CHECK(cudaMemcpyAsync(dst + at, h_staging_[buf], len, cudaMemcpyHostToDevice, stream_));
+    CDT_CUDA_CHECK(cudaEventRecord(staged_[buf], stream_));
+  }
+}
+
+void CudaExecutor::copy_to_host(void* h_dst, const void* d_src, std::size_t bytes) {
+  if (bytes <= kStagingBytes) {
+    if (bytes != 0) CDT_CUDA_CHECK(cudaMemcpyAsync(h_dst, d_src, bytes, cudaMemcpyDeviceToHost, stream_));
+    synchronize();
+    return;
+  }
+  make_staging();
+  auto* dst = static_cast<unsigned char*>(h_dst);
+  const auto* src = static_cast<const unsigned char*>(d_src);
+  const std::size_t blocks = (bytes + kStagingBytes - 1) / kStagingBytes;
+  const auto drain = [&](std::size_t k) { // waits for block k and copies it out of its staging block
+    const int buf = static_cast<int>(k % 2);
+    const std::size_t at = k * kStagingBytes;
+    CDT_CUDA_CHECK(cudaEventSynchronize(staged_[buf]));
+    std::memcpy(dst + at, h_staging_[buf], std::min(kStagingBytes, bytes - at));
+  };
+  for (std::size_t k = 0; k < blocks; ++k) {
+    const int buf = static_cast<int>(k % 2);
+    const std::size_t at = k * kStagingBytes;
+    // Block k - 2 used this staging block and was drained in the last iteration; stream order puts
+    // this transfer after any upload still reading it.
+    CDT_CUDA_CHECK(cudaMemcpyAsync(h_staging_[buf], src + at, std::min(kStagingBytes, bytes - at),
+                                   cudaMemcpyDeviceToHost, stream_));
+    CDT_CUDA_CHECK(cudaEventRecord(staged_[buf], stream_));
+    if (k >= 1) drain(k - 1);
+  }
+  drain(blocks - 1);
+  synchronize();
+}
+
+DeviceEvent::DeviceEvent() { CDT_CUDA_CHECK(cudaEventCreate(&event_)); }
+DeviceEvent::~DeviceEvent() {
+  if (event_ != nullptr) cudaEventDestroy(event_);
+}
+void DeviceEvent::record(cudaStream_t stream) { CDT_CUDA_CHECK(cudaEventRecord(event_, stream)); }
+float DeviceEvent::since(const DeviceEvent& start) const {
+  CDT_CUDA_CHECK(cudaEventSynchronize(event_));
+  float ms = 0;
+  CDT_CUDA_CHECK(cudaEventElapsedTime(&ms, start.event_, event_));
+  return ms;
+}
+
+void CudaExecutor::synchronize() { CDT_CUDA_CHECK(cudaStreamSynchronize(stream_)); }
 
 } // namespace detail
 

@@ -1,0 +1,300 @@
+// Phase 1 of gCD on the CUDA executor (paper section 3.1 and Appendix A): the digital Voronoi diagram.
+//
+// The per-element work is cdt/src/gcd/voronoi.hpp's, the same functions the CPU executor runs
+// (pba::run_pba for the Parallel Banding Algorithm; amend::is_orphan_at, debris_successors and
+// flood_colour for Algorithm A.1); this file picks band counts that suit a GPU, owns the device
+// buffers and runs the steps:
+//   1. PBA with one thread per column in phase 1 and per (row, band of 64 columns) in phases 2 and 3;
+//   2. the orphans by stream compaction over every cell, the packed sites turned into point indices;
+//   3. the debris as rounds of a worklist: each round's new debris test their neighbours, and those
+//      that turn into orphans are uncoloured (atomicExch, so each is taken once) and appended;
+//   4. the flood as rounds of flood_colour over the debris until no colour changes. The CPU executor
+//      floods with a priority queue instead; voronoi.hpp explains why both reach the same colouring.
+// Where the paper copies the debris to the CPU for the flood, this keeps them on the device: they are
+// few, so steps 3 and 4 cost a few small launches and one 4-byte readback per round.
+
+#include <cstddef>
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "cdt_kernels.hpp"
+#include "cuda_check.cuh"
+#include "cuda_executor.cuh"
+#include "gcd/voronoi.hpp"
+
+namespace cdt::gpu {
+
+namespace detail {
+
+namespace pba = ::cdt::detail::pba;
+namespace amend = ::cdt::detail::amend;
+
+/// Rows per band of PBA's phase 1 and columns per band of its phases 2 and 3 on the device: about
+/// m^2 / 32 threads in each phase (enough to fill a large GPU from m = 1024 up), and few merge rounds.
+inline constexpr std::uint32_t kRowBandHeight = 32;
+inline constexpr std::uint32_t kColBandWidth = 64;
+
+/// The device's layout: groups of one column, so a warp of phase 1 reads 32 neighbouring cells.
+pba::PbaLayout device_layout(std::uint32_t m, const VoronoiOptions& options) {
+  const std::uint32_t row_bands =
+      options.row_bands != 0 ? options.row_bands : (m + kRowBandHeight - 1) / kRowBandHeight;
+  const std::uint32_t col_bands =
+      options.col_bands != 0 ? options.col_bands : (m + kColBandWidth - 1) / kColBandWidth;
+  return pba::PbaLayout::make(m, row_bands, m, col_bands);
+}
+
+/// Neighbour k (0..3, the order of amend::for_each_neighbour) of a cell, as a cell index.
+__device__ __forceinline__ std::uint32_t neighbour_cell(std::uint32_t cell, std::uint32_t m, unsigned k) {
+  return k == 0 ? cell - 1 : k == 1 ? cell + 1 : k == 2 ? cell - m : cell + m;
+}
+
+/// Direction bit of neighbour cell c of cell (as neighbour_cell numbers them).
+__device__ __forceinline__ unsigned neighbour_bit(std::uint32_t cell, std::uint32_t c, std::uint32_t m) {
+  return c + 1 == cell ? 1u : c == cell + 1 ? 2u : c + m == cell ? 4u : 8u;
+}
+
+/// Device buffers of one computation. The m*m buffers change roles between the steps (see below) so
+/// that the estimate of voronoi_device_bytes holds for any number of debris.
+struct VoronoiBuffers {
+  DeviceBuffer<std::uint32_t>
+      owner; ///< cell owners; after step 2: the debris' old colours, then the flood's next colours
+  DeviceBuffer<std::uint32_t> colour;     ///< PBA's column and site output; after step 2: the colouring
+  DeviceBuffer<std::uint32_t> stack;      ///< PBA's stacks; after step 1: the list of debris cells
+  DeviceBuffer<std::uint32_t> stack_size; ///< PBA
+  DeviceBuffer<std::uint32_t> above, below;
+  DeviceBuffer<std::uint32_t> site_x, site_y;
+  DeviceBuffer<std::uint8_t> successors; ///< per debris of the last round: which neighbours became debris
+};
+
+/// Every occupied cell's owner must be a point sitting in that cell; the flood reads the sites'
+/// positions through the owners, so an inconsistent input must stop here.
+void check_owners(CudaExecutor& executor, VoronoiBuffers& b, std::uint32_t m, std::size_t n) {
+  auto* d_bad = executor.scalar<std::uint32_t>();
+  executor.fill_bytes(d_bad, 0, 1);
+  const std::uint32_t* owner = b.owner.data();
+  const std::uint32_t* sx = b.site_x.data();
+  const std::uint32_t* sy = b.site_y.data();
+  executor.for_each(
+      static_cast<std::size_t>(m) * m,
+      [=] __device__(std::size_t c) {
+        const std::uint32_t p = owner[c];
+        if (p == kNone) return;
+        if (p >= n || sx[p] != c % m || sy[p] != c / m) atomicOr(d_bad, 1u);
+      },
+      "check_owners");
+  std::uint32_t bad = 0;
+  executor.download(&bad, d_bad, 1);
+  if (bad != 0)
+    throw Error("compute_digital_voronoi: cell_owner names a point that is out of range or not in that cell");
+}
+
+/// Step 2: the orphans, listed in b.stack; the packed sites in b.colour become point indices.
+std::uint32_t find_orphans(CudaExecutor& executor, VoronoiBuffers& b, std::uint32_t m) {
+  const std::uint32_t* site = b.colour.data();
+  const std::uint32_t count = executor.compact(
+      static_cast<std::size_t>(m) * m,
+      [=] __device__(std::size_t c) {
+        return amend::is_orphan_at(site, m, static_cast<std::uint32_t>(c % m),
+                                   static_cast<std::uint32_t>(c / m));
+      },
+      b.stack.data());
+  const std::uint32_t* owner = b.owner.data();
+  std::uint32_t* colour = b.colour.data();
+  executor.for_each(
+      static_cast<std::size_t>(m) * m,
+      [=] __device__(std::size_t c) { colour[c] = pba::owner_at(owner, m, colour[c]); },
+      "positions_to_owners");
+  return count;
+}
+
+/// Step 3: grows the orphans b.stack[0, num_orphans) into every debris cell, uncoloured; returns the
+/// number of debris.
+std::uint32_t find_debris(CudaExecutor& executor, VoronoiBuffers& b, std::uint32_t m,
+                          std::uint32_t num_orphans, const amend::FloodView& view, VoronoiStats& stats) {
+  std::uint32_t* debris = b.stack.data();
+  std::uint32_t* old_colour = b.owner.data(); // free once the colouring holds point indices
+  std::uint32_t* colour = b.colour.data();
+  // Orphans are distinct cells: each thread uncolours its own.
+  executor.for_each(
+      num_orphans,
+      [=] __device__(std::size_t k) {
+        old_colour[k] = colour[debris[k]];
+        colour[debris[k]] = kNone;
+      },
+      "uncolour_orphans");
+  std::uint32_t begin = 0, end = num_orphans;
+  auto* d_added = executor.scalar<std::uint32_t>();
+  while (begin < end) {
+    ++stats.debris_rounds;
+    const std::uint32_t frontier = end - begin;
+    b.successors.resize(frontier);
+    std::uint8_t* mask = b.successors.data();
+    const std::uint32_t first = begin;
+    // Reading only: every successor is tested against the colouring as the last round left it.
+    executor.for_each(
+        frontier,
+        [=] __device__(std::size_t k) {
+          const std::uint32_t cell = debris[first + k];
+          std::uint32_t next[4];
+          const std::uint32_t count = amend::debris_successors(view, cell, old_colour[first + k], next);
+          unsigned bits = 0;
+          for (std::uint32_t j = 0; j < count; ++j) bits |= neighbour_bit(cell, next[j], m);
+          mask[k] = static_cast<std::uint8_t>(bits);
+        },
+        "debris_successors");
+    executor.fill_bytes(d_added, 0, 1);
+    const std::uint32_t last = end;
+    // Writing only: a cell named by several debris is uncoloured and appended once.
+    executor.for_each(
+        frontier,
+        [=] __device__(std::size_t k) {
+          const unsigned bits = mask[k];
+          if (bits == 0) return;
+          const std::uint32_t cell = debris[first + k];
+          for (unsigned j = 0; j < 4; ++j) {
+            if ((bits & (1u << j)) == 0) continue;
+            const std::uint32_t c = neighbour_cell(cell, m, j);
+            const std::uint32_t was = atomicExch(colour + c, kNone);
+            if (was == kNone) continue;
+            const std::uint32_t slot = last + atomicAdd(d_added, 1u);
+            debris[slot] = c;
+            old_colour[slot] = was;
+          }
+        },
+        "append_debris");
+    std::uint32_t added = 0;
+    executor.download(&added, d_added, 1);
+    begin = end;
+    end += added;
+  }
+  return end;
+}
+
+/// Step 4: Algorithm A.1's flood over the debris b.stack[0, num_debris): rounds of flood_colour, each
+/// reading the last round's colouring, until a round changes nothing. Settles in finitely many rounds
+/// (each round fixes at least the next-smallest key for good); the cap only guards against a defect.
+void flood_debris(CudaExecutor& executor, VoronoiBuffers& b, std::uint32_t m, std::uint32_t num_debris,
+                  const amend::FloodView& view, VoronoiStats& stats) {
+  const std::uint32_t* debris = b.stack.data();
+  std::uint32_t* next = b.owner.data(); // the old colours are no longer needed
+  std::uint32_t* colour = b.colour.data();
+  auto* d_changed = executor.scalar<std::uint32_t>();
+  const std::uint64_t cap = 4ull * num_debris * num_debris + num_debris + 16;
+  for (;;) {
+    if (++stats.flood_rounds > cap) throw Error("internal error: the flood of the debris did not settle");
+    executor.fill_bytes(d_changed, 0, 1);
+    executor.for_each(
+        num_debris,
+        [=] __device__(std::size_t k) {
+          const std::uint32_t cell = debris[k];
+          const std::uint32_t c = amend::flood_colour(view, cell % m, cell / m);
+          next[k] = c;
+          if (c != colour[cell]) atomicOr(d_changed, 1u);
+        },
+        "flood_colour");
+    executor.for_each(
+        num_debris, [=] __device__(std::size_t k) { colour[debris[k]] = next[k]; }, "flood_apply");
+    std::uint32_t changed = 0;
+    executor.download(&changed, d_changed, 1);
+    if (changed == 0) return;
+  }
+}
+
+} // namespace detail
+
+std::size_t voronoi_device_bytes(std::uint32_t m, std::size_t num_points, const VoronoiOptions& options) {
+  if (m == 0 || m > ::cdt::detail::kMaxGridSize) return 0;
+  const auto layout = detail::device_layout(m, options);
+  const std::size_t cells = static_cast<std::size_t>(m) * m;
+  const std::size_t words =
+      3 * cells + layout.stack_size_entries() + 2 * layout.band_link_entries() + 2 * num_points;
+  // The successor masks (one byte per debris at most), CUB's compaction scratch (well under a byte per
+  // cell) and a megabyte for the executor's own scratch.
+  return words * sizeof(std::uint32_t) + cells + cells / 8 + (std::size_t{1} << 20);
+}
+
+std::vector<std::uint32_t> compute_digital_voronoi(std::span<const std::uint32_t> cell_owner,
+                                                   std::span<const std::uint32_t> site_x,
+                                                   std::span<const std::uint32_t> site_y, std::uint32_t m,
+                                                   const VoronoiOptions& options, VoronoiStats* stats) {
+  using detail::VoronoiBuffers;
+  if (m == 0 || m > ::cdt::detail::kMaxGridSize)
+    throw Error("compute_digital_voronoi: grid size " + std::to_string(m) + " is outside [1, " +
+                std::to_string(::cdt::detail::kMaxGridSize) + "]");
+  const std::size_t cells = static_cast<std::size_t>(m) * m;
+  if (cell_owner.size() != cells)
+    throw Error("compute_digital_voronoi: cell_owner has " + std::to_string(cell_owner.size()) +
+                " entries, not m * m = " + std::to_string(cells));
+  if (site_x.size() != site_y.size())
+    throw Error("compute_digital_voronoi: site_x and site_y have different lengths");
+  const std::size_t n = site_x.size();
+  if (n >= kNone) throw Error("compute_digital_voronoi: too many points for 32-bit indices");
+
+  VoronoiStats local;
+  VoronoiStats& st = stats != nullptr ? *stats : local;
+  st = VoronoiStats{};
+  st.device_bytes = voronoi_device_bytes(m, n, options);
+  detail::CudaExecutor executor;
+  detail::require_device_memory(st.device_bytes, options.memory_limit,
+                                "the digital Voronoi diagram of a " + std::to_string(m) + " x " +
+                                    std::to_string(m) + " grid with " + std::to_string(n) + " points");
+
+  detail::DeviceEvent started, uploaded, coloured, amended, done;
+  started.record(executor.stream());
+  VoronoiBuffers b;
+  ::cdt::detail::pba::PbaView v;
+  static_cast<::cdt::detail::pba::PbaLayout&>(v) = detail::device_layout(m, options);
+  b.owner.resize(cells);
+  b.colour.resize(cells);
+  b.stack.resize(cells);
+  b.stack_size.resize(v.stack_size_entries());
+  b.above.resize(v.band_link_entries());
+  b.below.resize(v.band_link_entries());
+  b.site_x.resize(n);
+  b.site_y.resize(n);
+  executor.upload(b.owner.data(), cell_owner.data(), cells);
+  executor.upload(b.site_x.data(), site_x.data(), n);
+  executor.upload(b.site_y.data(), site_y.data(), n);
+  detail::check_owners(executor, b, m, n);
+  uploaded.record(executor.stream());
+
+  v.owner = b.owner.data();
+  v.column = b.colour.data();
+  v.stack = b.stack.data();
+  v.stack_size = b.stack_size.data();
+  v.above = b.above.data();
+  v.below = b.below.data();
+  ::cdt::detail::pba::run_pba(executor, v);
+  coloured.record(executor.stream());
+
+  const std::uint32_t orphans = options.amend ? detail::find_orphans(executor, b, m) : 0;
+  st.orphans = orphans;
+  if (!options.amend) {
+    const std::uint32_t* owner = b.owner.data();
+    std::uint32_t* out = b.colour.data();
+    executor.for_each(
+        cells, [=] __device__(std::size_t c) { out[c] = ::cdt::detail::pba::owner_at(owner, m, out[c]); },
+        "positions_to_owners");
+  } else if (orphans != 0) {
+    ::cdt::detail::amend::FloodView view;
+    view.colour = b.colour.data();
+    view.site_x = b.site_x.data();
+    view.site_y = b.site_y.data();
+    view.m = m;
+    const std::uint32_t debris = detail::find_debris(executor, b, m, orphans, view, st);
+    st.debris = debris;
+    detail::flood_debris(executor, b, m, debris, view, st);
+  }
+  amended.record(executor.stream());
+  std::vector<std::uint32_t> colour(cells);
+  executor.download(colour.data(), b.colour.data(), cells);
+  done.record(executor.stream());
+  st.upload_ms = uploaded.since(started);
+  st.pba_ms = coloured.since(uploaded);
+  st.amend_ms = amended.since(coloured);
+  st.download_ms = done.since(amended);
+  return colour;
+}
+
+} // namespace cdt::gpu

@@ -1,0 +1,344 @@
+// Phase 1 of gCD on the device (paper section 3.1, Appendix A): the colouring computed by the CUDA
+// executor must be the CPU executor's, cell for cell, on the inputs the engine meets (uniform,
+// Gaussian, clustered, lattice) and on dense inputs whose Euclidean colouring has debris, so that the
+// amendment's worklist and flood run on the device.
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "cdt/errors.hpp"
+#include "cdt_kernels.hpp"
+#include "executor/cpu_executor.hpp"
+#include "gcd/grid_map.hpp"
+#include "gcd/voronoi.hpp"
+
+namespace {
+
+using cdt::kNone;
+using cdt::detail::CpuExecutor;
+using cdt::detail::GridSites;
+
+class Rng {
+public:
+  explicit Rng(std::uint64_t seed) : state_(seed) {}
+  std::uint64_t next() {
+    std::uint64_t z = (state_ += 0x9E3779B97F4A7C15ull);
+    z = (z ^ (z >> 30)) * 0xBF58476D1CE4E5B9ull;
+    z = (z ^ (z >> 27)) * 0x94D049BB133111EBull;
+    return z ^ (z >> 31);
+  }
+  double unit() { return static_cast<double>(next() >> 11) * 0x1.0p-53; }
+  std::uint32_t below(std::uint32_t n) { return static_cast<std::uint32_t>(next() % n); }
+  /// Standard normal by Box-Muller (two uniforms; deterministic on every platform).
+  double normal() {
+    const double u = 1.0 - unit(), v = unit();
+    return std::sqrt(-2.0 * std::log(u)) * std::cos(6.283185307179586 * v);
+  }
+
+private:
+  std::uint64_t state_;
+};
+
+enum class Layout { uniform, gaussian, clustered, lattice };
+
+const char* name(Layout l) {
+  switch (l) {
+  case Layout::uniform:
+    return "uniform";
+  case Layout::gaussian:
+    return "gaussian";
+  case Layout::clustered:
+    return "clustered";
+  case Layout::lattice:
+    return "lattice";
+  }
+  return "?";
+}
+
+struct Points {
+  std::vector<double> x, y;
+};
+
+Points make_points(Layout layout, std::size_t n, Rng& rng) {
+  Points p;
+  p.x.reserve(n);
+  p.y.reserve(n);
+  switch (layout) {
+  case Layout::uniform:
+    for (std::size_t i = 0; i < n; ++i) {
+      p.x.push_back(rng.unit());
+      p.y.push_back(rng.unit());
+    }
+    break;
+  case Layout::gaussian:
+    for (std::size_t i = 0; i < n; ++i) {
+      p.x.push_back(rng.normal());
+      p.y.push_back(rng.normal());
+    }
+    break;
+  case Layout::clustered: {
+    // A few tight clusters over a sparse background: many points share cells, most cells are far
+    // from every site.
+    std::vector<std::pair<double, double>> centres;
+    for (int k = 0; k < 12; ++k) centres.emplace_back(rng.unit(), rng.unit());
+    for (std::size_t i = 0; i < n; ++i) {
+      if (i % 10 == 0) {
+        p.x.push_back(rng.unit());
+        p.y.push_back(rng.unit());
+        continue;
+      }
+      const auto& c = centres[rng.below(static_cast<std::uint32_t>(centres.size()))];
+      p.x.push_back(c.first + 0.01 * rng.normal());
+      p.y.push_back(c.second + 0.01 * rng.normal());
+    }
+    break;
+  }
+  case Layout::lattice: {
+    // A pixel lattice (integer points), a little sparser than the grid: ties everywhere.
+    const auto side = static_cast<std::uint32_t>(std::ceil(std::sqrt(static_cast<double>(n))));
+    for (std::uint32_t j = 0; j < side && p.x.size() < n; ++j)
+      for (std::uint32_t i = 0; i < side && p.x.size() < n; ++i) {
+        p.x.push_back(i);
+        p.y.push_back(j);
+      }
+    break;
+  }
+  }
+  return p;
+}
+
+struct Grid {
+  GridSites sites;
+  std::uint32_t m = 0;
+};
+
+Grid map_points(const Points& p, std::uint32_t m, CpuExecutor& executor) {
+  const auto mapping = cdt::detail::make_grid_mapping(p.x, p.y, m);
+  return {cdt::detail::assign_sites(mapping, p.x, p.y, executor), m};
+}
+
+/// Grid sites at integer positions through the identity mapping, as the CPU tests state them.
+Grid sites_at(std::uint32_t m, const std::vector<std::pair<std::uint32_t, std::uint32_t>>& cells,
+              CpuExecutor& executor) {
+  cdt::detail::GridMapping identity;
+  identity.m = m;
+  identity.scale = 1.0;
+  std::vector<double> x, y;
+  for (const auto& [cx, cy] : cells) {
+    x.push_back(cx);
+    y.push_back(cy);
+  }
+  return {cdt::detail::assign_sites(identity, x, y, executor), m};
+}
+
+std::vector<std::uint32_t> on_device(const Grid& g, const cdt::gpu::VoronoiOptions& options = {},
+                                     cdt::gpu::VoronoiStats* stats = nullptr) {
+  return cdt::gpu::compute_digital_voronoi(g.sites.cell_owner, g.sites.gx, g.sites.gy, g.m, options, stats);
+}
+
+/// Cells where two colourings differ, with the first few named.
+std::string differences(const std::vector<std::uint32_t>& a, const std::vector<std::uint32_t>& b,
+                        std::uint32_t m) {
+  if (a.size() != b.size()) return "sizes " + std::to_string(a.size()) + " and " + std::to_string(b.size());
+  std::size_t count = 0;
+  std::string first;
+  for (std::size_t c = 0; c < a.size(); ++c) {
+    if (a[c] == b[c]) continue;
+    if (++count <= 3)
+      first += " (" + std::to_string(c % m) + ", " + std::to_string(c / m) + "): " + std::to_string(a[c]) +
+               " vs " + std::to_string(b[c]) + ";";
+  }
+  return count == 0 ? "" : std::to_string(count) + " cells differ:" + first;
+}
+
+class GpuVoronoi : public ::testing::Test {
+protected:
+  void SetUp() override {
+    if (cdt::gpu::device_count() == 0) GTEST_SKIP() << "no CUDA device available";
+  }
+};
+
+// The main property: the device colouring is the CPU executor's on every layout and grid size.
+// Points about m^2 / 4 (the engine's own load) down to m^2 / 64.
+TEST_F(GpuVoronoi, MatchesTheCpuExecutorOnEveryLayoutAndGridSize) {
+  CpuExecutor executor;
+  Rng rng(42);
+  std::uint64_t debris = 0;
+  for (const std::uint32_t m : {64u, 128u, 256u, 512u, 1024u, 2048u, 4096u}) {
+    for (const Layout layout : {Layout::uniform, Layout::gaussian, Layout::clustered, Layout::lattice}) {
+      const std::size_t n = static_cast<std::size_t>(m) * m / (m <= 256 ? 4 : 16);
+      const Grid g = map_points(make_points(layout, n, rng), m, executor);
+      const auto expected = cdt::detail::compute_digital_voronoi(g.sites, m, executor);
+      cdt::gpu::VoronoiStats stats;
+      const auto colour = on_device(g, {}, &stats);
+      EXPECT_EQ(differences(colour, expected, m), "") << name(layout) << " m " << m << " n " << n;
+      EXPECT_GE(stats.debris, stats.orphans);
+      debris += stats.debris;
+      if (HasFailure()) return;
+    }
+  }
+  EXPECT_GT(debris, 0u) << "no input had debris: the amendment did not run on the device";
+}
+
+// Dense random sites on small grids, where Euclidean colourings have debris (the CPU tests' sweep):
+// the worklist and the flood must reproduce the CPU's priority-queue flood.
+TEST_F(GpuVoronoi, AmendmentMatchesTheCpuOnDenseInputs) {
+  CpuExecutor executor(2);
+  Rng rng(2024);
+  std::uint64_t debris = 0, flood_rounds = 0;
+  for (int trial = 0; trial < 200; ++trial) {
+    const std::uint32_t m = 8 + rng.below(120);
+    const std::uint32_t count = 2 + rng.below(m * m / 6);
+    std::vector<std::pair<std::uint32_t, std::uint32_t>> cells;
+    for (std::uint32_t k = 0; k < count; ++k) cells.emplace_back(rng.below(m), rng.below(m));
+    const Grid g = sites_at(m, cells, executor);
+    const auto expected = cdt::detail::compute_digital_voronoi(g.sites, m, executor);
+    cdt::gpu::VoronoiStats stats;
+    const auto colour = on_device(g, {}, &stats);
+    ASSERT_EQ(differences(colour, expected, m), "") << "trial " << trial << " m " << m << " sites " << count;
+    // The same count of debris as the CPU's amendment finds on the Euclidean colouring.
+    auto euclidean = cdt::detail::compute_euclidean_colouring(g.sites.cell_owner, m, executor);
+    ASSERT_EQ(stats.debris, cdt::detail::amend_to_standard_flooding(euclidean, g.sites, m, executor));
+    debris += stats.debris;
+    flood_rounds += stats.flood_rounds;
+  }
+  EXPECT_GT(debris, 100u) << "too few debris to exercise the amendment";
+  EXPECT_GT(flood_rounds, 200u) << "the flood never needed a second round";
+}
+
+// The CPU tests' chain: (2, 13) is debris only because (2, 12) is, so the worklist needs a second
+// round to find it.
+TEST_F(GpuVoronoi, DebrisReachableOnlyThroughDebrisAreFound) {
+  CpuExecutor executor(1);
+  const Grid g = sites_at(18, {{9, 2}, {0, 0}, {7, 1}}, executor);
+  cdt::gpu::VoronoiStats stats;
+  const auto colour = on_device(g, {}, &stats);
+  EXPECT_EQ(stats.orphans, 1u);
+  EXPECT_EQ(stats.debris, 2u);
+  EXPECT_GE(stats.debris_rounds, 2u);
+  EXPECT_EQ(differences(colour, cdt::detail::compute_digital_voronoi(g.sites, 18, executor), 18), "");
+  EXPECT_NE(colour[12 * 18 + 2], 2u);
+  EXPECT_NE(colour[13 * 18 + 2], 2u);
+}
+
+// PBA alone (Definition 1) for band counts from one band to one column or row per band: the band
+// linking and stack merging on the device must not change the result.
+TEST_F(GpuVoronoi, EuclideanColouringIsTheSameForEveryBandCount) {
+  CpuExecutor executor;
+  Rng rng(7);
+  for (const std::uint32_t m : {61u, 256u, 1000u}) {
+    const Grid g = map_points(make_points(Layout::uniform, m * m / 20, rng), m, executor);
+    const auto expected = cdt::detail::compute_euclidean_colouring(g.sites.cell_owner, m, executor);
+    for (const std::uint32_t bands : {1u, 2u, 3u, 7u, 64u, m / 2, m}) {
+      cdt::gpu::VoronoiOptions options;
+      options.amend = false;
+      options.row_bands = bands;
+      options.col_bands = bands;
+      EXPECT_EQ(differences(on_device(g, options), expected, m), "") << "m " << m << " bands " << bands;
+      options.amend = true;
+      EXPECT_EQ(
+          differences(on_device(g, options), cdt::detail::compute_digital_voronoi(g.sites, m, executor), m),
+          "")
+          << "amended, m " << m << " bands " << bands;
+    }
+  }
+}
+
+// Independent of the CPU executor: PBA on the device against the brute-force nearest site.
+TEST_F(GpuVoronoi, EuclideanColouringMatchesBruteForce) {
+  CpuExecutor executor(1);
+  Rng rng(99);
+  for (int trial = 0; trial < 20; ++trial) {
+    const std::uint32_t m = 5 + rng.below(60);
+    std::vector<std::pair<std::uint32_t, std::uint32_t>> cells;
+    const std::uint32_t count = 1 + rng.below(2 * m);
+    for (std::uint32_t k = 0; k < count; ++k) cells.emplace_back(rng.below(m), rng.below(m));
+    const Grid g = sites_at(m, cells, executor);
+    std::vector<std::uint32_t> expected(static_cast<std::size_t>(m) * m, kNone);
+    for (std::uint32_t y = 0; y < m; ++y)
+      for (std::uint32_t x = 0; x < m; ++x) {
+        std::int64_t best = -1;
+        for (std::uint32_t p = 0; p < count; ++p) {
+          if (g.sites.cell_owner[static_cast<std::size_t>(g.sites.gy[p]) * m + g.sites.gx[p]] != p) continue;
+          const std::int64_t dx = std::int64_t{x} - g.sites.gx[p], dy = std::int64_t{y} - g.sites.gy[p];
+          const std::int64_t d = dx * dx + dy * dy;
+          if (best < 0 || d < best) { // points in increasing order: the first at a distance wins ties
+            best = d;
+            expected[static_cast<std::size_t>(y) * m + x] = p;
+          }
+        }
+      }
+    cdt::gpu::VoronoiOptions options;
+    options.amend = false;
+    EXPECT_EQ(differences(on_device(g, options), expected, m), "") << "trial " << trial;
+  }
+}
+
+TEST_F(GpuVoronoi, NoSitesLeavesEveryCellUncoloured) {
+  CpuExecutor executor(1);
+  const Grid g = sites_at(16, {}, executor);
+  const auto colour = on_device(g);
+  EXPECT_EQ(std::count(colour.begin(), colour.end(), kNone), 256);
+}
+
+TEST_F(GpuVoronoi, OneSiteColoursEverything) {
+  CpuExecutor executor(1);
+  const Grid g = sites_at(1, {{0, 0}}, executor);
+  EXPECT_EQ(on_device(g), std::vector<std::uint32_t>{0u});
+  const Grid h = sites_at(300, {{299, 0}}, executor);
+  const auto colour = on_device(h);
+  EXPECT_EQ(std::count(colour.begin(), colour.end(), 0u), 300 * 300);
+}
+
+TEST_F(GpuVoronoi, InconsistentInputIsAClearError) {
+  CpuExecutor executor(1);
+  Grid g = sites_at(32, {{1, 2}, {30, 30}, {5, 17}}, executor);
+  EXPECT_THROW(cdt::gpu::compute_digital_voronoi(g.sites.cell_owner, g.sites.gx, g.sites.gy, 0), cdt::Error);
+  EXPECT_THROW(cdt::gpu::compute_digital_voronoi(g.sites.cell_owner, g.sites.gx, g.sites.gy, 31), cdt::Error);
+  std::vector<std::uint32_t> short_y(g.sites.gy.begin(), g.sites.gy.end() - 1);
+  EXPECT_THROW(cdt::gpu::compute_digital_voronoi(g.sites.cell_owner, g.sites.gx, short_y, 32), cdt::Error);
+  // An owner index beyond the points, and an owner that sits in another cell.
+  auto owners = g.sites.cell_owner;
+  owners[0] = 3;
+  try {
+    cdt::gpu::compute_digital_voronoi(owners, g.sites.gx, g.sites.gy, 32);
+    ADD_FAILURE() << "owner out of range accepted";
+  } catch (const cdt::Error& e) {
+    EXPECT_NE(std::string(e.what()).find("cell_owner"), std::string::npos) << e.what();
+  }
+  owners = g.sites.cell_owner;
+  owners[0] = 1;
+  EXPECT_THROW(cdt::gpu::compute_digital_voronoi(owners, g.sites.gx, g.sites.gy, 32), cdt::Error);
+  // The device is still usable afterwards.
+  EXPECT_EQ(on_device(g), cdt::detail::compute_digital_voronoi(g.sites, 32, executor));
+}
+
+// The memory check comes before any allocation and says what did not fit.
+TEST_F(GpuVoronoi, InputBeyondTheMemoryLimitIsADeviceError) {
+  CpuExecutor executor(1);
+  const Grid g = sites_at(1024, {{1, 2}, {300, 30}}, executor);
+  const std::size_t need = cdt::gpu::voronoi_device_bytes(1024, 2);
+  EXPECT_GE(need, 3u * 1024 * 1024 * 4) << "at least the three grid-sized buffers";
+  cdt::gpu::VoronoiOptions options;
+  options.memory_limit = need - 1;
+  try {
+    on_device(g, options);
+    ADD_FAILURE() << "no error below the estimate";
+  } catch (const cdt::DeviceError& e) {
+    const std::string what = e.what();
+    EXPECT_NE(what.find("1024 x 1024"), std::string::npos) << what;
+    EXPECT_NE(what.find("MiB"), std::string::npos) << what;
+  }
+  options.memory_limit = need;
+  cdt::gpu::VoronoiStats stats;
+  EXPECT_EQ(on_device(g, options, &stats), cdt::detail::compute_digital_voronoi(g.sites, 1024, executor));
+  EXPECT_EQ(stats.device_bytes, need);
+  // The largest grid's estimate is finite and grows with the points.
+  EXPECT_LT(cdt::gpu::voronoi_device_bytes(32768, 0), cdt::gpu::voronoi_device_bytes(32768, 1000000));
+}
+
+} // namespace
