@@ -5,8 +5,10 @@
 #include <cairo.h>
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <cstdint>
+#include <functional>
 #include <stdexcept>
 #include <string>
 #include <vector>
@@ -36,20 +38,18 @@ const char* overlay_extension(OverlayFormat format) noexcept {
   return "png";
 }
 
-// Drawing goes to a recording surface so the same strokes can be replayed onto a raster, SVG or PDF
-// surface when saved, with or without the dimmed input under them.
+// Drawing is kept as a list of operations, replayed onto a raster, SVG or PDF surface when saved, with
+// or without the dimmed input under them. (Painting a Cairo recording surface into an SVG surface would
+// do the same, but Cairo 1.16's SVG backend keeps references to such sources that are never released.)
 struct OverlayCanvas::State {
   int width = 0;
   int height = 0;
   cairo_surface_t* background = nullptr; // ARGB32, the dimmed input
-  cairo_surface_t* recording = nullptr;
-  cairo_t* cr = nullptr;
-  // Pixel layers painted into the recording; kept alive until the recording is gone.
+  // Pixel layers painted by operations; owned here.
   std::vector<cairo_surface_t*> images;
+  std::vector<std::function<void(cairo_t*)>> operations;
 
   ~State() {
-    if (cr != nullptr) cairo_destroy(cr);
-    if (recording != nullptr) cairo_surface_destroy(recording);
     for (cairo_surface_t* image : images) cairo_surface_destroy(image);
     if (background != nullptr) cairo_surface_destroy(background);
   }
@@ -86,10 +86,6 @@ void write_encoded(const std::filesystem::path& path, const std::string& bytes, 
   write_file_atomically(path, bytes);
 }
 
-void set_colour(cairo_t* cr, const float rgba[4]) {
-  cairo_set_source_rgba(cr, rgba[0], rgba[1], rgba[2], rgba[3]);
-}
-
 } // namespace
 
 OverlayCanvas::OverlayCanvas(const Image& input, double dim) : state_(std::make_unique<State>()) {
@@ -114,12 +110,6 @@ OverlayCanvas::OverlayCanvas(const Image& input, double dim) : state_(std::make_
     }
   }
   cairo_surface_mark_dirty(s.background);
-
-  cairo_rectangle_t extents{0, 0, static_cast<double>(input.width), static_cast<double>(input.height)};
-  s.recording = cairo_recording_surface_create(CAIRO_CONTENT_COLOR_ALPHA, &extents);
-  s.cr = cairo_create(s.recording);
-  cairo_set_line_join(s.cr, CAIRO_LINE_JOIN_ROUND);
-  cairo_set_line_cap(s.cr, CAIRO_LINE_CAP_ROUND);
 }
 
 OverlayCanvas::~OverlayCanvas() = default;
@@ -127,64 +117,84 @@ OverlayCanvas::~OverlayCanvas() = default;
 int OverlayCanvas::width() const noexcept { return state_->width; }
 int OverlayCanvas::height() const noexcept { return state_->height; }
 
+namespace {
+
+using Colour = std::array<float, 4>;
+
+Colour colour_of(const float rgba[4]) { return {rgba[0], rgba[1], rgba[2], rgba[3]}; }
+
+void set_colour(cairo_t* cr, const Colour& c) { cairo_set_source_rgba(cr, c[0], c[1], c[2], c[3]); }
+
+void trace(cairo_t* cr, const std::vector<float>& xy, bool closed) {
+  cairo_new_path(cr);
+  cairo_move_to(cr, xy[0], xy[1]);
+  for (std::size_t i = 2; i + 1 < xy.size(); i += 2) cairo_line_to(cr, xy[i], xy[i + 1]);
+  if (closed) cairo_close_path(cr);
+}
+
+} // namespace
+
 void OverlayCanvas::polyline(const float* xy, int num_points, bool closed, const float rgba[4], double width,
                              double dash) {
   if (num_points < 2) return;
-  cairo_t* cr = state_->cr;
-  cairo_new_path(cr);
-  cairo_move_to(cr, xy[0], xy[1]);
-  for (int i = 1; i < num_points; ++i) cairo_line_to(cr, xy[2 * i], xy[2 * i + 1]);
-  if (closed) cairo_close_path(cr);
-  set_colour(cr, rgba);
-  cairo_set_line_width(cr, width);
-  if (dash > 0) cairo_set_dash(cr, &dash, 1, 0.0);
-  cairo_stroke(cr);
-  if (dash > 0) cairo_set_dash(cr, nullptr, 0, 0.0);
+  std::vector<float> points(xy, xy + 2 * static_cast<std::size_t>(num_points));
+  state_->operations.push_back(
+      [points = std::move(points), closed, colour = colour_of(rgba), width, dash](cairo_t* cr) {
+        trace(cr, points, closed);
+        set_colour(cr, colour);
+        cairo_set_line_width(cr, width);
+        if (dash > 0) cairo_set_dash(cr, &dash, 1, 0.0);
+        cairo_stroke(cr);
+        if (dash > 0) cairo_set_dash(cr, nullptr, 0, 0.0);
+      });
 }
 
 void OverlayCanvas::segments(const float* xy, std::size_t num_segments, const float rgba[4], double width) {
   if (num_segments == 0) return;
-  cairo_t* cr = state_->cr;
-  cairo_new_path(cr);
-  for (std::size_t i = 0; i < num_segments; ++i) {
-    cairo_move_to(cr, xy[4 * i], xy[4 * i + 1]);
-    cairo_line_to(cr, xy[4 * i + 2], xy[4 * i + 3]);
-  }
-  set_colour(cr, rgba);
-  cairo_set_line_width(cr, width);
-  cairo_stroke(cr);
+  std::vector<float> ends(xy, xy + 4 * num_segments);
+  state_->operations.push_back([ends = std::move(ends), colour = colour_of(rgba), width](cairo_t* cr) {
+    cairo_new_path(cr);
+    for (std::size_t i = 0; i + 3 < ends.size(); i += 4) {
+      cairo_move_to(cr, ends[i], ends[i + 1]);
+      cairo_line_to(cr, ends[i + 2], ends[i + 3]);
+    }
+    set_colour(cr, colour);
+    cairo_set_line_width(cr, width);
+    cairo_stroke(cr);
+  });
 }
 
 void OverlayCanvas::fill_polygon(const float* xy, int num_points, const float rgba[4], double seam) {
   if (num_points < 3) return;
-  cairo_t* cr = state_->cr;
-  cairo_new_path(cr);
-  cairo_move_to(cr, xy[0], xy[1]);
-  for (int i = 1; i < num_points; ++i) cairo_line_to(cr, xy[2 * i], xy[2 * i + 1]);
-  cairo_close_path(cr);
-  set_colour(cr, rgba);
-  if (seam > 0) {
-    cairo_fill_preserve(cr);
-    cairo_set_line_width(cr, seam);
-    cairo_stroke(cr);
-  } else {
-    cairo_fill(cr);
-  }
+  std::vector<float> points(xy, xy + 2 * static_cast<std::size_t>(num_points));
+  state_->operations.push_back([points = std::move(points), colour = colour_of(rgba), seam](cairo_t* cr) {
+    trace(cr, points, true);
+    set_colour(cr, colour);
+    if (seam > 0) {
+      cairo_fill_preserve(cr);
+      cairo_set_line_width(cr, seam);
+      cairo_stroke(cr);
+    } else {
+      cairo_fill(cr);
+    }
+  });
 }
 
 void OverlayCanvas::dots(const float* xy, std::size_t num_points, double radius, const float rgba[4]) {
   if (num_points == 0) return;
-  cairo_t* cr = state_->cr;
-  cairo_new_path(cr);
-  for (std::size_t i = 0; i < num_points; ++i) {
-    cairo_new_sub_path(cr);
-    cairo_arc(cr, xy[2 * i], xy[2 * i + 1], radius, 0.0, 2.0 * M_PI);
-  }
-  set_colour(cr, rgba);
-  cairo_fill_preserve(cr);
-  cairo_set_source_rgba(cr, 0, 0, 0, 0.8 * rgba[3]);
-  cairo_set_line_width(cr, std::max(0.25, radius * 0.3));
-  cairo_stroke(cr);
+  std::vector<float> centres(xy, xy + 2 * num_points);
+  state_->operations.push_back([centres = std::move(centres), colour = colour_of(rgba), radius](cairo_t* cr) {
+    cairo_new_path(cr);
+    for (std::size_t i = 0; i + 1 < centres.size(); i += 2) {
+      cairo_new_sub_path(cr);
+      cairo_arc(cr, centres[i], centres[i + 1], radius, 0.0, 2.0 * M_PI);
+    }
+    set_colour(cr, colour);
+    cairo_fill_preserve(cr);
+    cairo_set_source_rgba(cr, 0, 0, 0, 0.8 * colour[3]);
+    cairo_set_line_width(cr, std::max(0.25, radius * 0.3));
+    cairo_stroke(cr);
+  });
 }
 
 void OverlayCanvas::pixels(const std::uint8_t* mask, const float rgba[4]) {
@@ -205,22 +215,26 @@ void OverlayCanvas::pixels(const std::uint8_t* mask, const float rgba[4]) {
     for (int x = 0; x < s.width; ++x) row[x] = m[x] != 0 ? colour : 0u;
   }
   cairo_surface_mark_dirty(image);
-  cairo_set_source_surface(s.cr, image, 0, 0);
-  cairo_pattern_set_filter(cairo_get_source(s.cr), CAIRO_FILTER_NEAREST);
-  cairo_paint(s.cr);
+  s.operations.push_back([image](cairo_t* cr) {
+    cairo_set_source_surface(cr, image, 0, 0);
+    cairo_pattern_set_filter(cairo_get_source(cr), CAIRO_FILTER_NEAREST);
+    cairo_paint(cr);
+  });
 }
 
 namespace {
 
-void paint_onto(cairo_surface_t* target, cairo_surface_t* background, cairo_surface_t* recording) {
+void paint_onto(cairo_surface_t* target, cairo_surface_t* background,
+                const std::vector<std::function<void(cairo_t*)>>& operations) {
   cairo_t* cr = cairo_create(target);
   if (background != nullptr) {
     cairo_set_source_surface(cr, background, 0, 0);
     cairo_pattern_set_filter(cairo_get_source(cr), CAIRO_FILTER_NEAREST);
     cairo_paint(cr);
   }
-  cairo_set_source_surface(cr, recording, 0, 0);
-  cairo_paint(cr);
+  cairo_set_line_join(cr, CAIRO_LINE_JOIN_ROUND);
+  cairo_set_line_cap(cr, CAIRO_LINE_CAP_ROUND);
+  for (const auto& operation : operations) operation(cr);
   cairo_destroy(cr);
 }
 
@@ -235,7 +249,7 @@ void OverlayCanvas::save(const std::filesystem::path& path, OverlayFormat format
   switch (format) {
   case OverlayFormat::png: {
     cairo_surface_t* target = create_image_surface(s.width, s.height);
-    paint_onto(target, under, s.recording);
+    paint_onto(target, under, s.operations);
     status = cairo_surface_write_to_png_stream(target, append_to_string, &bytes);
     cairo_surface_destroy(target);
     break;
@@ -248,7 +262,7 @@ void OverlayCanvas::save(const std::filesystem::path& path, OverlayFormat format
             : cairo_pdf_surface_create_for_stream(append_to_string, &bytes, s.width, s.height);
     // One SVG unit per image pixel (Cairo's default is points, which viewers scale by 4/3).
     if (format == OverlayFormat::svg) cairo_svg_surface_set_document_unit(target, CAIRO_SVG_UNIT_PX);
-    paint_onto(target, under, s.recording);
+    paint_onto(target, under, s.operations);
     cairo_surface_finish(target);
     status = cairo_surface_status(target);
     cairo_surface_destroy(target);
