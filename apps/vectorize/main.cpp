@@ -240,6 +240,7 @@ int main(int argc, char** argv) {
   std::optional<int> detail, precision;
   std::string backend_name = "auto";
   bool no_seams = false;
+  std::string seams_name = "underlay";
   std::string stats_format;
   bool quiet = false;
   bool verbose = false;
@@ -283,9 +284,15 @@ int main(int argc, char** argv) {
   app.add_option("--edge-high", edge_high, "Canny high threshold; 0 = automatic")
       ->check(CLI::Range(0.0, 1e6));
   app.add_option("--precision", precision, "Decimal places of SVG coordinates")->check(CLI::Range(0, 6));
-  app.add_flag("--no-seams", no_seams,
-               "Do not stroke regions to hide the hairline cracks anti-aliasing renderers show between them");
-  app.add_option("--seam-width", seam_width, "Width of the seam-hiding stroke, pixels")
+  app.add_option("--seams", seams_name,
+                 "How to hide the hairline cracks anti-aliasing renderers show between regions: underlay "
+                 "(each path also drawn stroked beneath the exact fills; no background shows through), "
+                 "stroke (a thin same-colour stroke; smaller files), none")
+      ->check(CLI::IsMember({"underlay", "stroke", "none"}))
+      ->capture_default_str();
+  app.add_flag("--no-seams", no_seams, "Same as --seams none");
+  app.add_option("--seam-width", seam_width,
+                 "Width of the seam stroke, pixels (default: 3 for underlay, 0.5 for stroke)")
       ->check(CLI::Range(0.0, 10.0));
   app.add_option("--backend", backend_name, "CDT engine: auto (GPU when present), cpu or gpu")
       ->check(CLI::IsMember({"auto", "cpu", "gpu"}))
@@ -350,7 +357,7 @@ int main(int argc, char** argv) {
   if (edge_high) options.edges.high = *edge_high;
   if (precision) options.svg.precision = *precision;
   if (seam_width) options.svg.seam_width = *seam_width;
-  if (no_seams) options.svg.seams = false;
+  options.svg.seams = no_seams ? vectorize::Seams::none : vectorize::parse_seams(seams_name);
   options.backend = backend_name == "cpu"   ? cdt::Backend::cpu
                     : backend_name == "gpu" ? cdt::Backend::gpu
                                             : cdt::Backend::automatic;

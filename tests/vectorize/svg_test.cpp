@@ -9,6 +9,7 @@
 #include <fstream>
 #include <map>
 #include <random>
+#include <set>
 #include <sstream>
 #include <string>
 #include <vector>
@@ -353,7 +354,9 @@ TEST(Svg, PathDataDecodeToTheRoundedRings) {
 
 TEST(Svg, SeamStrokesLargestFirstAndCanBeTurnedOff) {
   const auto scene = random_scene(6, false);
-  const auto elements = parse_xml(to_svg(scene));
+  SvgOptions stroke;
+  stroke.seams = vectorize::Seams::stroke;
+  const auto elements = parse_xml(to_svg(scene, stroke));
   const auto paths = paths_of(elements);
   ASSERT_GE(paths.size(), 2u);
   bool group_found = false;
@@ -374,10 +377,70 @@ TEST(Svg, SeamStrokesLargestFirstAndCanBeTurnedOff) {
   }
 
   SvgOptions options;
-  options.seams = false;
+  options.seams = vectorize::Seams::none;
   const std::string plain = to_svg(scene, options);
   EXPECT_EQ(plain.find("stroke"), std::string::npos);
+  EXPECT_EQ(plain.find("<use"), std::string::npos);
   EXPECT_EQ(paths_of(parse_xml(plain)).size(), paths.size());
+}
+
+// The default underlay: one <use> per path, in the same order, inside a group that strokes them in
+// their own colour 3 px wide; the paths themselves are not stroked.
+TEST(Svg, UnderlayDrawsEveryPathTwiceInOrder) {
+  const auto scene = random_scene(6, false);
+  const auto elements = parse_xml(to_svg(scene));
+  const auto paths = paths_of(elements);
+  ASSERT_GE(paths.size(), 2u);
+  std::vector<std::string> uses;
+  for (const auto& e : elements) {
+    if (e.name == "g") {
+      EXPECT_EQ(e.attributes.at("stroke"), "currentColor");
+      EXPECT_EQ(e.attributes.at("stroke-width"), "3");
+    }
+    if (e.name == "use") uses.push_back(e.attributes.at("href"));
+  }
+  ASSERT_EQ(uses.size(), paths.size());
+  std::set<std::string> ids;
+  for (std::size_t k = 0; k < paths.size(); ++k) {
+    EXPECT_EQ(uses[k], "#" + paths[k].attributes.at("id"));
+    EXPECT_EQ(paths[k].attributes.at("color"), paths[k].attributes.at("fill"));
+    EXPECT_EQ(paths[k].attributes.count("stroke"), 0u);
+    ids.insert(paths[k].attributes.at("id"));
+  }
+  EXPECT_EQ(ids.size(), paths.size());
+  EXPECT_EQ(vectorize::parse_seams("stroke"), vectorize::Seams::stroke);
+  EXPECT_THROW(vectorize::parse_seams("thick"), std::invalid_argument);
+}
+
+// A translucent region (alpha from 0.5 to 1) is drawn with its opacity and left out of the underlay,
+// which is then clipped to the solid regions so that it paints nothing under translucent areas.
+TEST(Svg, TranslucentRegionsKeepTheirOpacityAndStayOutOfTheUnderlay) {
+  auto scene = random_scene(6, false);
+  ASSERT_GE(scene.polygons.size(), 2u);
+  const std::uint32_t translucent = scene.polygons[0].region;
+  scene.regions.regions[translucent].alpha = 0.7f;
+  const auto elements = parse_xml(to_svg(scene));
+  const auto paths = paths_of(elements);
+  std::size_t with_opacity = 0;
+  std::string translucent_id;
+  for (const auto& p : paths)
+    if (p.attributes.count("opacity")) {
+      ++with_opacity;
+      EXPECT_EQ(p.attributes.at("opacity"), ".7");
+      translucent_id = "#" + p.attributes.at("id");
+    }
+  EXPECT_EQ(with_opacity, 1u);
+  std::size_t uses = 0;
+  bool clip = false;
+  for (const auto& e : elements) {
+    if (e.name == "use") {
+      ++uses;
+      EXPECT_NE(e.attributes.at("href"), translucent_id);
+    }
+    if (e.name == "clipPath") clip = true;
+  }
+  EXPECT_TRUE(clip);
+  EXPECT_EQ(uses, 2 * (paths.size() - 1)); // the underlay and the clip path, solid regions only
 }
 
 TEST(Svg, RejectsBadOptions) {

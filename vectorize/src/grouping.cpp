@@ -15,6 +15,12 @@
 namespace vectorize {
 namespace {
 
+double colour_distance(const std::array<double, 3>& lab1, float alpha1, const std::array<double, 3>& lab2,
+                       float alpha2) {
+  const double da = 100.0 * (static_cast<double>(alpha1) - alpha2);
+  return std::hypot(lab1[0] - lab2[0], lab1[1] - lab2[1], lab1[2] - lab2[2]) + std::abs(da);
+}
+
 // Union-find whose roots carry the region's running totals.
 class RegionForest {
 public:
@@ -24,6 +30,7 @@ public:
       Totals& r = totals_[t];
       r.area = trixels[t].area;
       for (int c = 0; c < 3; ++c) r.weighted_rgb[c] = trixels[t].area * trixels[t].rgba[c];
+      r.weighted_alpha = trixels[t].area * trixels[t].rgba[3];
       r.triangle_count = 1;
       r.first_triangle = t;
       r.transparent = trixels[t].transparent();
@@ -47,6 +54,7 @@ public:
     const Totals& rb = totals_[b];
     ra.area += rb.area;
     for (int c = 0; c < 3; ++c) ra.weighted_rgb[c] += rb.weighted_rgb[c];
+    ra.weighted_alpha += rb.weighted_alpha;
     ra.triangle_count += rb.triangle_count;
     ra.first_triangle = std::min(ra.first_triangle, rb.first_triangle);
     ra.lab = srgb_to_lab(rgb(a));
@@ -59,6 +67,15 @@ public:
     for (int c = 0; c < 3; ++c) out[c] = r.area > 0 ? static_cast<float>(r.weighted_rgb[c] / r.area) : 0.0f;
     return out;
   }
+  float alpha(std::uint32_t root) const {
+    const Totals& r = totals_[root];
+    return r.area > 0 ? static_cast<float>(r.weighted_alpha / r.area) : 1.0f;
+  }
+  // Colour distance of two regions: Delta E, with a difference in opacity counted as that many
+  // hundredths of lightness (fully opaque against half transparent: 50).
+  double distance(std::uint32_t a, std::uint32_t b) const {
+    return colour_distance(totals_[a].lab, alpha(a), totals_[b].lab, alpha(b));
+  }
   // CIELAB of the mean colour, cached: the join compares it once per candidate edge.
   const std::array<double, 3>& lab(std::uint32_t root) const { return totals_[root].lab; }
   double area(std::uint32_t root) const { return totals_[root].area; }
@@ -70,6 +87,7 @@ private:
   struct Totals {
     double area = 0.0;
     double weighted_rgb[3] = {0, 0, 0};
+    double weighted_alpha = 0.0;
     std::uint32_t triangle_count = 0;
     std::uint32_t first_triangle = 0;
     bool transparent = false;
@@ -123,7 +141,7 @@ void merge_small_regions(const cdt::Triangulation& t, RegionForest& forest, doub
     double best_distance = 0.0;
     for (std::uint32_t r : list) {
       if (forest.transparent(r) != forest.transparent(root)) continue;
-      const double d = delta_e(lab, forest.lab(r));
+      const double d = colour_distance(lab, forest.alpha(root), forest.lab(r), forest.alpha(r));
       if (best == cdt::kNone || d < best_distance ||
           (d == best_distance && forest.first_triangle(r) < forest.first_triangle(best))) {
         best = r;
@@ -188,7 +206,8 @@ Regions group_trixels(const cdt::Triangulation& t, const TrixelColours& trixels,
         const std::uint32_t rb = forest.find(other);
         if (ra != rb) forest.unite(ra, rb);
       } else if (!clear_a && !clear_b && t.segment_of_edge[tri][i] == cdt::kNone) {
-        candidates.push_back({delta_e(lab[tri], lab[other]), tri, i});
+        candidates.push_back(
+            {colour_distance(lab[tri], trixels[tri].rgba[3], lab[other], trixels[other].rgba[3]), tri, i});
       }
     }
   std::sort(candidates.begin(), candidates.end(), [](const Candidate& x, const Candidate& y) {
@@ -198,7 +217,7 @@ Regions group_trixels(const cdt::Triangulation& t, const TrixelColours& trixels,
     const std::uint32_t a = forest.find(c.triangle);
     const std::uint32_t b = forest.find(t.neighbors[c.triangle][c.edge]);
     if (a == b) continue;
-    if (delta_e(forest.lab(a), forest.lab(b)) <= options.colour_tolerance) forest.unite(a, b);
+    if (forest.distance(a, b) <= options.colour_tolerance) forest.unite(a, b);
   }
 
   if (options.min_region_area > 0) merge_small_regions(t, forest, options.min_region_area);
@@ -210,8 +229,8 @@ Regions group_trixels(const cdt::Triangulation& t, const TrixelColours& trixels,
     const std::uint32_t root = forest.find(tri);
     if (id_of_root[root] == cdt::kNone) {
       id_of_root[root] = static_cast<std::uint32_t>(out.regions.size());
-      out.regions.push_back(
-          {forest.rgb(root), forest.area(root), forest.triangle_count(root), forest.transparent(root)});
+      out.regions.push_back({forest.rgb(root), forest.area(root), forest.triangle_count(root),
+                             forest.transparent(root), forest.alpha(root)});
     }
     out.region_of_triangle[tri] = id_of_root[root];
   }

@@ -8,6 +8,8 @@
 #include <cmath>
 #include <numeric>
 #include <stdexcept>
+#include <string>
+#include <string_view>
 
 namespace vectorize {
 namespace {
@@ -81,6 +83,28 @@ std::string path_data(const RegionPolygon& polygon, int precision) {
   return d.text();
 }
 
+// Short XML ids for the underlay's references: a, b, ..., Z, aa, ab, ... (letters only, so every id
+// is a valid name).
+std::string element_id(std::size_t k) {
+  static constexpr char letters[] = "abcdefghijklmnopqrstuvwxyzABCDEFGHIJKLMNOPQRSTUVWXYZ";
+  std::string id;
+  do {
+    id.insert(id.begin(), letters[k % 52]);
+    k = k / 52;
+  } while (k-- > 0);
+  return id;
+}
+
+// Regions at least this opaque are drawn solid.
+constexpr float kSolid = 0.995f;
+
+// ` opacity=".73"` for a translucent region (two decimals), nothing for a solid one.
+std::string opacity_attribute(const Region& region) {
+  if (region.alpha >= kSolid) return {};
+  const auto hundredths = std::clamp<long long>(std::llround(region.alpha * 100.0), 1, 99);
+  return " opacity=\"" + compact_decimal(hundredths, 2) + '"';
+}
+
 } // namespace
 
 std::string compact_decimal(std::int64_t units, int decimals) {
@@ -95,6 +119,14 @@ std::string compact_decimal(std::int64_t units, int decimals) {
   out += whole;
   if (!fraction.empty()) out += "." + fraction;
   return out;
+}
+
+Seams parse_seams(std::string_view name) {
+  if (name == "none") return Seams::none;
+  if (name == "stroke") return Seams::stroke;
+  if (name == "underlay") return Seams::underlay;
+  throw std::invalid_argument("unknown seam style '" + std::string(name) +
+                              "' (choose none, stroke or underlay)");
 }
 
 std::string svg_colour(const std::array<float, 3>& rgb) {
@@ -120,7 +152,8 @@ void write_svg(std::ostream& out, const std::vector<RegionPolygon>& polygons, co
   if (options.precision < 0 || options.precision > 6)
     throw std::invalid_argument("write_svg: precision must be 0 to 6, got " +
                                 std::to_string(options.precision));
-  if (!(options.seam_width >= 0)) throw std::invalid_argument("write_svg: seam_width must be >= 0");
+  if (!(options.seam_width >= 0) || !std::isfinite(options.seam_width))
+    throw std::invalid_argument("write_svg: seam_width must be finite and >= 0");
 
   std::vector<std::size_t> order(polygons.size());
   std::iota(order.begin(), order.end(), std::size_t{0});
@@ -136,22 +169,69 @@ void write_svg(std::ostream& out, const std::vector<RegionPolygon>& polygons, co
   out << "<?xml version=\"1.0\" encoding=\"UTF-8\"?>\n"
       << "<svg xmlns=\"http://www.w3.org/2000/svg\" width=\"" << w << "\" height=\"" << h
       << "\" viewBox=\"0 0 " << w << ' ' << h << "\">\n";
-  const bool seams = options.seams && options.seam_width > 0;
-  if (seams) {
-    // The seam width as a compact number at a fixed 3 decimals.
-    const std::string seam = compact_decimal(std::llround(options.seam_width * 1000.0), 3);
-    out << "<g stroke-width=\"" << seam << "\" stroke-linejoin=\"round\">\n";
-  }
+  const double seam_width = options.seam_width > 0           ? options.seam_width
+                            : options.seams == Seams::stroke ? 0.5
+                                                             : 3.0;
+  // The seam width as a compact number at a fixed 3 decimals.
+  const std::string seam = compact_decimal(std::llround(seam_width * 1000.0), 3);
+  std::vector<std::size_t> drawn;
   for (std::size_t index : order) {
     const RegionPolygon& polygon = polygons[index];
-    const Region& region = regions.regions[polygon.region];
-    if (region.transparent || polygon.rings.empty()) continue;
-    const std::string colour = svg_colour(region.rgb);
-    out << "<path fill=\"" << colour << '"';
-    if (seams) out << " stroke=\"" << colour << '"';
-    out << " d=\"" << path_data(polygon, options.precision) << "\"/>\n";
+    if (!regions.regions[polygon.region].transparent && !polygon.rings.empty()) drawn.push_back(index);
   }
-  if (seams) out << "</g>\n";
+  // Translucent regions (alpha from 0.5 to 1) are drawn with their opacity, and exactly: the underlay
+  // covers only solid ones. Transparent and translucent areas must not be painted over, so when there
+  // are any, the underlay is clipped to the solid regions.
+  const auto solid = [&](std::size_t index) {
+    return regions.regions[polygons[index].region].alpha >= kSolid;
+  };
+  const bool has_transparent =
+      std::any_of(regions.regions.begin(), regions.regions.end(),
+                  [](const Region& r) { return r.area > 0 && (r.transparent || r.alpha < kSolid); });
+
+  switch (options.seams) {
+  case Seams::none:
+    for (std::size_t k = 0; k < drawn.size(); ++k) {
+      const RegionPolygon& polygon = polygons[drawn[k]];
+      out << "<path fill=\"" << svg_colour(regions.regions[polygon.region].rgb) << '"'
+          << opacity_attribute(regions.regions[polygon.region]) << " d=\""
+          << path_data(polygon, options.precision) << "\"/>\n";
+    }
+    break;
+  case Seams::stroke:
+    out << "<g stroke-width=\"" << seam << "\" stroke-linejoin=\"round\">\n";
+    for (std::size_t k = 0; k < drawn.size(); ++k) {
+      const RegionPolygon& polygon = polygons[drawn[k]];
+      const std::string colour = svg_colour(regions.regions[polygon.region].rgb);
+      out << "<path fill=\"" << colour << "\" stroke=\"" << colour << '"'
+          << opacity_attribute(regions.regions[polygon.region]) << " d=\""
+          << path_data(polygon, options.precision) << "\"/>\n";
+    }
+    out << "</g>\n";
+    break;
+  case Seams::underlay:
+    // The underlay refers to the paths below by id; each path carries its colour as `color` too, so
+    // that the underlay's stroke="currentColor" strokes it in its own colour.
+    if (has_transparent) {
+      out << "<clipPath id=\"opaque\">\n";
+      for (std::size_t k = 0; k < drawn.size(); ++k)
+        if (solid(drawn[k])) out << "<use href=\"#" << element_id(k) << "\"/>\n";
+      out << "</clipPath>\n";
+    }
+    out << "<g stroke=\"currentColor\" stroke-width=\"" << seam << "\" stroke-linejoin=\"round\""
+        << (has_transparent ? " clip-path=\"url(#opaque)\"" : "") << ">\n";
+    for (std::size_t k = 0; k < drawn.size(); ++k)
+      if (solid(drawn[k])) out << "<use href=\"#" << element_id(k) << "\"/>\n";
+    out << "</g>\n";
+    for (std::size_t k = 0; k < drawn.size(); ++k) {
+      const RegionPolygon& polygon = polygons[drawn[k]];
+      const std::string colour = svg_colour(regions.regions[polygon.region].rgb);
+      out << "<path id=\"" << element_id(k) << "\" fill=\"" << colour << "\" color=\"" << colour << '"'
+          << opacity_attribute(regions.regions[polygon.region]) << " d=\""
+          << path_data(polygon, options.precision) << "\"/>\n";
+    }
+    break;
+  }
   out << "</svg>\n";
 }
 

@@ -32,6 +32,8 @@ struct Region {
   std::uint32_t triangle_count = 0;
   /// A "no shape" region made of transparent trixels; it is not drawn.
   bool transparent = false;
+  /// Area-weighted mean of the trixels' alpha: from 0.5 to 1 for a region that is drawn.
+  float alpha = 1.0f;
 };
 
 /// The result of group_trixels().
@@ -44,6 +46,8 @@ struct Regions {
 
 /// Groups the triangles of t into regions.
 ///
+/// Colour differences below are Delta E plus 100 times the difference in alpha, so that a translucent
+/// area (alpha between 0.5 and 1) does not join a solid one of the same colour.
 /// 1. Join: edges between opaque trixels that are not constraints are visited in increasing order of
 ///    the Delta E between their two trixels (ties by triangle, then edge index); the regions on both
 ///    sides are joined when the Delta E between the regions' current mean colours is within
