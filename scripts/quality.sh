@@ -214,7 +214,13 @@ now() { date +%s.%N; }
 
 versions() {
   echo "- machine: $(uname -srm), $(nproc) cores, $(. /etc/os-release && echo "$PRETTY_NAME")"
-  echo "- ours: $(git -C "$repo" rev-parse --short HEAD 2>/dev/null || echo unknown)$(git -C "$repo" diff --quiet HEAD -- vectorize apps/vectorize cdt 2>/dev/null || echo ' (with uncommitted changes)'), build $build"
+  local rev
+  if rev=$(git -C "$repo" rev-parse --short HEAD 2>/dev/null); then
+    git -C "$repo" diff --quiet HEAD -- vectorize apps/vectorize cdt kernels || rev+=" with uncommitted changes"
+  else
+    rev="$repo, not a git checkout"
+  fi
+  echo "- ours: $rev, build $build"
   has vtracer "$tools" && echo "- @neplex/vectorizer $(node -p "require('$npm_prefix/node_modules/@neplex/vectorizer/package.json').version")"
   has imagetracer "$tools" && echo "- imagetracerjs $(node -p "require('$npm_prefix/node_modules/imagetracerjs/package.json').version")"
   has potrace "$tools" && echo "- $(potrace --version | head -1)"
