@@ -115,7 +115,7 @@ Conversion convert(const Image& image, const Options& options, StageRecord* reco
   stats.cdt_backend = triangulation.stats.backend;
   timer.end("cdt");
 
-  const TrixelColours trixels = colour_trixels(image, triangulation);
+  const TrixelColours trixels = colour_trixels(image, triangulation, options.cdt_threads);
   timer.end("trixels");
   const Regions regions = group_trixels(triangulation, trixels, options.grouping);
   stats.regions = regions.regions.size();

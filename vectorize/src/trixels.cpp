@@ -7,6 +7,9 @@
 #include <algorithm>
 #include <cmath>
 #include <cstddef>
+#include <cstdint>
+#include <thread>
+#include <vector>
 
 #include "cdt/detail/predicates.hpp"
 
@@ -35,9 +38,11 @@ bool owns(const cdt::Point& a, const cdt::Point& b, const cdt::Point& c, double 
 // is decided exactly; the estimate is off by far less than a pixel, so probing one pixel beyond each
 // end finds the exact run (a convex set meets a row of centres in one run).
 template <class Visit>
-void for_each_run(int width, int height, const cdt::Triangulation& t, Visit&& visit) {
+void for_each_run(int width, int height, const cdt::Triangulation& t, Visit&& visit,
+                  std::size_t tri_begin = 0, std::size_t tri_end = SIZE_MAX) {
   if (width <= 0 || height <= 0) return;
-  for (std::uint32_t tri = 0; tri < t.triangles.size(); ++tri) {
+  tri_end = std::min(tri_end, t.triangles.size());
+  for (auto tri = static_cast<std::uint32_t>(tri_begin); tri < tri_end; ++tri) {
     const cdt::Point& a = t.vertices[t.triangles[tri][0]];
     const cdt::Point& b = t.vertices[t.triangles[tri][1]];
     const cdt::Point& c = t.vertices[t.triangles[tri][2]];
@@ -121,7 +126,7 @@ std::vector<std::uint32_t> owner_of_pixels(int width, int height, const cdt::Tri
   return owner;
 }
 
-TrixelColours colour_trixels(const Image& image, const cdt::Triangulation& t) {
+TrixelColours colour_trixels(const Image& image, const cdt::Triangulation& t, unsigned threads) {
   struct Sums {
     double premultiplied[3] = {0, 0, 0};
     double straight[3] = {0, 0, 0};
@@ -129,7 +134,9 @@ TrixelColours colour_trixels(const Image& image, const cdt::Triangulation& t) {
   };
   std::vector<Sums> sums(t.triangles.size());
   TrixelColours trixels(t.triangles.size());
-  for_each_run(image.width, image.height, t, [&](std::uint32_t tri, int row, int begin, int end) {
+  // Each triangle's sums are its own and are added up by one thread in row order, so the result is the
+  // same for any number of threads.
+  const auto accumulate = [&](std::uint32_t tri, int row, int begin, int end) {
     Sums& s = sums[tri];
     for (int x = begin; x < end; ++x) {
       const float* p = image.pixel(x, row);
@@ -140,7 +147,21 @@ TrixelColours colour_trixels(const Image& image, const cdt::Triangulation& t) {
       s.alpha += p[3];
     }
     trixels[tri].pixel_count += static_cast<std::uint32_t>(end - begin);
-  });
+  };
+  if (threads == 0) threads = std::max(1u, std::thread::hardware_concurrency());
+  const std::size_t count = t.triangles.size();
+  threads = static_cast<unsigned>(std::min<std::size_t>(threads, std::max<std::size_t>(1, count / 4096)));
+  if (threads <= 1) {
+    for_each_run(image.width, image.height, t, accumulate);
+  } else {
+    std::vector<std::thread> workers;
+    for (unsigned k = 0; k < threads; ++k)
+      workers.emplace_back([&, k] {
+        for_each_run(image.width, image.height, t, accumulate, count * k / threads,
+                     count * (k + 1) / threads);
+      });
+    for (auto& w : workers) w.join();
+  }
 
   for (std::size_t tri = 0; tri < t.triangles.size(); ++tri) {
     Trixel& trixel = trixels[tri];

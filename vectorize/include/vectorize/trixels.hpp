@@ -37,8 +37,9 @@ using TrixelColours = std::vector<Trixel>;
 /// domain covers [0, image.width] x [0, image.height]; image.rgba holds width * height * 4 values.
 /// Every pixel centre is then owned by exactly one triangle; pixel centres outside the domain (a
 /// violated precondition) are ignored. Time O(pixels + triangles + the summed heights of the
-/// triangles in pixel rows), memory O(triangles).
-TrixelColours colour_trixels(const Image& image, const cdt::Triangulation& t);
+/// triangles in pixel rows), memory O(triangles). `threads` > 1 shares the triangles among that many
+/// threads (0: every hardware thread); the result does not depend on it.
+TrixelColours colour_trixels(const Image& image, const cdt::Triangulation& t, unsigned threads = 1);
 
 /// The triangle that owns each pixel centre, row-major from the top-left (width * height entries),
 /// cdt::kNone for a centre outside the domain of t. The fill rule: a centre p belongs to the
