@@ -294,10 +294,10 @@ run_set() { # run_set SET
           rows+=("$set,${run_label[k]},$name,ok,$secs,$(stat -c %s "$svg"),$(grep -o '<path' "$svg" | wc -l),$metrics")
         else
           echo "quality.sh: $set: ${run_label[k]}: $svg: render or comparison failed" >&2
-          rows+=("$set,${run_label[k]},$name,render-failed,,,,,,,,,,,,")
+          rows+=("$set,${run_label[k]},$name,render-failed,,,,,,,,,,,,,")
         fi
       else
-        rows+=("$set,${run_label[k]},$name,failed,,,,,,,,,,,,")
+        rows+=("$set,${run_label[k]},$name,failed,,,,,,,,,,,,,")
       fi
       echo "${rows[-1]}" >>"$dir/results.csv"
     done
@@ -320,20 +320,22 @@ run_set() { # run_set SET
         pct = $13 > 0 ? 100 * $14 / $13 : 0
         unc[key] += pct; if (pct > uncmax[key]) uncmax[key] = pct
         holes[key] += $13 > 0 ? 100 * $15 / $13 : 0
+        solid = $13 > 0 ? 100 * $17 / $13 : 0
+        if (solid > solidmax[key]) solidmax[key] = solid
         if (!($3 in translucent)) { translucent[$3] = $13 > 0 ? 100 * $16 / $13 : 0; n_tr++; sum_tr += translucent[$3] }
       }
       END {
         ref = ("vtracer" in n) ? t["vtracer"] / n["vtracer"] : ""
-        printf "| tool | images | PSNR (dB) | SSIM | uncovered %% mean | uncovered %% max | holes %% mean | SVG bytes | paths | time (s) |%s\n", ref != "" ? " time / VTracer |" : ""
-        printf "|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|%s\n", ref != "" ? "---:|" : ""
+        printf "| tool | images | PSNR (dB) | SSIM | uncovered %% mean | uncovered %% max | solid uncovered %% max | holes %% mean | SVG bytes | paths | time (s) |%s\n", ref != "" ? " time / VTracer |" : ""
+        printf "|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|%s\n", ref != "" ? "---:|" : ""
         for (i = 1; i <= k; ++i) {
           key = order[i]
-          if (n[key] == 0) { printf "| %s | 0 of %d | | | | | | | | |%s\n", key, n_all[key], ref != "" ? " |" : ""; continue }
+          if (n[key] == 0) { printf "| %s | 0 of %d | | | | | | | | | |%s\n", key, n_all[key], ref != "" ? " |" : ""; continue }
           imgs = n[key] == n_all[key] ? n[key] : n[key] " of " n_all[key]
           p = n_psnr[key] > 0 ? sprintf("%.2f", psnr[key] / n_psnr[key]) : "inf"
           if (inf[key] > 0 && n_psnr[key] > 0) p = p " (" inf[key] " inf)"
           mt = t[key] / n[key]
-          printf "| %s | %s | %s | %.3f | %.2f | %.2f | %.3f | %.0f | %.0f | %.3f |", key, imgs, p, ssim[key] / n[key], unc[key] / n[key], uncmax[key], holes[key] / n[key], bytes[key] / n[key], paths[key] / n[key], mt
+          printf "| %s | %s | %s | %.3f | %.2f | %.2f | %.2f | %.3f | %.0f | %.0f | %.3f |", key, imgs, p, ssim[key] / n[key], unc[key] / n[key], uncmax[key], solidmax[key], holes[key] / n[key], bytes[key] / n[key], paths[key] / n[key], mt
           if (ref != "") printf " %.2f |", mt / ref
           printf "\n"
         }
@@ -343,7 +345,8 @@ run_set() { # run_set SET
     echo
     echo "Means over the images. PSNR and SSIM (Gaussian 11x11, mean of R, G, B): the input over white" \
       "against the SVG rendered by rsvg-convert over white. Uncovered: opaque input pixels where the" \
-      "renders over white and over magenta differ at all (the background shows through); holes: where" \
+      "renders over white and over magenta differ at all (the background shows through); solid" \
+      "uncovered: the same among the input's solid pixels (alpha exactly 1), worst image; holes: where" \
       "they differ by more than half. Time: wall time of the conversion command per image$(
         ((repeat > 1)) && echo " (median of $repeat runs)")."
   } | tee "$out/$set.md"

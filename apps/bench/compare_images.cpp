@@ -21,6 +21,8 @@
 //   uncovered_half_pixels  opaque pixels where the background shows through by more than half (the
 //                     renders' green channels, 255 over white and 0 over magenta, differ by more than
 //                     127): holes rather than anti-aliased seams.
+//   uncovered_solid_pixels  the uncovered pixels among the input's solid ones (alpha exactly 1):
+//                     where a faithful render must not let any background through.
 //   translucent_pixels  opaque pixels of the input with alpha < 1. A faithful render lets the
 //                     background show through these too, so they may count as uncovered; this is the
 //                     input's own share of the count.
@@ -166,6 +168,7 @@ struct Coverage {
   long long uncovered = 0;
   long long uncovered_half = 0;
   long long translucent = 0;
+  long long uncovered_solid = 0;
 };
 
 /// Counts uncovered opaque pixels; when `diff_map` is given, fills it (CV_8UC1) with each opaque
@@ -184,7 +187,10 @@ Coverage coverage(const Planes& input, const cv::Mat& on_white, const cv::Mat& o
       if (a[x] < 1.0F) ++c.translucent;
       double worst = 0;
       for (int k = 0; k < 3; ++k) worst = std::max(worst, static_cast<double>(std::fabs(w[x][k] - m[x][k])));
-      if (worst > tolerance) ++c.uncovered;
+      if (worst > tolerance) {
+        ++c.uncovered;
+        if (a[x] >= 1.0F) ++c.uncovered_solid;
+      }
       if (diff_map != nullptr) diff_map->at<unsigned char>(y, x) = cv::saturate_cast<unsigned char>(worst);
       // Green is 255 in white and 0 in magenta: its difference is (1 - coverage) * 255.
       if (std::fabs(w[x][1] - m[x][1]) > 127.0F) ++c.uncovered_half;
@@ -220,7 +226,8 @@ std::string json_string(const std::string& s) {
 }
 
 constexpr const char* kCsvHeader =
-    "width,height,psnr_db,ssim,mse,opaque_pixels,uncovered_pixels,uncovered_half_pixels,translucent_pixels";
+    "width,height,psnr_db,ssim,mse,opaque_pixels,uncovered_pixels,uncovered_half_pixels,translucent_pixels,"
+    "uncovered_solid_pixels";
 
 int usage(const char* message) {
   if (message != nullptr) std::fprintf(stderr, "compare_images: %s\n", message);
@@ -304,15 +311,16 @@ int main(int argc, char** argv) {
     const std::string unc = have_coverage ? std::to_string(cov.uncovered) : (csv ? "" : "null");
     const std::string unc_half = have_coverage ? std::to_string(cov.uncovered_half) : (csv ? "" : "null");
     const std::string translucent = have_coverage ? std::to_string(cov.translucent) : (csv ? "" : "null");
+    const std::string unc_solid = have_coverage ? std::to_string(cov.uncovered_solid) : (csv ? "" : "null");
     if (csv) {
-      std::printf("%d,%d,%s,%.6f,%.6f,%s,%s,%s,%s\n", w, h, psnr_text, structural, mse, opaque.c_str(),
-                  unc.c_str(), unc_half.c_str(), translucent.c_str());
+      std::printf("%d,%d,%s,%.6f,%.6f,%s,%s,%s,%s,%s\n", w, h, psnr_text, structural, mse, opaque.c_str(),
+                  unc.c_str(), unc_half.c_str(), translucent.c_str(), unc_solid.c_str());
     } else {
       std::printf("{\"input\":%s,\"width\":%d,\"height\":%d,\"psnr_db\":%s,\"ssim\":%.6f,\"mse\":%.6f,"
                   "\"opaque_pixels\":%s,\"uncovered_pixels\":%s,\"uncovered_half_pixels\":%s,"
-                  "\"translucent_pixels\":%s}\n",
+                  "\"translucent_pixels\":%s,\"uncovered_solid_pixels\":%s}\n",
                   json_string(files[0]).c_str(), w, h, psnr_text, structural, mse, opaque.c_str(),
-                  unc.c_str(), unc_half.c_str(), translucent.c_str());
+                  unc.c_str(), unc_half.c_str(), translucent.c_str(), unc_solid.c_str());
     }
   } catch (const CompareError& e) {
     std::fprintf(stderr, "compare_images: %s\n", e.what());

@@ -24,7 +24,7 @@ struct Metrics {
   int width = 0, height = 0;
   std::string psnr; // kept as text: "inf" for equal images
   double ssim = 0, mse = 0;
-  long long opaque = -1, uncovered = -1, uncovered_half = -1, translucent = -1;
+  long long opaque = -1, uncovered = -1, uncovered_half = -1, translucent = -1, uncovered_solid = -1;
 };
 
 /// The compare_images command line with each argument quoted (appending only: GCC 12 warns
@@ -47,8 +47,8 @@ Metrics compare(std::vector<std::string> args) {
   std::string field;
   while (std::getline(line, field, ',')) f.push_back(field);
   Metrics m;
-  if (f.size() != 9) {
-    ADD_FAILURE() << "want 9 CSV fields, got: " << r.output;
+  if (f.size() != 10) {
+    ADD_FAILURE() << "want 10 CSV fields, got: " << r.output;
     return m;
   }
   m.width = std::stoi(f[0]);
@@ -59,7 +59,8 @@ Metrics compare(std::vector<std::string> args) {
   if (!f[5].empty()) m.opaque = std::stoll(f[5]);
   if (!f[6].empty()) m.uncovered = std::stoll(f[6]);
   if (!f[7].empty()) m.uncovered_half = std::stoll(f[7]);
-  if (!f[8].empty() && f[8] != "\n") m.translucent = std::stoll(f[8]);
+  if (!f[8].empty()) m.translucent = std::stoll(f[8]);
+  if (!f[9].empty() && f[9] != "\n") m.uncovered_solid = std::stoll(f[9]);
   return m;
 }
 
@@ -166,7 +167,8 @@ TEST(CompareImages, HoleInRenderIsCountedAmongOpaquePixelsOnly) {
   EXPECT_EQ(m.opaque, 30 * 20 + 1);
   EXPECT_EQ(m.uncovered, 4 * 3 + 1 + 1); // hole, seam pixel, the unpainted half-alpha pixel
   EXPECT_EQ(m.uncovered_half, 4 * 3 + 1);
-  EXPECT_EQ(m.translucent, 1); // the half-alpha pixel
+  EXPECT_EQ(m.translucent, 1);             // the half-alpha pixel
+  EXPECT_EQ(m.uncovered_solid, 4 * 3 + 1); // the translucent pixel is not solid
   const Metrics tolerant = compare({"--tolerance", "10", in_path, w, mg});
   EXPECT_EQ(tolerant.uncovered, 4 * 3 + 1);
 }
