@@ -172,8 +172,10 @@ std::uint32_t find_debris(CudaExecutor& executor, VoronoiBuffers& b, std::uint32
 }
 
 /// Step 4: Algorithm A.1's flood over the debris b.stack[0, num_debris): rounds of flood_colour, each
-/// reading the last round's colouring, until a round changes nothing. Settles in finitely many rounds
-/// (each round fixes at least the next-smallest key for good); the cap only guards against a defect.
+/// reading the last round's colouring, until a round changes nothing, which is the one solution of
+/// the flood's equation (voronoi.hpp). It settles: a key is held only while a chain of strictly
+/// smaller keys supports it, so wrong keys die out from the smallest up (a host replay of these
+/// rounds on 3000 dense inputs never needed more than 4); the cap only guards against a defect.
 void flood_debris(CudaExecutor& executor, VoronoiBuffers& b, std::uint32_t m, std::uint32_t num_debris,
                   const amend::FloodView& view, VoronoiStats& stats) {
   const std::uint32_t* debris = b.stack.data();

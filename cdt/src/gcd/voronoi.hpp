@@ -386,9 +386,10 @@ CDT_HD_INLINE std::uint32_t owner_at(const std::uint32_t* owner, std::uint32_t m
 /// The three phases of PBA on an executor: v.column receives the packed nearest site of every cell
 /// (kNone when no cell is occupied). Task indices: t = band * (groups) + group in phase 1 and
 /// t = row * (bands or pairs) + band or pair in phases 2 and 3, so the tasks next to each other (one
-/// thread's run on a CPU, one warp on a device) work on neighbouring columns of one row; a warp whose
-/// threads took one row each would stride by the row length, a power of two that makes its accesses
-/// collide in the caches. Each for_each is a global barrier.
+/// thread's run on a CPU, one warp on a device) work on neighbouring columns: of neighbouring rows in
+/// phase 1, of one row in phases 2 and 3. (On an H100 the row-major order of phases 2 and 3 timed
+/// the same as one row per neighbouring task: those steps are bound by each task's serial walk
+/// through its stack, not by the order of the tasks.) Each for_each is a global barrier.
 template <class Executor>
 void run_pba(Executor& executor, const PbaView& v) {
   const std::uint32_t groups = v.groups();
