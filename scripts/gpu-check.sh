@@ -33,6 +33,8 @@ if command -v compute-sanitizer >/dev/null 2>&1; then
   step racecheck compute-sanitizer --tool racecheck --error-exitcode 1 build-gpu/bin/kernels_tests
 fi
 step bench-predicates build-gpu/bin/bench_predicates 4000000
+# Phase 1 of gCD on the device (PBA and the Appendix A amendment) against the CPU executor.
+step bench-voronoi build-gpu/bin/bench_voronoi_gpu --sizes 1024,2048,4096,8192 --repeat 5
 # The CDT on this machine's CPU cores (the CUDA executor of gCD is not part of the build yet); the
 # coastlines are used when they were carried in .carry/data (scripts/bench-cdt.sh prepares them).
 coast=()
@@ -43,7 +45,7 @@ step bench-cdt build-gpu/bin/bench_cdt --repeat 3 "${coast[@]}"
 if [ -x .carry/bundle/vectorize ] && [ -d .carry/kodak ]; then
   export LD_LIBRARY_PATH=$PWD/.carry/bundle/lib${LD_LIBRARY_PATH:+:$LD_LIBRARY_PATH}
   step bench-batch bash scripts/bench-batch.sh --bin .carry/bundle/vectorize --images .carry/kodak \
-    -n 200 -j "1 4 $(nproc)"
+    -n 200 -j "1 $(nproc)"
 fi
 
 echo
@@ -53,6 +55,8 @@ echo "| --- | --- | --- |"
 printf '%s\n' "${status[@]}"
 echo
 grep -h '^|' "$logs/bench-predicates.log" || true
+echo
+grep -h '^|' "$logs/bench-voronoi.log" || true
 echo
 grep -h '^|' "$logs/bench-cdt.log" || true
 [ -f "$logs/bench-batch.log" ] && { echo; grep -h '^|' "$logs/bench-batch.log" || true; }
