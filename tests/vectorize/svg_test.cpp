@@ -412,8 +412,7 @@ TEST(Svg, UnderlayDrawsEveryPathTwiceInOrder) {
   EXPECT_THROW(vectorize::parse_seams("thick"), std::invalid_argument);
 }
 
-// A translucent region (alpha from 0.5 to 1) is drawn with its opacity and left out of the underlay,
-// which is then clipped to the solid regions so that it paints nothing under translucent areas.
+// A translucent region (alpha from 0.5 to 0.75) is drawn with its opacity and left out of the underlay.
 TEST(Svg, TranslucentRegionsKeepTheirOpacityAndStayOutOfTheUnderlay) {
   auto scene = random_scene(6, false);
   ASSERT_GE(scene.polygons.size(), 2u);
@@ -431,16 +430,40 @@ TEST(Svg, TranslucentRegionsKeepTheirOpacityAndStayOutOfTheUnderlay) {
     }
   EXPECT_EQ(with_opacity, 1u);
   std::size_t uses = 0;
-  bool clip = false;
   for (const auto& e : elements) {
-    if (e.name == "use") {
-      ++uses;
-      EXPECT_NE(e.attributes.at("href"), translucent_id);
-    }
-    if (e.name == "clipPath") clip = true;
+    if (e.name != "use") continue;
+    ++uses;
+    EXPECT_NE(e.attributes.at("href"), translucent_id);
   }
-  EXPECT_TRUE(clip);
-  EXPECT_EQ(uses, 2 * (paths.size() - 1)); // the underlay and the clip path, solid regions only
+  EXPECT_EQ(uses, paths.size() - 1);
+}
+
+// With transparent regions, the underlay is masked off them: the mask is white, with each transparent
+// region's polygon black (stroked white along its edge), and the opaque paths are unchanged.
+TEST(Svg, UnderlayIsMaskedOffTransparentRegions) {
+  auto scene = random_scene(3, true);
+  scene.polygons = vectorize::trace_polygons(scene.t, scene.regions, vectorize::TransparentRegions::include);
+  std::size_t transparent = 0;
+  for (const auto& polygon : scene.polygons)
+    transparent += scene.regions.regions[polygon.region].transparent && !polygon.rings.empty();
+  ASSERT_GT(transparent, 0u);
+  const auto elements = parse_xml(to_svg(scene));
+  std::size_t mask_paths = 0;
+  std::size_t drawn_paths = 0;
+  bool mask = false;
+  bool masked_group = false;
+  for (const auto& e : elements) {
+    if (e.name == "mask") mask = true;
+    if (e.name == "g" && e.attributes.count("mask")) {
+      masked_group = true;
+      EXPECT_EQ(e.attributes.at("mask"), "url(#opaque)");
+    }
+    if (e.name == "path") (e.attributes.count("fill") ? drawn_paths : mask_paths) += 1;
+  }
+  EXPECT_TRUE(mask);
+  EXPECT_TRUE(masked_group);
+  EXPECT_EQ(mask_paths, transparent);
+  EXPECT_EQ(drawn_paths, scene.polygons.size() - transparent);
 }
 
 TEST(Svg, RejectsBadOptions) {

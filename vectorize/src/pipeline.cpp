@@ -120,7 +120,9 @@ Conversion convert(const Image& image, const Options& options, StageRecord* reco
   const Regions regions = group_trixels(triangulation, trixels, options.grouping);
   stats.regions = regions.regions.size();
   timer.end("grouping");
-  const std::vector<RegionPolygon> polygons = trace_polygons(triangulation, regions);
+  // Transparent regions too: the SVG does not draw them, but keeps its seam underlay off them.
+  const std::vector<RegionPolygon> polygons =
+      trace_polygons(triangulation, regions, TransparentRegions::include);
   timer.end("polygons");
   std::ostringstream svg;
   write_svg(svg, polygons, regions, image.width, image.height, options.svg);
@@ -137,7 +139,7 @@ Conversion convert(const Image& image, const Options& options, StageRecord* reco
     record->chains = chains;
     record->polylines = polylines;
     record->pslg = pslg;
-    record->polygons = trace_polygons(triangulation, regions, TransparentRegions::include);
+    record->polygons = polygons;
     record->trixels = trixels;
     record->regions = regions;
     record->triangulation = triangulation;

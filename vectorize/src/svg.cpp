@@ -95,8 +95,10 @@ std::string element_id(std::size_t k) {
   return id;
 }
 
-// Regions at least this opaque are drawn solid.
-constexpr float kSolid = 0.995f;
+// Regions at least this opaque are drawn solid; more transparent ones (a shadow, a glow) keep their
+// opacity. Anti-aliased edges and soft borders average to between these, and are drawn solid so that
+// the solid pixels among them stay covered.
+constexpr float kSolid = 0.75f;
 
 // ` opacity=".73"` for a translucent region (two decimals), nothing for a solid one.
 std::string opacity_attribute(const Region& region) {
@@ -179,15 +181,20 @@ void write_svg(std::ostream& out, const std::vector<RegionPolygon>& polygons, co
     const RegionPolygon& polygon = polygons[index];
     if (!regions.regions[polygon.region].transparent && !polygon.rings.empty()) drawn.push_back(index);
   }
-  // Translucent regions (alpha from 0.5 to 1) are drawn with their opacity, and exactly: the underlay
-  // covers only solid ones. Transparent and translucent areas must not be painted over, so when there
-  // are any, the underlay is clipped to the solid regions.
+  // Translucent regions (alpha from 0.5 to 0.75) are drawn with their opacity and exactly: the underlay
+  // covers only solid ones.
   const auto solid = [&](std::size_t index) {
     return regions.regions[polygons[index].region].alpha >= kSolid;
   };
-  const bool has_transparent =
-      std::any_of(regions.regions.begin(), regions.regions.end(),
-                  [](const Region& r) { return r.area > 0 && (r.transparent || r.alpha < kSolid); });
+  std::vector<std::size_t> clear; // transparent regions, which the underlay must leave alone
+  for (std::size_t index : order) {
+    const RegionPolygon& polygon = polygons[index];
+    if (regions.regions[polygon.region].transparent && !polygon.rings.empty()) clear.push_back(index);
+  }
+  // Width of the band along transparent areas that the underlay may paint: half a pixel beyond their
+  // edge gave the best PSNR on icons (0 leaves more of the outermost solid pixels half covered, 1 px
+  // and more paints colour where the input is transparent).
+  const std::string spill = ".5";
 
   switch (options.seams) {
   case Seams::none:
@@ -212,14 +219,20 @@ void write_svg(std::ostream& out, const std::vector<RegionPolygon>& polygons, co
   case Seams::underlay:
     // The underlay refers to the paths below by id; each path carries its colour as `color` too, so
     // that the underlay's stroke="currentColor" strokes it in its own colour.
-    if (has_transparent) {
-      out << "<clipPath id=\"opaque\">\n";
-      for (std::size_t k = 0; k < drawn.size(); ++k)
-        if (solid(drawn[k])) out << "<use href=\"#" << element_id(k) << "\"/>\n";
-      out << "</clipPath>\n";
+    if (!clear.empty()) {
+      // The underlay must not paint over transparent areas, except for a band of spill / 2 along
+      // their edge, which helps cover the solid pixels there. A luminance mask: white everywhere,
+      // transparent regions black, their edges stroked white.
+      out << "<mask id=\"opaque\" maskUnits=\"userSpaceOnUse\" x=\"0\" y=\"0\" width=\"" << w
+          << "\" height=\"" << h << "\">\n<rect width=\"" << w << "\" height=\"" << h
+          << "\" fill=\"#fff\"/>\n<g fill=\"#000\" stroke=\"#fff\" stroke-width=\"" << spill
+          << "\" stroke-linejoin=\"round\">\n";
+      for (std::size_t index : clear)
+        out << "<path d=\"" << path_data(polygons[index], options.precision) << "\"/>\n";
+      out << "</g>\n</mask>\n";
     }
     out << "<g stroke=\"currentColor\" stroke-width=\"" << seam << "\" stroke-linejoin=\"round\""
-        << (has_transparent ? " clip-path=\"url(#opaque)\"" : "") << ">\n";
+        << (clear.empty() ? "" : " mask=\"url(#opaque)\"") << ">\n";
     for (std::size_t k = 0; k < drawn.size(); ++k)
       if (solid(drawn[k])) out << "<use href=\"#" << element_id(k) << "\"/>\n";
     out << "</g>\n";

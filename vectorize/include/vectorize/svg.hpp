@@ -24,9 +24,11 @@ enum class Seams {
   stroke,
   /// Every path drawn twice (the second time through <use>): first, as an underlay, filled and stroked
   /// in its own colour seam_width wide (default 3 px), then filled exactly on top. A pixel that a
-  /// boundary crosses lies within 1.5 px of the region drawn later, so the underlay covers it fully
-  /// and no background shows through anywhere in the shape; the exact fills on top keep every
-  /// boundary where it is. Opaque edges next to transparent areas grow by up to seam_width / 2.
+  /// boundary between two regions crosses lies within 1.5 px of the region drawn later, so the
+  /// underlay covers it fully and no background shows through inside the shape; the exact fills on
+  /// top keep every boundary where it is. Where the image has transparent areas, a mask keeps the
+  /// underlay off them but for a quarter-pixel band along their edge. Translucent regions (alpha
+  /// below 0.75) are drawn with their opacity and stay out of the underlay.
   underlay,
 };
 
