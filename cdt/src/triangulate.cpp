@@ -73,13 +73,15 @@ void choose_backend(Backend backend) {
       throw DeviceError("backend gpu: this build has no CUDA support (configure with -DTRIXEL_CUDA=ON)");
 #endif
     }
-    throw DeviceError("backend gpu: the CUDA executor of the CDT engine is not implemented in this version");
+    throw DeviceError(
+        "backend gpu: the CUDA executor of the CDT engine runs only the first phase of gCD (the "
+        "digital Voronoi diagram) in this version, not the whole triangulation");
   }
   if (backend == Backend::automatic && cuda_devices() > 0) {
     static std::once_flag said;
     std::call_once(said, [] {
-      std::fprintf(stderr, "cdt: a CUDA device is present, but the CUDA executor is not implemented in this "
-                           "version; using the CPU executor\n");
+      std::fprintf(stderr, "cdt: a CUDA device is present, but the CUDA executor does not yet run the whole "
+                           "triangulation in this version; using the CPU executor\n");
     });
   }
 }

@@ -128,8 +128,9 @@ Conversion convert(const Image& image, const Options& options, StageRecord* reco
   write_svg(svg, polygons, regions, image.width, image.height, options.svg);
   out.svg = std::move(svg).str();
   stats.bytes = out.svg.size();
+  // Drawn paths: each has a fill; the paths of the underlay's mask (transparent areas) do not.
   for (std::size_t at = out.svg.find("<path"); at != std::string::npos; at = out.svg.find("<path", at + 5)) {
-    ++stats.paths;
+    if (out.svg.compare(at, 8, "<path d=") != 0) ++stats.paths;
   }
   timer.end("svg");
   timer.finish();
