@@ -320,13 +320,13 @@ run_set() { # run_set SET
         pct = $13 > 0 ? 100 * $14 / $13 : 0
         unc[key] += pct; if (pct > uncmax[key]) uncmax[key] = pct
         holes[key] += $13 > 0 ? 100 * $15 / $13 : 0
-        solid = $13 > 0 ? 100 * $17 / $13 : 0
+        solid = $13 - $16 > 0 ? 100 * $17 / ($13 - $16) : 0
         if (solid > solidmax[key]) solidmax[key] = solid
         if (!($3 in translucent)) { translucent[$3] = $13 > 0 ? 100 * $16 / $13 : 0; n_tr++; sum_tr += translucent[$3] }
       }
       END {
         ref = ("vtracer" in n) ? t["vtracer"] / n["vtracer"] : ""
-        printf "| tool | images | PSNR (dB) | SSIM | uncovered %% mean | uncovered %% max | solid uncovered %% max | holes %% mean | SVG bytes | paths | time (s) |%s\n", ref != "" ? " time / VTracer |" : ""
+        printf "| tool | images | PSNR (dB) | SSIM | shape uncovered %% mean | shape uncovered %% max | opaque uncovered %% max | holes %% mean | SVG bytes | paths | time (s) |%s\n", ref != "" ? " time / VTracer |" : ""
         printf "|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|%s\n", ref != "" ? "---:|" : ""
         for (i = 1; i <= k; ++i) {
           key = order[i]
@@ -340,14 +340,16 @@ run_set() { # run_set SET
           printf "\n"
         }
         if (n_tr > 0 && sum_tr > 0)
-          printf "\nOf the inputs\x27 opaque pixels, %.2f%% (mean) are translucent (alpha < 1): a faithful render lets the background show there too.\n", sum_tr / n_tr
+          printf "\nOf the inputs\x27 shape pixels, %.2f%% (mean) are translucent (alpha < 1): a faithful render lets the background show there too.\n", sum_tr / n_tr
       }'
     echo
     echo "Means over the images. PSNR and SSIM (Gaussian 11x11, mean of R, G, B): the input over white" \
-      "against the SVG rendered by rsvg-convert over white. Uncovered: opaque input pixels where the" \
-      "renders over white and over magenta differ at all (the background shows through); solid" \
-      "uncovered: the same among the input's solid pixels (alpha exactly 1), worst image; holes: where" \
-      "they differ by more than half. Time: wall time of the conversion command per image$(
+      "against the SVG rendered by rsvg-convert over white. Shape uncovered: input pixels with alpha" \
+      ">= 1/2 (every pixel of an image without alpha) where the renders over white and over magenta" \
+      "differ at all (the background shows through), translucent ones included; opaque uncovered: the" \
+      "same among the fully opaque pixels (alpha 1), where a faithful render lets no background" \
+      "through, worst image; holes: shape pixels where the renders differ by more than half. Time:" \
+      "wall time of the conversion command per image$(
         ((repeat > 1)) && echo " (median of $repeat runs)")."
   } | tee "$out/$set.md"
   echo

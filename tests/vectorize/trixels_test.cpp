@@ -2,6 +2,7 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <random>
 #include <vector>
@@ -152,6 +153,57 @@ TEST(TrixelColours, SliversTakeTheSampledColour) {
     for (int c = 0; c < 4; ++c) EXPECT_NEAR(trixel.rgba[c], flat(0, 0, c), 1e-6);
   }
   EXPECT_GT(slivers, 0);
+}
+
+// A sliver with no constraint between it and its neighbour takes that neighbour's colour, not a
+// sample at its centroid: here the centroid lies in the left (black) half of the image, while the
+// sliver belongs with the triangles on the right of the constraint at x = 2.
+TEST(TrixelColours, SliversTakeTheirNeighboursColour) {
+  const auto image = make_image(4, 4, [](int x, int, int c) -> float {
+    if (c == 3) return 1.0f;
+    return x < 2 ? 0.0f : 1.0f;
+  });
+  // Points: the constraint (2, 0)-(2, 4) and a point a hair right of it, so that the triangles beside
+  // the constraint near (2, 2) own no pixel centre.
+  const std::vector<cdt::Point> points = {{2, 0}, {2, 4}, {2.05, 2.0}};
+  const auto t = triangulate_rectangle(4, 4, points, {{0, 1}});
+  const auto trixels = vectorize::colour_trixels(image, t);
+  int slivers = 0;
+  for (std::size_t k = 0; k < trixels.size(); ++k) {
+    double cx = 0.0;
+    for (int i = 0; i < 3; ++i) cx += t.vertices[t.triangles[k][i]].x / 3.0;
+    if (trixels[k].pixel_count != 0 || cx < 2.0) continue;
+    ++slivers;
+    EXPECT_EQ(trixels[k].rgba[0], 1.0f) << "sliver " << k;
+  }
+  EXPECT_GT(slivers, 0);
+}
+
+// A triangle that covers part of a solid pixel is flagged, and then counts as shape even when its
+// own pixels are mostly clear; a clear triangle that only grazes a solid pixel stays clear.
+TEST(TrixelColours, TrianglesCoveringSolidPixelsAreShape) {
+  // Column 0 solid, the rest clear but for a faint column 1 (alpha 0.3).
+  const auto image = make_image(4, 4, [](int x, int, int c) -> float {
+    if (c != 3) return 0.5f;
+    return x == 0 ? 1.0f : x == 1 ? 0.3f : 0.0f;
+  });
+  // The square split by either diagonal: each half reaches into column 0 (the one at a corner by a
+  // sliver of one pixel) though most of its pixels are clear.
+  const auto t = triangulate_rectangle(4, 4, {});
+  ASSERT_EQ(t.triangles.size(), 2u);
+  for (const auto& trixel : vectorize::colour_trixels(image, t)) EXPECT_TRUE(trixel.covers_solid);
+  // A constraint along x = 1: the triangles right of it touch column 0 nowhere but on its edge, which
+  // does not count; they stay clear.
+  const auto t2 = triangulate_rectangle(4, 4, {{1, 0}, {1, 4}}, {{0, 1}});
+  const auto trixels = vectorize::colour_trixels(image, t2);
+  for (std::size_t k = 0; k < t2.triangles.size(); ++k) {
+    double min_x = 4.0;
+    for (int i = 0; i < 3; ++i) min_x = std::min(min_x, t2.vertices[t2.triangles[k][i]].x);
+    EXPECT_EQ(trixels[k].covers_solid, min_x < 1.0) << "triangle " << k;
+    if (min_x >= 1.0) {
+      EXPECT_TRUE(trixels[k].transparent()) << "triangle " << k;
+    }
+  }
 }
 
 // Alpha below one half is "no shape"; RGB is alpha-weighted so hidden colour does not leak in.

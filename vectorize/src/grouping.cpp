@@ -33,6 +33,7 @@ public:
       for (int c = 0; c < 3; ++c) r.weighted_rgb[c] = trixels[t].area * trixels[t].rgba[c];
       r.weighted_alpha = trixels[t].area * trixels[t].rgba[3];
       r.triangle_count = 1;
+      r.covers_solid = trixels[t].covers_solid;
       r.first_triangle = t;
       r.transparent = trixels[t].transparent();
       r.lab = srgb_to_lab(rgb(t));
@@ -57,6 +58,7 @@ public:
     for (int c = 0; c < 3; ++c) ra.weighted_rgb[c] += rb.weighted_rgb[c];
     ra.weighted_alpha += rb.weighted_alpha;
     ra.triangle_count += rb.triangle_count;
+    ra.covers_solid = ra.covers_solid || rb.covers_solid;
     ra.first_triangle = std::min(ra.first_triangle, rb.first_triangle);
     ra.lab = srgb_to_lab(rgb(a));
     return a;
@@ -81,6 +83,7 @@ public:
   const std::array<double, 3>& lab(std::uint32_t root) const { return totals_[root].lab; }
   double area(std::uint32_t root) const { return totals_[root].area; }
   std::uint32_t triangle_count(std::uint32_t root) const { return totals_[root].triangle_count; }
+  bool covers_solid(std::uint32_t root) const { return totals_[root].covers_solid; }
   std::uint32_t first_triangle(std::uint32_t root) const { return totals_[root].first_triangle; }
   bool transparent(std::uint32_t root) const { return totals_[root].transparent; }
 
@@ -90,6 +93,7 @@ private:
     double weighted_rgb[3] = {0, 0, 0};
     double weighted_alpha = 0.0;
     std::uint32_t triangle_count = 0;
+    bool covers_solid = false;
     std::uint32_t first_triangle = 0;
     bool transparent = false;
     std::array<double, 3> lab{};
@@ -249,7 +253,7 @@ Regions group_trixels(const cdt::Triangulation& t, const TrixelColours& trixels,
     if (id_of_root[root] == cdt::kNone) {
       id_of_root[root] = static_cast<std::uint32_t>(out.regions.size());
       out.regions.push_back({forest.rgb(root), forest.area(root), forest.triangle_count(root),
-                             forest.transparent(root), forest.alpha(root)});
+                             forest.transparent(root), forest.alpha(root), forest.covers_solid(root)});
     }
     out.region_of_triangle[tri] = id_of_root[root];
   }

@@ -2,6 +2,8 @@
 // segments, and free interior points where the colour of a region varies.
 #include "vectorize/pslg_build.hpp"
 
+#include "vectorize/placement.hpp"
+
 #include <algorithm>
 #include <array>
 #include <cmath>
@@ -20,12 +22,17 @@ constexpr double kCentre = 0.5; // offset of a pixel's centre from its top-left 
 
 class Builder {
 public:
+  explicit Builder(PointPlacement placement) : placement_(placement) {}
+
   std::uint32_t pixel_point(const PixelPoint& p) {
     const std::uint64_t key =
         (static_cast<std::uint64_t>(static_cast<std::uint32_t>(p.y)) << 32) | static_cast<std::uint32_t>(p.x);
     const auto [it, inserted] =
         pixel_index_.try_emplace(key, static_cast<std::uint32_t>(pslg_.points.size()));
-    if (inserted) pslg_.points.push_back({p.x + kCentre, p.y + kCentre});
+    if (inserted) {
+      const Position at = placement_.position(p);
+      pslg_.points.push_back({at.x, at.y});
+    }
     return it->second;
   }
 
@@ -48,6 +55,7 @@ public:
   Pslg& pslg() { return pslg_; }
 
 private:
+  PointPlacement placement_;
   Pslg pslg_;
   std::unordered_map<std::uint64_t, std::uint32_t> pixel_index_;
   std::unordered_set<std::uint64_t> segment_keys_;
@@ -146,7 +154,7 @@ Pslg build_pslg(const std::vector<Polyline>& simplified, int width, int height, 
       if (p.x < 0 || p.y < 0 || p.x >= width || p.y >= height)
         throw std::invalid_argument("build_pslg: polyline point outside the image");
 
-  Builder builder;
+  Builder builder(PointPlacement{image});
   for (const Polyline& line : simplified) {
     const std::size_t n = line.points.size();
     std::vector<std::uint32_t> ids(n);
@@ -174,8 +182,8 @@ Pslg build_pslg(const std::vector<Polyline>& simplified, int width, int height, 
     for (const PixelPoint& p : {line.points.front(), line.points.back()}) {
       const std::uint32_t id = builder.pixel_point(p);
       if (builder.degree(id) > 1 || !extended.insert(id).second) continue;
-      const double cx = p.x + kCentre;
-      const double cy = p.y + kCentre;
+      const double cx = builder.pslg().points[id].x;
+      const double cy = builder.pslg().points[id].y;
       std::uint32_t border = 0;
       if (p.x == 0) {
         border = builder.free_point(0.0, cy);

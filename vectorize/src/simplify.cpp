@@ -14,6 +14,7 @@
 #include <optional>
 #include <queue>
 #include <stdexcept>
+#include <utility>
 #include <vector>
 
 #include "cdt/detail/predicates.hpp"
@@ -27,8 +28,8 @@ struct Vec {
   friend bool operator==(const Vec&, const Vec&) = default;
 };
 
-// Pixel coordinates are small integers, so every product in these tests is exact even without the
-// expansion arithmetic; orient2d keeps them exact for any input anyway.
+// Exact for any coordinates (orient2d's filter and expansion fallback), so placed points off the pixel
+// grid are tested as exactly as pixel centres.
 int orient(const Vec& a, const Vec& b, const Vec& c) {
   return cdt::detail::orient2d(a.x, a.y, b.x, b.y, c.x, c.y);
 }
@@ -64,9 +65,10 @@ bool in_triangle(const Vec& a, const Vec& b, const Vec& c, const Vec& p) {
   return s1 * o >= 0 && s2 * o >= 0 && s3 * o >= 0;
 }
 
-// Squared distance from p to the segment ab; exactly 0 for a point on it (the cross product of integer
-// coordinates is exact), so that tolerance 0 removes the middle points of straight runs. Squared, so
-// that no square root is taken: costs are only compared, with each other and with the tolerance.
+// Squared distance from p to the segment ab; exactly 0 for a point on it when the coordinates are pixel
+// centres (the cross product of small half-integers is exact), so that tolerance 0 removes the middle
+// points of straight runs. Squared, so that no square root is taken: costs are only compared, with
+// each other and with the tolerance.
 double squared_distance_to_segment(const Vec& a, const Vec& b, const Vec& p) {
   const double dx = b.x - a.x;
   const double dy = b.y - a.y;
@@ -78,6 +80,24 @@ double squared_distance_to_segment(const Vec& a, const Vec& b, const Vec& p) {
   if (bx * dx + by * dy >= 0.0) return bx * bx + by * by;
   const double cross = dx * ay - dy * ax;
   return cross * cross / (dx * dx + dy * dy);
+}
+
+// Whether the segment ab passes through the interior of the unit square of pixel (x, y) (touching
+// its boundary does not count): the part of ab inside the open square, clipped parametrically, has
+// positive length.
+bool crosses_square(const Vec& a, const Vec& b, int x, int y) {
+  double t0 = 0.0;
+  double t1 = 1.0;
+  const auto clip = [&](double start, double delta, double lo, double hi) {
+    if (delta == 0.0) return lo < start && start < hi;
+    double enter = (lo - start) / delta;
+    double leave = (hi - start) / delta;
+    if (enter > leave) std::swap(enter, leave);
+    t0 = std::max(t0, enter);
+    t1 = std::min(t1, leave);
+    return t0 < t1;
+  };
+  return clip(a.x, b.x - a.x, x, x + 1.0) && clip(a.y, b.y - a.y, y, y + 1.0);
 }
 
 struct Segment {
@@ -180,7 +200,9 @@ private:
 };
 
 struct ChainState {
-  std::vector<Vec> points; // the original points, consecutive duplicates dropped
+  std::vector<PixelPoint> pixels;    // the original points, consecutive duplicates dropped
+  std::vector<Vec> points;           // where they are placed
+  std::vector<std::uint8_t> outline; // 1 where the point is on a shape's outline (Placement::outline)
   bool closed = false;
   std::vector<int> prev;
   std::vector<int> next;
@@ -206,8 +228,8 @@ struct Candidate {
 
 class Simplifier {
 public:
-  Simplifier(const std::vector<Chain>& chains, double tolerance)
-      : tolerance_(tolerance), squared_tolerance_(tolerance * tolerance) {
+  Simplifier(const std::vector<Chain>& chains, double tolerance, const PointPlacement& placement)
+      : tolerance_(tolerance), squared_tolerance_(tolerance * tolerance), placement_(placement) {
     Vec lo{std::numeric_limits<double>::infinity(), std::numeric_limits<double>::infinity()};
     Vec hi{-lo.x, -lo.y};
     states_.resize(chains.size());
@@ -215,13 +237,20 @@ public:
       ChainState& s = states_[c];
       s.closed = chains[c].closed;
       for (const PixelPoint& p : chains[c].points) {
-        const Vec v{static_cast<double>(p.x), static_cast<double>(p.y)};
-        if (!s.points.empty() && s.points.back() == v) continue;
+        if (!s.pixels.empty() && s.pixels.back() == p) continue;
+        const Placement placed = placement.place(p);
+        const Vec v{placed.at.x, placed.at.y};
+        s.pixels.push_back(p);
         s.points.push_back(v);
+        s.outline.push_back(placed.outline ? 1 : 0);
         lo = {std::min(lo.x, v.x), std::min(lo.y, v.y)};
         hi = {std::max(hi.x, v.x), std::max(hi.y, v.y)};
       }
-      if (s.closed && s.points.size() > 1 && s.points.front() == s.points.back()) s.points.pop_back();
+      if (s.closed && s.pixels.size() > 1 && s.pixels.front() == s.pixels.back()) {
+        s.pixels.pop_back();
+        s.points.pop_back();
+        s.outline.pop_back();
+      }
     }
     if (!(lo.x <= hi.x)) lo = hi = Vec{};
     // Cells of a few pixels suit image chains; the cap keeps sparse, far-flung input from allocating a
@@ -283,8 +312,7 @@ public:
       const ChainState& s = states_[c];
       out[c].closed = s.closed;
       for (std::size_t i = 0; i < s.points.size(); ++i)
-        if (s.alive[i])
-          out[c].points.push_back({static_cast<int>(s.points[i].x), static_cast<int>(s.points[i].y)});
+        if (s.alive[i]) out[c].points.push_back(s.pixels[i]);
     }
     return out;
   }
@@ -304,12 +332,24 @@ private:
     return v > 0 && v + 1 < static_cast<int>(s.points.size());
   }
 
-  // The largest squared distance of the original points from u to w (exclusive) to the segment uw.
+  // The largest squared distance of the original points from u to w (exclusive) to the segment uw;
+  // infinity when uw would cut into a solid pixel next to an outline point it replaces.
   double squared_deviation(const ChainState& s, int u, int w) const {
     const int n = static_cast<int>(s.points.size());
+    const Vec& a = s.points[u];
+    const Vec& b = s.points[w];
     double worst = 0.0;
-    for (int i = u + 1 == n ? 0 : u + 1; i != w; i = i + 1 == n ? 0 : i + 1)
-      worst = std::max(worst, squared_distance_to_segment(s.points[u], s.points[w], s.points[i]));
+    for (int i = u + 1 == n ? 0 : u + 1; i != w; i = i + 1 == n ? 0 : i + 1) {
+      worst = std::max(worst, squared_distance_to_segment(a, b, s.points[i]));
+      if (!s.outline[i]) continue;
+      // The segment stays within the tolerance of the point, so the solid pixels it could cut into
+      // are the point's own and its neighbours.
+      const PixelPoint p = s.pixels[i];
+      for (int y = p.y - 1; y <= p.y + 1; ++y)
+        for (int x = p.x - 1; x <= p.x + 1; ++x)
+          if (placement_.solid({x, y}) && crosses_square(a, b, x, y))
+            return std::numeric_limits<double>::infinity();
+    }
     return worst;
   }
 
@@ -318,7 +358,7 @@ private:
     if (!s.alive[v] || !interior(s, v) || s.num_alive <= s.min_alive) return;
     const int u = s.prev[v];
     const int w = s.next[v];
-    if (s.points[u] == s.points[w]) return;
+    if (s.pixels[u] == s.pixels[w]) return;
     const double cost = squared_deviation(s, u, w);
     if (cost <= squared_tolerance_) queue.push({cost, c, static_cast<std::uint32_t>(v), s.version[v]});
   }
@@ -381,6 +421,7 @@ private:
 
   double tolerance_;
   double squared_tolerance_;
+  PointPlacement placement_;
   std::vector<ChainState> states_;
   std::vector<Segment> segments_;
   std::optional<SegmentGrid> grid_;
@@ -388,10 +429,11 @@ private:
 
 } // namespace
 
-std::vector<Polyline> simplify_chains(const std::vector<Chain>& chains, double tolerance_px) {
+std::vector<Polyline> simplify_chains(const std::vector<Chain>& chains, double tolerance_px,
+                                      const PointPlacement& placement) {
   if (!(tolerance_px >= 0.0) || !std::isfinite(tolerance_px))
     throw std::invalid_argument("simplify_chains: tolerance_px must be finite and >= 0");
-  Simplifier simplifier(chains, tolerance_px);
+  Simplifier simplifier(chains, tolerance_px, placement);
   simplifier.run();
   return simplifier.result();
 }

@@ -100,9 +100,13 @@ std::string element_id(std::size_t k) {
 // the solid pixels among them stay covered.
 constexpr float kSolid = 0.75f;
 
+// Drawn without opacity: opaque enough, or covering part of a solid pixel, which must not let the
+// background through (a thin rim region averaging solid pixels with the anti-aliased ones beside them).
+bool drawn_solid(const Region& region) { return region.alpha >= kSolid || region.covers_solid; }
+
 // ` opacity=".73"` for a translucent region (two decimals), nothing for a solid one.
 std::string opacity_attribute(const Region& region) {
-  if (region.alpha >= kSolid) return {};
+  if (drawn_solid(region)) return {};
   const auto hundredths = std::clamp<long long>(std::llround(region.alpha * 100.0), 1, 99);
   return " opacity=\"" + compact_decimal(hundredths, 2) + '"';
 }
@@ -183,9 +187,7 @@ void write_svg(std::ostream& out, const std::vector<RegionPolygon>& polygons, co
   }
   // Translucent regions (alpha from 0.5 to 0.75) are drawn with their opacity and exactly: the underlay
   // covers only solid ones.
-  const auto solid = [&](std::size_t index) {
-    return regions.regions[polygons[index].region].alpha >= kSolid;
-  };
+  const auto solid = [&](std::size_t index) { return drawn_solid(regions.regions[polygons[index].region]); };
   std::vector<std::size_t> clear; // transparent regions, which the underlay must leave alone
   for (std::size_t index : order) {
     const RegionPolygon& polygon = polygons[index];
@@ -194,7 +196,6 @@ void write_svg(std::ostream& out, const std::vector<RegionPolygon>& polygons, co
   // Width of the band along transparent areas that the underlay may paint: half a pixel beyond their
   // edge gave the best PSNR on icons (0 leaves more of the outermost solid pixels half covered, 1 px
   // and more paints colour where the input is transparent).
-  const std::string spill = ".5";
 
   switch (options.seams) {
   case Seams::none:
@@ -220,13 +221,12 @@ void write_svg(std::ostream& out, const std::vector<RegionPolygon>& polygons, co
     // The underlay refers to the paths below by id; each path carries its colour as `color` too, so
     // that the underlay's stroke="currentColor" strokes it in its own colour.
     if (!clear.empty()) {
-      // The underlay must not paint over transparent areas, except for a band of spill / 2 along
-      // their edge, which helps cover the solid pixels there. A luminance mask: white everywhere,
-      // transparent regions black, their edges stroked white.
+      // The underlay must not paint over transparent areas: the shape's outline already lies on the
+      // edge of its rim pixels (PointPlacement), so anything beyond it would colour clear pixels. A
+      // luminance mask: white everywhere, transparent regions black.
       out << "<mask id=\"opaque\" maskUnits=\"userSpaceOnUse\" x=\"0\" y=\"0\" width=\"" << w
           << "\" height=\"" << h << "\">\n<rect width=\"" << w << "\" height=\"" << h
-          << "\" fill=\"#fff\"/>\n<g fill=\"#000\" stroke=\"#fff\" stroke-width=\"" << spill
-          << "\" stroke-linejoin=\"round\">\n";
+          << "\" fill=\"#fff\"/>\n<g fill=\"#000\">\n";
       for (std::size_t index : clear)
         out << "<path d=\"" << path_data(polygons[index], options.precision) << "\"/>\n";
       out << "</g>\n</mask>\n";

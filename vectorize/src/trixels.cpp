@@ -9,6 +9,7 @@
 #include <cstddef>
 #include <cstdint>
 #include <thread>
+#include <utility>
 #include <vector>
 
 #include "cdt/detail/predicates.hpp"
@@ -115,6 +116,99 @@ std::array<float, 4> sample(const Image& image, double x, double y) {
   return out;
 }
 
+// Whether the interior of the counter-clockwise triangle abc and the open unit square of pixel (x, y)
+// meet (separating axes: the square's two, and each edge of the triangle, exactly).
+bool meets_square(const cdt::Point& a, const cdt::Point& b, const cdt::Point& c, int x, int y) {
+  if (std::max({a.x, b.x, c.x}) <= x || std::min({a.x, b.x, c.x}) >= x + 1.0) return false;
+  if (std::max({a.y, b.y, c.y}) <= y || std::min({a.y, b.y, c.y}) >= y + 1.0) return false;
+  const cdt::Point* v[3] = {&a, &b, &c};
+  for (int i = 0; i < 3; ++i) {
+    const cdt::Point& s = *v[i];
+    const cdt::Point& e = *v[(i + 1) % 3];
+    bool any_inside = false;
+    for (const auto& [cx, cy] :
+         {std::pair{x, y}, std::pair{x + 1, y}, std::pair{x, y + 1}, std::pair{x + 1, y + 1}})
+      any_inside = any_inside || cdt::detail::orient2d(s.x, s.y, e.x, e.y, cx, cy) > 0;
+    if (!any_inside) return false;
+  }
+  return true;
+}
+
+// Sets covers_solid for triangles that own no solid pixel centre but reach into a solid pixel. Only
+// an image with transparency needs the search: without it every triangle covers solid pixels.
+void mark_solid_cover(const Image& image, const cdt::Triangulation& t, TrixelColours& trixels) {
+  bool any_clear = false;
+  for (std::size_t i = 3; i < image.rgba.size() && !any_clear; i += 4) any_clear = image.rgba[i] < 1.0f;
+  for (std::uint32_t tri = 0; tri < trixels.size(); ++tri) {
+    Trixel& trixel = trixels[tri];
+    if (trixel.covers_solid) continue;
+    if (!any_clear) {
+      trixel.covers_solid = true;
+      continue;
+    }
+    const cdt::Point& a = t.vertices[t.triangles[tri][0]];
+    const cdt::Point& b = t.vertices[t.triangles[tri][1]];
+    const cdt::Point& c = t.vertices[t.triangles[tri][2]];
+    const int x0 = std::max(0, static_cast<int>(std::floor(std::min({a.x, b.x, c.x}))));
+    const int y0 = std::max(0, static_cast<int>(std::floor(std::min({a.y, b.y, c.y}))));
+    const int x1 = std::min(image.width - 1, static_cast<int>(std::floor(std::max({a.x, b.x, c.x}))));
+    const int y1 = std::min(image.height - 1, static_cast<int>(std::floor(std::max({a.y, b.y, c.y}))));
+    for (int y = y0; y <= y1 && !trixel.covers_solid; ++y)
+      for (int x = x0; x <= x1 && !trixel.covers_solid; ++x)
+        trixel.covers_solid = image.pixel(x, y)[3] >= 1.0f && meets_square(a, b, c, x, y);
+  }
+}
+
+// Triangles that own no pixel centre (slivers along edges) take the colour of the neighbour across a
+// non-constraint edge that owns the most pixels, found breadth-first: no constraint lies between them,
+// so they are the same area of the image, whereas a sample at the sliver's centroid may fall on the
+// other side of the edge the sliver follows (an outline sliver would turn transparent and let the
+// background through the shape's rim). Slivers walled in by constraints are sampled.
+void colour_slivers(const Image& image, const cdt::Triangulation& t, TrixelColours& trixels) {
+  std::vector<std::uint32_t> frontier;
+  std::vector<std::uint8_t> done(trixels.size(), 0);
+  for (std::uint32_t tri = 0; tri < trixels.size(); ++tri) {
+    if (trixels[tri].pixel_count > 0)
+      done[tri] = 1;
+    else
+      frontier.push_back(tri);
+  }
+  // Each pass settles the slivers next to a settled triangle, from the state before the pass, so the
+  // result does not depend on the order of the slivers.
+  std::vector<std::pair<std::uint32_t, std::uint32_t>> settled; // (sliver, donor)
+  while (!frontier.empty()) {
+    settled.clear();
+    std::vector<std::uint32_t> rest;
+    for (const std::uint32_t tri : frontier) {
+      std::uint32_t donor = cdt::kNone;
+      for (int i = 0; i < 3; ++i) {
+        const std::uint32_t other = t.neighbors[tri][i];
+        if (other == cdt::kNone || t.segment_of_edge[tri][i] != cdt::kNone || !done[other]) continue;
+        if (donor == cdt::kNone || trixels[other].pixel_count > trixels[donor].pixel_count ||
+            (trixels[other].pixel_count == trixels[donor].pixel_count && other < donor))
+          donor = other;
+      }
+      if (donor == cdt::kNone)
+        rest.push_back(tri);
+      else
+        settled.emplace_back(tri, donor);
+    }
+    if (settled.empty()) break;
+    for (const auto& [tri, donor] : settled) {
+      trixels[tri].rgba = trixels[donor].rgba;
+      done[tri] = 1;
+    }
+    frontier = std::move(rest);
+  }
+  if (image.width <= 0 || image.height <= 0) return;
+  for (const std::uint32_t tri : frontier) {
+    const cdt::Point& a = t.vertices[t.triangles[tri][0]];
+    const cdt::Point& b = t.vertices[t.triangles[tri][1]];
+    const cdt::Point& c = t.vertices[t.triangles[tri][2]];
+    trixels[tri].rgba = sample(image, (a.x + b.x + c.x) / 3.0, (a.y + b.y + c.y) / 3.0);
+  }
+}
+
 } // namespace
 
 std::vector<std::uint32_t> owner_of_pixels(int width, int height, const cdt::Triangulation& t) {
@@ -145,6 +239,7 @@ TrixelColours colour_trixels(const Image& image, const cdt::Triangulation& t, un
         s.straight[ch] += p[ch];
       }
       s.alpha += p[3];
+      if (p[3] >= 1.0f) trixels[tri].covers_solid = true;
     }
     trixels[tri].pixel_count += static_cast<std::uint32_t>(end - begin);
   };
@@ -169,17 +264,15 @@ TrixelColours colour_trixels(const Image& image, const cdt::Triangulation& t, un
     const cdt::Point& b = t.vertices[t.triangles[tri][1]];
     const cdt::Point& c = t.vertices[t.triangles[tri][2]];
     trixel.area = 0.5 * std::abs((b.x - a.x) * (c.y - a.y) - (b.y - a.y) * (c.x - a.x));
-    if (trixel.pixel_count == 0) {
-      if (image.width > 0 && image.height > 0)
-        trixel.rgba = sample(image, (a.x + b.x + c.x) / 3.0, (a.y + b.y + c.y) / 3.0);
-      continue;
-    }
+    if (trixel.pixel_count == 0) continue;
     const Sums& s = sums[tri];
     const double n = trixel.pixel_count;
     for (int ch = 0; ch < 3; ++ch)
       trixel.rgba[ch] = static_cast<float>(s.alpha > 0 ? s.premultiplied[ch] / s.alpha : s.straight[ch] / n);
     trixel.rgba[3] = static_cast<float>(s.alpha / n);
   }
+  colour_slivers(image, t, trixels);
+  mark_solid_cover(image, t, trixels);
   return trixels;
 }
 

@@ -34,6 +34,9 @@ struct Region {
   bool transparent = false;
   /// Area-weighted mean of the trixels' alpha: from 0.5 to 1 for a region that is drawn.
   float alpha = 1.0f;
+  /// Whether a triangle of the region covers part of a solid pixel (Trixel::covers_solid): the region
+  /// is then drawn without opacity.
+  bool covers_solid = false;
 };
 
 /// The result of group_trixels().

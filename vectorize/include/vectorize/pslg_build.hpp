@@ -29,8 +29,9 @@ struct Pslg {
 /// Builds the PSLG of an image of width x height pixels.
 ///
 /// Coordinates: the image covers [0, width] x [0, height], y down; pixel (x, y) is the unit square
-/// from (x, y) to (x + 1, y + 1), so a polyline point (an edge pixel) sits at its centre
-/// (x + 0.5, y + 0.5). Points:
+/// from (x, y) to (x + 1, y + 1), and a polyline point (an edge pixel) sits where
+/// PointPlacement(image) puts it: its centre (x + 0.5, y + 0.5), or on a transparent image's shape
+/// outline, at the shape's edge. Points:
 /// - every polyline point, once (junctions shared by several polylines are one point);
 /// - the four image corners, and where an open polyline ends in the outermost ring of pixels, the
 ///   point of the border straight out from it (left/right side first for a corner pixel) with a

@@ -4,6 +4,7 @@
 #include <vector>
 
 #include "vectorize/chains.hpp"
+#include "vectorize/placement.hpp"
 
 namespace vectorize {
 
@@ -16,9 +17,10 @@ struct Polyline {
 
 /// Simplifies each chain by removing points, one result per chain in the same order.
 ///
-/// Guarantees, with segments taken between pixel positions (any common offset, such as the pixel
-/// centre, changes nothing):
-/// - every point of a chain lies within tolerance_px of the segment of its polyline that replaced it;
+/// Guarantees, with points where `placement` puts them (by default the pixel centres):
+/// - every point of a chain lies within tolerance_px of the segment of its polyline that replaced it,
+///   and no segment passes inside a shape's outline point by more than its Placement::slack, so that
+///   the polygons keep covering the shape's solid rim pixels;
 /// - the ends of open chains (endpoints and junctions) are kept, so chains still join;
 /// - no crossing is created, neither between polylines nor within one: a new segment touches no other
 ///   segment except at a shared end, and never overlaps one; and no segment sweeps over another point
@@ -31,6 +33,7 @@ struct Polyline {
 /// number of points for chains from an image. Consecutive duplicate points are dropped first.
 /// tolerance_px >= 0 (0 removes only points that lie exactly on a straight run); throws
 /// std::invalid_argument otherwise.
-std::vector<Polyline> simplify_chains(const std::vector<Chain>& chains, double tolerance_px);
+std::vector<Polyline> simplify_chains(const std::vector<Chain>& chains, double tolerance_px,
+                                      const PointPlacement& placement = {});
 
 } // namespace vectorize

@@ -27,8 +27,8 @@ enum class Seams {
   /// boundary between two regions crosses lies within 1.5 px of the region drawn later, so the
   /// underlay covers it fully and no background shows through inside the shape; the exact fills on
   /// top keep every boundary where it is. Where the image has transparent areas, a mask keeps the
-  /// underlay off them but for a quarter-pixel band along their edge. Translucent regions (alpha
-  /// below 0.75) are drawn with their opacity and stay out of the underlay.
+  /// underlay off them. Translucent regions (alpha below 0.75, covering no solid pixel) are drawn
+  /// with their opacity and stay out of the underlay.
   underlay,
 };
 

@@ -18,14 +18,23 @@ namespace vectorize {
 struct Trixel {
   /// Mean non-premultiplied RGBA in [0, 1] of the pixels the triangle owns: alpha is the plain mean,
   /// RGB the alpha-weighted mean (so that the colour under fully transparent pixels does not bleed
-  /// in). For a triangle that owns no pixel centre, the image sampled bilinearly at its centroid.
+  /// in). A triangle that owns no pixel centre takes the colour of the nearest triangle that does and
+  /// is reached across non-constraint edges (the neighbour owning the most pixels first); walled in by
+  /// constraints, it takes the image sampled bilinearly at its centroid.
   std::array<float, 4> rgba{};
   /// Number of pixel centres the triangle owns under the fill rule (see owner_of_pixels()).
   std::uint32_t pixel_count = 0;
+  /// Whether the triangle covers part of a solid pixel (alpha 1): a positive area of that pixel's
+  /// square. Such a triangle must be drawn, and drawn without opacity, or the background would show
+  /// through that pixel.
+  bool covers_solid = false;
   /// Geometric area in square pixels (positive).
   double area = 0.0;
   /// A trixel whose mean alpha is below one half is "no shape" (DESIGN.md, stage 1).
-  bool transparent() const noexcept { return rgba[3] < 0.5f; }
+  /// No shape: alpha below one half, unless the triangle covers part of a solid pixel and is not
+  /// nearly clear itself (a rim triangle averaging a solid pixel with the anti-aliased ones beside it
+  /// is drawn; a large clear triangle that grazes a solid pixel's corner is not).
+  bool transparent() const noexcept { return rgba[3] < 0.5f && !(covers_solid && rgba[3] >= 0.2f); }
 };
 
 /// One Trixel per triangle, indexed like Triangulation::triangles.
