@@ -438,8 +438,24 @@ TEST(Svg, TranslucentRegionsKeepTheirOpacityAndStayOutOfTheUnderlay) {
   EXPECT_EQ(uses, paths.size() - 1);
 }
 
+// A region as translucent, but reaching into a solid pixel (a rim region averaging solid and
+// anti-aliased pixels), is drawn solid: with opacity, the background would show through that pixel.
+TEST(Svg, RegionsCoveringSolidPixelsAreDrawnSolid) {
+  auto scene = random_scene(6, false);
+  ASSERT_GE(scene.polygons.size(), 2u);
+  auto& region = scene.regions.regions[scene.polygons[0].region];
+  region.alpha = 0.6f;
+  region.covers_solid = true;
+  const auto elements = parse_xml(to_svg(scene));
+  const auto paths = paths_of(elements);
+  for (const auto& p : paths) EXPECT_EQ(p.attributes.count("opacity"), 0u);
+  std::size_t uses = 0;
+  for (const auto& e : elements) uses += e.name == "use" ? 1 : 0;
+  EXPECT_EQ(uses, paths.size()); // in the underlay too
+}
+
 // With transparent regions, the underlay is masked off them: the mask is white, with each transparent
-// region's polygon black (stroked white along its edge), and the opaque paths are unchanged.
+// region's polygon black, and the opaque paths are unchanged.
 TEST(Svg, UnderlayIsMaskedOffTransparentRegions) {
   auto scene = random_scene(3, true);
   scene.polygons = vectorize::trace_polygons(scene.t, scene.regions, vectorize::TransparentRegions::include);
