@@ -3,8 +3,11 @@
 // then random points on no segment; uniform and Gaussian), uniform points without segments, and
 // optionally a GIS coastline file as printed by `gmt coast -Rg -Dh -W -M` ('>'-separated polylines).
 //
-// usage: bench_cdt [--quick] [--coast FILE] [--threads N] [--repeat R]
-// Prints one Markdown row per input: median times of R runs, per-phase times of the median run, flips,
+// usage: bench_cdt [--quick] [--coast FILE] [--threads N] [--repeat R] [--case TEXT] [--no-cgal] [--grid M]
+// --case keeps only the inputs whose name contains TEXT; --no-cgal skips the competitor (profiling);
+// --grid forces the grid side (Options::grid_size) instead of the automatic choice.
+// Prints one Markdown row per input: median times of R runs, per-phase times of the median run (with
+// their parallel rounds in parentheses), flips,
 // missing points, the verifier's verdict, peak memory of the run (its own process), CGAL's time and
 // the ratio ours/CGAL (<= 1 means faster).
 
@@ -136,6 +139,9 @@ int main(int argc, char** argv) {
   std::string coast;
   unsigned threads = 0;
   int repeat = 3;
+  std::string only;
+  bool with_cgal = true;
+  std::uint32_t grid = 0;
   for (int i = 1; i < argc; ++i) {
     if (!std::strcmp(argv[i], "--quick"))
       quick = true;
@@ -145,19 +151,33 @@ int main(int argc, char** argv) {
       threads = static_cast<unsigned>(std::atoi(argv[++i]));
     else if (!std::strcmp(argv[i], "--repeat") && i + 1 < argc)
       repeat = std::max(1, std::atoi(argv[++i]));
+    else if (!std::strcmp(argv[i], "--case") && i + 1 < argc)
+      only = argv[++i];
+    else if (!std::strcmp(argv[i], "--grid") && i + 1 < argc)
+      grid = static_cast<std::uint32_t>(std::atoi(argv[++i]));
+    else if (!std::strcmp(argv[i], "--no-cgal"))
+      with_cgal = false;
     else {
-      std::fprintf(stderr, "usage: bench_cdt [--quick] [--coast FILE] [--threads N] [--repeat R]\n");
+      std::fprintf(stderr,
+                   "usage: bench_cdt [--quick] [--coast FILE] [--threads N] [--repeat R] [--case TEXT] "
+                   "[--no-cgal] [--grid M]\n");
       return 2;
     }
   }
   const std::size_t n = quick ? 100000 : 1000000;
+  const auto wanted = [&](const char* name) {
+    return only.empty() || std::strstr(name, only.c_str()) != nullptr;
+  };
   std::vector<Input> inputs;
-  inputs.push_back({"uniform points", trixel_gen::random_points(n, trixel_gen::Distribution::uniform, 1)});
-  inputs.push_back(
-      {"synthetic uniform", trixel_gen::synthetic_pslg(n, n / 10, trixel_gen::Distribution::uniform, 2)});
-  inputs.push_back(
-      {"synthetic gaussian", trixel_gen::synthetic_pslg(n, n / 10, trixel_gen::Distribution::gaussian, 3)});
-  if (!coast.empty()) inputs.push_back({"GSHHG coastlines", read_coast(coast)});
+  if (wanted("uniform points"))
+    inputs.push_back({"uniform points", trixel_gen::random_points(n, trixel_gen::Distribution::uniform, 1)});
+  if (wanted("synthetic uniform"))
+    inputs.push_back(
+        {"synthetic uniform", trixel_gen::synthetic_pslg(n, n / 10, trixel_gen::Distribution::uniform, 2)});
+  if (wanted("synthetic gaussian"))
+    inputs.push_back(
+        {"synthetic gaussian", trixel_gen::synthetic_pslg(n, n / 10, trixel_gen::Distribution::gaussian, 3)});
+  if (!coast.empty() && wanted("GSHHG coastlines")) inputs.push_back({"GSHHG coastlines", read_coast(coast)});
 
   std::printf("| input | points | segments | ours ms (median of %d) | phases ms | flips | missing | verified "
               "| peak MiB "
@@ -170,6 +190,7 @@ int main(int argc, char** argv) {
         [&](int fd) {
           cdt::Options options;
           options.threads = threads;
+          options.grid_size = grid;
           std::vector<double> times;
           cdt::Triangulation best;
           for (int r = 0; r < repeat; ++r) {
@@ -183,12 +204,18 @@ int main(int argc, char** argv) {
           std::uint64_t missing = 0;
           for (const auto& p : best.stats.phases) {
             char part[64];
-            std::snprintf(part, sizeof part, "%s%s %.0f", phases.empty() ? "" : ", ", p.name.c_str(),
-                          p.milliseconds);
+            if (p.iterations > 0) {
+              std::snprintf(part, sizeof part, "%s%s %.0f (%llu)", phases.empty() ? "" : ", ", p.name.c_str(),
+                            p.milliseconds, static_cast<unsigned long long>(p.iterations));
+            } else {
+              std::snprintf(part, sizeof part, "%s%s %.0f", phases.empty() ? "" : ", ", p.name.c_str(),
+                            p.milliseconds);
+            }
             phases += part;
             flips += p.flips;
             if (p.name == "insert") missing = p.missing;
           }
+          phases += ", grid " + std::to_string(best.stats.grid_size);
           char text[1024];
           const int len = std::snprintf(text, sizeof text, "%.1f|%s|%llu|%llu|%s", median(times),
                                         phases.c_str(), static_cast<unsigned long long>(flips),
@@ -198,9 +225,11 @@ int main(int argc, char** argv) {
         row);
     double cgal_ms = -1;
 #if defined(TRIXEL_HAVE_CGAL)
-    std::vector<double> cgal;
-    for (int r = 0; r < repeat; ++r) cgal.push_back(run_cgal(input.pslg));
-    cgal_ms = median(cgal);
+    if (with_cgal) {
+      std::vector<double> cgal;
+      for (int r = 0; r < repeat; ++r) cgal.push_back(run_cgal(input.pslg));
+      cgal_ms = median(cgal);
+    }
 #endif
     std::vector<std::string> f;
     std::stringstream ss(row);

@@ -16,9 +16,11 @@
 
 #include <algorithm>
 #include <array>
+#include <bit>
 #include <charconv>
 #include <cmath>
 #include <cstddef>
+#include <functional>
 #include <limits>
 #include <string>
 #include <unordered_map>
@@ -26,6 +28,7 @@
 
 #include "cdt/detail/predicates.hpp"
 #include "cdt/errors.hpp"
+#include "executor/cpu_executor.hpp"
 
 namespace cdt::detail {
 namespace {
@@ -115,26 +118,70 @@ std::size_t validate_segments(std::span<const Point> points, std::span<const Seg
 
 // --- duplicates --------------------------------------------------------------------------------------
 
+/// The bits of v with -0 taken as +0, so that equal coordinates give equal bits.
+std::uint64_t coordinate_bits(double v) {
+  if (v == 0.0) v = 0.0;
+  return std::bit_cast<std::uint64_t>(v);
+}
+
+/// A mix of both coordinates' bits: equal points hash alike, distinct ones collide about never.
+std::uint64_t point_hash(const Point& p) {
+  std::uint64_t h = coordinate_bits(p.x) * 0x9E3779B97F4A7C15ull;
+  h ^= (h >> 29) ^ coordinate_bits(p.y);
+  h *= 0xBF58476D1CE4E5B9ull;
+  h ^= h >> 32;
+  h *= 0x94D049BB133111EBull;
+  return h ^ (h >> 29);
+}
+
 /// Per point, its representative: the lowest index with identical coordinates (-0 and +0 are equal).
-std::vector<std::uint32_t> merge_duplicates(std::span<const Point> points) {
+std::vector<std::uint32_t> merge_duplicates(std::span<const Point> points, CpuExecutor& executor) {
+  // Identical points only need to meet, not to be ordered: a stable radix sort by a hash of the
+  // coordinates brings them together in linear time (a comparison sort of the coordinates took most of
+  // the preparation of a million points), in index order within each run of equal hashes.
   struct Keyed {
-    double x;
-    double y;
+    std::uint32_t hash;
     std::uint32_t index;
   };
-  std::vector<Keyed> order(points.size());
-  for (std::uint32_t i = 0; i < points.size(); ++i) order[i] = {points[i].x, points[i].y, i};
-  // Sorting copies rather than indices keeps the comparisons in cache. Ties go to the lower index, so
-  // the first of a run of equal points is its lowest index.
-  std::sort(order.begin(), order.end(), [](const Keyed& p, const Keyed& q) {
-    if (p.x != q.x) return p.x < q.x;
-    if (p.y != q.y) return p.y < q.y;
-    return p.index < q.index;
+  const std::size_t n = points.size();
+  std::vector<Keyed> order(n);
+  std::vector<Keyed> scratch(n);
+  executor.for_each(n, [&](std::size_t i) {
+    order[i] = {static_cast<std::uint32_t>(point_hash(points[i])), static_cast<std::uint32_t>(i)};
   });
-  std::vector<std::uint32_t> duplicate_of(points.size());
-  for (std::size_t k = 0; k < order.size(); ++k) {
-    const bool repeat = k > 0 && order[k - 1].x == order[k].x && order[k - 1].y == order[k].y;
-    duplicate_of[order[k].index] = repeat ? duplicate_of[order[k - 1].index] : order[k].index;
+  // 32 bits of hash are plenty to keep runs short, and three passes of 11 bits keep the scatter's
+  // write positions few enough to stay in the cache.
+  constexpr int kBits = 11;
+  constexpr std::size_t kBuckets = std::size_t{1} << kBits;
+  std::vector<std::uint32_t> count(kBuckets);
+  for (int shift = 0; shift < 32; shift += kBits) {
+    std::fill(count.begin(), count.end(), 0u);
+    for (const Keyed& k : order) ++count[(k.hash >> shift) & (kBuckets - 1)];
+    std::uint32_t sum = 0;
+    for (auto& c : count) {
+      const std::uint32_t value = c;
+      c = sum;
+      sum += value;
+    }
+    for (const Keyed& k : order) scratch[count[(k.hash >> shift) & (kBuckets - 1)]++] = k;
+    order.swap(scratch);
+  }
+  // Within a run of equal hashes the first earlier point with the same coordinates is the lowest index
+  // of those coordinates (runs are in index order), so it names the representative; a run holds one
+  // point's copies unless hashes collide, so the scan back is short.
+  std::vector<std::uint32_t> duplicate_of(n);
+  std::size_t run = 0;
+  for (std::size_t k = 0; k < n; ++k) {
+    if (k > 0 && order[k].hash != order[k - 1].hash) run = k;
+    const std::uint32_t i = order[k].index;
+    duplicate_of[i] = i;
+    for (std::size_t j = run; j < k; ++j) {
+      const Point& q = points[order[j].index];
+      if (q.x == points[i].x && q.y == points[i].y) {
+        duplicate_of[i] = duplicate_of[order[j].index];
+        break;
+      }
+    }
   }
   return duplicate_of;
 }
@@ -381,20 +428,18 @@ private:
 
 /// The sites of each grid cell with their coordinates, so that a cell's tests read contiguous memory.
 struct SiteCells {
-  std::vector<std::size_t> start; // cell c holds entries start[c] .. start[c + 1]
+  std::vector<std::size_t> start; // cell c holds entries start[c] .. start[c + 1], by increasing x
   std::vector<std::uint32_t> id;
   std::vector<Point> point;
 };
 
 SiteCells bucket_sites(const SegmentGrid& grid, const std::vector<Point>& vertices,
-                       const std::vector<std::uint32_t>& sites) {
+                       const std::vector<std::uint32_t>& sites, CpuExecutor& executor) {
   SiteCells cells;
   cells.start.assign(grid.num_cells() + 1, 0);
   std::vector<std::size_t> cell(sites.size());
-  for (std::size_t k = 0; k < sites.size(); ++k) {
-    cell[k] = grid.cell_of(vertices[sites[k]]);
-    ++cells.start[cell[k] + 1];
-  }
+  executor.for_each(sites.size(), [&](std::size_t k) { cell[k] = grid.cell_of(vertices[sites[k]]); });
+  for (std::size_t k = 0; k < sites.size(); ++k) ++cells.start[cell[k] + 1];
   for (std::size_t c = 0; c < grid.num_cells(); ++c) cells.start[c + 1] += cells.start[c];
   cells.id.resize(sites.size());
   cells.point.resize(sites.size());
@@ -404,6 +449,24 @@ SiteCells bucket_sites(const SegmentGrid& grid, const std::vector<Point>& vertic
     cells.id[slot] = sites[k];
     cells.point[slot] = vertices[sites[k]];
   }
+  // By x within each cell, so that a segment short against the cell (clustered data crowd many sites
+  // into one cell) tests only the sites in its x-range. Ties by id: the order is the same for any
+  // thread count.
+  executor.for_each(grid.num_cells(), [&](std::size_t c) {
+    const std::size_t begin = cells.start[c];
+    const std::size_t end = cells.start[c + 1];
+    if (end - begin < 2) return;
+    thread_local std::vector<std::pair<Point, std::uint32_t>> entries;
+    entries.resize(end - begin);
+    for (std::size_t k = begin; k < end; ++k) entries[k - begin] = {cells.point[k], cells.id[k]};
+    std::sort(entries.begin(), entries.end(), [](const auto& p, const auto& q) {
+      return p.first.x != q.first.x ? p.first.x < q.first.x : p.second < q.second;
+    });
+    for (std::size_t k = begin; k < end; ++k) {
+      cells.point[k] = entries[k - begin].first;
+      cells.id[k] = entries[k - begin].second;
+    }
+  });
   return cells;
 }
 
@@ -433,31 +496,57 @@ bool near_line(const Point& a, const Point& b, const Point& p, double tolerance)
 /// round snap, so each vertex snaps in one round at most and snapping cannot go back and forth.
 PointSplits find_points_on_segments(const SegmentGrid& grid, const SiteCells& site_cells, const Ends& ends,
                                     const std::vector<WorkSegment>& segs, const std::vector<Point>& vertices,
-                                    std::uint32_t first_new, double snap_tolerance) {
+                                    std::uint32_t first_new, double snap_tolerance, CpuExecutor& executor) {
   PointSplits splits;
   splits.snapped.assign(segs.size(), 0);
   std::vector<std::pair<std::uint32_t, std::uint32_t>> hits;
-  for (std::size_t c = 0; c < grid.num_cells(); ++c) {
+  // Calls hit(s, v, snapped) for every split found in cell c, in a fixed order.
+  const auto scan_cell = [&](std::size_t c, auto&& hit) {
     const std::size_t begin = site_cells.start[c];
     const std::size_t end = site_cells.start[c + 1];
-    if (begin == end) continue;
+    if (begin == end) return;
+    const Point* first = site_cells.point.data() + begin;
+    const Point* last = site_cells.point.data() + end;
+    bool any_new = false;
+    for (std::size_t k = begin; k < end && !any_new; ++k) any_new = site_cells.id[k] >= first_new;
     for (std::uint32_t s : grid.segments_in(c)) {
       const WorkSegment& g = segs[s];
+      if (!g.dirty && !any_new) continue; // every pair of this cell was settled in an earlier round
       const auto& [a, b] = ends[s];
-      for (std::size_t k = begin; k < end; ++k) {
+      // A site on the segment lies in its x-range; a site snapped to it within the tolerance of it (twice
+      // the tolerance covers the rounding of near_line's estimate).
+      const double lo = std::min(a.x, b.x) - 2.0 * snap_tolerance;
+      const double hi = std::max(a.x, b.x) + 2.0 * snap_tolerance;
+      const Point* from = std::lower_bound(first, last, lo, [](const Point& p, double x) { return p.x < x; });
+      for (std::size_t k = begin + static_cast<std::size_t>(from - first); k < end; ++k) {
+        if (site_cells.point[k].x > hi) break;
         const std::uint32_t v = site_cells.id[k];
         if ((!g.dirty && v < first_new) || v == g.a || v == g.b) continue;
         const Point& p = site_cells.point[k];
         if (!strictly_between(a, b, p)) continue;
         if (orient(a, b, p) == 0) {
-          hits.emplace_back(s, v);
+          hit(s, v, false);
         } else if (v >= first_new && snap_tolerance > 0.0 && near_line(a, b, p, snap_tolerance)) {
-          hits.emplace_back(s, v);
-          splits.snapped[s] = 1;
-          splits.any_snapped = true;
+          hit(s, v, true);
         }
       }
     }
+  };
+  // Splits are rare: the cells are screened in parallel, and the few with a split scanned again in
+  // order, so the lists come out the same for any thread count.
+  const std::vector<std::uint32_t> cells_with_hits = executor.compact(grid.num_cells(), [&](std::size_t c) {
+    bool any = false;
+    scan_cell(c, [&](std::uint32_t, std::uint32_t, bool) { any = true; });
+    return any;
+  });
+  for (const std::uint32_t c : cells_with_hits) {
+    scan_cell(c, [&](std::uint32_t s, std::uint32_t v, bool snapped) {
+      hits.emplace_back(s, v);
+      if (snapped) {
+        splits.snapped[s] = 1;
+        splits.any_snapped = true;
+      }
+    });
   }
   splits.lists = group_splits(hits, segs, vertices);
   return splits;
@@ -481,17 +570,48 @@ bool properly_cross(const std::array<Point, 2>& i, const std::array<Point, 2>& j
 /// All pairs of segments that properly cross, as index pairs (lower first). Each candidate pair of the
 /// grid is tested once, and only when one of the two is dirty.
 std::vector<std::pair<std::uint32_t, std::uint32_t>> find_crossings(const SegmentGrid& grid, const Ends& ends,
-                                                                    const std::vector<WorkSegment>& segs) {
+                                                                    const std::vector<WorkSegment>& segs,
+                                                                    CpuExecutor& executor) {
+  // Disjoint bounding boxes rule a crossing out with four comparisons; in crowded cells (coastlines) most
+  // candidate pairs are far apart within the cell.
+  const auto boxes_meet = [&](std::uint32_t i, std::uint32_t j) {
+    const auto& [a, b] = ends[i];
+    const auto& [c, d] = ends[j];
+    return std::max(c.x, d.x) >= std::min(a.x, b.x) && std::min(c.x, d.x) <= std::max(a.x, b.x) &&
+           std::max(c.y, d.y) >= std::min(a.y, b.y) && std::min(c.y, d.y) <= std::max(a.y, b.y);
+  };
+  // Crossings are rare: every segment is screened in parallel (a pair met in two cells is simply tested
+  // twice), and the few with a crossing are listed again in order, so the list is the same for any thread
+  // count.
+  const std::vector<std::uint32_t> crossing = executor.compact(segs.size(), [&](std::size_t k) {
+    const auto i = static_cast<std::uint32_t>(k);
+    const bool dirty = segs[i].dirty;
+    bool found = false;
+    grid.for_each_cell(ends[i][0], ends[i][1], [&](std::size_t cell) {
+      if (found) return;
+      // A cell lists its segments in increasing order; only the pairs with j > i are i's to test.
+      const std::span<const std::uint32_t> in_cell = grid.segments_in(cell);
+      for (auto it = std::upper_bound(in_cell.begin(), in_cell.end(), i); it != in_cell.end(); ++it) {
+        const std::uint32_t j = *it;
+        if ((!dirty && !segs[j].dirty) || !boxes_meet(i, j)) continue;
+        if (properly_cross(ends[i], ends[j])) {
+          found = true;
+          return;
+        }
+      }
+    });
+    return found;
+  });
   std::vector<std::pair<std::uint32_t, std::uint32_t>> crossings;
   std::vector<std::uint32_t> tested_with(segs.size(), std::numeric_limits<std::uint32_t>::max());
-  for (std::uint32_t i = 0; i < segs.size(); ++i) {
+  for (const std::uint32_t i : crossing) {
     const bool dirty = segs[i].dirty;
     grid.for_each_cell(ends[i][0], ends[i][1], [&](std::size_t cell) {
       for (std::uint32_t j : grid.segments_in(cell)) {
         if (j <= i || tested_with[j] == i) continue;
         tested_with[j] = i;
         if (!dirty && !segs[j].dirty) continue;
-        if (properly_cross(ends[i], ends[j])) crossings.emplace_back(i, j);
+        if (boxes_meet(i, j) && properly_cross(ends[i], ends[j])) crossings.emplace_back(i, j);
       }
     });
   }
@@ -719,14 +839,14 @@ std::vector<WorkSegment> initial_segments(std::span<const Segment> segments,
 /// Orders segments by the grid cell of their first end, so that segments met together in the grid
 /// are also near each other in memory.
 void order_spatially(std::vector<WorkSegment>& segs, const std::vector<Point>& vertices,
-                     const SegmentGrid& grid) {
+                     const SegmentGrid& grid, CpuExecutor& executor) {
   std::vector<std::pair<std::size_t, std::uint32_t>> keys(segs.size());
-  for (std::size_t k = 0; k < segs.size(); ++k) {
+  executor.for_each(segs.size(), [&](std::size_t k) {
     keys[k] = {grid.cell_of(vertices[segs[k].a]), static_cast<std::uint32_t>(k)};
-  }
-  std::sort(keys.begin(), keys.end());
+  });
+  executor.sort(keys, std::less<>());
   std::vector<WorkSegment> sorted(segs.size());
-  for (std::size_t k = 0; k < segs.size(); ++k) sorted[k] = segs[keys[k].second];
+  executor.for_each(segs.size(), [&](std::size_t k) { sorted[k] = segs[keys[k].second]; });
   segs = std::move(sorted);
 }
 
@@ -745,6 +865,12 @@ Box bounding_box(const std::vector<Point>& vertices, const std::vector<std::uint
 
 PreparedPslg prepare_pslg(std::span<const Point> points, std::span<const Segment> segments,
                           CrossingSegments policy) {
+  CpuExecutor serial(1);
+  return prepare_pslg(points, segments, policy, serial);
+}
+
+PreparedPslg prepare_pslg(std::span<const Point> points, std::span<const Segment> segments,
+                          CrossingSegments policy, CpuExecutor& executor) {
   if (points.size() >= std::numeric_limits<std::uint32_t>::max() ||
       segments.size() >= std::numeric_limits<std::uint32_t>::max()) {
     throw Error("more than 2^32 - 2 points or segments");
@@ -753,7 +879,7 @@ PreparedPslg prepare_pslg(std::span<const Point> points, std::span<const Segment
   const std::size_t zero_length = validate_segments(points, segments, policy);
   PreparedPslg out;
   out.zero_length_segments = zero_length;
-  out.duplicate_of = merge_duplicates(points);
+  out.duplicate_of = merge_duplicates(points, executor);
   for (std::uint32_t i = 0; i < points.size(); ++i) {
     if (out.duplicate_of[i] == i) out.sites.push_back(i);
   }
@@ -775,20 +901,20 @@ PreparedPslg prepare_pslg(std::span<const Point> points, std::span<const Segment
   std::uint32_t first_new = 0;
   std::size_t first_round_vertices = 0;
   for (int round = 0; round < kMaxRounds; ++round) {
-    order_spatially(segs, out.vertices, grid);
+    order_spatially(segs, out.vertices, grid, executor);
     Ends ends = endpoints(segs, out.vertices);
     grid.build(ends);
-    const SiteCells site_cells = bucket_sites(grid, out.vertices, out.sites);
+    const SiteCells site_cells = bucket_sites(grid, out.vertices, out.sites, executor);
     // The first round is exact: snapping is only for repairing what rounding did.
-    const PointSplits on_segment = find_points_on_segments(grid, site_cells, ends, segs, out.vertices,
-                                                           first_new, round == 0 ? 0.0 : snap_tolerance);
+    const PointSplits on_segment = find_points_on_segments(
+        grid, site_cells, ends, segs, out.vertices, first_new, round == 0 ? 0.0 : snap_tolerance, executor);
     if (!on_segment.lists.vertex.empty()) {
       segs = cut_segments(segs, on_segment.lists, on_segment.snapped, CutAt::sites);
-      order_spatially(segs, out.vertices, grid);
+      order_spatially(segs, out.vertices, grid, executor);
       ends = endpoints(segs, out.vertices);
       grid.build(ends);
     }
-    const auto crossings = find_crossings(grid, ends, segs);
+    const auto crossings = find_crossings(grid, ends, segs, executor);
     if (crossings.empty() && !on_segment.any_snapped) {
       std::sort(segs.begin(), segs.end(), [](const WorkSegment& p, const WorkSegment& q) {
         return p.a != q.a ? p.a < q.a : p.b < q.b;

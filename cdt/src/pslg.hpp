@@ -59,4 +59,11 @@ struct PreparedPslg {
 PreparedPslg prepare_pslg(std::span<const Point> points, std::span<const Segment> segments,
                           CrossingSegments policy);
 
+class CpuExecutor;
+
+/// The same, with the sort and the candidate screening run on `executor`; the result does not depend on
+/// its thread count.
+PreparedPslg prepare_pslg(std::span<const Point> points, std::span<const Segment> segments,
+                          CrossingSegments policy, CpuExecutor& executor);
+
 } // namespace cdt::detail

@@ -12,6 +12,7 @@
 #include <chrono>
 #include <cstdio>
 #include <mutex>
+#include <span>
 #include <string>
 #include <vector>
 
@@ -86,6 +87,55 @@ void choose_backend(Backend backend) {
   }
 }
 
+/// Spreads the low 16 bits of v to the even bit positions.
+std::uint32_t spread_bits(std::uint32_t v) {
+  v &= 0xFFFFu;
+  v = (v | (v << 8)) & 0x00FF00FFu;
+  v = (v | (v << 4)) & 0x0F0F0F0Fu;
+  v = (v | (v << 2)) & 0x33333333u;
+  v = (v | (v << 1)) & 0x55555555u;
+  return v;
+}
+
+/// The sites (vertex ids, in `sites` order) reordered by the Z-order index of their grid cells, ties in
+/// their given order. Every phase walks fans and reads the coordinates of neighbours; with neighbours
+/// numbered close together those reads hit the cache instead of memory (input order is arbitrary, often
+/// random). Keeping ties in order keeps the lowest-numbered point of a cell the same point, so the kept
+/// sites of Phase 1 do not change.
+std::vector<std::uint32_t> spatial_site_order(const detail::GridMapping& mapping, std::span<const double> x,
+                                              std::span<const double> y, std::span<const std::uint32_t> sites,
+                                              detail::CpuExecutor& executor) {
+  const std::size_t n = sites.size();
+  std::vector<std::uint32_t> key(n);
+  executor.for_each(n, [&](std::size_t s) {
+    key[s] = spread_bits(mapping.grid_x(x[s])) | (spread_bits(mapping.grid_y(y[s])) << 1);
+  });
+  // Stable LSD radix sort of the site positions by key, 11 bits a pass (grid coordinates have at most 15
+  // bits each, so the key at most 30).
+  std::vector<std::uint32_t> order(n);
+  std::vector<std::uint32_t> scratch(n);
+  for (std::size_t s = 0; s < n; ++s) order[s] = static_cast<std::uint32_t>(s);
+  const std::uint32_t max_key = n == 0 ? 0 : *std::max_element(key.begin(), key.end());
+  constexpr int kBits = 11;
+  constexpr std::uint32_t kBuckets = 1u << kBits;
+  std::vector<std::uint32_t> count(kBuckets);
+  for (int shift = 0; shift < 32 && (max_key >> shift) != 0; shift += kBits) {
+    std::fill(count.begin(), count.end(), 0u);
+    for (std::size_t i = 0; i < n; ++i) ++count[(key[order[i]] >> shift) & (kBuckets - 1)];
+    std::uint32_t sum = 0;
+    for (auto& c : count) {
+      const std::uint32_t value = c;
+      c = sum;
+      sum += value;
+    }
+    for (std::size_t i = 0; i < n; ++i)
+      scratch[count[(key[order[i]] >> shift) & (kBuckets - 1)]++] = order[i];
+    order.swap(scratch);
+  }
+  executor.for_each(n, [&](std::size_t s) { order[s] = sites[order[s]]; });
+  return order;
+}
+
 } // namespace
 
 Triangulation triangulate(std::span<const Point> points, std::span<const Segment> segments,
@@ -100,26 +150,33 @@ Triangulation triangulate(std::span<const Point> points, std::span<const Segment
   CpuExecutor executor(options.threads);
 
   // Input checks and cleaning.
-  PreparedPslg pslg = prepare_pslg(points, segments, options.crossings);
+  PreparedPslg pslg = prepare_pslg(points, segments, options.crossings, executor);
   timer.end("prepare");
   stats.added_vertices = pslg.vertices.size() - points.size();
   stats.zero_length_segments = pslg.zero_length_segments;
 
-  // Sites: the distinct vertices, numbered 0..n-1 in the mesh.
+  // Sites: the distinct vertices, numbered 0..n-1 in the mesh in the order of their grid cells along a
+  // Z curve (see spatial_site_order).
   const auto n = static_cast<std::uint32_t>(pslg.sites.size());
-  std::vector<double> true_x(n);
-  std::vector<double> true_y(n);
-  std::vector<std::uint32_t> site_of_vertex(pslg.vertices.size(), kNoId);
-  for (std::uint32_t s = 0; s < n; ++s) {
-    true_x[s] = pslg.vertices[pslg.sites[s]].x;
-    true_y[s] = pslg.vertices[pslg.sites[s]].y;
-    site_of_vertex[pslg.sites[s]] = s;
-  }
-
-  // Phase 1.
   const std::uint32_t m = options.grid_size != 0 ? options.grid_size : choose_grid_size(n);
   stats.grid_size = m;
+  std::vector<double> true_x(n);
+  std::vector<double> true_y(n);
+  executor.for_each(n, [&](std::size_t s) {
+    true_x[s] = pslg.vertices[pslg.sites[s]].x;
+    true_y[s] = pslg.vertices[pslg.sites[s]].y;
+  });
   const GridMapping mapping = make_grid_mapping(true_x, true_y, m);
+  const std::vector<std::uint32_t> site_vertex =
+      spatial_site_order(mapping, true_x, true_y, pslg.sites, executor);
+  std::vector<std::uint32_t> site_of_vertex(pslg.vertices.size(), kNoId);
+  executor.for_each(n, [&](std::size_t s) {
+    true_x[s] = pslg.vertices[site_vertex[s]].x;
+    true_y[s] = pslg.vertices[site_vertex[s]].y;
+    site_of_vertex[site_vertex[s]] = static_cast<std::uint32_t>(s);
+  });
+
+  // Phase 1.
   const GridSites grid = assign_sites(mapping, true_x, true_y, executor);
   std::vector<std::uint32_t> colour = compute_digital_voronoi(grid, m, executor);
   timer.end("voronoi").missing = grid.missing.size();
@@ -128,23 +185,25 @@ Triangulation triangulate(std::span<const Point> points, std::span<const Segment
   std::vector<double> x = true_x;
   std::vector<double> y = true_y;
   std::vector<std::uint8_t> kept(n, 0);
-  Box bounds{true_x[0], true_y[0], true_x[0], true_y[0]};
-  for (std::uint32_t s = 0; s < n; ++s) {
+  executor.for_each(n, [&](std::size_t s) {
     const std::size_t cell = static_cast<std::size_t>(grid.gy[s]) * m + grid.gx[s];
     if (grid.cell_owner[cell] == s) {
       kept[s] = 1;
       x[s] = mapping.to_x(grid.gx[s]);
       y[s] = mapping.to_y(grid.gy[s]);
     }
+  });
+  Box bounds{true_x[0], true_y[0], true_x[0], true_y[0]};
+  for (std::uint32_t s = 0; s < n; ++s) {
     bounds.min_x = std::min({bounds.min_x, x[s], true_x[s]});
     bounds.min_y = std::min({bounds.min_y, y[s], true_y[s]});
     bounds.max_x = std::max({bounds.max_x, x[s], true_x[s]});
     bounds.max_y = std::max({bounds.max_y, y[s], true_y[s]});
   }
-  std::vector<MissingPoint> missing;
-  missing.reserve(grid.missing.size());
-  for (std::size_t k = 0; k < grid.missing.size(); ++k)
-    missing.push_back({grid.missing[k], grid.missing_owner[k]});
+  std::vector<MissingPoint> missing(grid.missing.size());
+  executor.for_each(missing.size(), [&](std::size_t k) {
+    missing[k] = {grid.missing[k], grid.missing_owner[k]};
+  });
   // Degenerate corners (collinear sites meeting at a grid corner) take their middle site out of the
   // diagram; it becomes a missing point. A few passes settle every input met so far; should they not,
   // the fake polygon alone is the start and every site a missing point.
@@ -169,9 +228,9 @@ Triangulation triangulate(std::span<const Point> points, std::span<const Segment
   }
   // Kept sites the dual did not reach (degenerate diagrams) are inserted like missing points, starting
   // from the fake boundary, which is always in the mesh.
-  for (std::uint32_t s = 0; s < n; ++s) {
-    if (kept[s] != 0 && mesh.vert_tri[s] == kNoId) missing.push_back({s, n});
-  }
+  for (const std::uint32_t s :
+       executor.compact(n, [&](std::size_t s) { return kept[s] != 0 && mesh.vert_tri[s] == kNoId; }))
+    missing.push_back({s, n});
   timer.end("dualize").iterations = static_cast<std::uint64_t>(passes);
 
   // Phase 3.
@@ -216,25 +275,24 @@ Triangulation triangulate(std::span<const Point> points, std::span<const Segment
   // Output in input numbering: live slots in order, links renumbered to triangle indices.
   result.vertices = std::move(pslg.vertices);
   result.duplicate_of = std::move(pslg.duplicate_of);
+  const std::vector<std::uint32_t> live = executor.compact(
+      mesh.num_slots(), [&](std::size_t t) { return mesh.alive(static_cast<std::uint32_t>(t)); });
   std::vector<std::uint32_t> index_of_slot(mesh.num_slots(), kNoId);
-  std::uint32_t count = 0;
-  for (std::uint32_t t = 0; t < mesh.num_slots(); ++t) {
-    if (mesh.alive(t)) index_of_slot[t] = count++;
-  }
-  result.triangles.resize(count);
-  result.neighbors.resize(count);
-  result.segment_of_edge.resize(count);
-  for (std::uint32_t t = 0; t < mesh.num_slots(); ++t) {
-    const std::uint32_t out = index_of_slot[t];
-    if (out == kNoId) continue;
+  executor.for_each(live.size(),
+                    [&](std::size_t k) { index_of_slot[live[k]] = static_cast<std::uint32_t>(k); });
+  result.triangles.resize(live.size());
+  result.neighbors.resize(live.size());
+  result.segment_of_edge.resize(live.size());
+  executor.for_each(live.size(), [&](std::size_t out) {
+    const std::uint32_t t = live[out];
     for (std::uint32_t i = 0; i < 3; ++i) {
-      result.triangles[out][i] = pslg.sites[mesh.tri[3 * t + i]];
+      result.triangles[out][i] = site_vertex[mesh.tri[3 * t + i]];
       const std::uint32_t e = mesh.adj[3 * t + i];
       result.neighbors[out][i] = e == kNoId ? kNone : index_of_slot[edge_tri(e)];
       const std::uint32_t piece = mesh.seg[3 * t + i];
       result.segment_of_edge[out][i] = piece == kNoId ? kNone : pslg.pieces[piece].segment;
     }
-  }
+  });
   timer.end("output");
   stats.total_milliseconds = std::chrono::duration<double, std::milli>(Clock::now() - t_start).count();
   return result;

@@ -16,6 +16,9 @@ namespace {
 // Labels keep 2 bits for the case above the slot index.
 constexpr std::uint32_t kMaxSlots = 1u << 30;
 
+// A flipping pass that flips fewer than one in this many marked triangles ends the inner loop early.
+constexpr std::size_t kStalledShare = 16;
+
 bool is_error(ConstraintStatus s) { return s >= ConstraintStatus::vertex_on_piece; }
 
 const char* describe(ConstraintStatus s) {
@@ -207,6 +210,12 @@ ConstraintStats insert_constraints(Mesh& mesh, std::span<const ConstraintPiece2>
       }
       stats.flips += winners.size();
       outer_flips += winners.size();
+      // Triangles that stay marked without flipping belong to pieces whose other triangles carry a lower
+      // piece's mark; only the next marking pass frees them. Once a pass flips only a small share of the
+      // marked triangles (clustered inputs such as coastlines get there after a few passes, while long
+      // pieces across a uniform mesh keep flipping about a fifth per pass), marking again is cheaper than
+      // proposing over the stuck triangles until the pass limit.
+      const bool stalled = winners.size() * kStalledShare < na;
       // Flips only reuse slots of marked triangles, so the marked set shrinks within the list.
       const std::vector<std::uint32_t> still =
           executor.compact(na, [&](std::size_t k) { return cmark[act[k]] != kNoId; });
@@ -215,6 +224,7 @@ ConstraintStats insert_constraints(Mesh& mesh, std::span<const ConstraintPiece2>
       std::uint32_t* out = next.data();
       executor.for_each(still.size(), [&](std::size_t k) { out[k] = act[s[k]]; });
       active.swap(next);
+      if (stalled) break;
     }
     // Section 4.3: the lowest pending piece has all its triangles marked and always a flippable pair.
     if (outer_flips == 0) {

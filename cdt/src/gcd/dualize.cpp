@@ -209,15 +209,38 @@ Mesh dualize(std::span<const std::uint32_t> colour, std::uint32_t m, std::span<c
   Mesh mesh;
   mesh.x.assign(x.begin(), x.end());
   mesh.y.assign(y.begin(), y.end());
+  // Room for the triangulation of every site with the fake boundary (2 n + k - 2 triangles for k fake
+  // vertices, at most about sqrt(n) of them), so that hull completion and Phase 4 append without
+  // reallocating the slot arrays. Pages past the used part are never touched, so this costs address
+  // space only.
+  {
+    const std::size_t room = 3 * (2 * static_cast<std::size_t>(n) +
+                                  4 * static_cast<std::size_t>(std::sqrt(static_cast<double>(n))) + 64);
+    mesh.tri.reserve(room);
+    mesh.adj.reserve(room);
+    mesh.seg.reserve(room);
+  }
   mesh.grow_slots(num_dual);
-  executor.for_each(rows, [&](std::size_t r) {
-    std::uint32_t* out = mesh.tri.data() + 3 * static_cast<std::size_t>(row_start[r]);
-    for (const Tri& t : per_row[r]) {
-      *out++ = t.a;
-      *out++ = t.b;
-      *out++ = t.c;
+  // Slots ordered by each triangle's lowest vertex (a stable counting sort, the same for any thread
+  // count). Sites are numbered along a space-filling curve (triangulate.cpp), so a vertex's fan and its
+  // neighbours' coordinates then sit close together in memory, and the later phases, which visit sites
+  // in slot order, read them mostly from the cache.
+  {
+    std::vector<std::uint32_t> start(static_cast<std::size_t>(n) + 1, 0);
+    for (const auto& list : per_row) {
+      for (const Tri& t : list) ++start[std::min({t.a, t.b, t.c}) + 1];
     }
-  });
+    for (std::uint32_t v = 0; v < n; ++v) start[v + 1] += start[v];
+    std::uint32_t* tri = mesh.tri.data();
+    for (const auto& list : per_row) {
+      for (const Tri& t : list) {
+        std::uint32_t* out = tri + 3 * static_cast<std::size_t>(start[std::min({t.a, t.b, t.c})]++);
+        out[0] = t.a;
+        out[1] = t.b;
+        out[2] = t.c;
+      }
+    }
+  }
   try {
     link_triangles(mesh, executor);
   } catch (const Error&) {

@@ -3,6 +3,7 @@
 
 #include "gcd/insert.hpp"
 
+#include <algorithm>
 #include <numeric>
 #include <string>
 #include <vector>
@@ -118,6 +119,22 @@ InsertStats insert_missing_points(Mesh& mesh, std::span<const MissingPoint> miss
           static_cast<std::uint8_t>((holds_t ? kHoldsT : 0) | (holds_u ? kHoldsU : 0) | (wins ? kWins : 0));
       if (!wins) start[q] = m.tri[3 * t];
     });
+    // A loser whose container a winner splits lies in the winner's new fan, so the winner's vertex, whose
+    // fan is just those three or four triangles, is a better start than a corner of the old container:
+    // without Delaunay flips between rounds the old corners of crowded regions collect huge fans, and
+    // every walk starting there would scan one.
+    executor.for_each(n, [&](std::size_t r) {
+      const auto q = remaining[r];
+      if (loc_t[q] == kNoId || (flags[q] & kWins) != 0) return;
+      for (const std::uint32_t c : {loc_t[q], loc_u[q]}) {
+        if (c == kNoId) continue;
+        const std::uint32_t w = mark[c];
+        if (w != kNoId && (flags[w] & kWins) != 0) {
+          start[q] = missing[w].vertex;
+          return;
+        }
+      }
+    });
     std::vector<std::uint32_t> winners =
         executor.compact(n, [&](std::size_t r) { return (flags[remaining[r]] & kWins) != 0; });
     // The smallest located index holds every mark it made, so a round without winners means none was located.
@@ -220,10 +237,27 @@ void remove_fake_boundary(Mesh& mesh, std::uint32_t first_fake, CpuExecutor& exe
         [](std::span<const std::uint32_t>, std::span<const std::uint32_t>) {}, executor);
   }
 
-  // Compaction: live slots keep their order; links and vert_tri are renumbered.
+  // Compaction, ordered by each triangle's lowest vertex; links and vert_tri are renumbered. Sites are
+  // numbered along a space-filling curve (triangulate.cpp), so this puts neighbouring triangles next to
+  // each other in memory, also the ones Algorithm 3 created at the end of the slot array, and the
+  // remaining steps (constraints, flips) mostly read cached slots. A stable counting sort keeps the
+  // result independent of the thread count.
   const MeshView m = mesh.view();
-  const std::vector<std::uint32_t> live =
-      executor.compact(m.num_slots, [&](std::size_t t) { return m.alive(t); });
+  std::vector<std::uint32_t> live;
+  {
+    const std::vector<std::uint32_t> alive =
+        executor.compact(m.num_slots, [&](std::size_t t) { return m.alive(t); });
+    std::vector<std::uint32_t> key(alive.size());
+    executor.for_each(alive.size(), [&](std::size_t r) {
+      const std::uint32_t t = alive[r];
+      key[r] = std::min({m.tri[3 * t], m.tri[3 * t + 1], m.tri[3 * t + 2]});
+    });
+    std::vector<std::uint32_t> start(static_cast<std::size_t>(nv) + 1, 0);
+    for (const std::uint32_t k : key) ++start[k + 1];
+    for (std::uint32_t v = 0; v < nv; ++v) start[v + 1] += start[v];
+    live.resize(alive.size());
+    for (std::size_t r = 0; r < alive.size(); ++r) live[start[key[r]]++] = alive[r];
+  }
   std::vector<std::uint32_t> new_id(m.num_slots, kNoId);
   executor.for_each(live.size(), [&](std::size_t r) { new_id[live[r]] = static_cast<std::uint32_t>(r); });
   std::vector<std::uint32_t> tri(3 * live.size()), adj(3 * live.size()), seg(3 * live.size());

@@ -47,8 +47,9 @@ InsertStats insert_missing_points(Mesh& mesh, std::span<const MissingPoint> miss
 /// open polygon: the region between the fake vertex's chain of neighbours and that chain's convex hull is
 /// filled (a Graham-scan-like walk adding triangles at convex turns, never a zero-area one). The result
 /// covers exactly the convex hull of the remaining vertices, collinear hull vertices included; then compacts
-/// the triangle list (removes free slots, renumbers links and vert_tri) and removes the fake vertices from
-/// x/y/vert_tri. Precondition: the fake vertices are strictly convex corners of the outer boundary.
+/// the triangle list (removes free slots, orders the triangles by their lowest vertex, renumbers links and
+/// vert_tri) and removes the fake vertices from x/y/vert_tri. Precondition: the fake vertices are strictly
+/// convex corners of the outer boundary.
 void remove_fake_boundary(Mesh& mesh, std::uint32_t first_fake, CpuExecutor& executor);
 
 // ------------------------------------------------------------------------------------------------------------
