@@ -4,9 +4,14 @@
 
 #include <cstddef>
 #include <cstdint>
+#include <memory>
 #include <span>
 #include <string>
 #include <vector>
+
+namespace cdt::detail {
+struct Mesh; // cdt/src/gcd/mesh.hpp
+} // namespace cdt::detail
 
 namespace cdt::gpu {
 
@@ -74,5 +79,61 @@ std::vector<std::uint32_t> compute_digital_voronoi(std::span<const std::uint32_t
                                                    std::span<const std::uint32_t> site_y, std::uint32_t m,
                                                    const VoronoiOptions& options = {},
                                                    VoronoiStats* stats = nullptr);
+
+// --- Phase 2 on the device: the dual triangles of the diagram, linked (paper section 3.2) ------------
+
+/// What the device's dualization did.
+struct DualStats {
+  std::uint64_t dual_triangles = 0;
+  std::size_t device_bytes = 0; ///< the estimate checked against the memory available
+  /// Device time in milliseconds: the sites' upload and the corners' triangles, their order and links,
+  /// the copy of the mesh back.
+  float triangles_ms = 0, link_ms = 0, download_ms = 0;
+};
+
+/// The digital Voronoi diagram computed on the device and kept there for the next phase, which then
+/// reads the colouring without a round trip through host memory. Construction computes what
+/// compute_digital_voronoi does, with the same arguments and errors.
+class DeviceVoronoi {
+public:
+  DeviceVoronoi(std::span<const std::uint32_t> cell_owner, std::span<const std::uint32_t> site_x,
+                std::span<const std::uint32_t> site_y, std::uint32_t m, const VoronoiOptions& options = {},
+                VoronoiStats* stats = nullptr);
+  ~DeviceVoronoi();
+  DeviceVoronoi(DeviceVoronoi&&) noexcept;
+  DeviceVoronoi& operator=(DeviceVoronoi&&) noexcept;
+
+  /// The colouring, copied to the host (compute_digital_voronoi's result); download_ms receives the
+  /// copy's device time when given.
+  std::vector<std::uint32_t> colour(float* download_ms = nullptr) const;
+
+  /// The first half of cdt::detail::dualize on the device: the triangles of every 3- and 4-colour grid
+  /// corner, in the CPU executor's slot order (by lowest vertex, then row-major corner order), linked,
+  /// vert_tri the highest incident slot. mesh.x, mesh.y hold the n sites' positions (kept sites at their
+  /// grid points) and stay as they are; tri, adj, seg and vert_tri are replaced. Returns false, leaving
+  /// the mesh without triangles, when the dual is not a valid triangulation (a degenerate corner, an
+  /// edge that does not pair up) or is empty: the CPU executor's dualize then handles the colouring.
+  bool dual(::cdt::detail::Mesh& mesh, DualStats* stats = nullptr);
+
+  struct State; ///< device buffers and stream (defined by the CUDA code)
+
+private:
+  std::unique_ptr<State> state_;
+};
+
+// --- Phase 6 on the device: Lawson flips to the (constrained) Delaunay triangulation ------------------
+
+/// What the device's flipping did.
+struct FlipResult {
+  std::uint64_t flips = 0;
+  std::uint64_t rounds = 0;
+  std::size_t device_bytes = 0;                      ///< the estimate checked against the memory available
+  float upload_ms = 0, flip_ms = 0, download_ms = 0; ///< device time of the steps
+};
+
+/// cdt::detail::flip_to_delaunay on the device, round for round the same (so the same result): the
+/// mesh is copied to the device, flipped there and copied back in place. Throws Error when the links
+/// are inconsistent and DeviceError when the mesh does not fit in device memory or CUDA fails.
+FlipResult flip_to_delaunay(::cdt::detail::Mesh& mesh);
 
 } // namespace cdt::gpu

@@ -21,6 +21,7 @@
 #include "cdt_kernels.hpp"
 #include "cuda_check.cuh"
 #include "cuda_executor.cuh"
+#include "device_voronoi.cuh"
 #include "gcd/voronoi.hpp"
 
 namespace cdt::gpu {
@@ -53,19 +54,6 @@ __device__ __forceinline__ std::uint32_t neighbour_cell(std::uint32_t cell, std:
 __device__ __forceinline__ unsigned neighbour_bit(std::uint32_t cell, std::uint32_t c, std::uint32_t m) {
   return c + 1 == cell ? 1u : c == cell + 1 ? 2u : c + m == cell ? 4u : 8u;
 }
-
-/// Device buffers of one computation. The m*m buffers change roles between the steps (see below) so
-/// that the estimate of voronoi_device_bytes holds for any number of debris.
-struct VoronoiBuffers {
-  DeviceBuffer<std::uint32_t>
-      owner; ///< cell owners; after step 2: the debris' old colours, then the flood's next colours
-  DeviceBuffer<std::uint32_t> colour;     ///< PBA's column and site output; after step 2: the colouring
-  DeviceBuffer<std::uint32_t> stack;      ///< PBA's stacks; after step 1: the list of debris cells
-  DeviceBuffer<std::uint32_t> stack_size; ///< PBA
-  DeviceBuffer<std::uint32_t> above, below;
-  DeviceBuffer<std::uint32_t> site_x, site_y;
-  DeviceBuffer<std::uint8_t> successors; ///< per debris of the last round: which neighbours became debris
-};
 
 /// Every occupied cell's owner must be a point sitting in that cell; the flood reads the sites'
 /// positions through the owners, so an inconsistent input must stop here.
@@ -216,11 +204,12 @@ std::size_t voronoi_device_bytes(std::uint32_t m, std::size_t num_points, const 
   return words * sizeof(std::uint32_t) + cells + cells / 8 + (std::size_t{1} << 20);
 }
 
-std::vector<std::uint32_t> compute_digital_voronoi(std::span<const std::uint32_t> cell_owner,
-                                                   std::span<const std::uint32_t> site_x,
-                                                   std::span<const std::uint32_t> site_y, std::uint32_t m,
-                                                   const VoronoiOptions& options, VoronoiStats* stats) {
-  using detail::VoronoiBuffers;
+namespace detail {
+
+/// DeviceVoronoi's construction (a constructor cannot hold the extended lambdas of its steps).
+void colour_on_device(DeviceVoronoi::State& state, std::span<const std::uint32_t> cell_owner,
+                      std::span<const std::uint32_t> site_x, std::span<const std::uint32_t> site_y,
+                      std::uint32_t m, const VoronoiOptions& options, VoronoiStats* stats) {
   if (m == 0 || m > ::cdt::detail::kMaxGridSize)
     throw Error("compute_digital_voronoi: grid size " + std::to_string(m) + " is outside [1, " +
                 std::to_string(::cdt::detail::kMaxGridSize) + "]");
@@ -237,14 +226,16 @@ std::vector<std::uint32_t> compute_digital_voronoi(std::span<const std::uint32_t
   VoronoiStats& st = stats != nullptr ? *stats : local;
   st = VoronoiStats{};
   st.device_bytes = voronoi_device_bytes(m, n, options);
-  detail::CudaExecutor executor;
-  detail::require_device_memory(st.device_bytes, options.memory_limit,
-                                "the digital Voronoi diagram of a " + std::to_string(m) + " x " +
-                                    std::to_string(m) + " grid with " + std::to_string(n) + " points");
+  state.m = m;
+  state.num_points = n;
+  CudaExecutor& executor = state.executor;
+  require_device_memory(st.device_bytes, options.memory_limit,
+                        "the digital Voronoi diagram of a " + std::to_string(m) + " x " + std::to_string(m) +
+                            " grid with " + std::to_string(n) + " points");
 
-  detail::DeviceEvent started, uploaded, coloured, amended, done;
+  DeviceEvent started, uploaded, coloured, amended;
   started.record(executor.stream());
-  VoronoiBuffers b;
+  VoronoiBuffers& b = state.buffers;
   ::cdt::detail::pba::PbaView v;
   static_cast<::cdt::detail::pba::PbaLayout&>(v) = detail::device_layout(m, options);
   b.owner.resize(cells);
@@ -289,14 +280,42 @@ std::vector<std::uint32_t> compute_digital_voronoi(std::span<const std::uint32_t
     detail::flood_debris(executor, b, m, debris, view, st);
   }
   amended.record(executor.stream());
-  std::vector<std::uint32_t> colour(cells);
-  executor.download(colour.data(), b.colour.data(), cells);
-  done.record(executor.stream());
   st.upload_ms = uploaded.since(started);
   st.pba_ms = coloured.since(uploaded);
   st.amend_ms = amended.since(coloured);
-  st.download_ms = done.since(amended);
-  return colour;
+}
+
+} // namespace detail
+
+DeviceVoronoi::DeviceVoronoi(std::span<const std::uint32_t> cell_owner, std::span<const std::uint32_t> site_x,
+                             std::span<const std::uint32_t> site_y, std::uint32_t m,
+                             const VoronoiOptions& options, VoronoiStats* stats)
+    : state_(std::make_unique<State>()) {
+  detail::colour_on_device(*state_, cell_owner, site_x, site_y, m, options, stats);
+}
+
+DeviceVoronoi::~DeviceVoronoi() = default;
+DeviceVoronoi::DeviceVoronoi(DeviceVoronoi&&) noexcept = default;
+DeviceVoronoi& DeviceVoronoi::operator=(DeviceVoronoi&&) noexcept = default;
+
+std::vector<std::uint32_t> DeviceVoronoi::colour(float* download_ms) const {
+  detail::CudaExecutor& executor = state_->executor;
+  const std::size_t cells = static_cast<std::size_t>(state_->m) * state_->m;
+  detail::DeviceEvent started, done;
+  started.record(executor.stream());
+  std::vector<std::uint32_t> out(cells);
+  executor.download(out.data(), state_->buffers.colour.data(), cells);
+  done.record(executor.stream());
+  if (download_ms != nullptr) *download_ms = done.since(started);
+  return out;
+}
+
+std::vector<std::uint32_t> compute_digital_voronoi(std::span<const std::uint32_t> cell_owner,
+                                                   std::span<const std::uint32_t> site_x,
+                                                   std::span<const std::uint32_t> site_y, std::uint32_t m,
+                                                   const VoronoiOptions& options, VoronoiStats* stats) {
+  const DeviceVoronoi diagram(cell_owner, site_x, site_y, m, options, stats);
+  return diagram.colour(stats != nullptr ? &stats->download_ms : nullptr);
 }
 
 } // namespace cdt::gpu

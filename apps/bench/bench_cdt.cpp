@@ -4,10 +4,12 @@
 // optionally a GIS coastline file as printed by `gmt coast -Rg -Dh -W -M` ('>'-separated polylines).
 //
 // usage: bench_cdt [--quick] [--coast FILE] [--threads N] [--repeat R] [--case TEXT] [--no-cgal] [--grid M]
+//                  [--backend auto|cpu|gpu]
 // --case keeps only the inputs whose name contains TEXT; --no-cgal skips the competitor (profiling);
-// --grid forces the grid side (Options::grid_size) instead of the automatic choice.
-// Prints one Markdown row per input: median times of R runs, per-phase times of the median run (with
-// their parallel rounds in parentheses), flips,
+// --grid forces the grid side (Options::grid_size) instead of the automatic choice; --backend picks
+// the executor (Options::backend).
+// Prints one Markdown row per input: median times of R runs, the backend and per-phase times of the
+// median run (with their parallel rounds in parentheses), flips,
 // missing points, the verifier's verdict, peak memory of the run (its own process), CGAL's time and
 // the ratio ours/CGAL (<= 1 means faster).
 
@@ -142,6 +144,7 @@ int main(int argc, char** argv) {
   std::string only;
   bool with_cgal = true;
   std::uint32_t grid = 0;
+  std::string backend_name = "auto";
   for (int i = 1; i < argc; ++i) {
     if (!std::strcmp(argv[i], "--quick"))
       quick = true;
@@ -157,13 +160,22 @@ int main(int argc, char** argv) {
       grid = static_cast<std::uint32_t>(std::atoi(argv[++i]));
     else if (!std::strcmp(argv[i], "--no-cgal"))
       with_cgal = false;
+    else if (!std::strcmp(argv[i], "--backend") && i + 1 < argc &&
+             (!std::strcmp(argv[i + 1], "auto") || !std::strcmp(argv[i + 1], "cpu") ||
+              !std::strcmp(argv[i + 1], "gpu")))
+      backend_name = argv[++i];
     else {
       std::fprintf(stderr,
                    "usage: bench_cdt [--quick] [--coast FILE] [--threads N] [--repeat R] [--case TEXT] "
-                   "[--no-cgal] [--grid M]\n");
+                   "[--no-cgal] [--grid M] [--backend auto|cpu|gpu]\n");
       return 2;
     }
   }
+  const cdt::Backend backend = backend_name == "cpu"   ? cdt::Backend::cpu
+                               : backend_name == "gpu" ? cdt::Backend::gpu
+                                                       : cdt::Backend::automatic;
+  // Only the children touch CUDA: a process that initialised it before fork() could not use it after.
+  std::printf("backend: %s\n", backend_name.c_str());
   const std::size_t n = quick ? 100000 : 1000000;
   const auto wanted = [&](const char* name) {
     return only.empty() || std::strstr(name, only.c_str()) != nullptr;
@@ -191,6 +203,7 @@ int main(int argc, char** argv) {
           cdt::Options options;
           options.threads = threads;
           options.grid_size = grid;
+          options.backend = backend;
           std::vector<double> times;
           cdt::Triangulation best;
           for (int r = 0; r < repeat; ++r) {
@@ -199,16 +212,16 @@ int main(int argc, char** argv) {
             if (r == 0 || t.stats.total_milliseconds == median(times)) best = std::move(t);
           }
           const bool ok = cdt::verify(best, input.pslg.points, input.pslg.segments).ok();
-          std::string phases;
+          std::string phases = best.stats.backend + ":";
           std::uint64_t flips = 0;
           std::uint64_t missing = 0;
           for (const auto& p : best.stats.phases) {
             char part[64];
             if (p.iterations > 0) {
-              std::snprintf(part, sizeof part, "%s%s %.0f (%llu)", phases.empty() ? "" : ", ", p.name.c_str(),
-                            p.milliseconds, static_cast<unsigned long long>(p.iterations));
+              std::snprintf(part, sizeof part, "%s %s %.0f (%llu)", phases.back() == ':' ? "" : ",",
+                            p.name.c_str(), p.milliseconds, static_cast<unsigned long long>(p.iterations));
             } else {
-              std::snprintf(part, sizeof part, "%s%s %.0f", phases.empty() ? "" : ", ", p.name.c_str(),
+              std::snprintf(part, sizeof part, "%s %s %.0f", phases.back() == ':' ? "" : ",", p.name.c_str(),
                             p.milliseconds);
             }
             phases += part;

@@ -1,4 +1,8 @@
-// triangulate(): the gCD pipeline (paper sections 3 and 4) on the CPU executor.
+// triangulate(): the gCD pipeline (paper sections 3 and 4). The CPU executor runs every phase; with
+// the GPU backend the CUDA executor runs the digital Voronoi diagram, the dual triangles with their
+// links (Phase 2 but for hull completion and the fake boundary) and the final Lawson flips, each the
+// same computation as the CPU executor's step for step, so the result is the same; the CPU executor
+// runs the rest, until those phases move to the device too.
 //
 //   prepare   merge duplicates, split segments at points on them and at crossings (cdt/src/pslg.cpp)
 //   voronoi   Phase 1: grid mapping (Appendix B), digital Voronoi diagram (PBA + Appendix A)
@@ -10,8 +14,7 @@
 
 #include <algorithm>
 #include <chrono>
-#include <cstdio>
-#include <mutex>
+#include <optional>
 #include <span>
 #include <string>
 #include <vector>
@@ -37,6 +40,9 @@ namespace {
 
 using Clock = std::chrono::steady_clock;
 
+/// Statistics::backend with the GPU backend: which phases the CUDA executor runs.
+constexpr const char* kGpuBackendName = "gpu (voronoi, dualize, flip) + cpu";
+
 class PhaseTimer {
 public:
   explicit PhaseTimer(Statistics& stats) : stats_(stats), start_(Clock::now()) {}
@@ -55,36 +61,19 @@ private:
   Clock::time_point start_;
 };
 
-int cuda_devices() {
-#if defined(TRIXEL_HAVE_CUDA)
-  return gpu::device_count();
-#else
-  return 0;
-#endif
-}
-
-/// The executor that will run: the CPU executor until the CUDA executor exists. An explicit GPU
-/// request never silently runs on the CPU.
-void choose_backend(Backend backend) {
+/// Whether the CUDA executor runs (true) or the CPU executor alone. An explicit GPU request never
+/// silently runs on the CPU.
+bool use_gpu(Backend backend) {
+  if (backend == Backend::cpu) return false;
+  if (gpu_device_count() > 0) return true;
   if (backend == Backend::gpu) {
-    if (cuda_devices() == 0) {
 #if defined(TRIXEL_HAVE_CUDA)
-      throw DeviceError("backend gpu: no CUDA device is available on this machine");
+    throw DeviceError("backend gpu: no CUDA device is available on this machine");
 #else
-      throw DeviceError("backend gpu: this build has no CUDA support (configure with -DTRIXEL_CUDA=ON)");
+    throw DeviceError("backend gpu: this build has no CUDA support (configure with -DTRIXEL_CUDA=ON)");
 #endif
-    }
-    throw DeviceError(
-        "backend gpu: the CUDA executor of the CDT engine runs only the first phase of gCD (the "
-        "digital Voronoi diagram) in this version, not the whole triangulation");
   }
-  if (backend == Backend::automatic && cuda_devices() > 0) {
-    static std::once_flag said;
-    std::call_once(said, [] {
-      std::fprintf(stderr, "cdt: a CUDA device is present, but the CUDA executor does not yet run the whole "
-                           "triangulation in this version; using the CPU executor\n");
-    });
-  }
+  return false;
 }
 
 /// Spreads the low 16 bits of v to the even bit positions.
@@ -141,11 +130,11 @@ std::vector<std::uint32_t> spatial_site_order(const detail::GridMapping& mapping
 Triangulation triangulate(std::span<const Point> points, std::span<const Segment> segments,
                           const Options& options) {
   using namespace detail;
-  choose_backend(options.backend);
+  const bool on_gpu = use_gpu(options.backend);
   const auto t_start = Clock::now();
   Triangulation result;
   Statistics& stats = result.stats;
-  stats.backend = "cpu";
+  stats.backend = on_gpu ? kGpuBackendName : "cpu";
   PhaseTimer timer(stats);
   CpuExecutor executor(options.threads);
 
@@ -176,9 +165,14 @@ Triangulation triangulate(std::span<const Point> points, std::span<const Segment
     site_of_vertex[site_vertex[s]] = static_cast<std::uint32_t>(s);
   });
 
-  // Phase 1.
+  // Phase 1. On the device the colouring stays there for Phase 2.
   const GridSites grid = assign_sites(mapping, true_x, true_y, executor);
-  std::vector<std::uint32_t> colour = compute_digital_voronoi(grid, m, executor);
+  std::vector<std::uint32_t> colour;
+#if defined(TRIXEL_HAVE_CUDA)
+  std::optional<gpu::DeviceVoronoi> device_diagram;
+  if (on_gpu) device_diagram.emplace(grid.cell_owner, grid.gx, grid.gy, m);
+#endif
+  if (!on_gpu) colour = compute_digital_voronoi(grid, m, executor);
   timer.end("voronoi").missing = grid.missing.size();
 
   // Phase 2: kept sites at their exact grid positions.
@@ -208,11 +202,29 @@ Triangulation triangulate(std::span<const Point> points, std::span<const Segment
   // diagram; it becomes a missing point. A few passes settle every input met so far; should they not,
   // the fake polygon alone is the start and every site a missing point.
   Mesh mesh;
+  bool dualized = false;
+#if defined(TRIXEL_HAVE_CUDA)
+  if (device_diagram) {
+    Mesh dual;
+    dual.x = x;
+    dual.y = y;
+    reserve_mesh_slots(dual, n);
+    dualized = device_diagram->dual(dual);
+    if (dualized)
+      mesh = complete_dual(std::move(dual), kept, bounds, executor);
+    else
+      colour = device_diagram->colour(); // a degenerate or empty dual: the CPU executor's path below
+    device_diagram.reset();
+  }
+#endif
   std::vector<std::uint32_t> degenerate;
   int passes = 1;
-  for (;; ++passes) {
+  for (; !dualized; ++passes) {
     mesh = dualize(colour, m, x, y, kept, bounds, executor, nullptr, passes <= 8 ? &degenerate : nullptr);
-    if (mesh.num_slots() > 0) break;
+    if (mesh.num_slots() > 0) {
+      dualized = true;
+      break;
+    }
     remove_sites_from_colouring(colour, grid, m, degenerate);
     for (const std::uint32_t s : degenerate) {
       kept[s] = 0;
@@ -265,7 +277,15 @@ Triangulation triangulate(std::span<const Point> points, std::span<const Segment
   }
 
   // Step 3.
-  const FlipStats flips = flip_to_delaunay(mesh, executor);
+  FlipStats flips;
+#if defined(TRIXEL_HAVE_CUDA)
+  if (on_gpu) {
+    const gpu::FlipResult device = gpu::flip_to_delaunay(mesh);
+    flips.flips = device.flips;
+    flips.rounds = device.rounds;
+  }
+#endif
+  if (!on_gpu) flips = flip_to_delaunay(mesh, executor);
   {
     PhaseStats& p = timer.end("flip");
     p.flips = flips.flips;

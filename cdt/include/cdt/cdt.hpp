@@ -35,9 +35,10 @@ inline constexpr std::uint32_t kNone = 0xFFFFFFFFu;
 
 /// Where the algorithm runs.
 enum class Backend {
-  automatic, ///< the GPU when a CUDA device is present, the CPU otherwise (said once on stderr)
-  cpu,       ///< the CPU executor (threads)
-  gpu,       ///< the CUDA executor; an error when no device is present
+  automatic, ///< the GPU when a CUDA device is present, the CPU otherwise
+  cpu,       ///< the CPU executor (threads) for every phase
+  gpu,       ///< the CUDA executor (for the digital Voronoi diagram, the dual triangles and the final
+             ///< Lawson flips so far; the CPU executor runs the rest); an error when no device is present
 };
 
 /// What to do with input segments that cross each other in their interiors, and with zero-length
@@ -71,7 +72,7 @@ struct PhaseStats {
 
 /// Statistics of one triangulate() call.
 struct Statistics {
-  std::string backend;                    ///< "cpu" or "gpu"
+  std::string backend; ///< "cpu", or with the GPU backend "gpu (PHASES) + cpu" naming the device's phases
   std::uint32_t grid_size = 0;            ///< grid side actually used
   std::uint64_t added_vertices = 0;       ///< vertices added where crossing segments were split
   std::uint64_t zero_length_segments = 0; ///< input segments of zero length, ignored
@@ -96,6 +97,10 @@ struct Triangulation {
   std::vector<std::uint32_t> duplicate_of;
   Statistics stats;
 };
+
+/// Number of CUDA devices Backend::gpu can use: 0 when there is none, or the library was built
+/// without CUDA. Never throws.
+int gpu_device_count() noexcept;
 
 /// Computes the constrained Delaunay triangulation of the points and segments.
 ///

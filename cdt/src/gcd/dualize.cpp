@@ -15,45 +15,11 @@
 namespace cdt::detail {
 namespace {
 
-struct Tri {
-  std::uint32_t a, b, c;
-};
+using Tri = DualTriangle;
 
 CDT_HD_INLINE int orient(const double* x, const double* y, std::uint32_t a, std::uint32_t b,
                          std::uint32_t c) {
   return orient2d(x[a], y[a], x[b], y[b], x[c], y[c]);
-}
-
-/// Triangles dual to the grid corner whose four cells, counter-clockwise from the lower left, have
-/// colours q[0..3]. Writes 0, 1 or 2 triangles into out; returns their number, or -1 when the corner
-/// would give a triangle that is not counter-clockwise (not the dual of a valid diagram).
-CDT_HD_INLINE int corner_triangles(const std::uint32_t q[4], const double* x, const double* y, Tri out[2]) {
-  // Remove cyclically repeated neighbours: the regions around the corner in counter-clockwise order.
-  std::uint32_t ring[4];
-  int n = 0;
-  for (int k = 0; k < 4; ++k) {
-    if (q[k] != q[(k + 3) % 4]) ring[n++] = q[k];
-  }
-  if (n < 3) return 0;
-  if (n == 3) {
-    if (orient(x, y, ring[0], ring[1], ring[2]) <= 0) return -1;
-    out[0] = {ring[0], ring[1], ring[2]};
-    return 1;
-  }
-  // A colour touching the corner from two diagonal cells separates the other two there: they are not
-  // Voronoi neighbours at this corner, so it is no Voronoi vertex.
-  if (ring[0] == ring[2] || ring[1] == ring[3]) return 0;
-  if (orient(x, y, ring[0], ring[1], ring[2]) > 0 && orient(x, y, ring[0], ring[2], ring[3]) > 0) {
-    out[0] = {ring[0], ring[1], ring[2]};
-    out[1] = {ring[0], ring[2], ring[3]};
-    return 2;
-  }
-  if (orient(x, y, ring[1], ring[2], ring[3]) > 0 && orient(x, y, ring[1], ring[3], ring[0]) > 0) {
-    out[0] = {ring[1], ring[2], ring[3]};
-    out[1] = {ring[1], ring[3], ring[0]};
-    return 2;
-  }
-  return -1;
 }
 
 /// The sites to take out of the diagram for an invalid corner (corner_triangles returned -1): the
@@ -177,9 +143,8 @@ Mesh dualize(std::span<const std::uint32_t> colour, std::uint32_t m, std::span<c
     const auto gy = static_cast<std::uint32_t>(r);
     auto& list = per_row[r];
     for (std::uint32_t gx = 0; gx + 1 < m; ++gx) {
-      const std::size_t lo = static_cast<std::size_t>(gy) * m + gx;
-      const std::size_t hi = lo + m;
-      const std::uint32_t q[4] = {colour[lo], colour[lo + 1], colour[hi + 1], colour[hi]};
+      std::uint32_t q[4];
+      corner_colours(colour.data(), m, gx, gy, q);
       Tri out[2];
       const int count = corner_triangles(q, x.data(), y.data(), out);
       if (count < 0) {
@@ -209,17 +174,7 @@ Mesh dualize(std::span<const std::uint32_t> colour, std::uint32_t m, std::span<c
   Mesh mesh;
   mesh.x.assign(x.begin(), x.end());
   mesh.y.assign(y.begin(), y.end());
-  // Room for the triangulation of every site with the fake boundary (2 n + k - 2 triangles for k fake
-  // vertices, at most about sqrt(n) of them), so that hull completion and Phase 4 append without
-  // reallocating the slot arrays. Pages past the used part are never touched, so this costs address
-  // space only.
-  {
-    const std::size_t room = 3 * (2 * static_cast<std::size_t>(n) +
-                                  4 * static_cast<std::size_t>(std::sqrt(static_cast<double>(n))) + 64);
-    mesh.tri.reserve(room);
-    mesh.adj.reserve(room);
-    mesh.seg.reserve(room);
-  }
+  reserve_mesh_slots(mesh, n);
   mesh.grow_slots(num_dual);
   // Slots ordered by each triangle's lowest vertex (a stable counting sort, the same for any thread
   // count). Sites are numbered along a space-filling curve (triangulate.cpp), so a vertex's fan and its
@@ -246,8 +201,23 @@ Mesh dualize(std::span<const std::uint32_t> colour, std::uint32_t m, std::span<c
   } catch (const Error&) {
     return fake_polygon_only(x, y, bounds, executor, stats);
   }
+  return complete_dual(std::move(mesh), kept, bounds, executor, stats);
+}
+
+void reserve_mesh_slots(Mesh& mesh, std::uint32_t n) {
+  const std::size_t room = 3 * (2 * static_cast<std::size_t>(n) +
+                                4 * static_cast<std::size_t>(std::sqrt(static_cast<double>(n))) + 64);
+  mesh.tri.reserve(room);
+  mesh.adj.reserve(room);
+  mesh.seg.reserve(room);
+}
+
+Mesh complete_dual(Mesh mesh, std::span<const std::uint8_t> kept, const Box& bounds, CpuExecutor& executor,
+                   DualizeStats* stats) {
+  const std::uint32_t n = mesh.num_vertices();
+  const std::uint32_t num_dual = mesh.num_slots();
   std::vector<std::uint32_t> boundary = boundary_cycle(mesh);
-  if (boundary.size() < 3) return fake_polygon_only(x, y, bounds, executor, stats);
+  if (boundary.size() < 3) return fake_polygon_only(mesh.x, mesh.y, bounds, executor, stats);
 
   // Hull completion (Graham-scan-like): start at the lowest-leftmost boundary vertex, which is on the
   // convex hull, and fill every reflex turn with a triangle outside the current mesh.

@@ -6,11 +6,18 @@
 #include <span>
 #include <vector>
 
+#include "cdt/detail/host_device.hpp"
+#include "cdt/detail/predicates.hpp"
 #include "gcd/mesh.hpp"
 
 namespace cdt::detail {
 
 class CpuExecutor;
+
+/// A dual triangle: three site indices, counter-clockwise.
+struct DualTriangle {
+  std::uint32_t a, b, c;
+};
 
 /// Axis-aligned box.
 struct Box {
@@ -45,5 +52,68 @@ Mesh dualize(std::span<const std::uint32_t> colour, std::uint32_t m, std::span<c
              std::span<const double> y, std::span<const std::uint8_t> kept, const Box& bounds,
              CpuExecutor& executor, DualizeStats* stats = nullptr,
              std::vector<std::uint32_t>* degenerate = nullptr);
+
+/// Room for the triangulation of n sites with the fake boundary (2 n + k - 2 triangles for k fake
+/// vertices, at most about sqrt(n) of them), so that hull completion and Phase 4 append slots without
+/// reallocating. Pages past the used part are never touched, so this costs address space only.
+void reserve_mesh_slots(Mesh& mesh, std::uint32_t n);
+
+/// The second half of dualize, for a mesh whose dual triangles are in place and linked (slots ordered
+/// by their lowest vertex, vert_tri the highest incident slot, as dualize leaves them; the CUDA
+/// executor builds that part on the device): completes the hull, adds the fake boundary and links it.
+/// mesh.x, mesh.y hold the n sites. Falls back to the fake polygon alone, like dualize, when the
+/// dual's boundary is not one simple cycle.
+Mesh complete_dual(Mesh mesh, std::span<const std::uint8_t> kept, const Box& bounds, CpuExecutor& executor,
+                   DualizeStats* stats = nullptr);
+
+// --- per-element work (host and device) --------------------------------------------------------------
+
+/// Triangles dual to the grid corner whose four cells, counter-clockwise from the lower left, have
+/// colours q[0..3]. Writes 0, 1 or 2 triangles into out; returns their number, or -1 when the corner
+/// would give a triangle that is not counter-clockwise (not the dual of a valid diagram).
+CDT_HD inline int corner_triangles(const std::uint32_t q[4], const double* x, const double* y,
+                                   DualTriangle out[2]) {
+  const auto orient = [x, y](std::uint32_t a, std::uint32_t b, std::uint32_t c) {
+    return orient2d(x[a], y[a], x[b], y[b], x[c], y[c]);
+  };
+  // Remove cyclically repeated neighbours: the regions around the corner in counter-clockwise order.
+  std::uint32_t ring[4];
+  int n = 0;
+  for (int k = 0; k < 4; ++k) {
+    if (q[k] != q[(k + 3) % 4]) ring[n++] = q[k];
+  }
+  if (n < 3) return 0;
+  if (n == 3) {
+    if (orient(ring[0], ring[1], ring[2]) <= 0) return -1;
+    out[0] = {ring[0], ring[1], ring[2]};
+    return 1;
+  }
+  // A colour touching the corner from two diagonal cells separates the other two there: they are not
+  // Voronoi neighbours at this corner, so it is no Voronoi vertex.
+  if (ring[0] == ring[2] || ring[1] == ring[3]) return 0;
+  if (orient(ring[0], ring[1], ring[2]) > 0 && orient(ring[0], ring[2], ring[3]) > 0) {
+    out[0] = {ring[0], ring[1], ring[2]};
+    out[1] = {ring[0], ring[2], ring[3]};
+    return 2;
+  }
+  if (orient(ring[1], ring[2], ring[3]) > 0 && orient(ring[1], ring[3], ring[0]) > 0) {
+    out[0] = {ring[1], ring[2], ring[3]};
+    out[1] = {ring[1], ring[3], ring[0]};
+    return 2;
+  }
+  return -1;
+}
+
+/// The grid corner's four colours, counter-clockwise from the lower left cell (gx, gy); the corner is
+/// the point shared by cells (gx, gy) and (gx + 1, gy + 1) of the m x m colouring.
+CDT_HD_INLINE void corner_colours(const std::uint32_t* colour, std::uint32_t m, std::uint32_t gx,
+                                  std::uint32_t gy, std::uint32_t q[4]) {
+  const std::size_t lo = static_cast<std::size_t>(gy) * m + gx;
+  const std::size_t hi = lo + m;
+  q[0] = colour[lo];
+  q[1] = colour[lo + 1];
+  q[2] = colour[hi + 1];
+  q[3] = colour[hi];
+}
 
 } // namespace cdt::detail

@@ -1,0 +1,233 @@
+// Phase 2 of gCD on the CUDA executor (paper section 3.2): the triangles dual to the digital Voronoi
+// diagram, straight from the colouring Phase 1 left on the device, in the CPU executor's slot order and
+// linked. The per-corner work is cdt/src/gcd/dualize.hpp's corner_triangles, the same function the CPU
+// executor runs. Steps:
+//   1. per grid corner, its number of triangles (or a degenerate corner, which stops here);
+//   2. a prefix sum gives each corner its first slot; the triangles are written there, which is the
+//      CPU executor's row-major order, then stably sorted by their lowest vertex (its counting sort);
+//   3. links: every directed edge keyed by its two vertices, sorted, equal neighbours paired;
+//   4. vert_tri: the highest incident slot (atomicMax), which is the CPU executor's last write.
+// Hull completion and the fake boundary touch only the dual's boundary, a few thousand edges: the host
+// does them on the copied mesh (cdt::detail::complete_dual).
+
+#include <cstddef>
+#include <cstdint>
+#include <string>
+
+#include "cdt_kernels.hpp"
+#include "cuda_check.cuh"
+#include "cuda_executor.cuh"
+#include "device_voronoi.cuh"
+#include "gcd/dualize.hpp"
+
+namespace cdt::gpu {
+namespace detail {
+
+using ::cdt::detail::DualTriangle;
+using ::cdt::detail::edge_id;
+using ::cdt::detail::edge_index;
+using ::cdt::detail::edge_tri;
+using ::cdt::detail::kNoId;
+using ::cdt::detail::next3;
+using ::cdt::detail::prev3;
+
+/// Bits needed to hold every value below `limit`.
+int bits_below(std::uint64_t limit) {
+  int bits = 1;
+  while (bits < 64 && (std::uint64_t{1} << bits) < limit) ++bits;
+  return bits;
+}
+
+/// Device memory of the dual and its links for n sites, in bytes (about 2n triangles; the sorts'
+/// second buffers included).
+std::size_t dual_device_bytes(std::size_t n) {
+  const std::size_t slots = 2 * n + 64;
+  // Sites' coordinates, unsorted and sorted triangles, keys and indices with their second buffers,
+  // directed edges' 64-bit keys and ids with their second buffers, links, vert_tri.
+  return 16 * n + 24 * slots + 16 * slots + 3 * slots * 24 + 12 * slots + 4 * n + (std::size_t{1} << 20);
+}
+
+struct DualBuffers {
+  DeviceBuffer<double> x, y;
+  DeviceBuffer<std::uint32_t> unsorted; ///< triangles in corner order
+  DeviceBuffer<std::uint32_t> tri;      ///< triangles in slot order
+  DeviceBuffer<std::uint32_t> key, index;
+  DeviceBuffer<unsigned long long> edge_key;
+  DeviceBuffer<std::uint32_t> edge;
+  DeviceBuffer<std::uint32_t> adj;
+  DeviceBuffer<std::uint32_t> vert_tri;
+};
+
+/// Links the num_slots triangles of d_tri (all live) over n vertices: d_adj and d_vert_tri as
+/// cdt::detail::link_triangles leaves them. Returns false when an edge is shared by more than two
+/// triangles or twice in the same direction.
+bool link_on_device(CudaExecutor& executor, DualBuffers& b, std::uint32_t num_slots, std::uint32_t n) {
+  const std::size_t num_edges = 3 * static_cast<std::size_t>(num_slots);
+  b.edge_key.resize(num_edges);
+  b.edge.resize(num_edges);
+  b.adj.resize(num_edges);
+  b.vert_tri.resize(n);
+  const std::uint32_t* tri = b.tri.data();
+  unsigned long long* key = b.edge_key.data();
+  std::uint32_t* edge = b.edge.data();
+  const unsigned long long nv = n;
+  executor.for_each(
+      num_edges,
+      [=] __device__(std::size_t e) {
+        const std::size_t t = e / 3;
+        const auto i = static_cast<std::uint32_t>(e % 3);
+        const std::uint32_t from = tri[3 * t + next3(i)], to = tri[3 * t + prev3(i)];
+        const unsigned long long lo = from < to ? from : to, hi = from < to ? to : from;
+        key[e] = lo * nv + hi;
+        edge[e] = static_cast<std::uint32_t>(e);
+      },
+      "edge_keys");
+  executor.sort_pairs(key, edge, num_edges, bits_below(nv * nv));
+  std::uint32_t* adj = b.adj.data();
+  executor.fill_bytes(adj, 0xFF, num_edges);
+  auto* d_bad = executor.scalar<std::uint32_t>();
+  executor.fill_bytes(d_bad, 0, 1);
+  executor.for_each(
+      num_edges,
+      [=] __device__(std::size_t k) {
+        if (k > 0 && key[k - 1] == key[k]) return;
+        if (k + 1 >= num_edges || key[k + 1] != key[k]) return; // a boundary edge
+        if (k + 2 < num_edges && key[k + 2] == key[k]) {
+          atomicOr(d_bad, 1u);
+          return;
+        }
+        const std::uint32_t e0 = edge[k], e1 = edge[k + 1];
+        if (tri[3 * edge_tri(e0) + next3(edge_index(e0))] == tri[3 * edge_tri(e1) + next3(edge_index(e1))]) {
+          atomicOr(d_bad, 2u);
+          return;
+        }
+        adj[e0] = e1;
+        adj[e1] = e0;
+      },
+      "pair_edges");
+  std::uint32_t* vert_tri = b.vert_tri.data();
+  executor.fill_bytes(vert_tri, 0, n);
+  executor.for_each(
+      num_slots,
+      [=] __device__(std::size_t t) {
+        for (std::uint32_t i = 0; i < 3; ++i)
+          atomicMax(vert_tri + tri[3 * t + i], static_cast<std::uint32_t>(t + 1));
+      },
+      "incident_slots");
+  // 0 (no incident slot) becomes kNoId, every other entry the slot itself.
+  executor.for_each(
+      n, [=] __device__(std::size_t v) { vert_tri[v] -= 1; }, "incident_slots_shift");
+  std::uint32_t bad = 0;
+  executor.download(&bad, d_bad, 1);
+  return bad == 0;
+}
+
+} // namespace detail
+
+bool DeviceVoronoi::dual(::cdt::detail::Mesh& mesh, DualStats* stats) {
+  DualStats local;
+  DualStats& st = stats != nullptr ? *stats : local;
+  st = DualStats{};
+  detail::CudaExecutor& executor = state_->executor;
+  const std::uint32_t m = state_->m;
+  const std::uint32_t n = mesh.num_vertices();
+  if (mesh.y.size() != n) throw Error("DeviceVoronoi::dual: x and y have different lengths");
+  mesh.tri.clear();
+  mesh.adj.clear();
+  mesh.seg.clear();
+  mesh.vert_tri.clear();
+  if (m < 2 || n < 3) return false;
+  st.device_bytes = detail::dual_device_bytes(n);
+  detail::require_device_memory(st.device_bytes, 0,
+                                "the dual triangulation of " + std::to_string(n) + " sites");
+
+  detail::DeviceEvent started, written, linked, done;
+  started.record(executor.stream());
+  detail::DualBuffers b;
+  b.x.resize(n);
+  b.y.resize(n);
+  executor.upload(b.x.data(), mesh.x.data(), n);
+  executor.upload(b.y.data(), mesh.y.data(), n);
+  const double* x = b.x.data();
+  const double* y = b.y.data();
+  const std::uint32_t* colour = state_->buffers.colour.data();
+  // Phase 1's scratch of m * m words is free now: it holds the corners' counts, then their offsets.
+  std::uint32_t* count = state_->buffers.stack.data();
+  const std::uint32_t side = m - 1;
+  const std::size_t corners = static_cast<std::size_t>(side) * side;
+  auto* d_bad = executor.scalar<std::uint32_t>();
+  executor.fill_bytes(d_bad, 0, 1);
+  executor.for_each(
+      corners,
+      [=] __device__(std::size_t c) {
+        std::uint32_t q[4];
+        ::cdt::detail::corner_colours(colour, m, static_cast<std::uint32_t>(c % side),
+                                      static_cast<std::uint32_t>(c / side), q);
+        ::cdt::detail::DualTriangle out[2];
+        const int k = ::cdt::detail::corner_triangles(q, x, y, out);
+        if (k < 0) atomicOr(d_bad, 1u);
+        count[c] = k < 0 ? 0u : static_cast<std::uint32_t>(k);
+      },
+      "corner_counts");
+  std::uint32_t bad = 0;
+  executor.download(&bad, d_bad, 1);
+  if (bad != 0) return false;
+  const std::uint32_t num_dual = executor.exclusive_scan(count, corners);
+  if (num_dual == 0) return false;
+
+  b.unsorted.resize(3 * static_cast<std::size_t>(num_dual));
+  b.tri.resize(3 * static_cast<std::size_t>(num_dual));
+  b.key.resize(num_dual);
+  b.index.resize(num_dual);
+  std::uint32_t* unsorted = b.unsorted.data();
+  std::uint32_t* key = b.key.data();
+  std::uint32_t* index = b.index.data();
+  executor.for_each(
+      corners,
+      [=] __device__(std::size_t c) {
+        std::uint32_t q[4];
+        ::cdt::detail::corner_colours(colour, m, static_cast<std::uint32_t>(c % side),
+                                      static_cast<std::uint32_t>(c / side), q);
+        ::cdt::detail::DualTriangle out[2];
+        const int k = ::cdt::detail::corner_triangles(q, x, y, out);
+        for (int j = 0; j < k; ++j) {
+          const std::uint32_t at = count[c] + static_cast<std::uint32_t>(j);
+          unsorted[3 * static_cast<std::size_t>(at)] = out[j].a;
+          unsorted[3 * static_cast<std::size_t>(at) + 1] = out[j].b;
+          unsorted[3 * static_cast<std::size_t>(at) + 2] = out[j].c;
+          const std::uint32_t low = out[j].a < out[j].b ? out[j].a : out[j].b;
+          key[at] = low < out[j].c ? low : out[j].c;
+          index[at] = at;
+        }
+      },
+      "corner_triangles");
+  executor.sort_pairs(key, index, num_dual, detail::bits_below(n));
+  std::uint32_t* tri = b.tri.data();
+  executor.for_each(
+      3 * static_cast<std::size_t>(num_dual),
+      [=] __device__(std::size_t k) {
+        tri[k] = unsorted[3 * static_cast<std::size_t>(index[k / 3]) + k % 3];
+      },
+      "order_slots");
+  written.record(executor.stream());
+  const bool linked_ok = detail::link_on_device(executor, b, num_dual, n);
+  linked.record(executor.stream());
+  if (!linked_ok) return false;
+
+  const std::size_t words = 3 * static_cast<std::size_t>(num_dual);
+  mesh.tri.resize(words);
+  mesh.adj.resize(words);
+  mesh.seg.assign(words, ::cdt::detail::kNoId);
+  mesh.vert_tri.resize(n);
+  executor.download(mesh.tri.data(), b.tri.data(), words);
+  executor.download(mesh.adj.data(), b.adj.data(), words);
+  executor.download(mesh.vert_tri.data(), b.vert_tri.data(), n);
+  done.record(executor.stream());
+  st.dual_triangles = num_dual;
+  st.triangles_ms = written.since(started);
+  st.link_ms = linked.since(written);
+  st.download_ms = done.since(linked);
+  return true;
+}
+
+} // namespace cdt::gpu

@@ -1,0 +1,215 @@
+// Phase 5 of gCD and Step 3 of the CDT on the CUDA executor (paper section 3.5; section 4, "Step 3"):
+// parallel Lawson flipping in rounds. The per-element work is cdt/src/gcd/flip.hpp's
+// (delaunay_flip_candidate, flip_pair_contents, relink_flipped_pair), and the driver below runs the
+// same steps as the CPU executor's flip_to_delaunay (cdt/src/gcd/flip.cpp) in the same order, with the
+// same compactions, so both flip the same pairs in every round and end with the same mesh.
+
+#include <cstddef>
+#include <cstdint>
+#include <string>
+#include <utility>
+
+#include "cdt_kernels.hpp"
+#include "cuda_check.cuh"
+#include "cuda_executor.cuh"
+#include "gcd/flip.hpp"
+
+namespace cdt::gpu {
+
+using ::cdt::detail::edge_tri;
+using ::cdt::detail::kNoId;
+using ::cdt::detail::MeshView;
+
+namespace detail {
+
+/// Device memory that flipping a mesh of num_slots slots and num_vertices vertices needs, in bytes.
+std::size_t flip_device_bytes(std::size_t num_slots, std::size_t num_vertices) {
+  // The mesh (tri, adj, seg; x, y, vert_tri); per slot: mark, partner, active flag, two slot lists,
+  // the round's candidates, neighbours, ownership bits, winners and their edges, the last pairs and
+  // vertex fixes; CUB's scratch and the executor's own.
+  return 36 * num_slots + 20 * num_vertices + num_slots * (4 + 4 + 1 + 8 + 8 + 1 + 8 + 8 + 1) +
+         (std::size_t{4} << 20);
+}
+
+} // namespace detail
+
+FlipResult flip_to_delaunay(::cdt::detail::Mesh& mesh) {
+  using detail::DeviceBuffer;
+  FlipResult result;
+  const std::uint32_t slots = mesh.num_slots();
+  const std::uint32_t nv = mesh.num_vertices();
+  if (slots == 0) return result;
+  result.device_bytes = detail::flip_device_bytes(slots, nv);
+  detail::CudaExecutor executor;
+  detail::require_device_memory(result.device_bytes, 0,
+                                "Delaunay flipping of " + std::to_string(slots) + " triangles");
+  detail::DeviceEvent started, uploaded, flipped, done;
+  started.record(executor.stream());
+
+  const std::size_t words = 3 * static_cast<std::size_t>(slots);
+  DeviceBuffer<double> d_x(nv), d_y(nv);
+  DeviceBuffer<std::uint32_t> d_tri(words), d_adj(words), d_seg(words), d_vert_tri(nv);
+  executor.upload(d_x.data(), mesh.x.data(), nv);
+  executor.upload(d_y.data(), mesh.y.data(), nv);
+  executor.upload(d_tri.data(), mesh.tri.data(), words);
+  executor.upload(d_adj.data(), mesh.adj.data(), words);
+  executor.upload(d_seg.data(), mesh.seg.data(), words);
+  executor.upload(d_vert_tri.data(), mesh.vert_tri.data(), nv);
+  uploaded.record(executor.stream());
+  const MeshView m{d_x.data(),   d_y.data(),        d_tri.data(), d_adj.data(),
+                   d_seg.data(), d_vert_tri.data(), slots,        nv};
+
+  DeviceBuffer<std::uint32_t> d_mark(slots), d_partner(slots), d_list(slots), d_next(slots);
+  DeviceBuffer<std::uint8_t> d_active_flag(slots);
+  DeviceBuffer<std::uint32_t> d_cand(slots), d_nbr(slots), d_winners(slots), d_winner_edges(slots);
+  DeviceBuffer<std::uint32_t> d_waiting(slots), d_last(slots);
+  DeviceBuffer<std::uint8_t> d_own(slots), d_fix(slots);
+  std::uint32_t* marks = d_mark.data();
+  std::uint32_t* partner = d_partner.data();
+  std::uint8_t* active_flag = d_active_flag.data();
+  executor.fill_bytes(marks, 0xFF, slots);
+  executor.fill_bytes(partner, 0xFF, slots);
+  executor.fill_bytes(active_flag, 0, slots);
+  auto* d_failed = executor.scalar<std::uint32_t>();
+  executor.fill_bytes(d_failed, 0xFF, 1);
+
+  std::uint32_t* list = d_list.data();
+  std::uint32_t* next = d_next.data();
+  std::uint32_t n = executor.compact(
+      slots, [=] __device__(std::size_t t) { return m.alive(static_cast<std::uint32_t>(t)); }, list);
+  {
+    const std::uint32_t* l = list;
+    executor.for_each(
+        n, [=] __device__(std::size_t k) { active_flag[l[k]] = 1; }, "activate");
+  }
+  std::uint32_t* cand = d_cand.data();
+  std::uint32_t* nbr = d_nbr.data();
+  std::uint8_t* own = d_own.data();
+  std::uint32_t* winners = d_winners.data();
+  std::uint32_t* winner_edges = d_winner_edges.data();
+  std::uint32_t* waiting = d_waiting.data();
+  std::uint32_t* last = d_last.data();
+  std::uint8_t* fix = d_fix.data();
+  std::uint32_t num_last = 0; // slots of the last batch (2 per pair), whose partner entries are reset
+
+  while (n > 0) {
+    ++result.rounds;
+    const std::uint32_t* l = list;
+    // Propose and claim: the proposer's slot index is its label, so the lowest proposer wins.
+    executor.for_each(
+        n,
+        [=] __device__(std::size_t k) {
+          const std::uint32_t t = l[k];
+          const std::uint32_t e = ::cdt::detail::delaunay_flip_candidate(m, active_flag, t);
+          cand[k] = e;
+          nbr[k] = kNoId;
+          if (e == kNoId) return;
+          const std::uint32_t u = edge_tri(m.adj[e]);
+          nbr[k] = u;
+          atomicMin(marks + t, t);
+          atomicMin(marks + u, t);
+        },
+        "flip_propose");
+    executor.for_each(
+        n,
+        [=] __device__(std::size_t k) {
+          if (cand[k] == kNoId) {
+            own[k] = 0;
+            return;
+          }
+          const std::uint32_t t = l[k];
+          own[k] = static_cast<std::uint8_t>((marks[t] == t ? 1u : 0u) | (marks[nbr[k]] == t ? 2u : 0u));
+        },
+        "flip_claims");
+    const std::uint32_t num_winners = executor.compact(
+        n, [=] __device__(std::size_t k) { return own[k] == 3; }, winners);
+    if (num_winners == 0) {
+      // The lowest proposer always holds both of its claims, so no winner means no proposal.
+      if (executor.compact(
+              n, [=] __device__(std::size_t k) { return cand[k] != kNoId; }, waiting) != 0)
+        throw Error("internal error: a Delaunay flipping round claimed no pair");
+      break;
+    }
+    executor.for_each(
+        num_winners, [=] __device__(std::size_t k) { winner_edges[k] = cand[winners[k]]; }, "winner_edges");
+
+    // The batch of flips (FlipBatch::apply): partners, contents, then links.
+    {
+      const std::uint32_t* old = last;
+      executor.for_each(
+          num_last, [=] __device__(std::size_t k) { partner[old[k]] = kNoId; }, "partner_reset");
+    }
+    executor.for_each(
+        num_winners,
+        [=] __device__(std::size_t k) {
+          const std::uint32_t t = edge_tri(winner_edges[k]);
+          const std::uint32_t u = edge_tri(m.adj[winner_edges[k]]);
+          partner[t] = u;
+          partner[u] = t;
+          last[2 * k] = t;
+          last[2 * k + 1] = u;
+        },
+        "partner_set");
+    num_last = 2 * num_winners;
+    executor.for_each(
+        num_winners,
+        [=] __device__(std::size_t k) { fix[k] = ::cdt::detail::flip_pair_contents(m, winner_edges[k]); },
+        "flip_contents");
+    executor.for_each(
+        num_winners,
+        [=] __device__(std::size_t k) {
+          if (!::cdt::detail::relink_flipped_pair(m, partner, edge_tri(winner_edges[k]), fix[k]))
+            atomicMin(d_failed, static_cast<std::uint32_t>(k));
+        },
+        "flip_relink");
+    result.flips += num_winners;
+
+    executor.for_each(
+        n,
+        [=] __device__(std::size_t k) {
+          if (own[k] & 1u) marks[l[k]] = kNoId;
+          if (own[k] & 2u) marks[nbr[k]] = kNoId;
+        },
+        "clear_claims");
+
+    // Next round: proposers that could not flip yet, plus both new triangles of every flip.
+    const std::uint32_t num_waiting = executor.compact(
+        n, [=] __device__(std::size_t k) { return cand[k] != kNoId && partner[l[k]] == kNoId; }, waiting);
+    executor.for_each(
+        num_waiting, [=] __device__(std::size_t k) { next[k] = l[waiting[k]]; }, "next_waiting");
+    executor.for_each(
+        num_winners,
+        [=] __device__(std::size_t k) {
+          const std::uint32_t t = l[winners[k]];
+          next[num_waiting + 2 * k] = t;
+          next[num_waiting + 2 * k + 1] = partner[t];
+        },
+        "next_flipped");
+    executor.for_each(
+        n, [=] __device__(std::size_t k) { active_flag[l[k]] = 0; }, "deactivate");
+    const std::uint32_t num_next = num_waiting + 2 * num_winners;
+    {
+      const std::uint32_t* nx = next;
+      executor.for_each(
+          num_next, [=] __device__(std::size_t k) { active_flag[nx[k]] = 1; }, "activate");
+    }
+    std::uint32_t failed = kNoId;
+    executor.download(&failed, d_failed, 1);
+    if (failed != kNoId)
+      throw Error("internal error: a flipped pair lost a neighbour link (the triangulation was not valid)");
+    std::swap(list, next);
+    n = num_next;
+  }
+  flipped.record(executor.stream());
+  executor.download(mesh.tri.data(), d_tri.data(), words);
+  executor.download(mesh.adj.data(), d_adj.data(), words);
+  executor.download(mesh.seg.data(), d_seg.data(), words);
+  executor.download(mesh.vert_tri.data(), d_vert_tri.data(), nv);
+  done.record(executor.stream());
+  result.upload_ms = uploaded.since(started);
+  result.flip_ms = flipped.since(uploaded);
+  result.download_ms = done.since(flipped);
+  return result;
+}
+
+} // namespace cdt::gpu

@@ -1,0 +1,179 @@
+// Phases 2 and 6 of gCD on the device against the CPU executor: the dual triangulation built from the
+// colouring left on the device (DeviceVoronoi::dual, completed on the host) and Lawson flipping
+// (gpu::flip_to_delaunay) must leave the very same mesh, slot for slot and link for link, because later
+// phases walk it in slot order and both executors must agree on every result.
+#include <gtest/gtest.h>
+
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "cdt_kernels.hpp"
+#include "executor/cpu_executor.hpp"
+#include "gcd/dualize.hpp"
+#include "gcd/flip.hpp"
+#include "gcd/grid_map.hpp"
+#include "gcd/mesh.hpp"
+#include "gcd/voronoi.hpp"
+#include "mesh_test_util.hpp"
+#include "pslg_generators.hpp"
+
+namespace {
+
+using namespace cdt::detail;
+
+class MeshGpu : public ::testing::Test {
+protected:
+  void SetUp() override {
+    if (cdt::gpu::device_count() == 0) GTEST_SKIP() << "no CUDA device";
+  }
+};
+
+void expect_same_mesh(const Mesh& device, const Mesh& host, const std::string& what) {
+  EXPECT_EQ(device.x, host.x) << what;
+  EXPECT_EQ(device.y, host.y) << what;
+  ASSERT_EQ(device.num_slots(), host.num_slots()) << what;
+  EXPECT_EQ(device.tri, host.tri) << what;
+  EXPECT_EQ(device.adj, host.adj) << what;
+  EXPECT_EQ(device.seg, host.seg) << what;
+  EXPECT_EQ(device.vert_tri, host.vert_tri) << what;
+}
+
+/// Phase 1 and 2 inputs as triangulate() prepares them: sites on an m x m grid, kept sites moved to
+/// their grid points.
+struct DualInput {
+  GridSites grid;
+  std::uint32_t m = 0;
+  std::vector<double> x, y;
+  std::vector<std::uint8_t> kept;
+  Box bounds;
+};
+
+DualInput dual_input(const trixel_gen::Pslg& p, std::uint32_t m, CpuExecutor& executor) {
+  DualInput in;
+  std::vector<double> px, py;
+  for (const auto& q : p.points) {
+    px.push_back(q.x);
+    py.push_back(q.y);
+  }
+  const GridMapping mapping = make_grid_mapping(px, py, m);
+  in.grid = assign_sites(mapping, px, py, executor);
+  in.m = m;
+  in.x = px;
+  in.y = py;
+  in.kept.assign(px.size(), 0);
+  in.bounds = {px[0], py[0], px[0], py[0]};
+  for (std::size_t s = 0; s < px.size(); ++s) {
+    if (in.grid.cell_owner[static_cast<std::size_t>(in.grid.gy[s]) * m + in.grid.gx[s]] == s) {
+      in.kept[s] = 1;
+      in.x[s] = mapping.to_x(in.grid.gx[s]);
+      in.y[s] = mapping.to_y(in.grid.gy[s]);
+    }
+    for (const double v : {in.x[s], px[s]}) {
+      in.bounds.min_x = std::min(in.bounds.min_x, v);
+      in.bounds.max_x = std::max(in.bounds.max_x, v);
+    }
+    for (const double v : {in.y[s], py[s]}) {
+      in.bounds.min_y = std::min(in.bounds.min_y, v);
+      in.bounds.max_y = std::max(in.bounds.max_y, v);
+    }
+  }
+  return in;
+}
+
+TEST_F(MeshGpu, DualMatchesTheCpuExecutor) {
+  CpuExecutor executor(4);
+  struct Case {
+    trixel_gen::Pslg points;
+    std::uint32_t m;
+    const char* name;
+  };
+  const std::vector<Case> cases = {
+      {trixel_gen::random_points(2000, trixel_gen::Distribution::uniform, 7), 128, "uniform 2000"},
+      {trixel_gen::random_points(100000, trixel_gen::Distribution::uniform, 8), 1024, "uniform 100000"},
+      {trixel_gen::random_points(100000, trixel_gen::Distribution::gaussian, 9), 1024, "gaussian 100000"},
+      {trixel_gen::clustered(30000, 12, 10), 512, "clustered 30000"},
+  };
+  for (const Case& c : cases) {
+    const DualInput in = dual_input(c.points, c.m, executor);
+    const std::vector<std::uint32_t> colour = compute_digital_voronoi(in.grid, in.m, executor);
+    std::vector<std::uint32_t> degenerate;
+    const Mesh host = dualize(colour, in.m, in.x, in.y, in.kept, in.bounds, executor, nullptr, &degenerate);
+    ASSERT_GT(host.num_slots(), 0u) << c.name << ": this input must dualize without degenerate corners";
+
+    cdt::gpu::DeviceVoronoi diagram(in.grid.cell_owner, in.grid.gx, in.grid.gy, in.m);
+    Mesh dual;
+    dual.x = in.x;
+    dual.y = in.y;
+    reserve_mesh_slots(dual, static_cast<std::uint32_t>(in.x.size()));
+    cdt::gpu::DualStats stats;
+    ASSERT_TRUE(diagram.dual(dual, &stats)) << c.name;
+    EXPECT_GT(stats.dual_triangles, 0u) << c.name;
+    const Mesh device = complete_dual(std::move(dual), in.kept, in.bounds, executor);
+    expect_same_mesh(device, host, c.name);
+  }
+}
+
+// Three collinear sites meeting at one grid corner: the device must decline (the CPU executor's
+// degenerate-corner passes handle it) rather than return triangles that are not counter-clockwise.
+TEST_F(MeshGpu, DualDeclinesADegenerateCorner) {
+  CpuExecutor executor(1);
+  trixel_gen::Pslg p;
+  for (int i = 0; i < 3; ++i) p.points.push_back({static_cast<double>(i), static_cast<double>(i)});
+  p.points.push_back({0, 2});
+  const DualInput in = dual_input(p, 3, executor);
+  const std::vector<std::uint32_t> colour = compute_digital_voronoi(in.grid, in.m, executor);
+  std::vector<std::uint32_t> degenerate;
+  const Mesh host = dualize(colour, in.m, in.x, in.y, in.kept, in.bounds, executor, nullptr, &degenerate);
+  cdt::gpu::DeviceVoronoi diagram(in.grid.cell_owner, in.grid.gx, in.grid.gy, in.m);
+  EXPECT_EQ(diagram.colour(), colour);
+  Mesh dual;
+  dual.x = in.x;
+  dual.y = in.y;
+  const bool accepted = diagram.dual(dual);
+  // Whatever the CPU executor made of this diagram in one pass, the device agrees.
+  EXPECT_EQ(accepted, host.num_slots() > 0);
+  if (!accepted) {
+    EXPECT_EQ(dual.num_slots(), 0u);
+  }
+}
+
+TEST_F(MeshGpu, FlipMatchesTheCpuExecutor) {
+  struct Case {
+    trixel_gen::Pslg points;
+    const char* name;
+  };
+  const std::vector<Case> cases = {
+      {trixel_gen::random_points(10, trixel_gen::Distribution::uniform, 1), "uniform 10"},
+      {trixel_gen::random_points(5000, trixel_gen::Distribution::uniform, 2), "uniform 5000"},
+      {trixel_gen::random_points(200000, trixel_gen::Distribution::uniform, 3), "uniform 200000"},
+      {trixel_gen::random_points(50000, trixel_gen::Distribution::gaussian, 4), "gaussian 50000"},
+      {trixel_gen::lattice(60), "lattice 60"}, // co-circular everywhere: only strict flips
+  };
+  for (const Case& c : cases) {
+    std::vector<double> x, y;
+    for (const auto& q : c.points.points) {
+      x.push_back(q.x);
+      y.push_back(q.y);
+    }
+    Mesh start = trixel_test::sweep_triangulate(x, y);
+    // Some edges are constraints: neither executor may flip them.
+    for (std::size_t e = 0; e < start.seg.size(); e += 7) {
+      if (start.adj[e] == kNoId) continue;
+      start.seg[e] = static_cast<std::uint32_t>(e);
+      start.seg[start.adj[e]] = static_cast<std::uint32_t>(e);
+    }
+    Mesh host = start;
+    CpuExecutor executor(4);
+    const FlipStats host_stats = flip_to_delaunay(host, executor);
+    Mesh device = start;
+    const cdt::gpu::FlipResult device_stats = cdt::gpu::flip_to_delaunay(device);
+    EXPECT_EQ(device_stats.flips, host_stats.flips) << c.name;
+    EXPECT_EQ(device_stats.rounds, host_stats.rounds) << c.name;
+    EXPECT_GT(device_stats.flips, 0u) << c.name << ": a sweep triangulation is not Delaunay";
+    expect_same_mesh(device, host, c.name);
+    trixel_test::expect_valid_mesh(device);
+  }
+}
+
+} // namespace

@@ -1,0 +1,92 @@
+// triangulate() with Backend::gpu: the digital Voronoi phase runs on the device, the later phases on
+// the CPU executor. The device colouring equals the CPU executor's cell for cell, so the whole result
+// must be the CPU backend's, triangle for triangle, and verify.
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <array>
+#include <cstdint>
+#include <filesystem>
+#include <string>
+#include <vector>
+
+#include "cdt/cdt.hpp"
+#include "cdt/io.hpp"
+#include "cdt/verify.hpp"
+#include "pslg_generators.hpp"
+
+namespace {
+
+using trixel_gen::Distribution;
+
+// Triangles as vertex triples rotated to start at their smallest vertex, sorted: the same set gives
+// the same list whatever the triangle order.
+std::vector<std::array<std::uint32_t, 3>> canonical(const cdt::Triangulation& t) {
+  std::vector<std::array<std::uint32_t, 3>> out;
+  out.reserve(t.triangles.size());
+  for (auto tri : t.triangles) {
+    std::rotate(tri.begin(), std::min_element(tri.begin(), tri.end()), tri.end());
+    out.push_back(tri);
+  }
+  std::sort(out.begin(), out.end());
+  return out;
+}
+
+void expect_same_as_cpu(const std::vector<cdt::Point>& points, const std::vector<cdt::Segment>& segments,
+                        const std::string& what) {
+  cdt::Options gpu;
+  gpu.backend = cdt::Backend::gpu;
+  cdt::Options cpu;
+  cpu.backend = cdt::Backend::cpu;
+  const cdt::Triangulation on_gpu = cdt::triangulate(points, segments, gpu);
+  const cdt::Triangulation on_cpu = cdt::triangulate(points, segments, cpu);
+  EXPECT_EQ(on_gpu.stats.backend.rfind("gpu", 0), 0u) << what << ": backend " << on_gpu.stats.backend;
+  EXPECT_EQ(canonical(on_gpu), canonical(on_cpu)) << what;
+  const cdt::VerifyReport report = cdt::verify(on_gpu, points, segments);
+  EXPECT_TRUE(report.ok()) << what << ": " << (report.problems.empty() ? "" : report.problems.front());
+}
+
+class TriangulateGpu : public ::testing::Test {
+protected:
+  void SetUp() override {
+    if (cdt::gpu_device_count() == 0) GTEST_SKIP() << "no CUDA device";
+  }
+};
+
+TEST_F(TriangulateGpu, PointsMatchTheCpuBackend) {
+  for (std::size_t n : {10u, 1000u, 100000u, 1000000u}) {
+    const auto in = trixel_gen::random_points(n, Distribution::uniform, n);
+    expect_same_as_cpu(in.points, in.segments, "uniform " + std::to_string(n));
+  }
+  const auto g = trixel_gen::random_points(100000, Distribution::gaussian, 3);
+  expect_same_as_cpu(g.points, g.segments, "gaussian 100000");
+}
+
+TEST_F(TriangulateGpu, SegmentsMatchTheCpuBackend) {
+  for (std::size_t n : {1000u, 100000u}) {
+    const auto in = trixel_gen::synthetic_pslg(n, n / 10, Distribution::uniform, n + 1);
+    expect_same_as_cpu(in.points, in.segments, "synthetic " + std::to_string(n));
+  }
+}
+
+// Co-circular everywhere: many ties in the diagram.
+TEST_F(TriangulateGpu, LatticesVerify) {
+  for (std::uint32_t k : {10u, 64u}) {
+    const auto in = trixel_gen::lattice_with_segments(k, k, k);
+    expect_same_as_cpu(in.points, in.segments, "lattice " + std::to_string(k));
+  }
+}
+
+TEST_F(TriangulateGpu, ArtemOgreFilesVerify) {
+  const std::filesystem::path dir = std::filesystem::path(TRIXEL_TEST_DATA_DIR) / "cdt" / "artem-ogre-CDT";
+  int files = 0;
+  for (const auto& entry : std::filesystem::directory_iterator(dir)) {
+    if (entry.path().extension() != ".txt") continue;
+    ++files;
+    const cdt::io::Pslg in = cdt::io::read_edge_list(entry.path());
+    expect_same_as_cpu(in.points, in.segments, entry.path().filename().string());
+  }
+  EXPECT_EQ(files, 36);
+}
+
+} // namespace
