@@ -243,6 +243,8 @@ int main(int argc, char** argv) {
       for (int r = 0; r < repeat; ++r) cgal.push_back(run_cgal(input.pslg));
       cgal_ms = median(cgal);
     }
+#else
+    (void)with_cgal; // no competitor in this build: the column says -1
 #endif
     std::vector<std::string> f;
     std::stringstream ss(row);
