@@ -70,7 +70,9 @@ FlipResult flip_to_delaunay(::cdt::detail::Mesh& mesh) {
   executor.fill_bytes(marks, 0xFF, slots);
   executor.fill_bytes(partner, 0xFF, slots);
   executor.fill_bytes(active_flag, 0, slots);
-  auto* d_failed = executor.scalar<std::uint32_t>();
+  // Its own word: the executor's scalar is the compactions' count.
+  DeviceBuffer<std::uint32_t> d_failed_word(1);
+  std::uint32_t* d_failed = d_failed_word.data();
   executor.fill_bytes(d_failed, 0xFF, 1);
 
   std::uint32_t* list = d_list.data();

@@ -94,12 +94,12 @@ TEST_F(MeshGpu, DualMatchesTheCpuExecutor) {
       {trixel_gen::random_points(100000, trixel_gen::Distribution::gaussian, 9), 1024, "gaussian 100000"},
       {trixel_gen::clustered(30000, 12, 10), 512, "clustered 30000"},
   };
+  int compared = 0;
   for (const Case& c : cases) {
     const DualInput in = dual_input(c.points, c.m, executor);
     const std::vector<std::uint32_t> colour = compute_digital_voronoi(in.grid, in.m, executor);
     std::vector<std::uint32_t> degenerate;
     const Mesh host = dualize(colour, in.m, in.x, in.y, in.kept, in.bounds, executor, nullptr, &degenerate);
-    ASSERT_GT(host.num_slots(), 0u) << c.name << ": this input must dualize without degenerate corners";
 
     cdt::gpu::DeviceVoronoi diagram(in.grid.cell_owner, in.grid.gx, in.grid.gy, in.m);
     Mesh dual;
@@ -107,11 +107,17 @@ TEST_F(MeshGpu, DualMatchesTheCpuExecutor) {
     dual.y = in.y;
     reserve_mesh_slots(dual, static_cast<std::uint32_t>(in.x.size()));
     cdt::gpu::DualStats stats;
-    ASSERT_TRUE(diagram.dual(dual, &stats)) << c.name;
+    const bool accepted = diagram.dual(dual, &stats);
+    // Kept sites sit on grid points, so three of them can be collinear at a corner: the CPU executor
+    // then returns no mesh (triangulate() takes those sites out and tries again), the device declines.
+    ASSERT_EQ(accepted, host.num_slots() > 0) << c.name;
+    if (!accepted) continue;
+    ++compared;
     EXPECT_GT(stats.dual_triangles, 0u) << c.name;
     const Mesh device = complete_dual(std::move(dual), in.kept, in.bounds, executor);
     expect_same_mesh(device, host, c.name);
   }
+  EXPECT_GE(compared, 3) << "too few inputs dualized in one pass to compare the executors";
 }
 
 // Three collinear sites meeting at one grid corner: the device must decline (the CPU executor's
