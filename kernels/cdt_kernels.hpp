@@ -107,13 +107,25 @@ public:
   /// copy's device time when given.
   std::vector<std::uint32_t> colour(float* download_ms = nullptr) const;
 
+  /// What dual() made of the diagram.
+  enum class DualOutcome {
+    built,      ///< the mesh holds the dual triangles, linked
+    degenerate, ///< degenerate corners: the sites to take out of the diagram are listed
+    declined,   ///< no mesh: the CPU executor's dualize must handle this colouring
+  };
+
   /// The first half of cdt::detail::dualize on the device: the triangles of every 3- and 4-colour grid
   /// corner, in the CPU executor's slot order (by lowest vertex, then row-major corner order), linked,
   /// vert_tri the highest incident slot. mesh.x, mesh.y hold the n sites' positions (kept sites at their
-  /// grid points) and stay as they are; tri, adj, seg and vert_tri are replaced. Returns false, leaving
-  /// the mesh without triangles, when the dual is not a valid triangulation (a degenerate corner, an
-  /// edge that does not pair up) or is empty: the CPU executor's dualize then handles the colouring.
-  bool dual(::cdt::detail::Mesh& mesh, DualStats* stats = nullptr);
+  /// grid points) and stay as they are; tri, adj, seg and vert_tri are replaced (left empty unless
+  /// built). A corner whose triangle would not be counter-clockwise (three collinear sites) makes it
+  /// list in `degenerate` the sites dualize would list (sorted, distinct), or decline without that
+  /// list; an empty dual or one whose edges do not pair up is declined.
+  DualOutcome dual(::cdt::detail::Mesh& mesh, DualStats* stats = nullptr,
+                   std::vector<std::uint32_t>* degenerate = nullptr);
+
+  /// Replaces the colouring on the device (after cdt::detail::remove_sites_from_colouring on a copy).
+  void set_colour(std::span<const std::uint32_t> colour);
 
   struct State; ///< device buffers and stream (defined by the CUDA code)
 

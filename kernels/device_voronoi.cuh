@@ -32,6 +32,7 @@ struct DeviceVoronoi::State {
   detail::VoronoiBuffers buffers;
   std::uint32_t m = 0;
   std::size_t num_points = 0;
+  detail::DeviceBuffer<double> site_x, site_y; ///< Phase 2: the sites' positions (dual's mesh.x, mesh.y)
 };
 
 } // namespace cdt::gpu

@@ -10,6 +10,7 @@
 // Hull completion and the fake boundary touch only the dual's boundary, a few thousand edges: the host
 // does them on the copied mesh (cdt::detail::complete_dual).
 
+#include <algorithm>
 #include <cstddef>
 #include <cstdint>
 #include <string>
@@ -48,7 +49,6 @@ std::size_t dual_device_bytes(std::size_t n) {
 }
 
 struct DualBuffers {
-  DeviceBuffer<double> x, y;
   DeviceBuffer<std::uint32_t> unsorted; ///< triangles in corner order
   DeviceBuffer<std::uint32_t> tri;      ///< triangles in slot order
   DeviceBuffer<std::uint32_t> key, index;
@@ -122,9 +122,44 @@ bool link_on_device(CudaExecutor& executor, DualBuffers& b, std::uint32_t num_sl
   return bad == 0;
 }
 
+/// The sites degenerate corners make dualize take out of the diagram (sorted, distinct).
+void list_culprits(DeviceVoronoi::State& state, const std::uint32_t* list, std::uint32_t num,
+                   const ::cdt::detail::Mesh& mesh, std::vector<std::uint32_t>& out) {
+  CudaExecutor& executor = state.executor;
+  const std::uint32_t m = state.m;
+  const std::uint32_t side = m - 1;
+  const std::uint32_t* colour = state.buffers.colour.data();
+  // The degenerate corners are few: their colours copied, the culprits picked on the host by the
+  // CPU executor's rule (corner_culprits).
+  DeviceBuffer<std::uint32_t> d_colours(4 * static_cast<std::size_t>(num));
+  std::uint32_t* colours = d_colours.data();
+  executor.for_each(
+      num,
+      [=] __device__(std::size_t k) {
+        const std::uint32_t c = list[k];
+        ::cdt::detail::corner_colours(colour, m, c % side, c / side, colours + 4 * k);
+      },
+      "degenerate_corners");
+  std::vector<std::uint32_t> h_colours(4 * static_cast<std::size_t>(num));
+  executor.download(h_colours.data(), colours, h_colours.size());
+  out.clear();
+  for (std::uint32_t k = 0; k < num; ++k)
+    ::cdt::detail::corner_culprits(h_colours.data() + 4 * static_cast<std::size_t>(k), mesh.x.data(),
+                                   mesh.y.data(), out);
+  std::sort(out.begin(), out.end());
+  out.erase(std::unique(out.begin(), out.end()), out.end());
+}
+
 } // namespace detail
 
-bool DeviceVoronoi::dual(::cdt::detail::Mesh& mesh, DualStats* stats) {
+void DeviceVoronoi::set_colour(std::span<const std::uint32_t> colour) {
+  const std::size_t cells = static_cast<std::size_t>(state_->m) * state_->m;
+  if (colour.size() != cells) throw Error("DeviceVoronoi::set_colour: the colouring is not m * m");
+  state_->executor.upload(state_->buffers.colour.data(), colour.data(), cells);
+}
+
+DeviceVoronoi::DualOutcome DeviceVoronoi::dual(::cdt::detail::Mesh& mesh, DualStats* stats,
+                                               std::vector<std::uint32_t>* degenerate) {
   DualStats local;
   DualStats& st = stats != nullptr ? *stats : local;
   st = DualStats{};
@@ -136,7 +171,7 @@ bool DeviceVoronoi::dual(::cdt::detail::Mesh& mesh, DualStats* stats) {
   mesh.adj.clear();
   mesh.seg.clear();
   mesh.vert_tri.clear();
-  if (m < 2 || n < 3) return false;
+  if (m < 2 || n < 3) return DualOutcome::declined;
   st.device_bytes = detail::dual_device_bytes(n);
   detail::require_device_memory(st.device_bytes, 0,
                                 "the dual triangulation of " + std::to_string(n) + " sites");
@@ -144,17 +179,19 @@ bool DeviceVoronoi::dual(::cdt::detail::Mesh& mesh, DualStats* stats) {
   detail::DeviceEvent started, written, linked, done;
   started.record(executor.stream());
   detail::DualBuffers b;
-  b.x.resize(n);
-  b.y.resize(n);
-  executor.upload(b.x.data(), mesh.x.data(), n);
-  executor.upload(b.y.data(), mesh.y.data(), n);
-  const double* x = b.x.data();
-  const double* y = b.y.data();
+  state_->site_x.resize(n);
+  state_->site_y.resize(n);
+  executor.upload(state_->site_x.data(), mesh.x.data(), n);
+  executor.upload(state_->site_y.data(), mesh.y.data(), n);
+  const double* x = state_->site_x.data();
+  const double* y = state_->site_y.data();
   const std::uint32_t* colour = state_->buffers.colour.data();
   // Phase 1's scratch of m * m words is free now: it holds the corners' counts, then their offsets.
   std::uint32_t* count = state_->buffers.stack.data();
   const std::uint32_t side = m - 1;
   const std::size_t corners = static_cast<std::size_t>(side) * side;
+  // Degenerate corners are listed in Phase 1's other free scratch of m * m words, in any order.
+  std::uint32_t* bad_list = state_->buffers.owner.data();
   auto* d_bad = executor.scalar<std::uint32_t>();
   executor.fill_bytes(d_bad, 0, 1);
   executor.for_each(
@@ -165,15 +202,19 @@ bool DeviceVoronoi::dual(::cdt::detail::Mesh& mesh, DualStats* stats) {
                                       static_cast<std::uint32_t>(c / side), q);
         ::cdt::detail::DualTriangle out[2];
         const int k = ::cdt::detail::corner_triangles(q, x, y, out);
-        if (k < 0) atomicOr(d_bad, 1u);
+        if (k < 0) bad_list[atomicAdd(d_bad, 1u)] = static_cast<std::uint32_t>(c);
         count[c] = k < 0 ? 0u : static_cast<std::uint32_t>(k);
       },
       "corner_counts");
   std::uint32_t bad = 0;
   executor.download(&bad, d_bad, 1);
-  if (bad != 0) return false;
+  if (bad != 0) {
+    if (degenerate == nullptr) return DualOutcome::declined;
+    detail::list_culprits(*state_, bad_list, bad, mesh, *degenerate);
+    return DualOutcome::degenerate;
+  }
   const std::uint32_t num_dual = executor.exclusive_scan(count, corners);
-  if (num_dual == 0) return false;
+  if (num_dual == 0) return DualOutcome::declined;
 
   b.unsorted.resize(3 * static_cast<std::size_t>(num_dual));
   b.tri.resize(3 * static_cast<std::size_t>(num_dual));
@@ -212,7 +253,7 @@ bool DeviceVoronoi::dual(::cdt::detail::Mesh& mesh, DualStats* stats) {
   written.record(executor.stream());
   const bool linked_ok = detail::link_on_device(executor, b, num_dual, n);
   linked.record(executor.stream());
-  if (!linked_ok) return false;
+  if (!linked_ok) return DualOutcome::declined;
 
   const std::size_t words = 3 * static_cast<std::size_t>(num_dual);
   mesh.tri.resize(words);
@@ -227,7 +268,7 @@ bool DeviceVoronoi::dual(::cdt::detail::Mesh& mesh, DualStats* stats) {
   st.triangles_ms = written.since(started);
   st.link_ms = linked.since(written);
   st.download_ms = done.since(linked);
-  return true;
+  return DualOutcome::built;
 }
 
 } // namespace cdt::gpu

@@ -201,30 +201,35 @@ Triangulation triangulate(std::span<const Point> points, std::span<const Segment
   // Degenerate corners (collinear sites meeting at a grid corner) take their middle site out of the
   // diagram; it becomes a missing point. A few passes settle every input met so far; should they not,
   // the fake polygon alone is the start and every site a missing point.
+  // With the GPU backend the colouring stays on the device while passes build the dual there; a
+  // pass that finds degenerate corners edits a host copy of the colouring, as the CPU executor does.
   Mesh mesh;
-  bool dualized = false;
-#if defined(TRIXEL_HAVE_CUDA)
-  if (device_diagram) {
-    Mesh dual;
-    dual.x = x;
-    dual.y = y;
-    reserve_mesh_slots(dual, n);
-    dualized = device_diagram->dual(dual);
-    if (dualized)
-      mesh = complete_dual(std::move(dual), kept, bounds, executor);
-    else
-      colour = device_diagram->colour(); // a degenerate or empty dual: the CPU executor's path below
-    device_diagram.reset();
-  }
-#endif
   std::vector<std::uint32_t> degenerate;
   int passes = 1;
-  for (; !dualized; ++passes) {
-    mesh = dualize(colour, m, x, y, kept, bounds, executor, nullptr, passes <= 8 ? &degenerate : nullptr);
-    if (mesh.num_slots() > 0) {
-      dualized = true;
-      break;
+  for (;; ++passes) {
+    std::vector<std::uint32_t>* list = passes <= 8 ? &degenerate : nullptr;
+#if defined(TRIXEL_HAVE_CUDA)
+    if (device_diagram) {
+      using Outcome = gpu::DeviceVoronoi::DualOutcome;
+      Mesh dual;
+      dual.x = x;
+      dual.y = y;
+      reserve_mesh_slots(dual, n);
+      const Outcome outcome = device_diagram->dual(dual, nullptr, list);
+      if (outcome == Outcome::built) {
+        mesh = complete_dual(std::move(dual), kept, bounds, executor);
+        break;
+      }
+      colour = device_diagram->colour();
+      if (outcome == Outcome::declined) device_diagram.reset(); // the CPU executor's dualize below
     }
+    if (!device_diagram) {
+#endif
+      mesh = dualize(colour, m, x, y, kept, bounds, executor, nullptr, list);
+      if (mesh.num_slots() > 0) break;
+#if defined(TRIXEL_HAVE_CUDA)
+    }
+#endif
     remove_sites_from_colouring(colour, grid, m, degenerate);
     for (const std::uint32_t s : degenerate) {
       kept[s] = 0;
@@ -237,7 +242,13 @@ Triangulation triangulate(std::span<const Point> points, std::span<const Segment
       const std::uint32_t owner = colour[static_cast<std::size_t>(grid.gy[s]) * m + grid.gx[s]];
       missing.push_back({s, owner != kNone && kept[owner] != 0 ? owner : n});
     }
+#if defined(TRIXEL_HAVE_CUDA)
+    if (device_diagram) device_diagram->set_colour(colour);
+#endif
   }
+#if defined(TRIXEL_HAVE_CUDA)
+  device_diagram.reset(); // its device memory is free for the later phases
+#endif
   // Kept sites the dual did not reach (degenerate diagrams) are inserted like missing points, starting
   // from the fake boundary, which is always in the mesh.
   for (const std::uint32_t s :

@@ -22,25 +22,6 @@ CDT_HD_INLINE int orient(const double* x, const double* y, std::uint32_t a, std:
   return orient2d(x[a], y[a], x[b], y[b], x[c], y[c]);
 }
 
-/// The sites to take out of the diagram for an invalid corner (corner_triangles returned -1): the
-/// middle one of three collinear sites (the diagram degenerates there), else every site of the corner.
-void corner_culprits(const std::uint32_t q[4], const double* x, const double* y,
-                     std::vector<std::uint32_t>& out) {
-  std::uint32_t ring[4];
-  int n = 0;
-  for (int k = 0; k < 4; ++k) {
-    if (q[k] != q[(k + 3) % 4]) ring[n++] = q[k];
-  }
-  if (n == 3 && orient(x, y, ring[0], ring[1], ring[2]) == 0) {
-    const auto key = [&](std::uint32_t v) { return std::pair{x[v], y[v]}; };
-    std::uint32_t sorted[3] = {ring[0], ring[1], ring[2]};
-    std::sort(sorted, sorted + 3, [&](std::uint32_t a, std::uint32_t b) { return key(a) < key(b); });
-    out.push_back(sorted[1]);
-    return;
-  }
-  out.insert(out.end(), ring, ring + n);
-}
-
 /// The fake boundary: a regular polygon of k vertices around `bounds`, its inscribed circle three
 /// times as large as the box's circumscribed one, so every site position is strictly inside.
 void add_fake_polygon(Mesh& mesh, const Box& bounds, std::uint32_t k) {
@@ -127,6 +108,23 @@ Mesh fake_polygon_only(std::span<const double> x, std::span<const double> y, con
 }
 
 } // namespace
+
+void corner_culprits(const std::uint32_t q[4], const double* x, const double* y,
+                     std::vector<std::uint32_t>& out) {
+  std::uint32_t ring[4];
+  int n = 0;
+  for (int k = 0; k < 4; ++k) {
+    if (q[k] != q[(k + 3) % 4]) ring[n++] = q[k];
+  }
+  if (n == 3 && orient(x, y, ring[0], ring[1], ring[2]) == 0) {
+    const auto key = [&](std::uint32_t v) { return std::pair{x[v], y[v]}; };
+    std::uint32_t sorted[3] = {ring[0], ring[1], ring[2]};
+    std::sort(sorted, sorted + 3, [&](std::uint32_t a, std::uint32_t b) { return key(a) < key(b); });
+    out.push_back(sorted[1]);
+    return;
+  }
+  out.insert(out.end(), ring, ring + n);
+}
 
 Mesh dualize(std::span<const std::uint32_t> colour, std::uint32_t m, std::span<const double> x,
              std::span<const double> y, std::span<const std::uint8_t> kept, const Box& bounds,

@@ -53,6 +53,12 @@ Mesh dualize(std::span<const std::uint32_t> colour, std::uint32_t m, std::span<c
              CpuExecutor& executor, DualizeStats* stats = nullptr,
              std::vector<std::uint32_t>* degenerate = nullptr);
 
+/// Appends to out the sites to take out of the diagram for an invalid corner (corner_triangles returned
+/// -1): the middle one of three collinear sites (the diagram degenerates there), else every site of the
+/// corner.
+void corner_culprits(const std::uint32_t q[4], const double* x, const double* y,
+                     std::vector<std::uint32_t>& out);
+
 /// Room for the triangulation of n sites with the fake boundary (2 n + k - 2 triangles for k fake
 /// vertices, at most about sqrt(n) of them), so that hull completion and Phase 4 append slots without
 /// reallocating. Pages past the used part are never touched, so this costs address space only.
