@@ -125,12 +125,10 @@ std::vector<std::uint32_t> spatial_site_order(const detail::GridMapping& mapping
   return order;
 }
 
-} // namespace
-
-Triangulation triangulate(std::span<const Point> points, std::span<const Segment> segments,
-                          const Options& options) {
+/// The whole pipeline on the CPU executor alone, or with the CUDA executor's phases when on_gpu.
+Triangulation triangulate_on(std::span<const Point> points, std::span<const Segment> segments,
+                             const Options& options, bool on_gpu) {
   using namespace detail;
-  const bool on_gpu = use_gpu(options.backend);
   const auto t_start = Clock::now();
   Triangulation result;
   Statistics& stats = result.stats;
@@ -327,6 +325,21 @@ Triangulation triangulate(std::span<const Point> points, std::span<const Segment
   timer.end("output");
   stats.total_milliseconds = std::chrono::duration<double, std::milli>(Clock::now() - t_start).count();
   return result;
+}
+
+} // namespace
+
+Triangulation triangulate(std::span<const Point> points, std::span<const Segment> segments,
+                          const Options& options) {
+  const bool on_gpu = use_gpu(options.backend);
+  if (!on_gpu || options.backend == Backend::gpu) return triangulate_on(points, segments, options, on_gpu);
+  // backend auto: a device that fails (out of memory, say, when other processes hold it) leaves the
+  // work to the CPU executor, which gives the same result.
+  try {
+    return triangulate_on(points, segments, options, true);
+  } catch (const DeviceError&) {
+    return triangulate_on(points, segments, options, false);
+  }
 }
 
 } // namespace cdt

@@ -35,7 +35,8 @@ inline constexpr std::uint32_t kNone = 0xFFFFFFFFu;
 
 /// Where the algorithm runs.
 enum class Backend {
-  automatic, ///< the GPU when a CUDA device is present, the CPU otherwise
+  automatic, ///< the GPU when a CUDA device is present, the CPU otherwise, and the CPU when the device
+             ///< fails during the call (out of memory, say)
   cpu,       ///< the CPU executor (threads) for every phase
   gpu,       ///< the CUDA executor (for the digital Voronoi diagram, the dual triangles and the final
              ///< Lawson flips so far; the CPU executor runs the rest); an error when no device is present
