@@ -10,7 +10,10 @@
 #include <vector>
 
 namespace cdt::detail {
-struct Mesh; // cdt/src/gcd/mesh.hpp
+struct Mesh;         // cdt/src/gcd/mesh.hpp
+struct MissingPoint; // cdt/src/gcd/shift.hpp
+struct ShiftStats;   // cdt/src/gcd/shift.hpp
+struct InsertStats;  // cdt/src/gcd/insert.hpp
 } // namespace cdt::detail
 
 namespace cdt::gpu {
@@ -139,13 +142,55 @@ private:
 struct FlipResult {
   std::uint64_t flips = 0;
   std::uint64_t rounds = 0;
-  std::size_t device_bytes = 0;                      ///< the estimate checked against the memory available
-  float upload_ms = 0, flip_ms = 0, download_ms = 0; ///< device time of the steps
+  std::size_t device_bytes = 0; ///< the estimate checked against the memory available
+  /// Milliseconds: the copies to and from the device (wall time; 0 for DeviceMesh::flip) and the flips
+  /// (device time).
+  float upload_ms = 0, flip_ms = 0, download_ms = 0;
 };
 
 /// cdt::detail::flip_to_delaunay on the device, round for round the same (so the same result): the
 /// mesh is copied to the device, flipped there and copied back in place. Throws Error when the links
 /// are inconsistent and DeviceError when the mesh does not fit in device memory or CUDA fails.
 FlipResult flip_to_delaunay(::cdt::detail::Mesh& mesh);
+
+// --- Phases 3 to 6 on a mesh that stays on the device --------------------------------------------------
+
+/// A triangle mesh (cdt::detail::Mesh) held in device memory, on which the later phases run one after
+/// the other without copying it back: shifting (Phase 3), missing points and the fake boundary's
+/// removal (Phase 4) and Lawson flips (Phase 6). Each step runs the CPU executor's driver step for step
+/// on the CUDA executor, from the same per-element code, so the mesh is the same slot for slot.
+/// Steps throw Error when the mesh breaks a precondition (as the CPU executor's do) and DeviceError
+/// when CUDA fails or the device lacks the memory.
+class DeviceMesh {
+public:
+  /// Copies the mesh to the device.
+  explicit DeviceMesh(const ::cdt::detail::Mesh& mesh);
+  ~DeviceMesh();
+  DeviceMesh(DeviceMesh&&) noexcept;
+  DeviceMesh& operator=(DeviceMesh&&) noexcept;
+
+  /// cdt::detail::shift_to_true_positions: the bad cases are appended to `missing` in the same order.
+  ::cdt::detail::ShiftStats shift(std::uint32_t num_sites, std::span<const double> true_x,
+                                  std::span<const double> true_y,
+                                  std::vector<::cdt::detail::MissingPoint>& missing);
+
+  /// cdt::detail::insert_missing_points (the mesh grows on the device when free slots are short).
+  ::cdt::detail::InsertStats insert(std::span<const ::cdt::detail::MissingPoint> missing);
+
+  /// cdt::detail::remove_fake_boundary: the fake vertices leave, the slots are compacted in the order
+  /// of their lowest vertex.
+  void remove_fake_boundary(std::uint32_t first_fake);
+
+  /// cdt::detail::flip_to_delaunay (constraint edges never flip); upload_ms and download_ms stay 0.
+  FlipResult flip();
+
+  /// Copies the mesh back into `mesh` (every array replaced).
+  void download(::cdt::detail::Mesh& mesh) const;
+
+  struct State; ///< device buffers and stream (defined by the CUDA code)
+
+private:
+  std::unique_ptr<State> state_;
+};
 
 } // namespace cdt::gpu

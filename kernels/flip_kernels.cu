@@ -4,6 +4,7 @@
 // same steps as the CPU executor's flip_to_delaunay (cdt/src/gcd/flip.cpp) in the same order, with the
 // same compactions, so both flip the same pairs in every round and end with the same mesh.
 
+#include <chrono>
 #include <cstddef>
 #include <cstdint>
 #include <string>
@@ -12,6 +13,7 @@
 #include "cdt_kernels.hpp"
 #include "cuda_check.cuh"
 #include "cuda_executor.cuh"
+#include "device_mesh.cuh"
 #include "gcd/flip.hpp"
 
 namespace cdt::gpu {
@@ -22,6 +24,9 @@ using ::cdt::detail::MeshView;
 
 namespace detail {
 
+/// Device memory of a mesh (mesh_kernels.cu).
+std::size_t mesh_device_bytes(std::size_t slots, std::size_t nv);
+
 /// Device memory that flipping a mesh of num_slots slots and num_vertices vertices needs, in bytes.
 std::size_t flip_device_bytes(std::size_t num_slots, std::size_t num_vertices) {
   // The mesh (tri, adj, seg; x, y, vert_tri); per slot: mark, partner, active flag, two slot lists,
@@ -31,34 +36,18 @@ std::size_t flip_device_bytes(std::size_t num_slots, std::size_t num_vertices) {
          (std::size_t{4} << 20);
 }
 
-} // namespace detail
-
-FlipResult flip_to_delaunay(::cdt::detail::Mesh& mesh) {
-  using detail::DeviceBuffer;
+/// The flips on a mesh on the device: flip_to_delaunay's rounds.
+FlipResult flip_mesh(DeviceMesh::State& s) {
   FlipResult result;
-  const std::uint32_t slots = mesh.num_slots();
-  const std::uint32_t nv = mesh.num_vertices();
+  const std::uint32_t slots = s.num_slots;
   if (slots == 0) return result;
-  result.device_bytes = detail::flip_device_bytes(slots, nv);
-  detail::CudaExecutor executor;
-  detail::require_device_memory(result.device_bytes, 0,
-                                "Delaunay flipping of " + std::to_string(slots) + " triangles");
-  detail::DeviceEvent started, uploaded, flipped, done;
+  result.device_bytes = flip_device_bytes(slots, s.num_vertices);
+  CudaExecutor& executor = s.executor;
+  require_device_memory(result.device_bytes - mesh_device_bytes(slots, s.num_vertices), 0,
+                        "Delaunay flipping of " + std::to_string(slots) + " triangles");
+  DeviceEvent started, flipped;
   started.record(executor.stream());
-
-  const std::size_t words = 3 * static_cast<std::size_t>(slots);
-  DeviceBuffer<double> d_x(nv), d_y(nv);
-  DeviceBuffer<std::uint32_t> d_tri(words), d_adj(words), d_seg(words), d_vert_tri(nv);
-  executor.upload(d_x.data(), mesh.x.data(), nv);
-  executor.upload(d_y.data(), mesh.y.data(), nv);
-  executor.upload(d_tri.data(), mesh.tri.data(), words);
-  executor.upload(d_adj.data(), mesh.adj.data(), words);
-  executor.upload(d_seg.data(), mesh.seg.data(), words);
-  executor.upload(d_vert_tri.data(), mesh.vert_tri.data(), nv);
-  uploaded.record(executor.stream());
-  const MeshView m{d_x.data(),   d_y.data(),        d_tri.data(), d_adj.data(),
-                   d_seg.data(), d_vert_tri.data(), slots,        nv};
-
+  const MeshView m = s.view();
   DeviceBuffer<std::uint32_t> d_mark(slots), d_partner(slots), d_list(slots), d_next(slots);
   DeviceBuffer<std::uint8_t> d_active_flag(slots);
   DeviceBuffer<std::uint32_t> d_cand(slots), d_nbr(slots), d_winners(slots), d_winner_edges(slots);
@@ -203,14 +192,25 @@ FlipResult flip_to_delaunay(::cdt::detail::Mesh& mesh) {
     n = num_next;
   }
   flipped.record(executor.stream());
-  executor.download(mesh.tri.data(), d_tri.data(), words);
-  executor.download(mesh.adj.data(), d_adj.data(), words);
-  executor.download(mesh.seg.data(), d_seg.data(), words);
-  executor.download(mesh.vert_tri.data(), d_vert_tri.data(), nv);
-  done.record(executor.stream());
-  result.upload_ms = uploaded.since(started);
-  result.flip_ms = flipped.since(uploaded);
-  result.download_ms = done.since(flipped);
+  result.flip_ms = flipped.since(started);
+  return result;
+}
+
+} // namespace detail
+
+FlipResult DeviceMesh::flip() { return detail::flip_mesh(*state_); }
+
+FlipResult flip_to_delaunay(::cdt::detail::Mesh& mesh) {
+  using Clock = std::chrono::steady_clock;
+  const auto started = Clock::now();
+  DeviceMesh device(mesh);
+  const auto uploaded = Clock::now();
+  FlipResult result = device.flip();
+  const auto flipped = Clock::now();
+  device.download(mesh);
+  const auto done = Clock::now();
+  result.upload_ms = std::chrono::duration<float, std::milli>(uploaded - started).count();
+  result.download_ms = std::chrono::duration<float, std::milli>(done - flipped).count();
   return result;
 }
 

@@ -1,8 +1,9 @@
 // triangulate(): the gCD pipeline (paper sections 3 and 4). The CPU executor runs every phase; with
 // the GPU backend the CUDA executor runs the digital Voronoi diagram, the dual triangles with their
-// links (Phase 2 but for hull completion and the fake boundary) and the final Lawson flips, each the
-// same computation as the CPU executor's step for step, so the result is the same; the CPU executor
-// runs the rest, until those phases move to the device too.
+// links (Phase 2 but for hull completion and the fake boundary), shifting, missing points, the fake
+// boundary's removal and the final Lawson flips, each the same computation as the CPU executor's step
+// for step, so the result is the same; the CPU executor runs the rest (preparation, hull completion,
+// constraints), until those phases move to the device too.
 //
 //   prepare   merge duplicates, split segments at points on them and at crossings (cdt/src/pslg.cpp)
 //   voronoi   Phase 1: grid mapping (Appendix B), digital Voronoi diagram (PBA + Appendix A)
@@ -41,7 +42,7 @@ namespace {
 using Clock = std::chrono::steady_clock;
 
 /// Statistics::backend with the GPU backend: which phases the CUDA executor runs.
-constexpr const char* kGpuBackendName = "gpu (voronoi, dualize, flip) + cpu";
+constexpr const char* kGpuBackendName = "gpu (voronoi, dualize, shift, insert, flip) + cpu";
 
 class PhaseTimer {
 public:
@@ -254,8 +255,18 @@ Triangulation triangulate_on(std::span<const Point> points, std::span<const Segm
     missing.push_back({s, n});
   timer.end("dualize").iterations = static_cast<std::uint64_t>(passes);
 
+  // Phases 3 to 6. With the GPU backend the mesh goes to the device once and stays there, but for
+  // the constraints (Step 2), which the CPU executor inserts on a copy.
+#if defined(TRIXEL_HAVE_CUDA)
+  std::optional<gpu::DeviceMesh> device_mesh;
+  if (on_gpu) device_mesh.emplace(mesh);
+#endif
   // Phase 3.
-  const ShiftStats shift = shift_to_true_positions(mesh, n, true_x, true_y, missing, executor);
+  ShiftStats shift;
+#if defined(TRIXEL_HAVE_CUDA)
+  if (on_gpu) shift = device_mesh->shift(n, true_x, true_y, missing);
+#endif
+  if (!on_gpu) shift = shift_to_true_positions(mesh, n, true_x, true_y, missing, executor);
   {
     PhaseStats& p = timer.end("shift");
     p.missing = shift.bad;
@@ -263,8 +274,17 @@ Triangulation triangulate_on(std::span<const Point> points, std::span<const Segm
   }
 
   // Phase 4.
-  const InsertStats insert = insert_missing_points(mesh, missing, executor);
-  remove_fake_boundary(mesh, n, executor);
+  InsertStats insert;
+#if defined(TRIXEL_HAVE_CUDA)
+  if (on_gpu) {
+    insert = device_mesh->insert(missing);
+    device_mesh->remove_fake_boundary(n);
+  }
+#endif
+  if (!on_gpu) {
+    insert = insert_missing_points(mesh, missing, executor);
+    remove_fake_boundary(mesh, n, executor);
+  }
   {
     PhaseStats& p = timer.end("insert");
     p.missing = missing.size();
@@ -277,8 +297,15 @@ Triangulation triangulate_on(std::span<const Point> points, std::span<const Segm
     pieces[k] = {site_of_vertex[pslg.pieces[k].a], site_of_vertex[pslg.pieces[k].b],
                  static_cast<std::uint32_t>(k)};
   }
-  const ConstraintStats cons =
-      insert_constraints(mesh, pieces, std::max(1u, options.inner_iterations), executor);
+  ConstraintStats cons;
+#if defined(TRIXEL_HAVE_CUDA)
+  if (on_gpu && !pieces.empty()) {
+    device_mesh->download(mesh);
+    cons = insert_constraints(mesh, pieces, std::max(1u, options.inner_iterations), executor);
+    device_mesh.emplace(mesh);
+  }
+#endif
+  if (!on_gpu) cons = insert_constraints(mesh, pieces, std::max(1u, options.inner_iterations), executor);
   {
     PhaseStats& p = timer.end("constraints");
     p.flips = cons.flips;
@@ -289,9 +316,11 @@ Triangulation triangulate_on(std::span<const Point> points, std::span<const Segm
   FlipStats flips;
 #if defined(TRIXEL_HAVE_CUDA)
   if (on_gpu) {
-    const gpu::FlipResult device = gpu::flip_to_delaunay(mesh);
+    const gpu::FlipResult device = device_mesh->flip();
     flips.flips = device.flips;
     flips.rounds = device.rounds;
+    device_mesh->download(mesh);
+    device_mesh.reset();
   }
 #endif
   if (!on_gpu) flips = flip_to_delaunay(mesh, executor);

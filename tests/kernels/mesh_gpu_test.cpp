@@ -1,7 +1,8 @@
-// Phases 2 and 6 of gCD on the device against the CPU executor: the dual triangulation built from the
-// colouring left on the device (DeviceVoronoi::dual, completed on the host) and Lawson flipping
-// (gpu::flip_to_delaunay) must leave the very same mesh, slot for slot and link for link, because later
-// phases walk it in slot order and both executors must agree on every result.
+// Phases 2 to 6 of gCD on the device against the CPU executor: the dual triangulation built from the
+// colouring left on the device (DeviceVoronoi::dual, completed on the host), shifting, missing points
+// and the fake boundary's removal on a DeviceMesh, and Lawson flipping (gpu::flip_to_delaunay) must
+// leave the very same mesh, slot for slot and link for link, because later phases walk it in slot order
+// and both executors must agree on every result.
 #include <gtest/gtest.h>
 
 #include <cstdint>
@@ -13,7 +14,9 @@
 #include "gcd/dualize.hpp"
 #include "gcd/flip.hpp"
 #include "gcd/grid_map.hpp"
+#include "gcd/insert.hpp"
 #include "gcd/mesh.hpp"
+#include "gcd/shift.hpp"
 #include "gcd/voronoi.hpp"
 #include "mesh_test_util.hpp"
 #include "pslg_generators.hpp"
@@ -200,3 +203,108 @@ TEST_F(MeshGpu, FlipMatchesTheCpuExecutor) {
 }
 
 } // namespace
+
+/// A Phase 2 mesh as triangulate() leaves it (on the CPU executor), with the sites' true positions and
+/// the missing points so far.
+struct Phase2 {
+  Mesh mesh;
+  std::vector<double> true_x, true_y;
+  std::vector<MissingPoint> missing;
+  std::uint32_t n = 0;
+};
+
+Phase2 phase2(const trixel_gen::Pslg& p, std::uint32_t m, CpuExecutor& executor) {
+  DualInput in = dual_input(p, m, executor);
+  Phase2 out;
+  out.n = static_cast<std::uint32_t>(in.x.size());
+  for (const auto& q : p.points) {
+    out.true_x.push_back(q.x);
+    out.true_y.push_back(q.y);
+  }
+  for (std::size_t k = 0; k < in.grid.missing.size(); ++k)
+    out.missing.push_back({in.grid.missing[k], in.grid.missing_owner[k]});
+  std::vector<std::uint32_t> colour = compute_digital_voronoi(in.grid, in.m, executor);
+  for (int pass = 1; pass <= 8; ++pass) {
+    std::vector<std::uint32_t> degenerate;
+    out.mesh = dualize(colour, in.m, in.x, in.y, in.kept, in.bounds, executor, nullptr, &degenerate);
+    if (out.mesh.num_slots() > 0) break;
+    remove_sites_from_colouring(colour, in.grid, in.m, degenerate);
+    for (const std::uint32_t s : degenerate) {
+      in.kept[s] = 0;
+      in.x[s] = out.true_x[s];
+      in.y[s] = out.true_y[s];
+      out.missing.push_back({s, out.n});
+    }
+  }
+  for (std::uint32_t s = 0; s < out.n; ++s)
+    if (in.kept[s] != 0 && out.mesh.vert_tri[s] == kNoId) out.missing.push_back({s, out.n});
+  return out;
+}
+
+void expect_same_missing(const std::vector<MissingPoint>& device, const std::vector<MissingPoint>& host,
+                         const std::string& what) {
+  ASSERT_EQ(device.size(), host.size()) << what;
+  for (std::size_t k = 0; k < host.size(); ++k) {
+    EXPECT_EQ(device[k].vertex, host[k].vertex) << what << ", missing point " << k;
+    EXPECT_EQ(device[k].hint, host[k].hint) << what << ", missing point " << k;
+  }
+}
+
+// Phase 3 (Algorithms 1 and 2) and Phase 4 (Algorithm 3, fake boundary removal) on a DeviceMesh: the
+// same bad cases in the same order, the same rounds, and the same mesh after each phase; then the
+// device's flips on the same mesh without a copy in between.
+TEST_F(MeshGpu, ShiftAndInsertMatchTheCpuExecutor) {
+  CpuExecutor executor(4);
+  struct Case {
+    trixel_gen::Pslg points;
+    std::uint32_t m;
+    const char* name;
+  };
+  // Coarse grids: many points share a cell (missing points) and many shifts are bad cases.
+  const std::vector<Case> cases = {
+      {trixel_gen::random_points(2000, trixel_gen::Distribution::uniform, 17), 64, "uniform 2000"},
+      {trixel_gen::random_points(100000, trixel_gen::Distribution::uniform, 18), 512, "uniform 100000"},
+      {trixel_gen::random_points(60000, trixel_gen::Distribution::gaussian, 19), 256, "gaussian 60000"},
+      {trixel_gen::clustered(30000, 12, 20), 256, "clustered 30000"},
+      {trixel_gen::lattice(70), 64, "lattice 70"},
+  };
+  for (const Case& c : cases) {
+    const Phase2 start = phase2(c.points, c.m, executor);
+    ASSERT_GT(start.mesh.num_slots(), 0u) << c.name;
+    Mesh host = start.mesh;
+    std::vector<MissingPoint> host_missing = start.missing;
+    cdt::gpu::DeviceMesh device(start.mesh);
+    std::vector<MissingPoint> device_missing = start.missing;
+
+    const ShiftStats host_shift =
+        shift_to_true_positions(host, start.n, start.true_x, start.true_y, host_missing, executor);
+    const ShiftStats device_shift = device.shift(start.n, start.true_x, start.true_y, device_missing);
+    const std::string shifted = std::string(c.name) + ", after shifting";
+    EXPECT_EQ(device_shift.shifted, host_shift.shifted) << shifted;
+    EXPECT_EQ(device_shift.bad, host_shift.bad) << shifted;
+    EXPECT_EQ(device_shift.rounds, host_shift.rounds) << shifted;
+    expect_same_missing(device_missing, host_missing, shifted);
+    Mesh copy;
+    device.download(copy);
+    expect_same_mesh(copy, host, shifted);
+
+    const InsertStats host_insert = insert_missing_points(host, host_missing, executor);
+    remove_fake_boundary(host, start.n, executor);
+    const InsertStats device_insert = device.insert(device_missing);
+    device.remove_fake_boundary(start.n);
+    const std::string inserted = std::string(c.name) + ", after missing points";
+    EXPECT_EQ(device_insert.inserted, host_insert.inserted) << inserted;
+    EXPECT_EQ(device_insert.rounds, host_insert.rounds) << inserted;
+    EXPECT_EQ(host_insert.inserted, host_missing.size()) << inserted;
+    EXPECT_GT(host_missing.size(), 0u) << inserted << ": the case must exercise Algorithm 3";
+    device.download(copy);
+    expect_same_mesh(copy, host, inserted);
+    trixel_test::expect_valid_mesh(copy);
+
+    const FlipStats host_flips = flip_to_delaunay(host, executor);
+    const cdt::gpu::FlipResult device_flips = device.flip();
+    EXPECT_EQ(device_flips.flips, host_flips.flips) << c.name;
+    device.download(copy);
+    expect_same_mesh(copy, host, std::string(c.name) + ", after flips");
+  }
+}

@@ -10,9 +10,7 @@
 
 namespace cdt::detail {
 
-namespace {
-
-const char* describe(WorkStatus s) {
+const char* work_status_message(WorkStatus s) {
   switch (s) {
   case WorkStatus::ok:
     return "no error";
@@ -36,8 +34,7 @@ const char* describe(WorkStatus s) {
   return "unknown failure";
 }
 
-// Vertex states of Algorithm 1; sites outside the mesh and fake vertices count as checked and static.
-enum : std::uint8_t { kUnchecked = 0, kGood = 1, kBad = 2 };
+namespace {
 
 // The sites with state `wanted`, each listed once by the slot of its vert_tri. Phase 2 and every later step
 // keep triangle slots spatially coherent while vertex indices follow the input order, so visiting sites in
@@ -58,7 +55,8 @@ std::vector<std::uint32_t> sites_in_slot_order(MeshView m, std::uint32_t num_sit
 
 void WorkFailure::check(const char* step) const {
   const auto code = static_cast<WorkStatus>(code_.load(std::memory_order_relaxed));
-  if (code != WorkStatus::ok) throw Error(std::string("internal error: ") + step + ": " + describe(code));
+  if (code != WorkStatus::ok)
+    throw Error(std::string("internal error: ") + step + ": " + work_status_message(code));
 }
 
 void HoleWorkspace::resize_ring(std::size_t n) {

@@ -72,6 +72,9 @@ enum class WorkStatus : std::uint32_t {
   stuck,         ///< a round made no progress
 };
 
+/// What a failure means, for the message of the error it becomes.
+const char* work_status_message(WorkStatus s);
+
 /// Records the first failure of a parallel step; the driver checks it after the step (host only).
 class WorkFailure {
 public:
@@ -85,6 +88,9 @@ public:
 private:
   std::atomic<std::uint32_t> code_{0};
 };
+
+/// Vertex states of Algorithm 1; sites outside the mesh and fake vertices count as checked and static.
+enum ShiftState : std::uint8_t { kUnchecked = 0, kGood = 1, kBad = 2 };
 
 /// Strict total order on vertices for the independent-set rounds (see the file comment).
 CDT_HD_INLINE std::uint32_t vertex_priority(std::uint32_t v) {

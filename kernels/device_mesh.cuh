@@ -1,0 +1,61 @@
+#pragma once
+// The state of gpu::DeviceMesh, shared by the files that implement its steps: shifting, missing
+// points and the fake boundary (mesh_kernels.cu), Lawson flips (flip_kernels.cu).
+
+#include <cstddef>
+#include <cstdint>
+#include <string>
+
+#include "cdt_kernels.hpp"
+#include "cuda_check.cuh"
+#include "cuda_executor.cuh"
+#include "gcd/mesh.hpp"
+#include "gcd/shift.hpp"
+
+namespace cdt::gpu {
+namespace detail {
+
+/// The device side of cdt::detail::WorkFailure: the first failure of a step, in one device word.
+struct FailureWord {
+  std::uint32_t* word = nullptr;
+  __device__ void record(::cdt::detail::WorkStatus s) const {
+    atomicCAS(word, 0u, static_cast<std::uint32_t>(s));
+  }
+};
+
+} // namespace detail
+
+struct DeviceMesh::State {
+  detail::CudaExecutor executor; // declared first: destroyed after the buffers queued on its stream
+  detail::DeviceBuffer<double> x, y;
+  detail::DeviceBuffer<std::uint32_t> tri, adj, seg, vert_tri;
+  std::uint32_t num_slots = 0;
+  std::uint32_t num_vertices = 0;
+  detail::DeviceBuffer<std::uint32_t> failure_word{1};
+
+  ::cdt::detail::MeshView view() {
+    return ::cdt::detail::MeshView{x.data(),   y.data(),        tri.data(), adj.data(),
+                                   seg.data(), vert_tri.data(), num_slots,  num_vertices};
+  }
+
+  /// A clear failure word for the next step.
+  detail::FailureWord failure() {
+    executor.fill_bytes(failure_word.data(), 0, 1);
+    return detail::FailureWord{failure_word.data()};
+  }
+
+  /// WorkFailure::check: throws Error naming `step` when an element of it recorded a failure (waits
+  /// for the step).
+  void check(const detail::FailureWord& failure, const char* step) {
+    std::uint32_t code = 0;
+    executor.download(&code, failure.word, 1);
+    if (code != 0)
+      throw Error(std::string("internal error: ") + step + ": " +
+                  ::cdt::detail::work_status_message(static_cast<::cdt::detail::WorkStatus>(code)));
+  }
+
+  /// Mesh::grow_slots: n more free slots at the end (the arrays are copied into larger buffers).
+  void grow_slots(std::uint32_t n);
+};
+
+} // namespace cdt::gpu

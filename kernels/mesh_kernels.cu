@@ -1,0 +1,823 @@
+// Phases 3 and 4 of gCD on the CUDA executor (paper sections 3.3 and 3.4): shifting (Algorithms 1 and
+// 2), missing points (Algorithm 3) and the fake boundary's removal, on a mesh that stays on the device.
+// The per-element work is cdt/src/gcd/shift.hpp's and insert.hpp's; each driver below runs the same
+// steps as its CPU executor twin (cdt/src/gcd/shift.cpp, insert.cpp) in the same order with the same
+// ordered compactions, so both executors leave the same mesh slot for slot.
+
+#include <cstddef>
+#include <cstdint>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include "cdt_kernels.hpp"
+#include "cuda_check.cuh"
+#include "cuda_executor.cuh"
+#include "device_mesh.cuh"
+#include "gcd/insert.hpp"
+#include "gcd/mesh.hpp"
+#include "gcd/shift.hpp"
+
+namespace cdt::gpu {
+
+using ::cdt::detail::edge_id;
+using ::cdt::detail::edge_index;
+using ::cdt::detail::edge_tri;
+using ::cdt::detail::HoleShape;
+using ::cdt::detail::HoleView;
+using ::cdt::detail::InsertStats;
+using ::cdt::detail::kNoId;
+using ::cdt::detail::MeshView;
+using ::cdt::detail::MissingPoint;
+using ::cdt::detail::next3;
+using ::cdt::detail::prev3;
+using ::cdt::detail::ShiftStats;
+using ::cdt::detail::WorkStatus;
+
+namespace detail {
+
+/// Bits needed to hold every value below `limit` (dual_kernels.cu).
+int bits_below(std::uint64_t limit);
+
+/// Copies buffer b's first `used` elements into a new buffer of `count` elements whose rest is filled
+/// with the byte `fill`.
+template <class T>
+void grow_buffer(CudaExecutor& executor, DeviceBuffer<T>& b, std::size_t used, std::size_t count, int fill) {
+  DeviceBuffer<T> larger(count);
+  if (used > 0)
+    CDT_CUDA_CHECK(cudaMemcpyAsync(larger.data(), b.data(), used * sizeof(T), cudaMemcpyDeviceToDevice,
+                                   executor.stream()));
+  executor.fill_bytes(larger.data() + used, fill, count - used);
+  executor.synchronize(); // the old buffer is freed next
+  b = std::move(larger);
+}
+
+/// The hole rounds' scratch (cdt::detail::HoleWorkspace), grown as rounds need it.
+struct DeviceHoles {
+  DeviceBuffer<std::uint32_t> slot_pos, offset, count;
+  DeviceBuffer<std::uint32_t> vertex, slot, outer, seg, new_edge, next, prev, ref;
+  DeviceBuffer<std::uint8_t> own;
+
+  void resize_ring(std::size_t n) {
+    for (auto* b : {&vertex, &slot, &outer, &seg, &new_edge, &next, &prev, &ref}) b->resize(n);
+    own.resize(n);
+  }
+  HoleView view() {
+    return HoleView{vertex.data(), slot.data(), outer.data(), seg.data(), new_edge.data(),
+                    next.data(),   prev.data(), ref.data(),   own.data()};
+  }
+};
+
+/// What a round of deleted star vertices leaves for Phase 4 (the shift's after_round): the vertices
+/// take their true positions and are listed as missing points with their hints.
+struct DeletedStars {
+  const double* true_x = nullptr;
+  const double* true_y = nullptr;
+  MissingPoint* out = nullptr; ///< room for every pending vertex
+  std::uint32_t written = 0;
+};
+
+/// cdt::detail::delete_vertex_round on the device: active[0, n) pairwise non-adjacent.
+void delete_vertex_round(DeviceMesh::State& s, const std::uint32_t* active, std::uint32_t n, HoleShape shape,
+                         const std::uint8_t* leaving, std::uint32_t* hint, DeviceHoles& ws) {
+  if (n == 0) return;
+  if (s.num_slots >= ::cdt::detail::kBoundaryRef / 3) throw Error("internal error: too many triangle slots");
+  CudaExecutor& executor = s.executor;
+  const MeshView m = s.view();
+  const bool star = shape == HoleShape::star;
+  if (ws.slot_pos.size() < m.num_slots) {
+    ws.slot_pos.resize(m.num_slots);
+    executor.fill_bytes(ws.slot_pos.data(), 0xFF, m.num_slots);
+  }
+  ws.count.resize(n);
+  ws.offset.resize(n);
+  std::uint32_t* count = ws.count.data();
+  std::uint32_t* offset = ws.offset.data();
+  const FailureWord failure = s.failure();
+  executor.for_each(
+      n,
+      [=] __device__(std::size_t i) {
+        bool closed = false;
+        const std::uint32_t size = ::cdt::detail::ring_size(m, active[i], closed);
+        if (size == 0)
+          failure.record(WorkStatus::broken_fan);
+        else if (closed != star)
+          failure.record(star ? WorkStatus::open_star : WorkStatus::closed_fake);
+        count[i] = size;
+        offset[i] = size;
+      },
+      "hole_sizes");
+  s.check(failure, "deleting vertices (fan sizes)");
+  const std::uint32_t total = executor.exclusive_scan(offset, n);
+  ws.resize_ring(total);
+  const HoleView h = ws.view();
+  std::uint32_t* slot_pos = ws.slot_pos.data();
+
+  executor.for_each(
+      n,
+      [=] __device__(std::size_t i) {
+        ::cdt::detail::collect_ring(m, active[i], h, offset[i], count[i], slot_pos);
+      },
+      "collect_ring");
+  executor.for_each(
+      n,
+      [=] __device__(std::size_t i) {
+        ::cdt::detail::mark_owned_vertices(m, h, offset[i], count[i], slot_pos);
+      },
+      "mark_owned_vertices");
+  executor.for_each(
+      n,
+      [=] __device__(std::size_t i) {
+        const std::uint32_t v = active[i], base = offset[i], size = count[i];
+        WorkStatus status = WorkStatus::ok;
+        if (star) {
+          status = ::cdt::detail::cut_ears(m, h, base, size, m.x[v], m.y[v]);
+          if (hint != nullptr) {
+            std::uint32_t chosen = h.vertex[base];
+            for (std::uint32_t p = base; p < base + size; ++p) {
+              if (leaving == nullptr || leaving[h.vertex[p]] == 0) {
+                chosen = h.vertex[p];
+                break;
+              }
+            }
+            hint[i] = chosen;
+          }
+        } else {
+          status = ::cdt::detail::fill_pockets(m, h, base, size);
+        }
+        if (status != WorkStatus::ok) failure.record(status);
+        m.vert_tri[v] = kNoId;
+      },
+      "fill_holes");
+  s.check(failure, star ? "deleting bad cases (ear cutting)" : "removing the fake boundary (pocket fill)");
+  executor.for_each(
+      n,
+      [=] __device__(std::size_t i) {
+        ::cdt::detail::relink_hole(m, h, offset[i], count[i], star, slot_pos);
+      },
+      "relink_hole");
+  executor.for_each(
+      n,
+      [=] __device__(std::size_t i) {
+        for (std::uint32_t p = offset[i]; p < offset[i] + count[i]; ++p)
+          if (h.slot[p] != kNoId) slot_pos[h.slot[p]] = kNoId;
+      },
+      "release_slot_marks");
+}
+
+/// cdt::detail::delete_vertices on the device: deletes the n vertices of `pending` (leaving[v] set for
+/// each) in rounds of pairwise non-adjacent vertices; star holes report to `stars`. Returns the rounds.
+std::uint64_t delete_vertices(DeviceMesh::State& s, DeviceBuffer<std::uint32_t>& pending, std::uint32_t n,
+                              HoleShape shape, std::uint8_t* leaving, DeletedStars* stars) {
+  CudaExecutor& executor = s.executor;
+  DeviceHoles ws;
+  DeviceBuffer<std::uint8_t> now_flags(n);
+  DeviceBuffer<std::uint32_t> picked(n), active(n), hints(n), rest(n);
+  std::uint8_t* now = now_flags.data();
+  std::uint64_t rounds = 0;
+  while (n > 0) {
+    ++rounds;
+    const MeshView m = s.view();
+    const std::uint32_t* list = pending.data();
+    const FailureWord failure = s.failure();
+    executor.for_each(
+        n,
+        [=] __device__(std::size_t i) {
+          bool go = false;
+          const WorkStatus status = ::cdt::detail::may_delete_now(m, list[i], leaving, go);
+          if (status != WorkStatus::ok) failure.record(status);
+          now[i] = go ? 1 : 0;
+        },
+        "may_delete_now");
+    s.check(failure, "deleting vertices (Algorithm 2, independence)");
+    const std::uint32_t num_active = executor.compact(
+        n, [=] __device__(std::size_t i) { return now[i] != 0; }, picked.data());
+    // The lowest-priority pending vertex has no lower leaving neighbour, so a round never comes up empty.
+    if (num_active == 0)
+      throw Error(std::string("internal error: deleting vertices (Algorithm 2): ") +
+                  ::cdt::detail::work_status_message(WorkStatus::stuck));
+    std::uint32_t* act = active.data();
+    const std::uint32_t* pick = picked.data();
+    executor.for_each(
+        num_active, [=] __device__(std::size_t i) { act[i] = list[pick[i]]; }, "gather_active");
+    std::uint32_t* hint = hints.data();
+    delete_vertex_round(s, act, num_active, shape, leaving, hint, ws);
+    executor.for_each(
+        num_active, [=] __device__(std::size_t i) { leaving[act[i]] = 0; }, "clear_leaving");
+    if (stars != nullptr) {
+      const double* tx = stars->true_x;
+      const double* ty = stars->true_y;
+      MissingPoint* out = stars->out + stars->written;
+      double* x = m.x;
+      double* y = m.y;
+      executor.for_each(
+          num_active,
+          [=] __device__(std::size_t i) {
+            x[act[i]] = tx[act[i]];
+            y[act[i]] = ty[act[i]];
+            out[i] = MissingPoint{act[i], hint[i]};
+          },
+          "deleted_to_missing");
+      stars->written += num_active;
+    }
+    const std::uint32_t num_rest = executor.compact(
+        n, [=] __device__(std::size_t i) { return now[i] == 0; }, picked.data());
+    std::uint32_t* r = rest.data();
+    executor.for_each(
+        num_rest, [=] __device__(std::size_t i) { r[i] = list[pick[i]]; }, "gather_rest");
+    std::swap(pending, rest);
+    n = num_rest;
+  }
+  return rounds;
+}
+
+/// The sites with state `wanted`, each once, in the slot order of their vert_tri (shift.cpp's
+/// sites_in_slot_order); out needs room for num_sites entries. Returns how many.
+std::uint32_t sites_in_slot_order(DeviceMesh::State& s, std::uint32_t num_sites, const std::uint8_t* state,
+                                  std::uint8_t wanted, std::uint32_t* out) {
+  const MeshView m = s.view();
+  const std::uint32_t n = s.executor.compact(
+      3 * static_cast<std::size_t>(m.num_slots),
+      [=] __device__(std::size_t k) {
+        const std::uint32_t v = m.tri[k];
+        return v < num_sites && state[v] == wanted && m.vert_tri[v] == k / 3;
+      },
+      out);
+  s.executor.for_each(
+      n, [=] __device__(std::size_t i) { out[i] = m.tri[out[i]]; }, "corner_vertices");
+  return n;
+}
+
+ShiftStats shift(DeviceMesh::State& s, std::uint32_t num_sites, std::span<const double> true_x,
+                 std::span<const double> true_y, std::vector<MissingPoint>& missing) {
+  using ::cdt::detail::kBad;
+  using ::cdt::detail::kGood;
+  using ::cdt::detail::kUnchecked;
+  if (true_x.size() < num_sites || true_y.size() < num_sites || s.num_vertices < num_sites)
+    throw Error("internal error: shift_to_true_positions: fewer coordinates than sites");
+  ShiftStats stats;
+  CudaExecutor& executor = s.executor;
+  const MeshView m = s.view();
+  DeviceBuffer<double> d_tx(num_sites), d_ty(num_sites);
+  executor.upload(d_tx.data(), true_x.data(), num_sites);
+  executor.upload(d_ty.data(), true_y.data(), num_sites);
+  const double* tx = d_tx.data();
+  const double* ty = d_ty.data();
+  DeviceBuffer<std::uint8_t> d_state(m.num_vertices);
+  std::uint8_t* state = d_state.data();
+  executor.fill_bytes(state, kGood, m.num_vertices);
+  executor.for_each(
+      num_sites,
+      [=] __device__(std::size_t v) {
+        if (m.vert_tri[v] == kNoId) {
+          m.x[v] = tx[v];
+          m.y[v] = ty[v];
+        } else {
+          state[v] = kUnchecked;
+        }
+      },
+      "shift_init");
+
+  // Algorithm 1 (shift_to_true_positions in shift.cpp, step for step).
+  DeviceBuffer<std::uint32_t> d_unchecked(num_sites), d_scratch(num_sites);
+  std::uint32_t num = sites_in_slot_order(s, num_sites, state, kUnchecked, d_unchecked.data());
+  if (num !=
+      executor.compact(
+          num_sites, [=] __device__(std::size_t v) { return state[v] == kUnchecked; }, d_scratch.data()))
+    throw Error("internal error: shifting: a vert_tri does not point at a triangle of its vertex");
+  DeviceBuffer<std::uint32_t> d_cursor(num), d_end(num);
+  {
+    const std::uint32_t* list = d_unchecked.data();
+    std::uint32_t* cursor = d_cursor.data();
+    const FailureWord failure = s.failure();
+    executor.for_each(
+        num,
+        [=] __device__(std::size_t i) {
+          std::uint32_t count = 0;
+          const WorkStatus status = ::cdt::detail::lower_neighbours(m, list[i], state, nullptr, count);
+          if (status != WorkStatus::ok) failure.record(status);
+          cursor[i] = count;
+        },
+        "lower_neighbour_counts");
+    s.check(failure, "shifting (Algorithm 1, neighbour lists)");
+  }
+  const std::uint32_t total = executor.exclusive_scan(d_cursor.data(), num);
+  DeviceBuffer<std::uint32_t> d_lower(total);
+  {
+    const std::uint32_t* list = d_unchecked.data();
+    const std::uint32_t* cursor = d_cursor.data();
+    std::uint32_t* end = d_end.data();
+    std::uint32_t* lower = d_lower.data();
+    executor.for_each(
+        num,
+        [=] __device__(std::size_t i) {
+          std::uint32_t count = 0;
+          ::cdt::detail::lower_neighbours(m, list[i], state, lower + cursor[i], count);
+          end[i] = cursor[i] + count;
+        },
+        "lower_neighbours");
+  }
+  DeviceBuffer<std::uint8_t> d_ready(num);
+  DeviceBuffer<std::uint32_t> d_next_unchecked(num), d_next_cursor(num), d_next_end(num);
+  const std::uint32_t* lower = d_lower.data();
+  std::uint8_t* ready = d_ready.data();
+  while (num > 0) {
+    ++stats.rounds;
+    const std::uint32_t* list = d_unchecked.data();
+    std::uint32_t* cursor = d_cursor.data();
+    const std::uint32_t* end = d_end.data();
+    executor.for_each(
+        num,
+        [=] __device__(std::size_t i) {
+          ready[i] = ::cdt::detail::shift_ready(lower, cursor[i], end[i], state) ? 1 : 0;
+        },
+        "shift_ready");
+    const FailureWord failure = s.failure();
+    executor.for_each(
+        num,
+        [=] __device__(std::size_t i) {
+          if (!ready[i]) return;
+          const std::uint32_t v = list[i];
+          bool good = false;
+          const WorkStatus status = ::cdt::detail::shift_is_good(m, v, tx[v], ty[v], good);
+          if (status != WorkStatus::ok) failure.record(status);
+          if (good) {
+            m.x[v] = tx[v];
+            m.y[v] = ty[v];
+          }
+          state[v] = good ? kGood : kBad;
+        },
+        "shift_good_cases");
+    s.check(failure, "shifting (Algorithm 1, good cases)");
+    // The lowest-priority unchecked point is always ready, so every round checks at least one point.
+    std::uint32_t* rest = d_scratch.data();
+    const std::uint32_t num_rest = executor.compact(
+        num, [=] __device__(std::size_t i) { return ready[i] == 0; }, rest);
+    if (num_rest == num)
+      throw Error(std::string("internal error: shifting (Algorithm 1): ") +
+                  ::cdt::detail::work_status_message(WorkStatus::stuck));
+    std::uint32_t* next_list = d_next_unchecked.data();
+    std::uint32_t* next_cursor = d_next_cursor.data();
+    std::uint32_t* next_end = d_next_end.data();
+    executor.for_each(
+        num_rest,
+        [=] __device__(std::size_t r) {
+          next_list[r] = list[rest[r]];
+          next_cursor[r] = cursor[rest[r]];
+          next_end[r] = end[rest[r]];
+        },
+        "shift_next_round");
+    std::swap(d_unchecked, d_next_unchecked);
+    std::swap(d_cursor, d_next_cursor);
+    std::swap(d_end, d_next_end);
+    num = num_rest;
+  }
+
+  // Algorithm 2: the bad cases deleted in rounds of pairwise non-adjacent vertices.
+  DeviceBuffer<std::uint8_t> d_leaving(m.num_vertices);
+  std::uint8_t* leaving = d_leaving.data();
+  executor.fill_bytes(leaving, 0, m.num_vertices);
+  executor.for_each(
+      num_sites, [=] __device__(std::size_t v) { leaving[v] = state[v] == kBad ? 1 : 0; }, "leaving");
+  DeviceBuffer<std::uint32_t> d_bad(num_sites);
+  const std::uint32_t num_bad = sites_in_slot_order(s, num_sites, state, kBad, d_bad.data());
+  stats.bad = num_bad;
+  stats.shifted = executor.compact(
+      num_sites, [=] __device__(std::size_t v) { return state[v] == kGood && m.vert_tri[v] != kNoId; },
+      d_scratch.data());
+  DeviceBuffer<MissingPoint> d_deleted(num_bad);
+  DeletedStars stars{tx, ty, d_deleted.data(), 0};
+  stats.rounds += delete_vertices(s, d_bad, num_bad, HoleShape::star, leaving, &stars);
+  const std::size_t first = missing.size();
+  missing.resize(first + stars.written);
+  executor.download(missing.data() + first, d_deleted.data(), stars.written);
+  return stats;
+}
+
+// Per missing point, after the marking (insert.cpp): which container marks it holds, and whether it
+// won them all.
+enum : std::uint8_t { kHoldsT = 1, kHoldsU = 2, kWins = 4 };
+
+InsertStats insert(DeviceMesh::State& s, std::span<const MissingPoint> missing) {
+  using ::cdt::detail::PointLocation;
+  InsertStats stats;
+  const std::size_t num_points = missing.size();
+  if (num_points == 0) return stats;
+  if (num_points >= kNoId / 2) throw Error("internal error: too many missing points");
+  const auto num = static_cast<std::uint32_t>(num_points);
+  CudaExecutor& executor = s.executor;
+  const std::uint32_t nv = s.num_vertices;
+
+  // Every insertion takes exactly two slots, so the mesh grows once up front and no round reallocates.
+  DeviceBuffer<std::uint32_t> d_free(s.num_slots + 2 * static_cast<std::size_t>(num));
+  {
+    const MeshView m0 = s.view();
+    const std::uint32_t free_now = executor.compact(
+        m0.num_slots, [=] __device__(std::size_t t) { return !m0.alive(static_cast<std::uint32_t>(t)); },
+        d_free.data());
+    const std::size_t need = 2 * num_points;
+    if (free_now < need) {
+      if (s.num_slots + (need - free_now) >= kNoId / 3)
+        throw Error("internal error: too many triangle slots");
+      s.grow_slots(static_cast<std::uint32_t>(need - free_now));
+    }
+  }
+  const MeshView m = s.view();
+  const std::uint32_t num_free = executor.compact(
+      m.num_slots, [=] __device__(std::size_t t) { return !m.alive(static_cast<std::uint32_t>(t)); },
+      d_free.data());
+  const std::uint32_t* free_slots = d_free.data();
+
+  DeviceBuffer<MissingPoint> d_missing(num);
+  executor.upload(d_missing.data(), missing.data(), num);
+  const MissingPoint* points = d_missing.data();
+  // pending as words, so that a point listed twice shows in an atomic exchange.
+  DeviceBuffer<std::uint32_t> d_pending(nv);
+  std::uint32_t* pending = d_pending.data();
+  executor.fill_bytes(pending, 0, nv);
+  DeviceBuffer<std::uint32_t> d_words(2);
+  std::uint32_t* invalid = d_words.data();
+  std::uint32_t* first_live = d_words.data() + 1;
+  executor.fill_bytes(d_words.data(), 0xFF, 2);
+  executor.for_each(
+      num,
+      [=] __device__(std::size_t q) {
+        const std::uint32_t v = points[q].vertex;
+        if (v >= nv || m.vert_tri[v] != kNoId || atomicExch(pending + v, 1u) != 0)
+          atomicMin(invalid, static_cast<std::uint32_t>(q));
+      },
+      "missing_check");
+  // A start for points whose hint will never be in the mesh: a vertex of the first live triangle.
+  executor.for_each(
+      m.num_slots,
+      [=] __device__(std::size_t t) {
+        if (m.alive(static_cast<std::uint32_t>(t))) atomicMin(first_live, static_cast<std::uint32_t>(t));
+      },
+      "first_live_slot");
+  std::uint32_t words[2] = {0, 0};
+  executor.download(words, d_words.data(), 2);
+  if (words[0] != kNoId)
+    throw Error("internal error: missing point " + std::to_string(missing[words[0]].vertex) +
+                " is out of range, already in the mesh or listed twice");
+  if (words[1] == kNoId) throw Error("internal error: inserting missing points into an empty mesh");
+  std::uint32_t fallback = kNoId;
+  executor.download(&fallback, m.tri + 3 * static_cast<std::size_t>(words[1]), 1);
+
+  DeviceBuffer<std::uint32_t> d_start(num), d_loc_t(num), d_loc_e(num), d_loc_u(num), d_loc_j(num),
+      d_new0(num), d_new1(num), d_mark(m.num_slots), d_remaining(num), d_rest(num), d_winners(num),
+      d_picked(num);
+  DeviceBuffer<std::uint8_t> d_flags(num), d_own(num);
+  std::uint32_t* start = d_start.data();
+  std::uint32_t* loc_t = d_loc_t.data();
+  std::uint32_t* loc_e = d_loc_e.data();
+  std::uint32_t* loc_u = d_loc_u.data();
+  std::uint32_t* loc_j = d_loc_j.data();
+  std::uint32_t* new0 = d_new0.data();
+  std::uint32_t* new1 = d_new1.data();
+  std::uint32_t* mark = d_mark.data();
+  std::uint8_t* flags = d_flags.data();
+  std::uint8_t* own = d_own.data();
+  executor.fill_bytes(mark, 0xFF, m.num_slots);
+  {
+    std::uint32_t* remaining = d_remaining.data();
+    executor.for_each(
+        num,
+        [=] __device__(std::size_t q) {
+          start[q] = points[q].hint;
+          remaining[q] = static_cast<std::uint32_t>(q);
+        },
+        "insert_init");
+  }
+  std::uint32_t n = num;
+  std::size_t cursor = 0;
+
+  while (n > 0) {
+    ++stats.rounds;
+    const std::uint32_t* remaining = d_remaining.data();
+    // Lines 2-5: locate and mark the containers.
+    const FailureWord failure = s.failure();
+    executor.for_each(
+        n,
+        [=] __device__(std::size_t r) {
+          const std::uint32_t q = remaining[r];
+          flags[q] = 0;
+          loc_t[q] = kNoId;
+          std::uint32_t o = start[q];
+          if (o >= nv || m.vert_tri[o] == kNoId) {
+            if (o < nv && pending[o] != 0) return; // the paper's delay: the hint is itself waiting
+            o = fallback;
+            start[q] = o;
+          }
+          const std::uint32_t v = points[q].vertex;
+          const PointLocation loc = ::cdt::detail::locate_point(m, o, m.x[v], m.y[v]);
+          if (loc.status != WorkStatus::ok) {
+            failure.record(loc.status);
+            return;
+          }
+          std::uint32_t u = kNoId, j = 3;
+          if (loc.edge != 3) {
+            const std::uint32_t e = m.adj[3 * loc.tri + loc.edge];
+            if (e == kNoId) {
+              failure.record(WorkStatus::boundary_edge);
+              return;
+            }
+            u = edge_tri(e);
+            j = edge_index(e);
+          }
+          loc_t[q] = loc.tri;
+          loc_e[q] = loc.edge;
+          loc_u[q] = u;
+          loc_j[q] = j;
+          atomicMin(mark + loc.tri, q);
+          if (u != kNoId) atomicMin(mark + u, q);
+        },
+        "locate_missing");
+    s.check(failure, "inserting missing points (Algorithm 3, point location)");
+
+    // Lines 6-13: winners, and a start for the losers next round.
+    executor.for_each(
+        n,
+        [=] __device__(std::size_t r) {
+          const std::uint32_t q = remaining[r];
+          const std::uint32_t t = loc_t[q], u = loc_u[q];
+          if (t == kNoId) return;
+          const bool holds_t = mark[t] == q;
+          const bool holds_u = u != kNoId && mark[u] == q;
+          const bool wins = holds_t && (u == kNoId || holds_u);
+          flags[q] = static_cast<std::uint8_t>((holds_t ? kHoldsT : 0) | (holds_u ? kHoldsU : 0) |
+                                               (wins ? kWins : 0));
+          if (!wins) start[q] = m.tri[3 * t];
+        },
+        "insert_claims");
+    executor.for_each(
+        n,
+        [=] __device__(std::size_t r) {
+          const std::uint32_t q = remaining[r];
+          if (loc_t[q] == kNoId || (flags[q] & kWins) != 0) return;
+          const std::uint32_t containers[2] = {loc_t[q], loc_u[q]};
+          for (const std::uint32_t c : containers) {
+            if (c == kNoId) continue;
+            const std::uint32_t w = mark[c];
+            if (w != kNoId && (flags[w] & kWins) != 0) {
+              start[q] = points[w].vertex;
+              return;
+            }
+          }
+        },
+        "insert_restarts");
+    std::uint32_t* picked = d_picked.data();
+    const std::uint32_t num_winners = executor.compact(
+        n, [=] __device__(std::size_t r) { return (flags[remaining[r]] & kWins) != 0; }, picked);
+    // The smallest located index holds every mark it made, so a round without winners means none was
+    // located.
+    if (num_winners == 0)
+      throw Error(std::string("internal error: inserting missing points (Algorithm 3; hints may form a "
+                              "cycle): ") +
+                  ::cdt::detail::work_status_message(WorkStatus::stuck));
+    std::uint32_t* winners = d_winners.data();
+    executor.for_each(
+        num_winners, [=] __device__(std::size_t r) { winners[r] = remaining[picked[r]]; }, "gather_winners");
+    if (cursor + 2 * static_cast<std::size_t>(num_winners) > num_free)
+      throw Error("internal error: out of free triangle slots");
+
+    // Lines 14-16: slots by rank, and who rewrites each corner's vert_tri.
+    const std::size_t base = cursor;
+    executor.for_each(
+        num_winners,
+        [=] __device__(std::size_t r) {
+          const std::uint32_t q = winners[r];
+          new0[q] = free_slots[base + 2 * r];
+          new1[q] = free_slots[base + 2 * r + 1];
+          const std::uint32_t t = loc_t[q], u = loc_u[q], e = loc_e[q];
+          const std::uint32_t first = e == 3 ? 0 : e;
+          const std::uint32_t corners[4] = {m.tri[3 * t + first], m.tri[3 * t + next3(first)],
+                                            m.tri[3 * t + prev3(first)],
+                                            u == kNoId ? kNoId : m.tri[3 * u + loc_j[q]]};
+          std::uint8_t bits = 0;
+          for (std::uint32_t c = 0; c < 4; ++c) {
+            if (corners[c] == kNoId) continue;
+            const std::uint32_t vt = m.vert_tri[corners[c]];
+            if (vt == t || (u != kNoId && vt == u)) bits = static_cast<std::uint8_t>(bits | (1u << c));
+          }
+          own[q] = bits;
+        },
+        "insert_slots");
+    // Lines 17-19: split the containers.
+    executor.for_each(
+        num_winners,
+        [=] __device__(std::size_t r) {
+          const std::uint32_t q = winners[r];
+          const std::uint32_t v = points[q].vertex;
+          if (loc_e[q] == 3)
+            ::cdt::detail::split_triangle(m, v, loc_t[q], new0[q], new1[q], own[q]);
+          else
+            ::cdt::detail::split_edge(m, v, loc_t[q], loc_e[q], loc_u[q], loc_j[q], new0[q], new1[q], own[q]);
+          pending[v] = 0;
+        },
+        "insert_split");
+    // Lines 20-22: outer links.
+    executor.for_each(
+        num_winners,
+        [=] __device__(std::size_t r) {
+          const std::uint32_t q = winners[r];
+          const std::uint32_t t = loc_t[q], u = loc_u[q], e = loc_e[q], j = loc_j[q];
+          std::uint32_t outer[4];
+          std::uint32_t count = 0;
+          if (e == 3) {
+            outer[count++] = edge_id(t, 0);
+            outer[count++] = edge_id(new0[q], 1);
+            outer[count++] = edge_id(new1[q], 2);
+          } else {
+            outer[count++] = edge_id(t, prev3(e));
+            outer[count++] = edge_id(new0[q], next3(e));
+            outer[count++] = edge_id(u, prev3(j));
+            outer[count++] = edge_id(new1[q], next3(j));
+          }
+          for (std::uint32_t k = 0; k < count; ++k) {
+            const std::uint32_t ne = outer[k];
+            const std::uint32_t old = m.adj[ne];
+            if (old == kNoId) continue;
+            const std::uint32_t x = edge_tri(old);
+            const std::uint32_t w = mark[x];
+            if (w != kNoId && (flags[w] & kWins) != 0) {
+              m.adj[ne] = ::cdt::detail::split_forward(x, edge_index(old), loc_t[w], loc_e[w], loc_j[w],
+                                                       new0[w], new1[w]);
+            } else {
+              m.adj[old] = ne;
+            }
+          }
+        },
+        "insert_links");
+    executor.for_each(
+        n,
+        [=] __device__(std::size_t r) {
+          const std::uint32_t q = remaining[r];
+          if (flags[q] & kHoldsT) mark[loc_t[q]] = kNoId;
+          if (flags[q] & kHoldsU) mark[loc_u[q]] = kNoId;
+        },
+        "insert_clear_marks");
+    cursor += 2 * static_cast<std::size_t>(num_winners);
+    stats.inserted += num_winners;
+    const std::uint32_t num_rest = executor.compact(
+        n, [=] __device__(std::size_t r) { return (flags[remaining[r]] & kWins) == 0; }, picked);
+    std::uint32_t* rest = d_rest.data();
+    executor.for_each(
+        num_rest, [=] __device__(std::size_t r) { rest[r] = remaining[picked[r]]; }, "gather_rest");
+    std::swap(d_remaining, d_rest);
+    n = num_rest;
+  }
+  return stats;
+}
+
+void remove_fake_boundary(DeviceMesh::State& s, std::uint32_t first_fake) {
+  CudaExecutor& executor = s.executor;
+  const std::uint32_t nv = s.num_vertices;
+  if (first_fake > nv) throw Error("internal error: remove_fake_boundary: first_fake beyond the vertices");
+  {
+    const MeshView m = s.view();
+    const std::uint32_t fakes = nv - first_fake;
+    DeviceBuffer<std::uint8_t> d_leaving(nv);
+    std::uint8_t* leaving = d_leaving.data();
+    executor.fill_bytes(leaving, 0, nv);
+    executor.for_each(
+        fakes,
+        [=] __device__(std::size_t i) {
+          leaving[first_fake + i] = m.vert_tri[first_fake + i] != kNoId ? 1 : 0;
+        },
+        "fake_leaving");
+    DeviceBuffer<std::uint32_t> d_pending(fakes);
+    std::uint32_t* pending = d_pending.data();
+    const std::uint32_t n = executor.compact(
+        fakes, [=] __device__(std::size_t i) { return leaving[first_fake + i] != 0; }, pending);
+    executor.for_each(
+        n, [=] __device__(std::size_t i) { pending[i] += first_fake; }, "fake_ids");
+    delete_vertices(s, d_pending, n, HoleShape::open_fan, leaving, nullptr);
+  }
+
+  // Compaction ordered by each triangle's lowest vertex (remove_fake_boundary in insert.cpp: a stable
+  // sort keeps the slots of one key in slot order), links and vert_tri renumbered.
+  const MeshView m = s.view();
+  DeviceBuffer<std::uint32_t> d_live(m.num_slots), d_key(m.num_slots);
+  std::uint32_t* live = d_live.data();
+  std::uint32_t* key = d_key.data();
+  const std::uint32_t num_live = executor.compact(
+      m.num_slots, [=] __device__(std::size_t t) { return m.alive(static_cast<std::uint32_t>(t)); }, live);
+  executor.for_each(
+      num_live,
+      [=] __device__(std::size_t r) {
+        const std::uint32_t t = live[r];
+        const std::uint32_t a = m.tri[3 * t], b = m.tri[3 * t + 1], c = m.tri[3 * t + 2];
+        key[r] = a < b ? (a < c ? a : c) : (b < c ? b : c);
+      },
+      "lowest_vertex");
+  executor.sort_pairs(key, live, num_live, bits_below(nv));
+  DeviceBuffer<std::uint32_t> d_new_id(m.num_slots);
+  std::uint32_t* new_id = d_new_id.data();
+  executor.fill_bytes(new_id, 0xFF, m.num_slots);
+  executor.for_each(
+      num_live, [=] __device__(std::size_t r) { new_id[live[r]] = static_cast<std::uint32_t>(r); },
+      "new_ids");
+  const std::size_t words = 3 * static_cast<std::size_t>(num_live);
+  DeviceBuffer<std::uint32_t> d_tri(words), d_adj(words), d_seg(words);
+  std::uint32_t* tri = d_tri.data();
+  std::uint32_t* adj = d_adj.data();
+  std::uint32_t* seg = d_seg.data();
+  executor.for_each(
+      num_live,
+      [=] __device__(std::size_t r) {
+        const std::uint32_t t = live[r];
+        for (std::uint32_t i = 0; i < 3; ++i) {
+          const std::uint32_t e = m.adj[3 * t + i];
+          tri[3 * r + i] = m.tri[3 * t + i];
+          adj[3 * r + i] = e == kNoId ? kNoId : edge_id(new_id[edge_tri(e)], edge_index(e));
+          seg[3 * r + i] = m.seg[3 * t + i];
+        }
+      },
+      "compact_slots");
+  executor.for_each(
+      first_fake,
+      [=] __device__(std::size_t v) {
+        const std::uint32_t vt = m.vert_tri[v];
+        m.vert_tri[v] = vt == kNoId ? kNoId : new_id[vt];
+      },
+      "renumber_vert_tri");
+  executor.synchronize(); // the old arrays are freed next
+  s.tri = std::move(d_tri);
+  s.adj = std::move(d_adj);
+  s.seg = std::move(d_seg);
+  s.num_slots = num_live;
+  s.num_vertices = first_fake;
+}
+
+/// Device memory of a mesh with `slots` slots and nv vertices, in bytes.
+std::size_t mesh_device_bytes(std::size_t slots, std::size_t nv) { return 36 * slots + 20 * nv; }
+
+} // namespace detail
+
+void DeviceMesh::State::grow_slots(std::uint32_t n) {
+  const std::size_t used = 3 * static_cast<std::size_t>(num_slots);
+  const std::size_t count = used + 3 * static_cast<std::size_t>(n);
+  detail::require_device_memory(3 * 4 * count, 0,
+                                "growing the mesh to " + std::to_string(count / 3) + " slots");
+  detail::grow_buffer(executor, tri, used, count, 0xFF);
+  detail::grow_buffer(executor, adj, used, count, 0xFF);
+  detail::grow_buffer(executor, seg, used, count, 0xFF);
+  num_slots += n;
+}
+
+DeviceMesh::DeviceMesh(const ::cdt::detail::Mesh& mesh) : state_(std::make_unique<State>()) {
+  State& s = *state_;
+  s.num_slots = mesh.num_slots();
+  s.num_vertices = mesh.num_vertices();
+  detail::require_device_memory(detail::mesh_device_bytes(s.num_slots, s.num_vertices), 0,
+                                "a mesh of " + std::to_string(s.num_slots) + " triangles");
+  const std::size_t words = 3 * static_cast<std::size_t>(s.num_slots);
+  s.x.resize(s.num_vertices);
+  s.y.resize(s.num_vertices);
+  s.tri.resize(words);
+  s.adj.resize(words);
+  s.seg.resize(words);
+  s.vert_tri.resize(s.num_vertices);
+  s.executor.upload(s.x.data(), mesh.x.data(), s.num_vertices);
+  s.executor.upload(s.y.data(), mesh.y.data(), s.num_vertices);
+  s.executor.upload(s.tri.data(), mesh.tri.data(), words);
+  s.executor.upload(s.adj.data(), mesh.adj.data(), words);
+  s.executor.upload(s.seg.data(), mesh.seg.data(), words);
+  s.executor.upload(s.vert_tri.data(), mesh.vert_tri.data(), s.num_vertices);
+}
+
+DeviceMesh::~DeviceMesh() = default;
+DeviceMesh::DeviceMesh(DeviceMesh&&) noexcept = default;
+DeviceMesh& DeviceMesh::operator=(DeviceMesh&&) noexcept = default;
+
+ShiftStats DeviceMesh::shift(std::uint32_t num_sites, std::span<const double> true_x,
+                             std::span<const double> true_y, std::vector<MissingPoint>& missing) {
+  return detail::shift(*state_, num_sites, true_x, true_y, missing);
+}
+
+InsertStats DeviceMesh::insert(std::span<const MissingPoint> missing) {
+  return detail::insert(*state_, missing);
+}
+
+void DeviceMesh::remove_fake_boundary(std::uint32_t first_fake) {
+  detail::remove_fake_boundary(*state_, first_fake);
+}
+
+void DeviceMesh::download(::cdt::detail::Mesh& mesh) const {
+  State& s = *state_;
+  const std::size_t words = 3 * static_cast<std::size_t>(s.num_slots);
+  mesh.x.resize(s.num_vertices);
+  mesh.y.resize(s.num_vertices);
+  mesh.tri.resize(words);
+  mesh.adj.resize(words);
+  mesh.seg.resize(words);
+  mesh.vert_tri.resize(s.num_vertices);
+  s.executor.download(mesh.x.data(), s.x.data(), s.num_vertices);
+  s.executor.download(mesh.y.data(), s.y.data(), s.num_vertices);
+  s.executor.download(mesh.tri.data(), s.tri.data(), words);
+  s.executor.download(mesh.adj.data(), s.adj.data(), words);
+  s.executor.download(mesh.seg.data(), s.seg.data(), words);
+  s.executor.download(mesh.vert_tri.data(), s.vert_tri.data(), s.num_vertices);
+}
+
+} // namespace cdt::gpu
