@@ -10,10 +10,12 @@
 #include <vector>
 
 namespace cdt::detail {
-struct Mesh;         // cdt/src/gcd/mesh.hpp
-struct MissingPoint; // cdt/src/gcd/shift.hpp
-struct ShiftStats;   // cdt/src/gcd/shift.hpp
-struct InsertStats;  // cdt/src/gcd/insert.hpp
+struct Mesh;             // cdt/src/gcd/mesh.hpp
+struct MissingPoint;     // cdt/src/gcd/shift.hpp
+struct ShiftStats;       // cdt/src/gcd/shift.hpp
+struct InsertStats;      // cdt/src/gcd/insert.hpp
+struct ConstraintPiece2; // cdt/src/gcd/constraints.hpp
+struct ConstraintStats;  // cdt/src/gcd/constraints.hpp
 } // namespace cdt::detail
 
 namespace cdt::gpu {
@@ -157,9 +159,9 @@ FlipResult flip_to_delaunay(::cdt::detail::Mesh& mesh);
 
 /// A triangle mesh (cdt::detail::Mesh) held in device memory, on which the later phases run one after
 /// the other without copying it back: shifting (Phase 3), missing points and the fake boundary's
-/// removal (Phase 4) and Lawson flips (Phase 6). Each step runs the CPU executor's driver step for step
-/// on the CUDA executor, from the same per-element code, so the mesh is the same slot for slot.
-/// Steps throw Error when the mesh breaks a precondition (as the CPU executor's do) and DeviceError
+/// removal (Phase 4), constraints (Step 2) and Lawson flips (Phase 6). Each step runs the CPU executor's
+/// driver step for step on the CUDA executor, from the same per-element code, so the mesh is the same slot
+/// for slot. Steps throw Error when the mesh breaks a precondition (as the CPU executor's do) and DeviceError
 /// when CUDA fails or the device lacks the memory.
 class DeviceMesh {
 public:
@@ -180,6 +182,10 @@ public:
   /// cdt::detail::remove_fake_boundary: the fake vertices leave, the slots are compacted in the order
   /// of their lowest vertex.
   void remove_fake_boundary(std::uint32_t first_fake);
+
+  /// cdt::detail::insert_constraints (Step 2, Algorithms 4 and 5), with the same hang guard.
+  ::cdt::detail::ConstraintStats insert_constraints(std::span<const ::cdt::detail::ConstraintPiece2> pieces,
+                                                    unsigned inner_iterations);
 
   /// cdt::detail::flip_to_delaunay (constraint edges never flip); upload_ms and download_ms stay 0.
   FlipResult flip();

@@ -23,6 +23,23 @@ struct FailureWord {
   }
 };
 
+/// cdt::detail::FlipBatch on the device: a batch of disjoint flips, and per slot the partner of the
+/// last batch's pairs (kNoId for the slots of no pair).
+struct DeviceFlipBatch {
+  DeviceBuffer<std::uint32_t> partner; ///< per slot
+  DeviceBuffer<std::uint32_t> last;    ///< the last batch's slots, whose partner entries are reset next
+  DeviceBuffer<std::uint8_t> fix;      ///< per pair: flip_pair_contents' vertex fixes
+  DeviceBuffer<std::uint32_t> failed{1};
+  std::uint32_t num_last = 0;
+
+  DeviceFlipBatch(CudaExecutor& executor, std::uint32_t slots);
+};
+
+/// FlipBatch::apply: flips the pairs across edges[0, n) (disjoint, each flippable), then relinks
+/// them; throws Error when a link is lost (the mesh was not valid). Waits for the batch.
+void apply_flips(CudaExecutor& executor, DeviceFlipBatch& batch, const ::cdt::detail::MeshView& m,
+                 const std::uint32_t* edges, std::uint32_t n);
+
 } // namespace detail
 
 struct DeviceMesh::State {

@@ -36,6 +36,52 @@ std::size_t flip_device_bytes(std::size_t num_slots, std::size_t num_vertices) {
          (std::size_t{4} << 20);
 }
 
+DeviceFlipBatch::DeviceFlipBatch(CudaExecutor& executor, std::uint32_t slots)
+    : partner(slots), last(slots), fix(slots / 2 + 1) {
+  executor.fill_bytes(partner.data(), 0xFF, slots);
+}
+
+void apply_flips(CudaExecutor& executor, DeviceFlipBatch& batch, const MeshView& m,
+                 const std::uint32_t* edges, std::uint32_t n) {
+  std::uint32_t* partner = batch.partner.data();
+  std::uint32_t* last = batch.last.data();
+  std::uint8_t* fix = batch.fix.data();
+  std::uint32_t* failed = batch.failed.data();
+  {
+    const std::uint32_t* old = last;
+    executor.for_each(
+        batch.num_last, [=] __device__(std::size_t k) { partner[old[k]] = kNoId; }, "partner_reset");
+  }
+  // The pairs are disjoint, so each slot's partner entry has one writer.
+  executor.for_each(
+      n,
+      [=] __device__(std::size_t k) {
+        const std::uint32_t t = edge_tri(edges[k]);
+        const std::uint32_t u = edge_tri(m.adj[edges[k]]);
+        partner[t] = u;
+        partner[u] = t;
+        last[2 * k] = t;
+        last[2 * k + 1] = u;
+      },
+      "partner_set");
+  batch.num_last = 2 * n;
+  executor.for_each(
+      n, [=] __device__(std::size_t k) { fix[k] = ::cdt::detail::flip_pair_contents(m, edges[k]); },
+      "flip_contents");
+  executor.fill_bytes(failed, 0xFF, 1);
+  executor.for_each(
+      n,
+      [=] __device__(std::size_t k) {
+        if (!::cdt::detail::relink_flipped_pair(m, partner, edge_tri(edges[k]), fix[k]))
+          atomicMin(failed, static_cast<std::uint32_t>(k));
+      },
+      "flip_relink");
+  std::uint32_t first_failed = kNoId;
+  executor.download(&first_failed, failed, 1);
+  if (first_failed != kNoId)
+    throw Error("internal error: a flipped pair lost a neighbour link (the triangulation was not valid)");
+}
+
 /// The flips on a mesh on the device: flip_to_delaunay's rounds.
 FlipResult flip_mesh(DeviceMesh::State& s) {
   FlipResult result;
@@ -48,21 +94,17 @@ FlipResult flip_mesh(DeviceMesh::State& s) {
   DeviceEvent started, flipped;
   started.record(executor.stream());
   const MeshView m = s.view();
-  DeviceBuffer<std::uint32_t> d_mark(slots), d_partner(slots), d_list(slots), d_next(slots);
+  DeviceBuffer<std::uint32_t> d_mark(slots), d_list(slots), d_next(slots);
   DeviceBuffer<std::uint8_t> d_active_flag(slots);
   DeviceBuffer<std::uint32_t> d_cand(slots), d_nbr(slots), d_winners(slots), d_winner_edges(slots);
-  DeviceBuffer<std::uint32_t> d_waiting(slots), d_last(slots);
-  DeviceBuffer<std::uint8_t> d_own(slots), d_fix(slots);
+  DeviceBuffer<std::uint32_t> d_waiting(slots);
+  DeviceBuffer<std::uint8_t> d_own(slots);
+  DeviceFlipBatch batch(executor, slots);
   std::uint32_t* marks = d_mark.data();
-  std::uint32_t* partner = d_partner.data();
+  const std::uint32_t* partner = batch.partner.data();
   std::uint8_t* active_flag = d_active_flag.data();
   executor.fill_bytes(marks, 0xFF, slots);
-  executor.fill_bytes(partner, 0xFF, slots);
   executor.fill_bytes(active_flag, 0, slots);
-  // Its own word: the executor's scalar is the compactions' count.
-  DeviceBuffer<std::uint32_t> d_failed_word(1);
-  std::uint32_t* d_failed = d_failed_word.data();
-  executor.fill_bytes(d_failed, 0xFF, 1);
 
   std::uint32_t* list = d_list.data();
   std::uint32_t* next = d_next.data();
@@ -79,9 +121,6 @@ FlipResult flip_mesh(DeviceMesh::State& s) {
   std::uint32_t* winners = d_winners.data();
   std::uint32_t* winner_edges = d_winner_edges.data();
   std::uint32_t* waiting = d_waiting.data();
-  std::uint32_t* last = d_last.data();
-  std::uint8_t* fix = d_fix.data();
-  std::uint32_t num_last = 0; // slots of the last batch (2 per pair), whose partner entries are reset
 
   while (n > 0) {
     ++result.rounds;
@@ -124,35 +163,7 @@ FlipResult flip_mesh(DeviceMesh::State& s) {
     executor.for_each(
         num_winners, [=] __device__(std::size_t k) { winner_edges[k] = cand[winners[k]]; }, "winner_edges");
 
-    // The batch of flips (FlipBatch::apply): partners, contents, then links.
-    {
-      const std::uint32_t* old = last;
-      executor.for_each(
-          num_last, [=] __device__(std::size_t k) { partner[old[k]] = kNoId; }, "partner_reset");
-    }
-    executor.for_each(
-        num_winners,
-        [=] __device__(std::size_t k) {
-          const std::uint32_t t = edge_tri(winner_edges[k]);
-          const std::uint32_t u = edge_tri(m.adj[winner_edges[k]]);
-          partner[t] = u;
-          partner[u] = t;
-          last[2 * k] = t;
-          last[2 * k + 1] = u;
-        },
-        "partner_set");
-    num_last = 2 * num_winners;
-    executor.for_each(
-        num_winners,
-        [=] __device__(std::size_t k) { fix[k] = ::cdt::detail::flip_pair_contents(m, winner_edges[k]); },
-        "flip_contents");
-    executor.for_each(
-        num_winners,
-        [=] __device__(std::size_t k) {
-          if (!::cdt::detail::relink_flipped_pair(m, partner, edge_tri(winner_edges[k]), fix[k]))
-            atomicMin(d_failed, static_cast<std::uint32_t>(k));
-        },
-        "flip_relink");
+    apply_flips(executor, batch, m, winner_edges, num_winners);
     result.flips += num_winners;
 
     executor.for_each(
@@ -184,10 +195,6 @@ FlipResult flip_mesh(DeviceMesh::State& s) {
       executor.for_each(
           num_next, [=] __device__(std::size_t k) { active_flag[nx[k]] = 1; }, "activate");
     }
-    std::uint32_t failed = kNoId;
-    executor.download(&failed, d_failed, 1);
-    if (failed != kNoId)
-      throw Error("internal error: a flipped pair lost a neighbour link (the triangulation was not valid)");
     std::swap(list, next);
     n = num_next;
   }

@@ -1,9 +1,9 @@
 // triangulate(): the gCD pipeline (paper sections 3 and 4). The CPU executor runs every phase; with
 // the GPU backend the CUDA executor runs the digital Voronoi diagram, the dual triangles with their
 // links (Phase 2 but for hull completion and the fake boundary), shifting, missing points, the fake
-// boundary's removal and the final Lawson flips, each the same computation as the CPU executor's step
-// for step, so the result is the same; the CPU executor runs the rest (preparation, hull completion,
-// constraints), until those phases move to the device too.
+// boundary's removal, the constraints and the final Lawson flips, each the same computation as the CPU
+// executor's step for step, so the result is the same; the CPU executor runs the rest (preparation,
+// site assignment, hull completion and fake boundary), until those move to the device too.
 //
 //   prepare   merge duplicates, split segments at points on them and at crossings (cdt/src/pslg.cpp)
 //   voronoi   Phase 1: grid mapping (Appendix B), digital Voronoi diagram (PBA + Appendix A)
@@ -42,7 +42,7 @@ namespace {
 using Clock = std::chrono::steady_clock;
 
 /// Statistics::backend with the GPU backend: which phases the CUDA executor runs.
-constexpr const char* kGpuBackendName = "gpu (voronoi, dualize, shift, insert, flip) + cpu";
+constexpr const char* kGpuBackendName = "gpu (voronoi, dualize, shift, insert, constraints, flip) + cpu";
 
 class PhaseTimer {
 public:
@@ -255,8 +255,8 @@ Triangulation triangulate_on(std::span<const Point> points, std::span<const Segm
     missing.push_back({s, n});
   timer.end("dualize").iterations = static_cast<std::uint64_t>(passes);
 
-  // Phases 3 to 6. With the GPU backend the mesh goes to the device once and stays there, but for
-  // the constraints (Step 2), which the CPU executor inserts on a copy.
+  // Phases 3 to 6. With the GPU backend the mesh goes to the device once and stays there until the
+  // flips are done.
 #if defined(TRIXEL_HAVE_CUDA)
   std::optional<gpu::DeviceMesh> device_mesh;
   if (on_gpu) device_mesh.emplace(mesh);
@@ -299,11 +299,7 @@ Triangulation triangulate_on(std::span<const Point> points, std::span<const Segm
   }
   ConstraintStats cons;
 #if defined(TRIXEL_HAVE_CUDA)
-  if (on_gpu && !pieces.empty()) {
-    device_mesh->download(mesh);
-    cons = insert_constraints(mesh, pieces, std::max(1u, options.inner_iterations), executor);
-    device_mesh.emplace(mesh);
-  }
+  if (on_gpu) cons = device_mesh->insert_constraints(pieces, std::max(1u, options.inner_iterations));
 #endif
   if (!on_gpu) cons = insert_constraints(mesh, pieces, std::max(1u, options.inner_iterations), executor);
   {

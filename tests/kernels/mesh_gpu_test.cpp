@@ -1,6 +1,6 @@
 // Phases 2 to 6 of gCD on the device against the CPU executor: the dual triangulation built from the
-// colouring left on the device (DeviceVoronoi::dual, completed on the host), shifting, missing points
-// and the fake boundary's removal on a DeviceMesh, and Lawson flipping (gpu::flip_to_delaunay) must
+// colouring left on the device (DeviceVoronoi::dual, completed on the host), shifting, missing points,
+// the fake boundary's removal and constraints on a DeviceMesh, and Lawson flipping must
 // leave the very same mesh, slot for slot and link for link, because later phases walk it in slot order
 // and both executors must agree on every result.
 #include <gtest/gtest.h>
@@ -9,8 +9,10 @@
 #include <string>
 #include <vector>
 
+#include "cdt/errors.hpp"
 #include "cdt_kernels.hpp"
 #include "executor/cpu_executor.hpp"
+#include "gcd/constraints.hpp"
 #include "gcd/dualize.hpp"
 #include "gcd/flip.hpp"
 #include "gcd/grid_map.hpp"
@@ -307,4 +309,71 @@ TEST_F(MeshGpu, ShiftAndInsertMatchTheCpuExecutor) {
     device.download(copy);
     expect_same_mesh(copy, host, std::string(c.name) + ", after flips");
   }
+}
+
+// Step 2 (Algorithms 4 and 5) on a DeviceMesh: the paper's synthetic segments inserted into a
+// triangulation of their endpoints and the free points, by the same flips as the CPU executor.
+TEST_F(MeshGpu, ConstraintsMatchTheCpuExecutor) {
+  struct Case {
+    trixel_gen::Pslg pslg;
+    bool delaunay; ///< start from the Delaunay triangulation (as triangulate() does) or a sweep's
+    const char* name;
+  };
+  const std::vector<Case> cases = {
+      {trixel_gen::synthetic_pslg(3000, 300, trixel_gen::Distribution::uniform, 31), true, "uniform 3000"},
+      {trixel_gen::synthetic_pslg(60000, 6000, trixel_gen::Distribution::uniform, 32), true, "uniform 60000"},
+      {trixel_gen::synthetic_pslg(60000, 6000, trixel_gen::Distribution::gaussian, 33), true,
+       "gaussian 60000"},
+      // Long thin sweep triangles: every piece crosses many of them.
+      {trixel_gen::synthetic_pslg(20000, 2000, trixel_gen::Distribution::uniform, 34), false, "sweep 20000"},
+  };
+  CpuExecutor executor(4);
+  for (const Case& c : cases) {
+    std::vector<double> x, y;
+    for (const auto& q : c.pslg.points) {
+      x.push_back(q.x);
+      y.push_back(q.y);
+    }
+    Mesh start = trixel_test::sweep_triangulate(x, y);
+    if (c.delaunay) flip_to_delaunay(start, executor);
+    std::vector<ConstraintPiece2> pieces;
+    for (std::size_t k = 0; k < c.pslg.segments.size(); ++k)
+      pieces.push_back({c.pslg.segments[k].a, c.pslg.segments[k].b, static_cast<std::uint32_t>(k)});
+    Mesh host = start;
+    const ConstraintStats host_stats = insert_constraints(host, pieces, 8, executor);
+    cdt::gpu::DeviceMesh device(start);
+    const ConstraintStats device_stats = device.insert_constraints(pieces, 8);
+    EXPECT_GT(host_stats.flips, 0u) << c.name;
+    EXPECT_EQ(device_stats.flips, host_stats.flips) << c.name;
+    EXPECT_EQ(device_stats.outer_iterations, host_stats.outer_iterations) << c.name;
+    EXPECT_EQ(device_stats.inner_iterations, host_stats.inner_iterations) << c.name;
+    EXPECT_EQ(device_stats.intersections, host_stats.intersections) << c.name;
+    Mesh copy;
+    device.download(copy);
+    expect_same_mesh(copy, host, c.name);
+    trixel_test::expect_valid_mesh(copy);
+  }
+}
+
+// A piece through a vertex breaks the precondition: the device reports it as the CPU executor does.
+TEST_F(MeshGpu, ConstraintsReportAVertexOnAPiece) {
+  const std::vector<double> x = {0, 1, 2, 1, 1}, y = {0, 0, 0, 1, -1};
+  Mesh start = trixel_test::sweep_triangulate(x, y);
+  const std::vector<ConstraintPiece2> pieces = {{0, 2, 0}};
+  Mesh host = start;
+  CpuExecutor executor(1);
+  std::string host_error, device_error;
+  try {
+    insert_constraints(host, pieces, 8, executor);
+  } catch (const cdt::Error& e) {
+    host_error = e.what();
+  }
+  cdt::gpu::DeviceMesh device(start);
+  try {
+    device.insert_constraints(pieces, 8);
+  } catch (const cdt::Error& e) {
+    device_error = e.what();
+  }
+  EXPECT_FALSE(host_error.empty());
+  EXPECT_EQ(device_error, host_error);
 }

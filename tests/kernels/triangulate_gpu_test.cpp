@@ -1,6 +1,6 @@
-// triangulate() with Backend::gpu: the digital Voronoi phase runs on the device, the later phases on
-// the CPU executor. The device colouring equals the CPU executor's cell for cell, so the whole result
-// must be the CPU backend's, triangle for triangle, and verify.
+// triangulate() with Backend::gpu: the digital Voronoi diagram, the dual, shifting, missing points,
+// constraints and flips run on the device, each step for step the CPU executor's, so the whole result
+// must be the CPU backend's, triangle for triangle, with the same counts in every phase, and verify.
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -42,6 +42,15 @@ void expect_same_as_cpu(const std::vector<cdt::Point>& points, const std::vector
   const cdt::Triangulation on_cpu = cdt::triangulate(points, segments, cpu);
   EXPECT_EQ(on_gpu.stats.backend.rfind("gpu", 0), 0u) << what << ": backend " << on_gpu.stats.backend;
   EXPECT_EQ(canonical(on_gpu), canonical(on_cpu)) << what;
+  ASSERT_EQ(on_gpu.stats.phases.size(), on_cpu.stats.phases.size()) << what;
+  for (std::size_t k = 0; k < on_cpu.stats.phases.size(); ++k) {
+    const cdt::PhaseStats& g = on_gpu.stats.phases[k];
+    const cdt::PhaseStats& c = on_cpu.stats.phases[k];
+    EXPECT_EQ(g.name, c.name) << what;
+    EXPECT_EQ(g.flips, c.flips) << what << ", phase " << c.name;
+    EXPECT_EQ(g.iterations, c.iterations) << what << ", phase " << c.name;
+    EXPECT_EQ(g.missing, c.missing) << what << ", phase " << c.name;
+  }
   const cdt::VerifyReport report = cdt::verify(on_gpu, points, segments);
   EXPECT_TRUE(report.ok()) << what << ": " << (report.problems.empty() ? "" : report.problems.front());
 }

@@ -13,15 +13,14 @@
 namespace cdt::detail {
 namespace {
 
-// Labels keep 2 bits for the case above the slot index.
-constexpr std::uint32_t kMaxSlots = 1u << 30;
-
 // A flipping pass that flips fewer than one in this many marked triangles ends the inner loop early.
 constexpr std::size_t kStalledShare = 16;
 
 bool is_error(ConstraintStatus s) { return s >= ConstraintStatus::vertex_on_piece; }
 
-const char* describe(ConstraintStatus s) {
+} // namespace
+
+const char* constraint_status_message(ConstraintStatus s) {
   switch (s) {
   case ConstraintStatus::vertex_on_piece:
     return "a vertex lies on the open piece (pieces must be split at vertices first)";
@@ -38,30 +37,32 @@ const char* describe(ConstraintStatus s) {
   }
 }
 
+namespace {
+
 [[noreturn]] void fail(ConstraintStatus s, std::uint32_t index, const ConstraintPiece2& p) {
   throw Error("internal error: constraint piece " + std::to_string(index) + " (" + std::to_string(p.a) +
-              ", " + std::to_string(p.b) + "): " + describe(s));
+              ", " + std::to_string(p.b) + "): " + constraint_status_message(s));
 }
 
 } // namespace
 
 ConstraintStats insert_constraints(Mesh& mesh, std::span<const ConstraintPiece2> pieces,
                                    unsigned inner_iterations, CpuExecutor& executor) {
-  // Each inner iteration that runs flips at least once and there are O(n^2) flips (paper, Claim 3), so
-  // only broken code or input can reach this.
-  const std::uint64_t n = mesh.num_vertices();
-  const std::uint64_t bound = n < (1u << 28) ? 16 * n * n + 10'000'000 : ~std::uint64_t{0};
-  return insert_constraints(mesh, pieces, inner_iterations, executor, bound);
+  return insert_constraints(mesh, pieces, inner_iterations, executor,
+                            constraint_iteration_bound(mesh.num_vertices()));
 }
 
-ConstraintStats insert_constraints(Mesh& mesh, std::span<const ConstraintPiece2> pieces,
-                                   unsigned inner_iterations, CpuExecutor& executor,
-                                   std::uint64_t max_inner_iterations) {
-  ConstraintStats stats;
-  const std::uint32_t slots = mesh.num_slots();
-  if (slots >= kMaxSlots) throw Error("too many triangles for constraint insertion (at most 2^30 slots)");
+std::uint64_t constraint_iteration_bound(std::uint64_t n) {
+  // Each inner iteration that runs flips at least once and there are O(n^2) flips (paper, Claim 3), so
+  // only broken code or input can reach this.
+  return n < (1u << 28) ? 16 * n * n + 10'000'000 : ~std::uint64_t{0};
+}
+
+void check_constraint_pieces(std::uint32_t num_slots, std::uint32_t num_vertices,
+                             std::span<const ConstraintPiece2> pieces) {
+  if (num_slots >= kMaxConstraintSlots)
+    throw Error("too many triangles for constraint insertion (at most 2^30 slots)");
   if (pieces.size() >= kNoId) throw Error("too many constraint pieces for 32-bit indices");
-  const std::uint32_t num_vertices = mesh.num_vertices();
   for (std::size_t k = 0; k < pieces.size(); ++k) {
     const ConstraintPiece2& p = pieces[k];
     if (p.a >= num_vertices || p.b >= num_vertices || p.a == p.b) {
@@ -69,6 +70,14 @@ ConstraintStats insert_constraints(Mesh& mesh, std::span<const ConstraintPiece2>
                   ", " + std::to_string(p.b) + ") has invalid endpoints");
     }
   }
+}
+
+ConstraintStats insert_constraints(Mesh& mesh, std::span<const ConstraintPiece2> pieces,
+                                   unsigned inner_iterations, CpuExecutor& executor,
+                                   std::uint64_t max_inner_iterations) {
+  ConstraintStats stats;
+  const std::uint32_t slots = mesh.num_slots();
+  check_constraint_pieces(slots, mesh.num_vertices(), pieces);
   if (pieces.empty()) return stats;
   const unsigned inner_limit = inner_iterations == 0 ? 1u : inner_iterations;
 

@@ -55,6 +55,17 @@ ConstraintStats insert_constraints(Mesh& mesh, std::span<const ConstraintPiece2>
                                    unsigned inner_iterations, CpuExecutor& executor,
                                    std::uint64_t max_inner_iterations);
 
+/// The hang guard of the 4-argument insert_constraints for n vertices: 16 n^2 + 10^7 inner iterations.
+std::uint64_t constraint_iteration_bound(std::uint64_t n);
+
+/// Labels keep 2 bits for the case above the slot index: meshes of at most 2^30 slots.
+inline constexpr std::uint32_t kMaxConstraintSlots = 1u << 30;
+
+/// insert_constraints' checks before any work: the slot limit, the piece count, every piece's endpoints
+/// distinct vertices of the mesh. Throws Error naming the first bad piece.
+void check_constraint_pieces(std::uint32_t num_slots, std::uint32_t num_vertices,
+                             std::span<const ConstraintPiece2> pieces);
+
 // --- per-element work (host and device) --------------------------------------------------------------
 
 /// Result of a per-element step. Values from vertex_on_piece on are errors; the driver reports the one of
@@ -68,6 +79,9 @@ enum class ConstraintStatus : std::uint32_t {
   endpoint_not_in_mesh = 5, ///< an endpoint has no incident triangle
   corrupt_mesh = 6,         ///< links or marks are inconsistent
 };
+
+/// What an error status means, for the message of the error it becomes.
+const char* constraint_status_message(ConstraintStatus s);
 
 /// Figure 4: what flipping a pair of adjacent triangles that a piece crosses gives.
 enum class PairConfig : std::uint8_t {

@@ -1,0 +1,271 @@
+// Step 2 of the CDT on the CUDA executor (paper section 4, Algorithms 4 and 5): constraint insertion
+// by flipping on a mesh that stays on the device. The per-element work is cdt/src/gcd/constraints.hpp's
+// (walk_piece, propose_constraint_flip, mark_after_flip) and the flips are FlipBatch's; the driver runs
+// the same steps as the CPU executor's insert_constraints (cdt/src/gcd/constraints.cpp) in the same
+// order with the same ordered compactions, so both insert the pieces by the same flips.
+
+#include <cstddef>
+#include <cstdint>
+#include <string>
+#include <utility>
+
+#include "cdt_kernels.hpp"
+#include "cuda_check.cuh"
+#include "cuda_executor.cuh"
+#include "device_mesh.cuh"
+#include "gcd/constraints.hpp"
+
+namespace cdt::gpu {
+
+using ::cdt::detail::ConstraintPiece2;
+using ::cdt::detail::ConstraintStats;
+using ::cdt::detail::ConstraintStatus;
+using ::cdt::detail::edge_tri;
+using ::cdt::detail::FlipCase;
+using ::cdt::detail::FlipProposal;
+using ::cdt::detail::kNoId;
+using ::cdt::detail::MeshView;
+
+namespace detail {
+namespace {
+
+// A flipping pass that flips fewer than one in this many marked triangles ends the inner loop early
+// (constraints.cpp).
+constexpr std::uint32_t kStalledShare = 16;
+
+__device__ bool is_error(ConstraintStatus s) { return s >= ConstraintStatus::vertex_on_piece; }
+
+/// The error of element `at` (the lowest failing one) of a step, as the CPU executor reports it.
+[[noreturn]] void fail(CudaExecutor& executor, const ConstraintStatus* d_status, std::uint32_t at,
+                       std::uint32_t piece_index, std::span<const ConstraintPiece2> pieces) {
+  ConstraintStatus status{};
+  executor.download(&status, d_status + at, 1);
+  const ConstraintPiece2& p = pieces[piece_index];
+  throw Error("internal error: constraint piece " + std::to_string(piece_index) + " (" + std::to_string(p.a) +
+              ", " + std::to_string(p.b) + "): " + ::cdt::detail::constraint_status_message(status));
+}
+
+} // namespace
+
+ConstraintStats insert_constraints(DeviceMesh::State& s, std::span<const ConstraintPiece2> host_pieces,
+                                   unsigned inner_iterations) {
+  ConstraintStats stats;
+  const std::uint32_t slots = s.num_slots;
+  ::cdt::detail::check_constraint_pieces(slots, s.num_vertices, host_pieces);
+  if (host_pieces.empty()) return stats;
+  const std::uint64_t max_inner_iterations = ::cdt::detail::constraint_iteration_bound(s.num_vertices);
+  const unsigned inner_limit = inner_iterations == 0 ? 1u : inner_iterations;
+  CudaExecutor& executor = s.executor;
+  const auto num_pieces = static_cast<std::uint32_t>(host_pieces.size());
+
+  const MeshView m = s.view();
+  DeviceBuffer<ConstraintPiece2> d_pieces(num_pieces);
+  executor.upload(d_pieces.data(), host_pieces.data(), num_pieces);
+  const ConstraintPiece2* piece = d_pieces.data();
+  DeviceBuffer<std::uint32_t> d_cmark(slots), d_claim(slots);
+  std::uint32_t* cmark = d_cmark.data();
+  std::uint32_t* claim = d_claim.data();
+  executor.fill_bytes(claim, 0xFF, slots);
+  DeviceFlipBatch batch(executor, slots);
+
+  DeviceBuffer<std::uint32_t> d_pending(num_pieces), d_next_pending(num_pieces), d_left(num_pieces);
+  DeviceBuffer<ConstraintStatus> d_walk_status(num_pieces);
+  DeviceBuffer<std::uint32_t> d_present(num_pieces), d_crossings(num_pieces);
+  {
+    std::uint32_t* pending = d_pending.data();
+    executor.for_each(
+        num_pieces, [=] __device__(std::size_t k) { pending[k] = static_cast<std::uint32_t>(k); },
+        "pieces_pending");
+  }
+  std::uint32_t np = num_pieces;
+  // The proposals' buffers, per active triangle (at most every slot).
+  DeviceBuffer<std::uint32_t> d_active(slots), d_next_active(slots), d_picked(slots);
+  DeviceBuffer<std::uint32_t> d_edge(slots), d_next_tri(slots), d_prev_tri(slots), d_label(slots);
+  DeviceBuffer<std::uint32_t> d_winner_edges(slots);
+  DeviceBuffer<std::uint8_t> d_own(slots);
+  DeviceBuffer<ConstraintStatus> d_prop_status(slots);
+  DeviceBuffer<std::uint32_t> d_error_at(1);
+  DeviceBuffer<unsigned long long> d_sum(1);
+  std::uint32_t* error_at = d_error_at.data();
+
+  for (;;) {
+    ++stats.outer_iterations;
+    // Algorithm 4, line 3: marks from scratch, each piece's walk lowering them to its index.
+    executor.fill_bytes(cmark, 0xFF, slots);
+    {
+      const std::uint32_t* pend = d_pending.data();
+      ConstraintStatus* st = d_walk_status.data();
+      std::uint32_t* present = d_present.data();
+      std::uint32_t* cross = d_crossings.data();
+      executor.fill_bytes(error_at, 0xFF, 1);
+      executor.for_each(
+          np,
+          [=] __device__(std::size_t k) {
+            const std::uint32_t i = pend[k];
+            const auto mark = [cmark, i](std::uint32_t t) { atomicMin(cmark + t, i); };
+            st[k] = ::cdt::detail::walk_piece(m, piece[i].a, piece[i].b, mark, present[k], cross[k]);
+            if (is_error(st[k])) atomicMin(error_at, static_cast<std::uint32_t>(k));
+          },
+          "walk_pieces");
+      std::uint32_t first_error = kNoId;
+      executor.download(&first_error, error_at, 1);
+      if (first_error != kNoId) {
+        std::uint32_t index = 0;
+        executor.download(&index, pend + first_error, 1);
+        fail(executor, st, first_error, index, host_pieces);
+      }
+      if (stats.outer_iterations == 1) {
+        unsigned long long* sum = d_sum.data();
+        executor.fill_bytes(sum, 0, 1);
+        executor.for_each(
+            np, [=] __device__(std::size_t k) { atomicAdd(sum, static_cast<unsigned long long>(cross[k])); },
+            "sum_crossings");
+        unsigned long long total = 0;
+        executor.download(&total, sum, 1);
+        stats.intersections = total;
+      }
+      // A separate step from the walks, which read seg. Duplicate pieces share an edge: lowest id wins.
+      executor.for_each(
+          np,
+          [=] __device__(std::size_t k) {
+            if (st[k] != ConstraintStatus::present) return;
+            const std::uint32_t id = piece[pend[k]].id;
+            atomicMin(m.seg + present[k], id);
+            const std::uint32_t twin = m.adj[present[k]];
+            if (twin != kNoId) atomicMin(m.seg + twin, id);
+          },
+          "present_pieces");
+      std::uint32_t* left = d_left.data();
+      const std::uint32_t num_left = executor.compact(
+          np, [=] __device__(std::size_t k) { return st[k] == ConstraintStatus::ok; }, left);
+      std::uint32_t* next = d_next_pending.data();
+      executor.for_each(
+          num_left, [=] __device__(std::size_t k) { next[k] = pend[left[k]]; }, "next_pending");
+      std::swap(d_pending, d_next_pending);
+      np = num_left;
+    }
+    if (np == 0) break;
+
+    std::uint32_t na = executor.compact(
+        slots, [=] __device__(std::size_t t) { return cmark[t] != kNoId; }, d_active.data());
+    std::uint64_t outer_flips = 0;
+    for (unsigned iteration = 0; iteration < inner_limit && na > 0; ++iteration) {
+      if (++stats.inner_iterations > max_inner_iterations) {
+        throw Error("internal error: constraint insertion did not finish within " +
+                    std::to_string(max_inner_iterations) + " inner iterations");
+      }
+      const std::uint32_t* act = d_active.data();
+      ConstraintStatus* status = d_prop_status.data();
+      std::uint32_t* edge = d_edge.data();
+      std::uint32_t* next_tri = d_next_tri.data();
+      std::uint32_t* prev_tri = d_prev_tri.data();
+      std::uint32_t* lab = d_label.data();
+      std::uint8_t* own = d_own.data();
+
+      // Algorithm 5, lines 2-11: cases, then claims by atomic minimum of the label.
+      executor.fill_bytes(error_at, 0xFF, 1);
+      executor.for_each(
+          na,
+          [=] __device__(std::size_t k) {
+            const std::uint32_t A = act[k];
+            FlipProposal proposal;
+            status[k] = ::cdt::detail::propose_constraint_flip(m, cmark, piece, A, proposal);
+            if (is_error(status[k])) atomicMin(error_at, static_cast<std::uint32_t>(k));
+            edge[k] = proposal.edge;
+            prev_tri[k] = proposal.prev;
+            next_tri[k] = kNoId;
+            if (proposal.flip_case == FlipCase::none) return;
+            const std::uint32_t C = edge_tri(m.adj[proposal.edge]);
+            next_tri[k] = C;
+            lab[k] = ::cdt::detail::constraint_flip_label(proposal.flip_case, A);
+            atomicMin(claim + A, lab[k]);
+            atomicMin(claim + C, lab[k]);
+            if (proposal.prev != kNoId) atomicMin(claim + proposal.prev, lab[k]);
+          },
+          "propose_constraint_flips");
+      std::uint32_t first_error = kNoId;
+      executor.download(&first_error, error_at, 1);
+      if (first_error != kNoId) {
+        std::uint32_t A = 0, index = 0;
+        executor.download(&A, act + first_error, 1);
+        executor.download(&index, cmark + A, 1);
+        fail(executor, status, first_error, index, host_pieces);
+      }
+      // Algorithm 5, line 13: flip only where every claim held; the bits say which claims this
+      // element clears afterwards, so each claim has one clearer.
+      executor.for_each(
+          na,
+          [=] __device__(std::size_t k) {
+            if (next_tri[k] == kNoId) {
+              own[k] = 0;
+              return;
+            }
+            const std::uint32_t mine = lab[k];
+            own[k] = static_cast<std::uint8_t>(
+                (claim[act[k]] == mine ? 1u : 0u) | (claim[next_tri[k]] == mine ? 2u : 0u) |
+                (prev_tri[k] != kNoId && claim[prev_tri[k]] == mine ? 4u : 0u));
+          },
+          "constraint_claims");
+      std::uint32_t* winners = d_picked.data();
+      const std::uint32_t num_winners = executor.compact(
+          na,
+          [=] __device__(std::size_t k) {
+            return next_tri[k] != kNoId && own[k] == (prev_tri[k] != kNoId ? 7u : 3u);
+          },
+          winners);
+      executor.for_each(
+          na,
+          [=] __device__(std::size_t k) {
+            if (own[k] & 1u) claim[act[k]] = kNoId;
+            if (own[k] & 2u) claim[next_tri[k]] = kNoId;
+            if (own[k] & 4u) claim[prev_tri[k]] = kNoId;
+          },
+          "clear_constraint_claims");
+      if (num_winners == 0) break; // the lowest label holds all its claims: nothing was flippable
+      std::uint32_t* winner_edges = d_winner_edges.data();
+      executor.for_each(
+          num_winners, [=] __device__(std::size_t k) { winner_edges[k] = edge[winners[k]]; },
+          "constraint_winner_edges");
+      apply_flips(executor, batch, m, winner_edges, num_winners);
+      {
+        const std::uint32_t* partner = batch.partner.data();
+        executor.for_each(
+            num_winners,
+            [=] __device__(std::size_t k) {
+              const std::uint32_t A = act[winners[k]];
+              ::cdt::detail::mark_after_flip(m, cmark, piece, A, partner[A], cmark[A]);
+            },
+            "mark_after_flip");
+      }
+      stats.flips += num_winners;
+      outer_flips += num_winners;
+      // The stalled rule of constraints.cpp: marking again beats proposing over stuck triangles.
+      const bool stalled = static_cast<std::uint64_t>(num_winners) * kStalledShare < na;
+      // Flips only reuse slots of marked triangles, so the marked set shrinks within the list.
+      std::uint32_t* still = d_picked.data();
+      const std::uint32_t num_still = executor.compact(
+          na, [=] __device__(std::size_t k) { return cmark[act[k]] != kNoId; }, still);
+      std::uint32_t* next = d_next_active.data();
+      executor.for_each(
+          num_still, [=] __device__(std::size_t k) { next[k] = act[still[k]]; }, "next_active");
+      std::swap(d_active, d_next_active);
+      na = num_still;
+      if (stalled) break;
+    }
+    // Section 4.3: the lowest pending piece has all its triangles marked and always a flippable pair.
+    if (outer_flips == 0) {
+      throw Error("internal error: constraint insertion made no progress with " + std::to_string(np) +
+                  " pieces pending (crossing pieces?)");
+    }
+  }
+  return stats;
+}
+
+} // namespace detail
+
+ConstraintStats DeviceMesh::insert_constraints(std::span<const ConstraintPiece2> pieces,
+                                               unsigned inner_iterations) {
+  return detail::insert_constraints(*state_, pieces, inner_iterations);
+}
+
+} // namespace cdt::gpu
