@@ -1,10 +1,25 @@
 #!/usr/bin/env bash
 # On a GPU machine (CUDA toolkit, CMake, a device; no image libraries needed), in one call:
 # configure and build the CUDA targets, run the GPU tests (and the CPU tests of cdt), run the GPU tests
-# under compute-sanitizer memcheck, run the benchmarks, and print a short table at the end.
+# under compute-sanitizer memcheck and racecheck, run the benchmarks, and print a short table at the end.
 # Logs go to $OUT (when set) or build-gpu/logs.
+#
+# usage: scripts/gpu-check.sh [PART...]   (default: all of them, in this order)
+#   tests      build, GPU tests, CPU tests of cdt, compute-sanitizer memcheck and racecheck
+#   micro      predicates and digital Voronoi benchmarks
+#   cdt-gpu    the CDT benchmark matrix with the GPU backend (median of 3)
+#   cdt-cpu    the same inputs on the CPU executor and CGAL (one run each: they take seconds per input);
+#              with .carry/bin/bench_cdt_cgal (scripts/device-carry.sh builds it here, statically
+#              linked with CGAL, which that machine lacks), else the device build without CGAL
+#   batch      the vectorize batch benchmark, when its bundle was carried (scripts/device-bundle.sh)
+# The CDT matrix (TRIXEL_CDT_SIZES, POINTS:SEGMENTS pairs) is the paper's synthetic design, uniform and
+# Gaussian, plus a 4096 x 4096 lattice with random segments and the GSHHG coastlines when carried
+# (.carry/gshhg-high.txt.gz). Generated inputs are cached in build-gpu/inputs for the later parts.
 set -uo pipefail
 cd "$(dirname "$0")/.."
+parts=("$@")
+[ ${#parts[@]} -eq 0 ] && parts=(tests micro cdt-gpu cdt-cpu batch)
+want() { [[ " ${parts[*]} " == *" $1 "* ]]; }
 logs=${OUT:-build-gpu/logs}
 mkdir -p "$logs"
 arch=${TRIXEL_GPU_ARCH:-90}
@@ -25,30 +40,43 @@ step() { # step NAME COMMAND...: runs it, logs it, records PASS/FAIL
 nvidia-smi --query-gpu=name,driver_version,memory.total --format=csv,noheader > "$logs/device.txt" 2>&1 || true
 step configure cmake -S . -B build-gpu "${generator[@]}" -DCMAKE_BUILD_TYPE=Release -DTRIXEL_CUDA=ON \
   -DCMAKE_CUDA_ARCHITECTURES="$arch" -DTRIXEL_VECTORIZE=AUTO -DTRIXEL_WERROR=ON
-step build cmake --build build-gpu -j "$(nproc)"
-step gpu-tests ctest --test-dir build-gpu -L gpu --output-on-failure --no-tests=error
-step cdt-cpu-tests ctest --test-dir build-gpu -L cpu -LE build --output-on-failure --no-tests=error -j "$(nproc)"
-if command -v compute-sanitizer >/dev/null 2>&1; then
-  # Every GPU test but the million-point triangulations (minutes under the sanitizers); the mid-size
-  # PSLGs with segments of TriangulateGpu.SegmentsMatchTheCpuBackend stay in.
-  sanitized=--gtest_filter=-TriangulateGpu.PointsMatchTheCpuBackend
-  step memcheck compute-sanitizer --tool memcheck --error-exitcode 1 build-gpu/bin/kernels_tests "$sanitized"
-  step racecheck compute-sanitizer --tool racecheck --error-exitcode 1 build-gpu/bin/kernels_tests \
-    "$sanitized:TriangulateGpu.ArtemOgreFilesVerify:TriangulateGpu.LatticesVerify"
+if want tests; then
+  step build cmake --build build-gpu -j "$(nproc)"
+  step gpu-tests ctest --test-dir build-gpu -L gpu --output-on-failure --no-tests=error
+  step cdt-cpu-tests ctest --test-dir build-gpu -L cpu -LE build --output-on-failure --no-tests=error -j "$(nproc)"
+  if command -v compute-sanitizer >/dev/null 2>&1; then
+    # Every GPU test but the million-point triangulations (minutes under the sanitizers); the mid-size
+    # PSLGs with segments of TriangulateGpu.SegmentsMatchTheCpuBackend stay in.
+    sanitized=--gtest_filter=-TriangulateGpu.PointsMatchTheCpuBackend
+    step memcheck compute-sanitizer --tool memcheck --error-exitcode 1 build-gpu/bin/kernels_tests "$sanitized"
+    step racecheck compute-sanitizer --tool racecheck --error-exitcode 1 build-gpu/bin/kernels_tests \
+      "$sanitized:TriangulateGpu.ArtemOgreFilesVerify:TriangulateGpu.LatticesVerify"
+  fi
+else
+  step build cmake --build build-gpu -j "$(nproc)" --target bench_cdt bench_predicates bench_voronoi_gpu
 fi
-step bench-predicates build-gpu/bin/bench_predicates 4000000
-# Phase 1 of gCD on the device (PBA and the Appendix A amendment) against the CPU executor.
-step bench-voronoi build-gpu/bin/bench_voronoi_gpu --sizes 1024,2048,4096,8192 --repeat 5
-# The CDT with the CPU executor alone on this machine's cores, then with the GPU backend (the digital
-# Voronoi diagram on the device, the later phases on the CPU executor); the coastlines are used when
-# they were carried in .carry/data (scripts/bench-cdt.sh prepares them).
-coast=()
-[ -s .carry/data/gshhg-high.txt ] && coast=(--coast .carry/data/gshhg-high.txt)
-step bench-cdt-cpu build-gpu/bin/bench_cdt --repeat 3 --backend cpu "${coast[@]}"
-step bench-cdt-gpu build-gpu/bin/bench_cdt --repeat 3 --backend gpu "${coast[@]}"
+if want micro; then
+  step bench-predicates build-gpu/bin/bench_predicates 4000000
+  # Phase 1 of gCD on the device (PBA and the Appendix A amendment) against the CPU executor.
+  step bench-voronoi build-gpu/bin/bench_voronoi_gpu --sizes 1024,2048,4096,8192 --repeat 5
+fi
+# The CDT matrix: the GPU backend, then the CPU executor and CGAL on the same inputs.
+sizes=${TRIXEL_CDT_SIZES:-1000000:0,1000000:100000,10000000:0,10000000:100000,10000000:1000000}
+mkdir -p build-gpu/inputs
+matrix=(--sizes "$sizes" --lattice 4096 --cache build-gpu/inputs)
+if [ -s .carry/gshhg-high.txt.gz ]; then
+  [ -s build-gpu/inputs/gshhg-high.txt ] || gunzip -c .carry/gshhg-high.txt.gz > build-gpu/inputs/gshhg-high.txt
+  matrix+=(--coast build-gpu/inputs/gshhg-high.txt)
+fi
+want cdt-gpu && step bench-cdt-gpu build-gpu/bin/bench_cdt --repeat 3 --backend gpu "${matrix[@]}"
+if want cdt-cpu; then
+  cpu_bench=build-gpu/bin/bench_cdt
+  [ -x .carry/bin/bench_cdt_cgal ] && cpu_bench=.carry/bin/bench_cdt_cgal
+  step bench-cdt-cpu "$cpu_bench" --repeat 1 --backend cpu "${matrix[@]}"
+fi
 # The real vectorize pipeline, when its bundle was carried (scripts/device-bundle.sh prepares it: the
 # app with libpng as its only image reader and its shared libraries): 200 Kodak-size images.
-if [ -x .carry/bundle/vectorize ] && [ -d .carry/kodak ]; then
+if want batch && [ -x .carry/bundle/vectorize ] && [ -d .carry/kodak ]; then
   export LD_LIBRARY_PATH=$PWD/.carry/bundle/lib${LD_LIBRARY_PATH:+:$LD_LIBRARY_PATH}
   step bench-batch bash scripts/bench-batch.sh --bin .carry/bundle/vectorize --images .carry/kodak \
     -n 200 -j "1 $(nproc)" -- --backend gpu
@@ -62,17 +90,12 @@ echo "| step | result | time |"
 echo "| --- | --- | --- |"
 printf '%s\n' "${status[@]}"
 echo
-grep -h '^|' "$logs/bench-predicates.log" || true
-echo
-grep -h '^|' "$logs/bench-voronoi.log" || true
-echo
-for backend in cpu gpu; do
-  grep -h -e '^backend' -e '^|' "$logs/bench-cdt-$backend.log" || true
-  echo
+for log in bench-predicates bench-voronoi bench-cdt-gpu bench-cdt-cpu; do
+  [ -f "$logs/$log.log" ] && { grep -h -e '^backend' -e '^|' "$logs/$log.log" || true; echo; }
 done
 for log in bench-batch bench-batch-cpu; do
   [ -f "$logs/$log.log" ] && { echo "$log:"; grep -h '^|' "$logs/$log.log" || true; }
 done
-grep -h -E 'tests passed|tests failed|Skipped|Not Run' "$logs/gpu-tests.log" || true
+[ -f "$logs/gpu-tests.log" ] && { grep -h -E 'tests passed|tests failed|Skipped|Not Run' "$logs/gpu-tests.log" || true; }
 grep -q FAIL <<<"${status[*]}" && exit 1
 exit 0

@@ -4,7 +4,13 @@
 // optionally a GIS coastline file as printed by `gmt coast -Rg -Dh -W -M` ('>'-separated polylines).
 //
 // usage: bench_cdt [--quick] [--coast FILE] [--threads N] [--repeat R] [--case TEXT] [--no-cgal] [--grid M]
-//                  [--backend auto|cpu|gpu]
+//                  [--backend auto|cpu|gpu] [--sizes LIST] [--lattice K]
+// --sizes replaces the default inputs by the paper's synthetic design at the sizes listed as
+// POINTS:SEGMENTS pairs separated by commas (e.g. 10000000:1000000), uniform and Gaussian each, and
+// uniform points alone where SEGMENTS is 0; --lattice adds a K x K lattice with K * K / 16 random
+// short segments (crossings and overlaps included).
+// --cache DIR keeps each generated input of --sizes and --lattice in DIR as a binary file and reads
+// it from there next time (large synthetic inputs take longer to generate than to triangulate).
 // --case keeps only the inputs whose name contains TEXT; --no-cgal skips the competitor (profiling);
 // --grid forces the grid side (Options::grid_size) instead of the automatic choice; --backend picks
 // the executor (Options::backend).
@@ -18,6 +24,7 @@
 #include <unistd.h>
 
 #include <algorithm>
+#include <cctype>
 #include <chrono>
 #include <cstdio>
 #include <cstdlib>
@@ -26,6 +33,7 @@
 #include <functional>
 #include <sstream>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "cdt/cdt.hpp"
@@ -70,6 +78,58 @@ trixel_gen::Pslg read_coast(const std::string& path) {
     if (open) p.segments.push_back({id - 1, id});
     open = true;
   }
+  return p;
+}
+
+/// POINTS:SEGMENTS[,POINTS:SEGMENTS...] into sizes; false when malformed.
+bool parse_sizes(const char* text, std::vector<std::pair<std::size_t, std::size_t>>& sizes) {
+  std::stringstream list(text);
+  std::string item;
+  while (std::getline(list, item, ',')) {
+    const std::size_t colon = item.find(':');
+    if (colon == std::string::npos) return false;
+    char* end = nullptr;
+    const unsigned long long points = std::strtoull(item.c_str(), &end, 10);
+    if (end != item.c_str() + colon || points < 3) return false;
+    const unsigned long long segments = std::strtoull(item.c_str() + colon + 1, &end, 10);
+    if (*end != '\0' || 2 * segments > points) return false;
+    sizes.emplace_back(points, segments);
+  }
+  return !sizes.empty();
+}
+
+/// The generated input `name` from the cache folder (when given and present), else generate() saved
+/// there. File: point count, segment count (64-bit each), then the points and segments as stored.
+trixel_gen::Pslg cached(const std::string& cache, const std::string& name,
+                        const std::function<trixel_gen::Pslg()>& generate) {
+  if (cache.empty()) return generate();
+  std::string file = cache + "/";
+  for (const char c : name) file += std::isalnum(static_cast<unsigned char>(c)) ? c : '_';
+  file += ".bin";
+  trixel_gen::Pslg p;
+  if (std::ifstream in{file, std::ios::binary}) {
+    std::uint64_t counts[2] = {0, 0};
+    in.read(reinterpret_cast<char*>(counts), sizeof counts);
+    p.points.resize(counts[0]);
+    p.segments.resize(counts[1]);
+    in.read(reinterpret_cast<char*>(p.points.data()),
+            static_cast<std::streamsize>(p.points.size() * sizeof(cdt::Point)));
+    in.read(reinterpret_cast<char*>(p.segments.data()),
+            static_cast<std::streamsize>(p.segments.size() * sizeof(cdt::Segment)));
+    if (in) return p;
+    std::fprintf(stderr, "bench_cdt: %s is truncated; generating the input again\n", file.c_str());
+  }
+  p = generate();
+  const std::string partial = file + ".tmp";
+  std::ofstream out(partial, std::ios::binary);
+  const std::uint64_t counts[2] = {p.points.size(), p.segments.size()};
+  out.write(reinterpret_cast<const char*>(counts), sizeof counts);
+  out.write(reinterpret_cast<const char*>(p.points.data()),
+            static_cast<std::streamsize>(p.points.size() * sizeof(cdt::Point)));
+  out.write(reinterpret_cast<const char*>(p.segments.data()),
+            static_cast<std::streamsize>(p.segments.size() * sizeof(cdt::Segment)));
+  out.close();
+  if (out) std::rename(partial.c_str(), file.c_str());
   return p;
 }
 
@@ -145,6 +205,9 @@ int main(int argc, char** argv) {
   bool with_cgal = true;
   std::uint32_t grid = 0;
   std::string backend_name = "auto";
+  std::vector<std::pair<std::size_t, std::size_t>> sizes;
+  std::uint32_t lattice_side = 0;
+  std::string cache;
   for (int i = 1; i < argc; ++i) {
     if (!std::strcmp(argv[i], "--quick"))
       quick = true;
@@ -158,6 +221,12 @@ int main(int argc, char** argv) {
       only = argv[++i];
     else if (!std::strcmp(argv[i], "--grid") && i + 1 < argc)
       grid = static_cast<std::uint32_t>(std::atoi(argv[++i]));
+    else if (!std::strcmp(argv[i], "--sizes") && i + 1 < argc && parse_sizes(argv[i + 1], sizes))
+      ++i;
+    else if (!std::strcmp(argv[i], "--cache") && i + 1 < argc)
+      cache = argv[++i];
+    else if (!std::strcmp(argv[i], "--lattice") && i + 1 < argc)
+      lattice_side = static_cast<std::uint32_t>(std::atoi(argv[++i]));
     else if (!std::strcmp(argv[i], "--no-cgal"))
       with_cgal = false;
     else if (!std::strcmp(argv[i], "--backend") && i + 1 < argc &&
@@ -167,7 +236,8 @@ int main(int argc, char** argv) {
     else {
       std::fprintf(stderr,
                    "usage: bench_cdt [--quick] [--coast FILE] [--threads N] [--repeat R] [--case TEXT] "
-                   "[--no-cgal] [--grid M] [--backend auto|cpu|gpu]\n");
+                   "[--no-cgal] [--grid M] [--backend auto|cpu|gpu] [--sizes POINTS:SEGMENTS,...] "
+                   "[--lattice K] [--cache DIR]\n");
       return 2;
     }
   }
@@ -181,12 +251,42 @@ int main(int argc, char** argv) {
     return only.empty() || std::strstr(name, only.c_str()) != nullptr;
   };
   std::vector<Input> inputs;
-  if (wanted("uniform points"))
+  for (const auto& [points, segments] : sizes) {
+    const std::string size = " " + std::to_string(points) + " + " + std::to_string(segments);
+    std::uint64_t seed = 10 + points + segments;
+    if (segments == 0) {
+      const std::string name = "uniform points" + size;
+      if (wanted(name.c_str()))
+        inputs.push_back({name, cached(cache, name, [&] {
+                            return trixel_gen::random_points(points, trixel_gen::Distribution::uniform, seed);
+                          })});
+      continue;
+    }
+    for (const auto& [label, d] : {std::pair{"synthetic uniform", trixel_gen::Distribution::uniform},
+                                   std::pair{"synthetic gaussian", trixel_gen::Distribution::gaussian}}) {
+      const std::string name = label + size;
+      ++seed;
+      if (wanted(name.c_str()))
+        inputs.push_back({name, cached(cache, name, [&] {
+                            return trixel_gen::synthetic_pslg(points, segments, d, seed);
+                          })});
+    }
+  }
+  if (lattice_side > 0) {
+    const std::string name = "lattice " + std::to_string(lattice_side) + "^2";
+    if (wanted(name.c_str()))
+      inputs.push_back({name, cached(cache, name, [&] {
+                          return trixel_gen::lattice_with_segments(
+                              lattice_side, std::size_t{lattice_side} * lattice_side / 16, 5);
+                        })});
+  }
+  // --sizes replaces the default inputs.
+  if (sizes.empty() && wanted("uniform points"))
     inputs.push_back({"uniform points", trixel_gen::random_points(n, trixel_gen::Distribution::uniform, 1)});
-  if (wanted("synthetic uniform"))
+  if (sizes.empty() && wanted("synthetic uniform"))
     inputs.push_back(
         {"synthetic uniform", trixel_gen::synthetic_pslg(n, n / 10, trixel_gen::Distribution::uniform, 2)});
-  if (wanted("synthetic gaussian"))
+  if (sizes.empty() && wanted("synthetic gaussian"))
     inputs.push_back(
         {"synthetic gaussian", trixel_gen::synthetic_pslg(n, n / 10, trixel_gen::Distribution::gaussian, 3)});
   if (!coast.empty() && wanted("GSHHG coastlines")) inputs.push_back({"GSHHG coastlines", read_coast(coast)});

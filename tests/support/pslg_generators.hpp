@@ -108,9 +108,7 @@ public:
   /// their 3 x 3 neighbourhoods, a superset of the cells the segment passes through.
   template <class F>
   void for_cells(const cdt::Point& a, const cdt::Point& b, F&& f) const {
-    const auto cell = [&](double v) {
-      return static_cast<std::int64_t>(std::min<double>(side_ - 1, std::max(0.0, v * side_)));
-    };
+    const auto cell = [&](double v) { return coordinate_cell(v); };
     const double length = std::hypot(b.x - a.x, b.y - a.y);
     const auto steps = static_cast<std::size_t>(std::ceil(length * side_ * 4)) + 1;
     std::vector<std::size_t> seen;
@@ -127,10 +125,19 @@ public:
     seen.erase(std::unique(seen.begin(), seen.end()), seen.end());
     for (std::size_t c : seen) f(c);
   }
+  /// The cell holding point q.
+  std::size_t cell_of(const cdt::Point& q) const {
+    return static_cast<std::size_t>(coordinate_cell(q.y)) * side_ +
+           static_cast<std::size_t>(coordinate_cell(q.x));
+  }
   std::vector<std::uint32_t>& at(std::size_t c) { return cells_[c]; }
   const std::vector<std::uint32_t>& at(std::size_t c) const { return cells_[c]; }
 
 private:
+  std::int64_t coordinate_cell(double v) const {
+    return static_cast<std::int64_t>(std::min<double>(side_ - 1, std::max(0.0, v * side_)));
+  }
+
   std::uint32_t side_;
   std::vector<std::vector<std::uint32_t>> cells_;
 };
@@ -173,14 +180,13 @@ inline Pslg synthetic_pslg(std::size_t num_points, std::size_t num_segments, Dis
   }
   while (p.points.size() < num_points) {
     const cdt::Point q = random_point(rng, d);
+    // A segment through q passes through q's own cell, which lists it: no neighbours to check.
     bool on_segment = false;
-    grid.for_cells(q, q, [&](std::size_t c) {
-      for (std::uint32_t s : grid.at(c)) {
-        const auto& g = p.segments[s];
-        const cdt::Point &a = p.points[g.a], &b = p.points[g.b];
-        if (cdt::detail::orient2d(a.x, a.y, b.x, b.y, q.x, q.y) == 0) on_segment = true;
-      }
-    });
+    for (std::uint32_t s : grid.at(grid.cell_of(q))) {
+      const auto& g = p.segments[s];
+      const cdt::Point &a = p.points[g.a], &b = p.points[g.b];
+      if (cdt::detail::orient2d(a.x, a.y, b.x, b.y, q.x, q.y) == 0) on_segment = true;
+    }
     if (!on_segment) p.points.push_back(q);
   }
   return p;
