@@ -103,11 +103,20 @@ bool crosses_square(const Vec& a, const Vec& b, int x, int y) {
 struct Segment {
   Vec a;
   Vec b;
-  bool alive = true;
+};
+
+// An axis-aligned box, closed.
+struct Box {
+  double x0;
+  double x1;
+  double y0;
+  double y1;
 };
 
 // Uniform grid of segment ids. A segment is entered in every cell its (slightly widened) extent meets
 // row by row, so two segments that meet share a cell. Dead ids are dropped lazily while querying.
+// Whether a segment is alive is kept in a byte array apart from its ends: every id met in a cell is
+// checked, and that array stays in cache where the ends would not.
 class SegmentGrid {
 public:
   SegmentGrid(Vec lo, Vec hi, double cell) : lo_(lo), cell_(cell) {
@@ -121,20 +130,27 @@ public:
     for_cells(poly, 2, [&](std::vector<std::uint32_t>& cell) { cell.push_back(id); });
   }
 
-  // Calls f(id) once for every live segment in the cells met by the polygon (2 or 3 points, convex).
+  // Calls f(id) once for every live segment in the cells met by the polygon (2 or 3 points, convex)
+  // whose bounding box meets `box`. The box test dismisses most segments, so it comes before the
+  // check for one seen in an earlier cell.
   template <class F>
-  void query(const std::array<Vec, 3>& poly, int n, const std::vector<Segment>& segments, F&& f) {
+  void query(const std::array<Vec, 3>& poly, int n, const Box& box, const std::vector<Segment>& segments,
+             const std::vector<std::uint8_t>& alive, F&& f) {
     ++stamp_;
     if (seen_.size() < segments.size()) seen_.resize(segments.size() * 2, 0);
     for_cells(poly, n, [&](std::vector<std::uint32_t>& cell) {
       for (std::size_t i = 0; i < cell.size();) {
         const std::uint32_t id = cell[i];
-        if (!segments[id].alive) {
+        if (!alive[id]) {
           cell[i] = cell.back();
           cell.pop_back();
           continue;
         }
         ++i;
+        const Segment& t = segments[id];
+        if (std::max(t.a.x, t.b.x) < box.x0 || std::min(t.a.x, t.b.x) > box.x1 ||
+            std::max(t.a.y, t.b.y) < box.y0 || std::min(t.a.y, t.b.y) > box.y1)
+          continue;
         if (seen_[id] == stamp_) continue;
         seen_[id] = stamp_;
         f(id);
@@ -322,7 +338,8 @@ private:
 
   std::uint32_t add_segment(const Vec& a, const Vec& b) {
     const auto id = static_cast<std::uint32_t>(segments_.size());
-    segments_.push_back({a, b, true});
+    segments_.push_back({a, b});
+    segment_alive_.push_back(1);
     grid_->insert(id, a, b);
     return id;
   }
@@ -374,17 +391,12 @@ private:
     const std::uint32_t skip_b = s.segment_from[v];
     // Most segments of the cells lie clear of the triangle's bounding box: they can neither meet uw
     // nor have an end inside the triangle, and are dismissed without an orientation test.
-    const double box_x0 = std::min({pu.x, pv.x, pw.x});
-    const double box_x1 = std::max({pu.x, pv.x, pw.x});
-    const double box_y0 = std::min({pu.y, pv.y, pw.y});
-    const double box_y1 = std::max({pu.y, pv.y, pw.y});
+    const Box box{std::min({pu.x, pv.x, pw.x}), std::max({pu.x, pv.x, pw.x}), std::min({pu.y, pv.y, pw.y}),
+                  std::max({pu.y, pv.y, pw.y})};
     bool ok = true;
-    grid_->query({pu, pv, pw}, 3, segments_, [&](std::uint32_t id) {
+    grid_->query({pu, pv, pw}, 3, box, segments_, segment_alive_, [&](std::uint32_t id) {
       if (!ok || id == skip_a || id == skip_b) return;
       const Segment& t = segments_[id];
-      if (std::max(t.a.x, t.b.x) < box_x0 || std::min(t.a.x, t.b.x) > box_x1 ||
-          std::max(t.a.y, t.b.y) < box_y0 || std::min(t.a.y, t.b.y) > box_y1)
-        return;
       const bool a_shared = t.a == pu || t.a == pw;
       const bool b_shared = t.b == pu || t.b == pw;
       if (a_shared && b_shared) {
@@ -407,8 +419,8 @@ private:
   void remove(ChainState& s, int v) {
     const int u = s.prev[v];
     const int w = s.next[v];
-    segments_[s.segment_from[u]].alive = false;
-    segments_[s.segment_from[v]].alive = false;
+    segment_alive_[s.segment_from[u]] = 0;
+    segment_alive_[s.segment_from[v]] = 0;
     s.segment_from[v] = kNoSegment;
     s.segment_from[u] = add_segment(s.points[u], s.points[w]);
     s.alive[v] = 0;
@@ -424,6 +436,7 @@ private:
   PointPlacement placement_;
   std::vector<ChainState> states_;
   std::vector<Segment> segments_;
+  std::vector<std::uint8_t> segment_alive_; // by segment id
   std::optional<SegmentGrid> grid_;
 };
 
