@@ -78,8 +78,12 @@ void apply_flips(CudaExecutor& executor, DeviceFlipBatch& batch, const MeshView&
       "flip_relink");
   std::uint32_t first_failed = kNoId;
   executor.download(&first_failed, failed, 1);
-  if (first_failed != kNoId)
-    throw Error("internal error: a flipped pair lost a neighbour link (the triangulation was not valid)");
+  if (first_failed != kNoId) {
+    std::uint32_t edge = kNoId;
+    executor.download(&edge, edges + first_failed, 1);
+    throw Error("internal error: flipped pair at edge " + std::to_string(edge) +
+                " lost a neighbour link (the triangulation was not valid)");
+  }
 }
 
 /// The flips on a mesh on the device: flip_to_delaunay's rounds.

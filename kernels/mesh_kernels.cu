@@ -239,8 +239,11 @@ std::uint32_t sites_in_slot_order(DeviceMesh::State& s, std::uint32_t num_sites,
   const std::uint32_t n = s.executor.compact(
       3 * static_cast<std::size_t>(m.num_slots),
       [=] __device__(std::size_t k) {
+        // index_of names the first corner of v, so a triangle repeating a vertex (a corrupt mesh)
+        // cannot list it twice and overrun `out`.
         const std::uint32_t v = m.tri[k];
-        return v < num_sites && state[v] == wanted && m.vert_tri[v] == k / 3;
+        return v < num_sites && state[v] == wanted && m.vert_tri[v] == k / 3 &&
+               m.index_of(static_cast<std::uint32_t>(k / 3), v) == k % 3;
       },
       out);
   s.executor.for_each(
@@ -431,10 +434,12 @@ InsertStats insert(DeviceMesh::State& s, std::span<const MissingPoint> missing) 
   DeviceBuffer<MissingPoint> d_missing(num);
   executor.upload(d_missing.data(), missing.data(), num);
   const MissingPoint* points = d_missing.data();
-  // pending as words, so that a point listed twice shows in an atomic exchange.
+  // The checks of insert.cpp, reporting the same point: the first one (in list order) that is out of
+  // range, already in the mesh, or a vertex listed before. pending first holds each vertex's first
+  // listing, then whether it is pending.
   DeviceBuffer<std::uint32_t> d_pending(nv);
   std::uint32_t* pending = d_pending.data();
-  executor.fill_bytes(pending, 0, nv);
+  executor.fill_bytes(pending, 0xFF, nv);
   DeviceBuffer<std::uint32_t> d_words(2);
   std::uint32_t* invalid = d_words.data();
   std::uint32_t* first_live = d_words.data() + 1;
@@ -443,10 +448,19 @@ InsertStats insert(DeviceMesh::State& s, std::span<const MissingPoint> missing) 
       num,
       [=] __device__(std::size_t q) {
         const std::uint32_t v = points[q].vertex;
-        if (v >= nv || m.vert_tri[v] != kNoId || atomicExch(pending + v, 1u) != 0)
+        if (v < nv) atomicMin(pending + v, static_cast<std::uint32_t>(q));
+      },
+      "first_listing");
+  executor.for_each(
+      num,
+      [=] __device__(std::size_t q) {
+        const std::uint32_t v = points[q].vertex;
+        if (v >= nv || m.vert_tri[v] != kNoId || pending[v] != q)
           atomicMin(invalid, static_cast<std::uint32_t>(q));
       },
       "missing_check");
+  executor.for_each(
+      nv, [=] __device__(std::size_t v) { pending[v] = pending[v] != kNoId ? 1u : 0u; }, "pending");
   // A start for points whose hint will never be in the mesh: a vertex of the first live triangle.
   executor.for_each(
       m.num_slots,
@@ -456,9 +470,11 @@ InsertStats insert(DeviceMesh::State& s, std::span<const MissingPoint> missing) 
       "first_live_slot");
   std::uint32_t words[2] = {0, 0};
   executor.download(words, d_words.data(), 2);
-  if (words[0] != kNoId)
-    throw Error("internal error: missing point " + std::to_string(missing[words[0]].vertex) +
-                " is out of range, already in the mesh or listed twice");
+  if (words[0] != kNoId) {
+    const std::uint32_t v = missing[words[0]].vertex;
+    throw Error("internal error: missing point " + std::to_string(v) +
+                (v >= nv ? " out of range" : " is already in the mesh or listed twice"));
+  }
   if (words[1] == kNoId) throw Error("internal error: inserting missing points into an empty mesh");
   std::uint32_t fallback = kNoId;
   executor.download(&fallback, m.tri + 3 * static_cast<std::size_t>(words[1]), 1);

@@ -377,3 +377,37 @@ TEST_F(MeshGpu, ConstraintsReportAVertexOnAPiece) {
   EXPECT_FALSE(host_error.empty());
   EXPECT_EQ(device_error, host_error);
 }
+
+// Bad missing-point lists break Algorithm 3's precondition: the device names the same point with the
+// same message as the CPU executor.
+TEST_F(MeshGpu, InsertReportsBadMissingPointsAsTheCpuExecutor) {
+  const std::vector<double> x = {0, 4, 0, 4}, y = {0, 0, 4, 4};
+  Mesh start = trixel_test::sweep_triangulate(x, y);
+  start.x.push_back(1); // vertex 4, not in the mesh yet
+  start.y.push_back(1);
+  start.vert_tri.push_back(kNoId);
+  const std::vector<std::vector<MissingPoint>> lists = {
+      {{4, 0}, {4, 0}}, // listed twice
+      {{4, 0}, {9, 0}}, // out of range
+      {{9, 0}, {4, 0}, {4, 0}},
+      {{1, 0}}, // already in the mesh
+  };
+  CpuExecutor executor(1);
+  for (std::size_t k = 0; k < lists.size(); ++k) {
+    std::string host_error, device_error;
+    Mesh host = start;
+    try {
+      insert_missing_points(host, lists[k], executor);
+    } catch (const cdt::Error& e) {
+      host_error = e.what();
+    }
+    cdt::gpu::DeviceMesh device(start);
+    try {
+      device.insert(lists[k]);
+    } catch (const cdt::Error& e) {
+      device_error = e.what();
+    }
+    EXPECT_FALSE(host_error.empty()) << "list " << k;
+    EXPECT_EQ(device_error, host_error) << "list " << k;
+  }
+}
