@@ -26,7 +26,10 @@ using ::cdt::detail::edge_tri;
 using ::cdt::detail::HoleShape;
 using ::cdt::detail::HoleView;
 using ::cdt::detail::InsertStats;
+using ::cdt::detail::kHoldsT;
+using ::cdt::detail::kHoldsU;
 using ::cdt::detail::kNoId;
+using ::cdt::detail::kWins;
 using ::cdt::detail::MeshView;
 using ::cdt::detail::MissingPoint;
 using ::cdt::detail::next3;
@@ -397,10 +400,6 @@ ShiftStats shift(DeviceMesh::State& s, std::uint32_t num_sites, std::span<const 
   return stats;
 }
 
-// Per missing point, after the marking (insert.cpp): which container marks it holds, and whether it
-// won them all.
-enum : std::uint8_t { kHoldsT = 1, kHoldsU = 2, kWins = 4 };
-
 InsertStats insert(DeviceMesh::State& s, std::span<const MissingPoint> missing) {
   using ::cdt::detail::PointLocation;
   InsertStats stats;
@@ -596,6 +595,7 @@ InsertStats insert(DeviceMesh::State& s, std::span<const MissingPoint> missing) 
     if (cursor + 2 * static_cast<std::size_t>(num_winners) > num_free)
       throw Error("internal error: out of free triangle slots");
 
+    const ::cdt::detail::InsertRound round{loc_t, loc_e, loc_u, loc_j, new0, new1, mark, flags};
     // Lines 14-16: slots by rank, and who rewrites each corner's vert_tri.
     const std::size_t base = cursor;
     executor.for_each(
@@ -604,18 +604,7 @@ InsertStats insert(DeviceMesh::State& s, std::span<const MissingPoint> missing) 
           const std::uint32_t q = winners[r];
           new0[q] = free_slots[base + 2 * r];
           new1[q] = free_slots[base + 2 * r + 1];
-          const std::uint32_t t = loc_t[q], u = loc_u[q], e = loc_e[q];
-          const std::uint32_t first = e == 3 ? 0 : e;
-          const std::uint32_t corners[4] = {m.tri[3 * t + first], m.tri[3 * t + next3(first)],
-                                            m.tri[3 * t + prev3(first)],
-                                            u == kNoId ? kNoId : m.tri[3 * u + loc_j[q]]};
-          std::uint8_t bits = 0;
-          for (std::uint32_t c = 0; c < 4; ++c) {
-            if (corners[c] == kNoId) continue;
-            const std::uint32_t vt = m.vert_tri[corners[c]];
-            if (vt == t || (u != kNoId && vt == u)) bits = static_cast<std::uint8_t>(bits | (1u << c));
-          }
-          own[q] = bits;
+          own[q] = ::cdt::detail::split_corner_owners(m, round, q);
         },
         "insert_slots");
     // Lines 17-19: split the containers.
@@ -634,35 +623,7 @@ InsertStats insert(DeviceMesh::State& s, std::span<const MissingPoint> missing) 
     // Lines 20-22: outer links.
     executor.for_each(
         num_winners,
-        [=] __device__(std::size_t r) {
-          const std::uint32_t q = winners[r];
-          const std::uint32_t t = loc_t[q], u = loc_u[q], e = loc_e[q], j = loc_j[q];
-          std::uint32_t outer[4];
-          std::uint32_t count = 0;
-          if (e == 3) {
-            outer[count++] = edge_id(t, 0);
-            outer[count++] = edge_id(new0[q], 1);
-            outer[count++] = edge_id(new1[q], 2);
-          } else {
-            outer[count++] = edge_id(t, prev3(e));
-            outer[count++] = edge_id(new0[q], next3(e));
-            outer[count++] = edge_id(u, prev3(j));
-            outer[count++] = edge_id(new1[q], next3(j));
-          }
-          for (std::uint32_t k = 0; k < count; ++k) {
-            const std::uint32_t ne = outer[k];
-            const std::uint32_t old = m.adj[ne];
-            if (old == kNoId) continue;
-            const std::uint32_t x = edge_tri(old);
-            const std::uint32_t w = mark[x];
-            if (w != kNoId && (flags[w] & kWins) != 0) {
-              m.adj[ne] = ::cdt::detail::split_forward(x, edge_index(old), loc_t[w], loc_e[w], loc_j[w],
-                                                       new0[w], new1[w]);
-            } else {
-              m.adj[old] = ne;
-            }
-          }
-        },
+        [=] __device__(std::size_t r) { ::cdt::detail::link_split_outer_edges(m, round, winners[r]); },
         "insert_links");
     executor.for_each(
         n,

@@ -13,13 +13,6 @@
 
 namespace cdt::detail {
 
-namespace {
-
-// Per missing point, after the marking: which container marks it holds, and whether it won them all.
-enum : std::uint8_t { kHoldsT = 1, kHoldsU = 2, kWins = 4 };
-
-} // namespace
-
 InsertStats insert_missing_points(Mesh& mesh, std::span<const MissingPoint> missing, CpuExecutor& executor) {
   InsertStats stats;
   const std::size_t num = missing.size();
@@ -145,24 +138,14 @@ InsertStats insert_missing_points(Mesh& mesh, std::span<const MissingPoint> miss
     if (cursor + 2 * num_winners > free_slots.size())
       throw Error("internal error: out of free triangle slots");
 
-    // Lines 14-16: slots by rank, and who rewrites each corner's vert_tri, decided while vert_tri is
-    // read-only.
+    const InsertRound round{loc_t.data(), loc_e.data(), loc_u.data(), loc_j.data(),
+                            new0.data(),  new1.data(),  mark.data(),  flags.data()};
+    // Lines 14-16: slots by rank, and who rewrites each corner's vert_tri.
     executor.for_each(num_winners, [&](std::size_t r) {
       const auto q = winners[r];
       new0[q] = free_slots[cursor + 2 * r];
       new1[q] = free_slots[cursor + 2 * r + 1];
-      const std::uint32_t t = loc_t[q], u = loc_u[q], e = loc_e[q];
-      const std::uint32_t first = e == 3 ? 0 : e;
-      const std::uint32_t corners[4] = {m.tri[3 * t + first], m.tri[3 * t + next3(first)],
-                                        m.tri[3 * t + prev3(first)],
-                                        u == kNoId ? kNoId : m.tri[3 * u + loc_j[q]]};
-      std::uint8_t bits = 0;
-      for (std::uint32_t c = 0; c < 4; ++c) {
-        if (corners[c] == kNoId) continue;
-        const std::uint32_t vt = m.vert_tri[corners[c]];
-        if (vt == t || (u != kNoId && vt == u)) bits = static_cast<std::uint8_t>(bits | (1u << c));
-      }
-      own[q] = bits;
+      own[q] = split_corner_owners(m, round, q);
     });
     // Lines 17-19: split the containers.
     executor.for_each(num_winners, [&](std::size_t r) {
@@ -174,36 +157,8 @@ InsertStats insert_missing_points(Mesh& mesh, std::span<const MissingPoint> miss
         split_edge(m, v, loc_t[q], loc_e[q], loc_u[q], loc_j[q], new0[q], new1[q], own[q]);
       pending[v] = 0;
     });
-    // Lines 20-22: outer links. Each new outer edge still holds its old neighbour edge; a neighbour split in
-    // this round is forwarded by arithmetic and writes its own side, a static one is written from here.
-    executor.for_each(num_winners, [&](std::size_t r) {
-      const auto q = winners[r];
-      const std::uint32_t t = loc_t[q], u = loc_u[q], e = loc_e[q], j = loc_j[q];
-      std::uint32_t outer[4];
-      std::uint32_t count = 0;
-      if (e == 3) {
-        outer[count++] = edge_id(t, 0);
-        outer[count++] = edge_id(new0[q], 1);
-        outer[count++] = edge_id(new1[q], 2);
-      } else {
-        outer[count++] = edge_id(t, prev3(e));
-        outer[count++] = edge_id(new0[q], next3(e));
-        outer[count++] = edge_id(u, prev3(j));
-        outer[count++] = edge_id(new1[q], next3(j));
-      }
-      for (std::uint32_t k = 0; k < count; ++k) {
-        const std::uint32_t ne = outer[k];
-        const std::uint32_t old = m.adj[ne];
-        if (old == kNoId) continue;
-        const std::uint32_t x = edge_tri(old);
-        const std::uint32_t w = mark[x];
-        if (w != kNoId && (flags[w] & kWins) != 0) {
-          m.adj[ne] = split_forward(x, edge_index(old), loc_t[w], loc_e[w], loc_j[w], new0[w], new1[w]);
-        } else {
-          m.adj[old] = ne;
-        }
-      }
-    });
+    // Lines 20-22: outer links.
+    executor.for_each(num_winners, [&](std::size_t r) { link_split_outer_edges(m, round, winners[r]); });
     // Each mark has exactly one holder, which clears it, so no two threads touch one mark.
     executor.for_each(n, [&](std::size_t r) {
       const auto q = remaining[r];

@@ -260,4 +260,70 @@ CDT_HD_INLINE std::uint32_t split_forward(std::uint32_t x, std::uint32_t k, std:
   return edge_id(k == prev3(j) ? x : s1, k);
 }
 
+// Per missing point, after the marking: which container marks it holds, and whether it won them all.
+enum : std::uint8_t { kHoldsT = 1, kHoldsU = 2, kWins = 4 };
+
+/// A round of Algorithm 3 seen by one point: per missing point (by its position in the list) its
+/// location (containers t and u, edges e and j; u = kNoId inside t), its new slots and its flags, and
+/// per slot the lowest point marking it.
+struct InsertRound {
+  const std::uint32_t* loc_t = nullptr;
+  const std::uint32_t* loc_e = nullptr;
+  const std::uint32_t* loc_u = nullptr;
+  const std::uint32_t* loc_j = nullptr;
+  const std::uint32_t* new0 = nullptr;
+  const std::uint32_t* new1 = nullptr;
+  const std::uint32_t* mark = nullptr;
+  const std::uint8_t* flags = nullptr;
+};
+
+/// Algorithm 3 lines 14-16 for winner q: bit c set when the container corner c (t's corners from the
+/// location edge on, then u's far corner) has its vert_tri in a container, so that this split rewrites it.
+/// Decided while vert_tri is read-only.
+CDT_HD inline std::uint8_t split_corner_owners(const MeshView& m, const InsertRound& r, std::uint32_t q) {
+  const std::uint32_t t = r.loc_t[q], u = r.loc_u[q], e = r.loc_e[q];
+  const std::uint32_t first = e == 3 ? 0 : e;
+  const std::uint32_t corners[4] = {m.tri[3 * t + first], m.tri[3 * t + next3(first)],
+                                    m.tri[3 * t + prev3(first)],
+                                    u == kNoId ? kNoId : m.tri[3 * u + r.loc_j[q]]};
+  std::uint8_t bits = 0;
+  for (std::uint32_t c = 0; c < 4; ++c) {
+    if (corners[c] == kNoId) continue;
+    const std::uint32_t vt = m.vert_tri[corners[c]];
+    if (vt == t || (u != kNoId && vt == u)) bits = static_cast<std::uint8_t>(bits | (1u << c));
+  }
+  return bits;
+}
+
+/// Algorithm 3 lines 20-22 for winner q, after every split of the round: its new outer edges still hold
+/// their old neighbour edges; a neighbour split in this round is forwarded by arithmetic and writes its
+/// own side, a static one is written from here.
+CDT_HD inline void link_split_outer_edges(const MeshView& m, const InsertRound& r, std::uint32_t q) {
+  const std::uint32_t t = r.loc_t[q], u = r.loc_u[q], e = r.loc_e[q], j = r.loc_j[q];
+  std::uint32_t outer[4];
+  std::uint32_t count = 0;
+  if (e == 3) {
+    outer[count++] = edge_id(t, 0);
+    outer[count++] = edge_id(r.new0[q], 1);
+    outer[count++] = edge_id(r.new1[q], 2);
+  } else {
+    outer[count++] = edge_id(t, prev3(e));
+    outer[count++] = edge_id(r.new0[q], next3(e));
+    outer[count++] = edge_id(u, prev3(j));
+    outer[count++] = edge_id(r.new1[q], next3(j));
+  }
+  for (std::uint32_t k = 0; k < count; ++k) {
+    const std::uint32_t ne = outer[k];
+    const std::uint32_t old = m.adj[ne];
+    if (old == kNoId) continue;
+    const std::uint32_t x = edge_tri(old);
+    const std::uint32_t w = r.mark[x];
+    if (w != kNoId && (r.flags[w] & kWins) != 0) {
+      m.adj[ne] = split_forward(x, edge_index(old), r.loc_t[w], r.loc_e[w], r.loc_j[w], r.new0[w], r.new1[w]);
+    } else {
+      m.adj[old] = ne;
+    }
+  }
+}
+
 } // namespace cdt::detail
