@@ -67,15 +67,18 @@ TEST(Triangulate, ThinCircleAndTwoLinesVerify) {
 }
 
 // The digital Voronoi dual must carry the bulk of the work: only points sharing a grid cell (about one
-// in nine at the default grid size), those next to degenerate corners, and bad shifting cases are left
-// to missing-point insertion. Integer coordinates make collinear sites at grid corners common.
+// in nine on a grid of four or more cells per point, as here), those next to degenerate corners, and
+// bad shifting cases are left to missing-point insertion. Integer coordinates make collinear sites at
+// grid corners common.
 TEST(Triangulate, DualKeepsMostPointsOutOfMissingInsertion) {
   for (const bool integer : {false, true}) {
     auto in = trixel_gen::random_points(30000, Distribution::uniform, 12);
     if (integer) {
       for (auto& p : in.points) p = {std::floor(p.x * 2000.0), std::floor(p.y * 2000.0)};
     }
-    const cdt::Triangulation t = cdt::triangulate(in.points, in.segments);
+    cdt::Options options;
+    options.grid_size = 512; // 8.7 cells per point
+    const cdt::Triangulation t = cdt::triangulate(in.points, in.segments, options);
     std::uint64_t missing = 0;
     for (const auto& phase : t.stats.phases) {
       if (phase.name == "insert") missing = phase.missing;

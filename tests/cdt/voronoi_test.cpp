@@ -307,21 +307,24 @@ void expect_valid_mapping(const GridMapping& map, const Box& b, SplitMix64& rng)
   for (const double x : xs) ASSERT_LE(map.grid_x(x), map.grid_x(std::nextafter(x, HUGE_VAL)));
 }
 
-// The documented rule, its clamps, and the exact power-of-two boundary at 2 * sqrt(n) = 256.
+// The documented rule, its clamps, and the exact power-of-two boundary at sqrt(n) = 256.
 TEST(GridMap, ChooseGridSizeIsABoundedPowerOfTwo) {
   using cdt::detail::choose_grid_size;
   EXPECT_EQ(choose_grid_size(0), 256u);
   EXPECT_EQ(choose_grid_size(3), 256u);
-  EXPECT_EQ(choose_grid_size(16384), 256u); // 2 * sqrt(n) = 256 exactly
-  EXPECT_EQ(choose_grid_size(16385), 512u);
-  EXPECT_EQ(choose_grid_size(1000000), 2048u);
-  EXPECT_EQ(choose_grid_size(10000000), 8192u);
+  EXPECT_EQ(choose_grid_size(65536), 256u); // sqrt(n) = 256 exactly
+  EXPECT_EQ(choose_grid_size(65537), 512u);
+  EXPECT_EQ(choose_grid_size(1000000), 1024u);
+  EXPECT_EQ(choose_grid_size(10000000), 4096u);
+  EXPECT_EQ(choose_grid_size(67108864), 8192u); // sqrt(n) = 8192 exactly
+  EXPECT_EQ(choose_grid_size(67108865), 8192u); // clamped
   EXPECT_EQ(choose_grid_size(std::numeric_limits<std::size_t>::max()), 8192u);
   for (std::size_t n = 1; n < 100000000; n = n * 3 + 1) {
     const std::uint32_t m = choose_grid_size(n);
     EXPECT_TRUE(std::has_single_bit(m));
     if (m > 256 && m < 8192) {
-      EXPECT_GE(static_cast<double>(m), 2 * std::sqrt(static_cast<double>(n)));
+      EXPECT_GE(static_cast<double>(m), std::sqrt(static_cast<double>(n)));
+      EXPECT_LT(static_cast<double>(m), 2 * std::sqrt(static_cast<double>(n)));
     }
   }
 }

@@ -103,7 +103,7 @@ int main(int argc, char** argv) {
   bool warmed = false;
   for (const std::uint32_t m : sizes) {
     for (const bool clustered : {false, true}) {
-      // The engine's own load: choose_grid_size picks m ~ 2 sqrt(n).
+      // One point per four cells (choose_grid_size picks m ~ sqrt(n): one to four cells per point).
       const std::size_t n = static_cast<std::size_t>(m) * m / 4;
       std::vector<double> x, y;
       make_points(clustered, n, x, y);

@@ -188,6 +188,8 @@ TEST(Simplify, ParallelChainsBetweenTheSameJunctionsStayApart) {
 
 // Many wiggly curves a few pixels apart, traced from a raster like real edges and simplified with a
 // tolerance larger than their spacing: no crossing appears and every chain stays within tolerance.
+// The chains left and right of the middle are simplified apart (on two threads when given), around the
+// waves across it: the result is the same with one thread.
 TEST(Simplify, RandomCloseCurvesNeverCross) {
   std::mt19937 rng(5);
   std::uniform_real_distribution<double> phase(0.0, 6.283);
@@ -218,9 +220,13 @@ TEST(Simplify, RandomCloseCurvesNeverCross) {
     const auto chains = vectorize::trace_chains(map);
     ASSERT_EQ(first_crossing(segments_of(chains)), "");
     const double tolerance = 1.0 + round;
-    const auto out = vectorize::simplify_chains(chains, tolerance);
+    const auto out = vectorize::simplify_chains(chains, tolerance, {}, 2);
     ASSERT_EQ(out.size(), chains.size());
     ASSERT_EQ(first_crossing(segments_of(out)), "") << "round " << round;
+    const auto one_thread = vectorize::simplify_chains(chains, tolerance, {}, 1);
+    ASSERT_EQ(one_thread.size(), out.size());
+    for (std::size_t c = 0; c < out.size(); ++c)
+      EXPECT_TRUE(one_thread[c].points == out[c].points) << "round " << round << ", chain " << c;
     std::size_t before = 0, after = 0;
     for (std::size_t c = 0; c < chains.size(); ++c) {
       expect_faithful(chains[c], out[c], tolerance);

@@ -157,9 +157,10 @@ std::vector<JobResult> run_batch(const std::vector<BatchJob>& jobs, const BatchO
   const unsigned workers =
       std::max(1u, std::min<unsigned>(options.workers == 0 ? hardware : options.workers,
                                       static_cast<unsigned>(std::max<std::size_t>(jobs.size(), 1))));
-  // The cores are shared out: each worker's CDT gets its part, so N workers never run N x cores threads.
+  // The cores are shared out: each worker's conversion gets its part, so N workers never run N x cores
+  // threads.
   Options conversion = options.conversion;
-  if (conversion.cdt_threads == 0) conversion.cdt_threads = std::max(1u, hardware / workers);
+  if (conversion.threads == 0) conversion.threads = std::max(1u, hardware / workers);
 
   std::vector<JobResult> results(jobs.size());
   std::vector<char> ran(jobs.size(), 0);

@@ -101,7 +101,7 @@ Conversion convert(const Image& image, const Options& options, StageRecord* reco
   stats.chains = chains.size();
   timer.end("chains");
   const std::vector<Polyline> polylines =
-      simplify_chains(chains, options.simplify_tolerance_px, PointPlacement{image});
+      simplify_chains(chains, options.simplify_tolerance_px, PointPlacement{image}, options.threads);
   timer.end("simplify");
   const Pslg pslg = build_pslg(polylines, image.width, image.height, image, options.interior);
   stats.points = pslg.points.size();
@@ -110,13 +110,13 @@ Conversion convert(const Image& image, const Options& options, StageRecord* reco
 
   cdt::Options cdt_options;
   cdt_options.backend = options.backend;
-  cdt_options.threads = options.cdt_threads;
+  cdt_options.threads = options.threads;
   const cdt::Triangulation triangulation = cdt::triangulate(pslg.points, pslg.segments, cdt_options);
   stats.triangles = triangulation.triangles.size();
   stats.cdt_backend = triangulation.stats.backend;
   timer.end("cdt");
 
-  const TrixelColours trixels = colour_trixels(image, triangulation, options.cdt_threads);
+  const TrixelColours trixels = colour_trixels(image, triangulation, options.threads);
   timer.end("trixels");
   const Regions regions = group_trixels(triangulation, trixels, options.grouping);
   stats.regions = regions.regions.size();

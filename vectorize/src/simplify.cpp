@@ -10,10 +10,12 @@
 #include <cmath>
 #include <cstddef>
 #include <cstdint>
+#include <exception>
 #include <limits>
 #include <optional>
 #include <queue>
 #include <stdexcept>
+#include <thread>
 #include <utility>
 #include <vector>
 
@@ -113,10 +115,22 @@ struct Box {
   double y1;
 };
 
+// A float no larger (lower) or no smaller (upper) than the double: boxes rounded outwards stay
+// conservative filters.
+float round_down(double v) {
+  const auto f = static_cast<float>(v);
+  return static_cast<double>(f) > v ? std::nextafter(f, -std::numeric_limits<float>::infinity()) : f;
+}
+float round_up(double v) {
+  const auto f = static_cast<float>(v);
+  return static_cast<double>(f) < v ? std::nextafter(f, std::numeric_limits<float>::infinity()) : f;
+}
+
 // Uniform grid of segment ids. A segment is entered in every cell its (slightly widened) extent meets
 // row by row, so two segments that meet share a cell. Dead ids are dropped lazily while querying.
-// Whether a segment is alive is kept in a byte array apart from its ends: every id met in a cell is
-// checked, and that array stays in cache where the ends would not.
+// Each entry carries the segment's bounding box rounded outwards to floats: most entries of the cells
+// a query meets lie clear of its box and are dismissed from the cell's own memory, without touching
+// the segment. Whether a segment is alive is kept in a byte array apart, which stays in cache.
 class SegmentGrid {
 public:
   SegmentGrid(Vec lo, Vec hi, double cell) : lo_(lo), cell_(cell) {
@@ -126,39 +140,46 @@ public:
   }
 
   void insert(std::uint32_t id, const Vec& a, const Vec& b) {
+    const Entry entry{id, round_down(std::min(a.x, b.x)), round_up(std::max(a.x, b.x)),
+                      round_down(std::min(a.y, b.y)), round_up(std::max(a.y, b.y))};
     const std::array<Vec, 3> poly = {a, b, b};
-    for_cells(poly, 2, [&](std::vector<std::uint32_t>& cell) { cell.push_back(id); });
+    for_cells(poly, 2, [&](std::vector<Entry>& cell) { cell.push_back(entry); });
   }
 
   // Calls f(id) once for every live segment in the cells met by the polygon (2 or 3 points, convex)
   // whose bounding box meets `box`. The box test dismisses most segments, so it comes before the
   // check for one seen in an earlier cell.
   template <class F>
-  void query(const std::array<Vec, 3>& poly, int n, const Box& box, const std::vector<Segment>& segments,
+  void query(const std::array<Vec, 3>& poly, int n, const Box& box, std::size_t num_segments,
              const std::vector<std::uint8_t>& alive, F&& f) {
     ++stamp_;
-    if (seen_.size() < segments.size()) seen_.resize(segments.size() * 2, 0);
-    for_cells(poly, n, [&](std::vector<std::uint32_t>& cell) {
+    if (seen_.size() < num_segments) seen_.resize(num_segments * 2, 0);
+    for_cells(poly, n, [&](std::vector<Entry>& cell) {
       for (std::size_t i = 0; i < cell.size();) {
-        const std::uint32_t id = cell[i];
-        if (!alive[id]) {
+        const Entry& e = cell[i];
+        if (!alive[e.id]) {
           cell[i] = cell.back();
           cell.pop_back();
           continue;
         }
         ++i;
-        const Segment& t = segments[id];
-        if (std::max(t.a.x, t.b.x) < box.x0 || std::min(t.a.x, t.b.x) > box.x1 ||
-            std::max(t.a.y, t.b.y) < box.y0 || std::min(t.a.y, t.b.y) > box.y1)
-          continue;
-        if (seen_[id] == stamp_) continue;
-        seen_[id] = stamp_;
-        f(id);
+        if (e.x1 < box.x0 || e.x0 > box.x1 || e.y1 < box.y0 || e.y0 > box.y1) continue;
+        if (seen_[e.id] == stamp_) continue;
+        seen_[e.id] = stamp_;
+        f(e.id);
       }
     });
   }
 
 private:
+  struct Entry {
+    std::uint32_t id;
+    float x0; // bounding box, rounded outwards
+    float x1;
+    float y0;
+    float y1;
+  };
+
   int col(double x) const {
     return std::clamp(static_cast<int>(std::floor((x - lo_.x) / cell_)), 0, nx_ - 1);
   }
@@ -210,7 +231,7 @@ private:
   double cell_;
   int nx_ = 1;
   int ny_ = 1;
-  std::vector<std::vector<std::uint32_t>> cells_;
+  std::vector<std::vector<Entry>> cells_;
   std::vector<std::uint32_t> seen_;
   std::uint32_t stamp_ = 0;
 };
@@ -242,32 +263,64 @@ struct Candidate {
   }
 };
 
+constexpr std::uint32_t kNoSegment = std::numeric_limits<std::uint32_t>::max();
+
+// A chain's points where they are placed, all alive and linked in order.
+ChainState place_chain(const Chain& chain, const PointPlacement& placement) {
+  ChainState s;
+  s.closed = chain.closed;
+  for (const PixelPoint& p : chain.points) {
+    if (!s.pixels.empty() && s.pixels.back() == p) continue;
+    const Placement placed = placement.place(p);
+    s.pixels.push_back(p);
+    s.points.push_back({placed.at.x, placed.at.y});
+    s.outline.push_back(placed.outline ? 1 : 0);
+  }
+  if (s.closed && s.pixels.size() > 1 && s.pixels.front() == s.pixels.back()) {
+    s.pixels.pop_back();
+    s.points.pop_back();
+    s.outline.pop_back();
+  }
+  const int n = static_cast<int>(s.points.size());
+  s.prev.resize(n);
+  s.next.resize(n);
+  s.segment_from.assign(n, kNoSegment);
+  s.version.assign(n, 0);
+  s.alive.assign(n, 1);
+  s.num_alive = n;
+  s.min_alive = s.closed ? 3 : (n > 1 && s.points.front() == s.points.back() ? 4 : 2);
+  for (int i = 0; i < n; ++i) {
+    s.prev[i] = s.closed ? (i + n - 1) % n : i - 1;
+    s.next[i] = s.closed ? (i + 1) % n : i + 1;
+  }
+  return s;
+}
+
+// Calls f(i) for each live point i of the chain that starts a live segment (to next[i]).
+template <class F>
+void for_each_segment_start(const ChainState& s, F&& f) {
+  const int n = static_cast<int>(s.points.size());
+  if (s.closed ? n < 3 : n < 2) return;
+  for (int i = 0; i < n; ++i)
+    if (s.alive[i] && (s.closed || s.next[i] < n)) f(i);
+}
+
+// Simplifies some chains (its own: no other simplifier touches them meanwhile) around others that
+// stay as they are (fixed: read only, so simplifiers with disjoint own chains may run at once).
 class Simplifier {
 public:
-  Simplifier(const std::vector<Chain>& chains, double tolerance, const PointPlacement& placement)
-      : tolerance_(tolerance), squared_tolerance_(tolerance * tolerance), placement_(placement) {
+  Simplifier(std::vector<ChainState>& states, const std::vector<std::uint32_t>& own,
+             const std::vector<std::uint32_t>& fixed, double tolerance, const PointPlacement& placement)
+      : tolerance_(tolerance), squared_tolerance_(tolerance * tolerance), placement_(placement),
+        states_(states), own_(own) {
     Vec lo{std::numeric_limits<double>::infinity(), std::numeric_limits<double>::infinity()};
     Vec hi{-lo.x, -lo.y};
-    states_.resize(chains.size());
-    for (std::size_t c = 0; c < chains.size(); ++c) {
-      ChainState& s = states_[c];
-      s.closed = chains[c].closed;
-      for (const PixelPoint& p : chains[c].points) {
-        if (!s.pixels.empty() && s.pixels.back() == p) continue;
-        const Placement placed = placement.place(p);
-        const Vec v{placed.at.x, placed.at.y};
-        s.pixels.push_back(p);
-        s.points.push_back(v);
-        s.outline.push_back(placed.outline ? 1 : 0);
-        lo = {std::min(lo.x, v.x), std::min(lo.y, v.y)};
-        hi = {std::max(hi.x, v.x), std::max(hi.y, v.y)};
-      }
-      if (s.closed && s.pixels.size() > 1 && s.pixels.front() == s.pixels.back()) {
-        s.pixels.pop_back();
-        s.points.pop_back();
-        s.outline.pop_back();
-      }
-    }
+    for (const auto* list : {&own, &fixed})
+      for (const std::uint32_t c : *list)
+        for (const Vec& v : states_[c].points) {
+          lo = {std::min(lo.x, v.x), std::min(lo.y, v.y)};
+          hi = {std::max(hi.x, v.x), std::max(hi.y, v.y)};
+        }
     if (!(lo.x <= hi.x)) lo = hi = Vec{};
     // Cells of a few pixels suit image chains; the cap keeps sparse, far-flung input from allocating a
     // huge grid.
@@ -275,22 +328,14 @@ public:
     const double cell = std::max({8.0, 2.0 * tolerance_, extent / 2048.0});
     grid_.emplace(lo, hi, cell);
 
-    for (ChainState& s : states_) {
-      const int n = static_cast<int>(s.points.size());
-      s.prev.resize(n);
-      s.next.resize(n);
-      s.segment_from.assign(n, kNoSegment);
-      s.version.assign(n, 0);
-      s.alive.assign(n, 1);
-      s.num_alive = n;
-      s.min_alive = s.closed ? 3 : (n > 1 && s.points.front() == s.points.back() ? 4 : 2);
-      for (int i = 0; i < n; ++i) {
-        s.prev[i] = s.closed ? (i + n - 1) % n : i - 1;
-        s.next[i] = s.closed ? (i + 1) % n : i + 1;
-      }
-      const int num_segments = s.closed ? (n >= 3 ? n : 0) : n - 1;
-      for (int i = 0; i < num_segments; ++i)
-        s.segment_from[i] = add_segment(s.points[i], s.points[s.next[i]]);
+    for (const std::uint32_t c : own) {
+      ChainState& s = states_[c];
+      for_each_segment_start(
+          s, [&](int i) { s.segment_from[i] = add_segment(s.points[i], s.points[s.next[i]]); });
+    }
+    for (const std::uint32_t c : fixed) {
+      const ChainState& s = states_[c];
+      for_each_segment_start(s, [&](int i) { add_segment(s.points[i], s.points[s.next[i]]); });
     }
   }
 
@@ -299,7 +344,7 @@ public:
     // while they make progress; each pass is near-linear.
     for (int pass = 0; pass < 8; ++pass) {
       std::priority_queue<Candidate> queue;
-      for (std::uint32_t c = 0; c < states_.size(); ++c)
+      for (const std::uint32_t c : own_)
         for (int v = 0; v < static_cast<int>(states_[c].points.size()); ++v) push(queue, c, v);
       bool blocked = false;
       std::size_t removed = 0;
@@ -322,20 +367,7 @@ public:
     }
   }
 
-  std::vector<Polyline> result() const {
-    std::vector<Polyline> out(states_.size());
-    for (std::size_t c = 0; c < states_.size(); ++c) {
-      const ChainState& s = states_[c];
-      out[c].closed = s.closed;
-      for (std::size_t i = 0; i < s.points.size(); ++i)
-        if (s.alive[i]) out[c].points.push_back(s.pixels[i]);
-    }
-    return out;
-  }
-
 private:
-  static constexpr std::uint32_t kNoSegment = std::numeric_limits<std::uint32_t>::max();
-
   std::uint32_t add_segment(const Vec& a, const Vec& b) {
     const auto id = static_cast<std::uint32_t>(segments_.size());
     segments_.push_back({a, b});
@@ -394,7 +426,7 @@ private:
     const Box box{std::min({pu.x, pv.x, pw.x}), std::max({pu.x, pv.x, pw.x}), std::min({pu.y, pv.y, pw.y}),
                   std::max({pu.y, pv.y, pw.y})};
     bool ok = true;
-    grid_->query({pu, pv, pw}, 3, box, segments_, segment_alive_, [&](std::uint32_t id) {
+    grid_->query({pu, pv, pw}, 3, box, segments_.size(), segment_alive_, [&](std::uint32_t id) {
       if (!ok || id == skip_a || id == skip_b) return;
       const Segment& t = segments_[id];
       const bool a_shared = t.a == pu || t.a == pw;
@@ -434,21 +466,84 @@ private:
   double tolerance_;
   double squared_tolerance_;
   PointPlacement placement_;
-  std::vector<ChainState> states_;
+  std::vector<ChainState>& states_;
+  const std::vector<std::uint32_t>& own_;
   std::vector<Segment> segments_;
   std::vector<std::uint8_t> segment_alive_; // by segment id
   std::optional<SegmentGrid> grid_;
 };
 
+// Splits the chains at the median x of their points: those wholly left of it, those wholly right, and
+// those across it. Every segment of a simplified chain lies within the bounding box of the chain's
+// points, so the left and the right chains never meet: they are simplified apart (at once, given two
+// threads), each around the crossing chains as they are; then the crossing chains around both
+// results. The outcome is the same for any number of threads.
+std::array<std::vector<std::uint32_t>, 3> split_at_median(const std::vector<ChainState>& states) {
+  std::vector<double> xs;
+  for (const ChainState& s : states)
+    for (const Vec& v : s.points) xs.push_back(v.x);
+  std::array<std::vector<std::uint32_t>, 3> parts; // left, right, across
+  if (xs.empty()) return parts;
+  const auto middle = xs.begin() + static_cast<std::ptrdiff_t>(xs.size() / 2);
+  std::nth_element(xs.begin(), middle, xs.end());
+  const double split = *middle;
+  for (std::uint32_t c = 0; c < states.size(); ++c) {
+    double x0 = std::numeric_limits<double>::infinity();
+    double x1 = -x0;
+    for (const Vec& v : states[c].points) {
+      x0 = std::min(x0, v.x);
+      x1 = std::max(x1, v.x);
+    }
+    parts[x1 < split ? 0 : x0 > split ? 1 : 2].push_back(c);
+  }
+  return parts;
+}
+
 } // namespace
 
 std::vector<Polyline> simplify_chains(const std::vector<Chain>& chains, double tolerance_px,
-                                      const PointPlacement& placement) {
+                                      const PointPlacement& placement, unsigned threads) {
   if (!(tolerance_px >= 0.0) || !std::isfinite(tolerance_px))
     throw std::invalid_argument("simplify_chains: tolerance_px must be finite and >= 0");
-  Simplifier simplifier(chains, tolerance_px, placement);
-  simplifier.run();
-  return simplifier.result();
+  std::vector<ChainState> states;
+  states.reserve(chains.size());
+  for (const Chain& chain : chains) states.push_back(place_chain(chain, placement));
+
+  const auto [left, right, across] = split_at_median(states);
+  const auto simplify = [&](const std::vector<std::uint32_t>& own, const std::vector<std::uint32_t>& fixed) {
+    if (own.empty()) return;
+    Simplifier simplifier(states, own, fixed, tolerance_px, placement);
+    simplifier.run();
+  };
+  if (threads == 0) threads = std::max(1u, std::thread::hardware_concurrency());
+  if (threads >= 2 && !left.empty() && !right.empty()) {
+    std::exception_ptr failure;
+    std::thread worker([&] {
+      try {
+        simplify(right, across);
+      } catch (...) {
+        failure = std::current_exception();
+      }
+    });
+    simplify(left, across);
+    worker.join();
+    if (failure) std::rethrow_exception(failure);
+  } else {
+    simplify(left, across);
+    simplify(right, across);
+  }
+  std::vector<std::uint32_t> sides = left;
+  sides.insert(sides.end(), right.begin(), right.end());
+  simplify(across, sides);
+
+  std::vector<Polyline> out(states.size());
+  for (std::size_t c = 0; c < states.size(); ++c) {
+    const ChainState& s = states[c];
+    out[c].closed = s.closed;
+    for (std::size_t i = 0; i < s.points.size(); ++i)
+      if (s.alive[i]) out[c].points.push_back(s.pixels[i]);
+  }
+  return out;
 }
 
 } // namespace vectorize

@@ -46,8 +46,8 @@ CDT_HD inline std::uint32_t site_cell(const GridMapping& mapping, double x, doub
 std::uint32_t choose_grid_size(std::size_t num_points) {
   constexpr std::uint32_t kMin = 256;
   constexpr std::uint32_t kMax = 8192;
-  // Compare in floating point: 2 * sqrt(n) for n near 2^64 does not fit the clamp otherwise.
-  const double wanted = 2.0 * std::sqrt(static_cast<double>(num_points));
+  // Compare in floating point: sqrt(n) for n near 2^64 does not fit the clamp otherwise.
+  const double wanted = std::sqrt(static_cast<double>(num_points));
   if (wanted >= kMax) return kMax;
   const auto side = static_cast<std::uint32_t>(std::ceil(wanted));
   return std::clamp(std::bit_ceil(std::max(side, 1u)), kMin, kMax);

@@ -38,8 +38,9 @@ struct Options {
   GroupingOptions grouping;
   SvgOptions svg;
   cdt::Backend backend = cdt::Backend::automatic;
-  /// Threads of the CDT engine's CPU executor; 0 uses every hardware thread.
-  unsigned cdt_threads = 0;
+  /// Threads one conversion may use (simplification, the CDT engine's CPU executor, trixel colours);
+  /// 0 uses every hardware thread. The output is the same for any number.
+  unsigned threads = 0;
 };
 
 /// The options of a preset.

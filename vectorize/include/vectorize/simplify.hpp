@@ -31,9 +31,12 @@ struct Polyline {
 /// Points are removed greedily, cheapest (smallest deviation) first, with candidate segments checked
 /// exactly (orient2d) against the segments found in a uniform grid, so the time is near-linear in the
 /// number of points for chains from an image. Consecutive duplicate points are dropped first.
+/// The chains left of the median x of all points and those right of it are simplified apart, on two
+/// threads when `threads` allows (0: every hardware thread), then the chains across it; the result is
+/// the same for any number of threads.
 /// tolerance_px >= 0 (0 removes only points that lie exactly on a straight run); throws
 /// std::invalid_argument otherwise.
 std::vector<Polyline> simplify_chains(const std::vector<Chain>& chains, double tolerance_px,
-                                      const PointPlacement& placement = {});
+                                      const PointPlacement& placement = {}, unsigned threads = 1);
 
 } // namespace vectorize
