@@ -9,7 +9,9 @@
 #include <algorithm>
 #include <cmath>
 #include <cstddef>
+#include <exception>
 #include <stdexcept>
+#include <thread>
 #include <vector>
 
 namespace vectorize {
@@ -24,21 +26,22 @@ constexpr double kAutoLowRatio = 0.4;
 
 bool is_shape(const Image& image, int x, int y) { return image.pixel(x, y)[3] >= 0.5f; }
 
-// The image's RGB as CV_32FC3 scaled by kScale, with every no-shape pixel taking the colour of the
-// nearest shape pixel: a constant fill would put a colour step right at the shape's outline (a second
-// edge a pixel off the alpha edge), and leaving the stored colour would make edges inside the
-// transparent area.
-cv::Mat shape_colours(const Image& image, const cv::Mat& shape_mask, int num_shape) {
-  cv::Mat colour(image.height, image.width, CV_32FC3);
-  for (int y = 0; y < image.height; ++y) {
-    auto* row = colour.ptr<cv::Vec3f>(y);
-    for (int x = 0; x < image.width; ++x) {
-      const float* p = image.pixel(x, y);
-      row[x] = cv::Vec3f(p[0] * kScale, p[1] * kScale, p[2] * kScale);
-    }
+// Row y of the image's RGB, scaled by kScale, into a CV_32FC3 row.
+void scaled_row(const Image& image, int y, cv::Vec3f* row) {
+  for (int x = 0; x < image.width; ++x) {
+    const float* p = image.pixel(x, y);
+    row[x] = cv::Vec3f(p[0] * kScale, p[1] * kScale, p[2] * kScale);
   }
+}
+
+// For an image with no-shape pixels: its RGB as CV_32FC3 scaled by kScale, with every no-shape pixel
+// taking the colour of the nearest shape pixel: a constant fill would put a colour step right at the
+// shape's outline (a second edge a pixel off the alpha edge), and leaving the stored colour would make
+// edges inside the transparent area.
+cv::Mat shape_colours(const Image& image, const cv::Mat& shape_mask) {
+  cv::Mat colour(image.height, image.width, CV_32FC3);
+  for (int y = 0; y < image.height; ++y) scaled_row(image, y, colour.ptr<cv::Vec3f>(y));
   const int num_pixels = image.width * image.height;
-  if (num_shape == num_pixels || num_shape == 0) return colour;
 
   // distanceTransform measures to the nearest zero pixel, so shape pixels are the zeros; with
   // DIST_LABEL_PIXEL each zero pixel has its own label, read back at the zero pixels themselves.
@@ -68,6 +71,74 @@ cv::Mat shape_colours(const Image& image, const cv::Mat& shape_mask, int num_sha
   return colour;
 }
 
+// The gradient of the colour channel that changes most, rows [r0, r1) of it, into dx and dy (CV_16S),
+// and the magnitudes at shape pixels appended to `magnitudes`. The colour comes from `colour` when
+// given (whole image), else straight from the image. Blur and Sobel run on a band of rows that reaches
+// as far beyond [r0, r1) as their kernels do, as regions of interest inside it: OpenCV filters read
+// the band's rows around a region and extrapolate only past the band's own ends, which are the image's
+// ends or far enough out. So every row comes out as it would from the whole image, with a few
+// kilobytes of buffers instead of four float copies of the image.
+struct GradientBand {
+  const Image& image;
+  const cv::Mat& colour; // empty: read the image
+  const cv::Mat& shape_mask;
+  double sigma;
+  int blur_radius;
+  cv::Mat& dx;
+  cv::Mat& dy;
+
+  void operator()(int r0, int r1, std::vector<float>& magnitudes, cv::Mat& band, cv::Mat& blurred,
+                  cv::Mat& dx3, cv::Mat& dy3) const {
+    const int h = image.height;
+    const int b0 = std::max(0, r0 - 1); // rows the Sobel filters read
+    const int b1 = std::min(h, r1 + 1);
+    const int c0 = sigma > 0.0 ? std::max(0, b0 - blur_radius) : b0; // rows the blur reads
+    const int c1 = sigma > 0.0 ? std::min(h, b1 + blur_radius) : b1;
+    cv::Mat source;
+    if (!colour.empty()) {
+      source = colour.rowRange(c0, c1);
+    } else {
+      band.create(c1 - c0, image.width, CV_32FC3);
+      for (int y = c0; y < c1; ++y) scaled_row(image, y, band.ptr<cv::Vec3f>(y - c0));
+      source = band;
+    }
+    cv::Mat smooth; // rows [b0, b1)
+    if (sigma > 0.0) {
+      blurred.create(b1 - b0, image.width, CV_32FC3);
+      cv::GaussianBlur(source.rowRange(b0 - c0, b1 - c0), blurred, cv::Size(0, 0), sigma, sigma,
+                       cv::BORDER_REPLICATE);
+      smooth = blurred;
+    } else {
+      smooth = source;
+    }
+    // Replicated borders: the image edge itself is not an edge (the PSLG has the border as segments).
+    const cv::Mat rows = smooth.rowRange(r0 - b0, r1 - b0);
+    cv::Sobel(rows, dx3, CV_32F, 1, 0, 3, 1.0, 0.0, cv::BORDER_REPLICATE);
+    cv::Sobel(rows, dy3, CV_32F, 0, 1, 3, 1.0, 0.0, cv::BORDER_REPLICATE);
+    for (int y = r0; y < r1; ++y) {
+      const auto* gx = dx3.ptr<cv::Vec3f>(y - r0);
+      const auto* gy = dy3.ptr<cv::Vec3f>(y - r0);
+      const auto* shape = shape_mask.ptr<std::uint8_t>(y);
+      auto* out_x = dx.ptr<short>(y);
+      auto* out_y = dy.ptr<short>(y);
+      for (int x = 0; x < image.width; ++x) {
+        int best = 0;
+        float best_sq = -1.0f;
+        for (int c = 0; c < 3; ++c) {
+          const float sq = gx[x][c] * gx[x][c] + gy[x][c] * gy[x][c];
+          if (sq > best_sq) {
+            best_sq = sq;
+            best = c;
+          }
+        }
+        out_x[x] = cv::saturate_cast<short>(gx[x][best]);
+        out_y[x] = cv::saturate_cast<short>(gy[x][best]);
+        if (shape[x]) magnitudes.push_back(std::sqrt(best_sq));
+      }
+    }
+  }
+};
+
 // The q-quantile of the values (q in (0, 1)); 0 for no values.
 double quantile(std::vector<float>& values, double q) {
   if (values.empty()) return 0.0;
@@ -78,7 +149,7 @@ double quantile(std::vector<float>& values, double q) {
 
 } // namespace
 
-EdgeMap detect_edges(const Image& image, const EdgeOptions& options) {
+EdgeMap detect_edges(const Image& image, const EdgeOptions& options, unsigned threads) {
   if (image.width < 0 || image.height < 0 ||
       image.rgba.size() != static_cast<std::size_t>(image.width) * image.height * 4)
     throw std::invalid_argument("detect_edges: image.rgba must hold width * height * 4 values");
@@ -104,47 +175,62 @@ EdgeMap detect_edges(const Image& image, const EdgeOptions& options) {
     }
   if (num_shape == 0) return map;
 
-  cv::Mat colour = shape_colours(image, shape_mask, num_shape);
-  if (options.blur_sigma_px > 0.0)
-    cv::GaussianBlur(colour, colour, cv::Size(0, 0), options.blur_sigma_px, options.blur_sigma_px,
-                     cv::BORDER_REPLICATE);
-
-  // Replicated borders: the image edge itself is not an edge (the PSLG has the border as segments).
-  cv::Mat dx3;
-  cv::Mat dy3;
-  cv::Sobel(colour, dx3, CV_32F, 1, 0, 3, 1.0, 0.0, cv::BORDER_REPLICATE);
-  cv::Sobel(colour, dy3, CV_32F, 0, 1, 3, 1.0, 0.0, cv::BORDER_REPLICATE);
-
+  const cv::Mat colour =
+      num_shape < image.width * image.height ? shape_colours(image, shape_mask) : cv::Mat();
+  // OpenCV's Gaussian kernel for a float image has round(8 sigma + 1), made odd, taps: it reaches no
+  // further than ceil(4 sigma) + 1 rows.
+  const int blur_radius =
+      options.blur_sigma_px > 0.0 ? static_cast<int>(std::ceil(4.0 * options.blur_sigma_px)) + 1 : 0;
   cv::Mat dx(image.height, image.width, CV_16SC1);
   cv::Mat dy(image.height, image.width, CV_16SC1);
-  std::vector<float> magnitudes;
-  magnitudes.reserve(static_cast<std::size_t>(num_shape));
-  for (int y = 0; y < image.height; ++y) {
-    const auto* gx = dx3.ptr<cv::Vec3f>(y);
-    const auto* gy = dy3.ptr<cv::Vec3f>(y);
-    const auto* shape = shape_mask.ptr<std::uint8_t>(y);
-    auto* out_x = dx.ptr<short>(y);
-    auto* out_y = dy.ptr<short>(y);
-    for (int x = 0; x < image.width; ++x) {
-      int best = 0;
-      float best_sq = -1.0f;
-      for (int c = 0; c < 3; ++c) {
-        const float sq = gx[x][c] * gx[x][c] + gy[x][c] * gy[x][c];
-        if (sq > best_sq) {
-          best_sq = sq;
-          best = c;
-        }
-      }
-      out_x[x] = cv::saturate_cast<short>(gx[x][best]);
-      out_y[x] = cv::saturate_cast<short>(gy[x][best]);
-      if (shape[x]) magnitudes.push_back(std::sqrt(best_sq));
+  const GradientBand gradient{image, colour, shape_mask, options.blur_sigma_px, blur_radius, dx, dy};
+  // Bands of kBandRows rows, shared out in contiguous runs over the threads; the magnitudes are only
+  // used through a quantile, which does not depend on their order.
+  constexpr int kBandRows = 32;
+  const int num_bands = (image.height + kBandRows - 1) / kBandRows;
+  if (threads == 0) threads = std::max(1u, std::thread::hardware_concurrency());
+  const int workers =
+      static_cast<int>(std::min<unsigned>(threads, static_cast<unsigned>(std::max(1, num_bands / 4))));
+  std::vector<std::vector<float>> magnitudes(static_cast<std::size_t>(workers));
+  const auto run = [&](int k) {
+    cv::Mat band, blurred, dx3, dy3;
+    std::vector<float>& mine = magnitudes[static_cast<std::size_t>(k)];
+    mine.reserve(static_cast<std::size_t>(num_shape) / workers + image.width);
+    for (int band_index = num_bands * k / workers; band_index < num_bands * (k + 1) / workers; ++band_index) {
+      const int r0 = band_index * kBandRows;
+      gradient(r0, std::min(image.height, r0 + kBandRows), mine, band, blurred, dx3, dy3);
     }
+  };
+  if (workers <= 1) {
+    run(0);
+  } else {
+    std::vector<std::exception_ptr> failures(static_cast<std::size_t>(workers));
+    std::vector<std::thread> pool;
+    for (int k = 1; k < workers; ++k)
+      pool.emplace_back([&, k] {
+        try {
+          run(k);
+        } catch (...) {
+          failures[static_cast<std::size_t>(k)] = std::current_exception();
+        }
+      });
+    try {
+      run(0);
+    } catch (...) {
+      failures[0] = std::current_exception();
+    }
+    for (auto& t : pool) t.join();
+    for (const auto& f : failures)
+      if (f) std::rethrow_exception(f);
   }
+  for (std::size_t k = 1; k < magnitudes.size(); ++k)
+    magnitudes[0].insert(magnitudes[0].end(), magnitudes[k].begin(), magnitudes[k].end());
 
   double high = options.high * kThresholdScale;
   double low = options.low * kThresholdScale;
   if (high == 0.0 && low == 0.0) {
-    high = std::max(quantile(magnitudes, options.non_edge_fraction), options.min_auto_high * kThresholdScale);
+    high =
+        std::max(quantile(magnitudes[0], options.non_edge_fraction), options.min_auto_high * kThresholdScale);
     low = kAutoLowRatio * high;
   } else if (high == 0.0) {
     high = low / kAutoLowRatio;

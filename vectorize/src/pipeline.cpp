@@ -94,7 +94,7 @@ Conversion convert(const Image& image, const Options& options, StageRecord* reco
   stats.height = image.height;
   StageTimer timer(stats);
 
-  const EdgeMap edges = detect_edges(image, options.edges);
+  const EdgeMap edges = detect_edges(image, options.edges, options.threads);
   for (const std::uint8_t e : edges.on) stats.edge_pixels += e;
   timer.end("edges");
   const std::vector<Chain> chains = trace_chains(edges);

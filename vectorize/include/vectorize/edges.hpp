@@ -44,7 +44,8 @@ struct EdgeOptions {
 /// 4-neighbour (the inside of the shape's outline) are always edges. Grey and 16-bit inputs need
 /// nothing special (Image holds floats). An empty image gives an empty map; throws
 /// std::invalid_argument when image.rgba does not hold width * height * 4 values or an option is out
-/// of range.
-EdgeMap detect_edges(const Image& image, const EdgeOptions& options = {});
+/// of range. The gradient is computed in bands of rows, on up to `threads` threads (0: every hardware
+/// thread); the result is the same for any number.
+EdgeMap detect_edges(const Image& image, const EdgeOptions& options = {}, unsigned threads = 1);
 
 } // namespace vectorize
