@@ -9,10 +9,10 @@
 #include <algorithm>
 #include <cmath>
 #include <cstddef>
-#include <exception>
 #include <stdexcept>
-#include <thread>
 #include <vector>
+
+#include "parallel.hpp"
 
 namespace vectorize {
 namespace {
@@ -188,41 +188,19 @@ EdgeMap detect_edges(const Image& image, const EdgeOptions& options, unsigned th
   // used through a quantile, which does not depend on their order.
   constexpr int kBandRows = 32;
   const int num_bands = (image.height + kBandRows - 1) / kBandRows;
-  if (threads == 0) threads = std::max(1u, std::thread::hardware_concurrency());
-  const int workers =
-      static_cast<int>(std::min<unsigned>(threads, static_cast<unsigned>(std::max(1, num_bands / 4))));
-  std::vector<std::vector<float>> magnitudes(static_cast<std::size_t>(workers));
-  const auto run = [&](int k) {
-    cv::Mat band, blurred, dx3, dy3;
-    std::vector<float>& mine = magnitudes[static_cast<std::size_t>(k)];
-    mine.reserve(static_cast<std::size_t>(num_shape) / workers + image.width);
-    for (int band_index = num_bands * k / workers; band_index < num_bands * (k + 1) / workers; ++band_index) {
-      const int r0 = band_index * kBandRows;
-      gradient(r0, std::min(image.height, r0 + kBandRows), mine, band, blurred, dx3, dy3);
-    }
-  };
-  if (workers <= 1) {
-    run(0);
-  } else {
-    std::vector<std::exception_ptr> failures(static_cast<std::size_t>(workers));
-    std::vector<std::thread> pool;
-    for (int k = 1; k < workers; ++k)
-      pool.emplace_back([&, k] {
-        try {
-          run(k);
-        } catch (...) {
-          failures[static_cast<std::size_t>(k)] = std::current_exception();
-        }
-      });
-    try {
-      run(0);
-    } catch (...) {
-      failures[0] = std::current_exception();
-    }
-    for (auto& t : pool) t.join();
-    for (const auto& f : failures)
-      if (f) std::rethrow_exception(f);
-  }
+  const unsigned workers =
+      std::min(resolve_threads(threads), static_cast<unsigned>(std::max(1, num_bands / 4)));
+  std::vector<std::vector<float>> magnitudes(workers);
+  for_each_part(static_cast<std::size_t>(num_bands), workers,
+                [&](std::size_t first, std::size_t last, unsigned k) {
+                  cv::Mat band, blurred, dx3, dy3;
+                  std::vector<float>& mine = magnitudes[k];
+                  mine.reserve(static_cast<std::size_t>(num_shape) / workers + image.width);
+                  for (std::size_t band_index = first; band_index < last; ++band_index) {
+                    const int r0 = static_cast<int>(band_index) * kBandRows;
+                    gradient(r0, std::min(image.height, r0 + kBandRows), mine, band, blurred, dx3, dy3);
+                  }
+                });
   for (std::size_t k = 1; k < magnitudes.size(); ++k)
     magnitudes[0].insert(magnitudes[0].end(), magnitudes[k].begin(), magnitudes[k].end());
 

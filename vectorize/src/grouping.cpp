@@ -13,6 +13,8 @@
 #include <queue>
 #include <tuple>
 
+#include "parallel.hpp"
+
 namespace vectorize {
 namespace {
 
@@ -25,19 +27,25 @@ double colour_distance(const std::array<double, 3>& lab1, float alpha1, const st
 // Union-find whose roots carry the region's running totals.
 class RegionForest {
 public:
-  explicit RegionForest(const TrixelColours& trixels) : parent_(trixels.size()), totals_(trixels.size()) {
+  RegionForest(const TrixelColours& trixels, unsigned threads)
+      : parent_(trixels.size()), totals_(trixels.size()) {
     std::iota(parent_.begin(), parent_.end(), 0u);
-    for (std::uint32_t t = 0; t < trixels.size(); ++t) {
-      Totals& r = totals_[t];
-      r.area = trixels[t].area;
-      for (int c = 0; c < 3; ++c) r.weighted_rgb[c] = trixels[t].area * trixels[t].rgba[c];
-      r.weighted_alpha = trixels[t].area * trixels[t].rgba[3];
-      r.triangle_count = 1;
-      r.covers_solid = trixels[t].covers_solid;
-      r.first_triangle = t;
-      r.transparent = trixels[t].transparent();
-      r.lab = srgb_to_lab(rgb(t));
-    }
+    for_each_part(trixels.size(), threads, [&](std::size_t first, std::size_t last, unsigned) {
+      for (auto t = static_cast<std::uint32_t>(first); t < last; ++t) init(trixels, t);
+    });
+  }
+
+  // Triangle t as a region of its own.
+  void init(const TrixelColours& trixels, std::uint32_t t) {
+    Totals& r = totals_[t];
+    r.area = trixels[t].area;
+    for (int c = 0; c < 3; ++c) r.weighted_rgb[c] = trixels[t].area * trixels[t].rgba[c];
+    r.weighted_alpha = trixels[t].area * trixels[t].rgba[3];
+    r.triangle_count = 1;
+    r.covers_solid = trixels[t].covers_solid;
+    r.first_triangle = t;
+    r.transparent = trixels[t].transparent();
+    r.lab = srgb_to_lab(rgb(t));
   }
 
   std::uint32_t find(std::uint32_t x) {
@@ -205,37 +213,61 @@ double delta_e(const std::array<double, 3>& lab1, const std::array<double, 3>& l
 }
 
 Regions group_trixels(const cdt::Triangulation& t, const TrixelColours& trixels,
-                      const GroupingOptions& options) {
+                      const GroupingOptions& options, unsigned threads) {
   const std::size_t n = t.triangles.size();
-  RegionForest forest(trixels);
+  // Each thread takes a contiguous run of triangles; two per thread at the least, or it is not worth it.
+  const auto parts = static_cast<unsigned>(
+      std::min<std::size_t>(resolve_threads(threads), std::max<std::size_t>(1, n / 8192)));
+  RegionForest forest(trixels, parts);
   std::vector<std::array<double, 3>> lab(n);
-  for (std::size_t tri = 0; tri < n; ++tri)
-    lab[tri] = srgb_to_lab({trixels[tri].rgba[0], trixels[tri].rgba[1], trixels[tri].rgba[2]});
+  for_each_part(n, parts, [&](std::size_t first, std::size_t last, unsigned) {
+    for (std::size_t tri = first; tri < last; ++tri)
+      lab[tri] = srgb_to_lab({trixels[tri].rgba[0], trixels[tri].rgba[1], trixels[tri].rgba[2]});
+  });
 
+  // Transparent trixels join each other, in triangle order.
+  for (std::uint32_t tri = 0; tri < n; ++tri) {
+    if (!trixels[tri].transparent()) continue;
+    for (std::uint32_t i = 0; i < 3; ++i) {
+      const std::uint32_t other = t.neighbors[tri][i];
+      if (other == cdt::kNone || other < tri || !trixels[other].transparent()) continue;
+      const std::uint32_t ra = forest.find(tri);
+      const std::uint32_t rb = forest.find(other);
+      if (ra != rb) forest.unite(ra, rb);
+    }
+  }
+
+  // The candidate edges between opaque trixels, each interior edge once, sorted by Delta E: per thread
+  // a run of triangles, sorted, then merged (the order is total, so the result is the same).
   struct Candidate {
     double distance;
     std::uint32_t triangle;
     std::uint32_t edge;
   };
-  std::vector<Candidate> candidates;
-  for (std::uint32_t tri = 0; tri < n; ++tri)
-    for (std::uint32_t i = 0; i < 3; ++i) {
-      const std::uint32_t other = t.neighbors[tri][i];
-      if (other == cdt::kNone || other < tri) continue; // each interior edge once
-      const bool clear_a = trixels[tri].transparent();
-      const bool clear_b = trixels[other].transparent();
-      if (clear_a && clear_b) {
-        const std::uint32_t ra = forest.find(tri);
-        const std::uint32_t rb = forest.find(other);
-        if (ra != rb) forest.unite(ra, rb);
-      } else if (!clear_a && !clear_b && t.segment_of_edge[tri][i] == cdt::kNone) {
-        candidates.push_back(
+  const auto before = [](const Candidate& x, const Candidate& y) {
+    return std::tie(x.distance, x.triangle, x.edge) < std::tie(y.distance, y.triangle, y.edge);
+  };
+  std::vector<std::vector<Candidate>> runs(parts);
+  for_each_part(n, parts, [&](std::size_t first, std::size_t last, unsigned k) {
+    std::vector<Candidate>& run = runs[k];
+    for (auto tri = static_cast<std::uint32_t>(first); tri < last; ++tri)
+      for (std::uint32_t i = 0; i < 3; ++i) {
+        const std::uint32_t other = t.neighbors[tri][i];
+        if (other == cdt::kNone || other < tri) continue;
+        if (trixels[tri].transparent() || trixels[other].transparent() ||
+            t.segment_of_edge[tri][i] != cdt::kNone)
+          continue;
+        run.push_back(
             {colour_distance(lab[tri], trixels[tri].rgba[3], lab[other], trixels[other].rgba[3]), tri, i});
       }
-    }
-  std::sort(candidates.begin(), candidates.end(), [](const Candidate& x, const Candidate& y) {
-    return std::tie(x.distance, x.triangle, x.edge) < std::tie(y.distance, y.triangle, y.edge);
+    std::sort(run.begin(), run.end(), before);
   });
+  std::vector<Candidate> candidates = std::move(runs[0]);
+  for (unsigned k = 1; k < parts; ++k) {
+    std::vector<Candidate> merged(candidates.size() + runs[k].size());
+    std::merge(candidates.begin(), candidates.end(), runs[k].begin(), runs[k].end(), merged.begin(), before);
+    candidates = std::move(merged);
+  }
   for (const Candidate& c : candidates) {
     const std::uint32_t a = forest.find(c.triangle);
     const std::uint32_t b = forest.find(t.neighbors[c.triangle][c.edge]);

@@ -150,12 +150,26 @@ Image load_png(const std::filesystem::path& path, std::size_t max_pixels) {
   const int channels = header.channels;
   const bool has_alpha = channels == 2 || channels == 4;
   const float scale = header.bit_depth == 16 ? 1.0f / 65535.0f : 1.0f / 255.0f;
+  if (header.bit_depth == 8) {
+    // Each 8-bit value's float, tabulated (the same product as below), and a loop per layout.
+    std::array<float, 256> value_of{};
+    for (unsigned v = 0; v < 256; ++v) value_of[v] = static_cast<float>(v) * scale;
+    const png_byte* src = data.data();
+    float* dst = image.rgba.data();
+    for (std::size_t i = 0; i < pixels; ++i, src += channels, dst += 4) {
+      const float first = value_of[src[0]];
+      dst[0] = first;
+      dst[1] = channels >= 3 ? value_of[src[1]] : first;
+      dst[2] = channels >= 3 ? value_of[src[2]] : first;
+      dst[3] = has_alpha ? value_of[src[channels - 1]] : 1.0f;
+    }
+    return image;
+  }
   for (std::size_t i = 0; i < pixels; ++i) {
     float sample[4] = {};
     for (int c = 0; c < channels; ++c) {
       const png_byte* p = data.data() + (i * channels + c) * bytes_per_sample;
-      const unsigned value = header.bit_depth == 16 ? (unsigned{p[0]} << 8) | p[1] : p[0];
-      sample[c] = static_cast<float>(value) * scale;
+      sample[c] = static_cast<float>((unsigned{p[0]} << 8) | p[1]) * scale;
     }
     float* dst = image.rgba.data() + i * 4;
     if (channels >= 3) {

@@ -118,7 +118,7 @@ Conversion convert(const Image& image, const Options& options, StageRecord* reco
 
   const TrixelColours trixels = colour_trixels(image, triangulation, options.threads);
   timer.end("trixels");
-  const Regions regions = group_trixels(triangulation, trixels, options.grouping);
+  const Regions regions = group_trixels(triangulation, trixels, options.grouping, options.threads);
   stats.regions = regions.regions.size();
   timer.end("grouping");
   // Transparent regions too: the SVG does not draw them, but keeps its seam underlay off them.

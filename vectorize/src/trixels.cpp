@@ -8,11 +8,11 @@
 #include <cmath>
 #include <cstddef>
 #include <cstdint>
-#include <thread>
 #include <utility>
 #include <vector>
 
 #include "cdt/detail/predicates.hpp"
+#include "parallel.hpp"
 
 namespace vectorize {
 namespace {
@@ -243,20 +243,12 @@ TrixelColours colour_trixels(const Image& image, const cdt::Triangulation& t, un
     }
     trixels[tri].pixel_count += static_cast<std::uint32_t>(end - begin);
   };
-  if (threads == 0) threads = std::max(1u, std::thread::hardware_concurrency());
   const std::size_t count = t.triangles.size();
-  threads = static_cast<unsigned>(std::min<std::size_t>(threads, std::max<std::size_t>(1, count / 4096)));
-  if (threads <= 1) {
-    for_each_run(image.width, image.height, t, accumulate);
-  } else {
-    std::vector<std::thread> workers;
-    for (unsigned k = 0; k < threads; ++k)
-      workers.emplace_back([&, k] {
-        for_each_run(image.width, image.height, t, accumulate, count * k / threads,
-                     count * (k + 1) / threads);
-      });
-    for (auto& w : workers) w.join();
-  }
+  const auto parts = static_cast<unsigned>(
+      std::min<std::size_t>(resolve_threads(threads), std::max<std::size_t>(1, count / 4096)));
+  for_each_part(count, parts, [&](std::size_t first, std::size_t last, unsigned) {
+    for_each_run(image.width, image.height, t, accumulate, first, last);
+  });
 
   for (std::size_t tri = 0; tri < t.triangles.size(); ++tri) {
     Trixel& trixel = trixels[tri];

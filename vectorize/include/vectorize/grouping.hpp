@@ -61,10 +61,11 @@ struct Regions {
 /// 2. Merge: while some region is smaller than options.min_region_area, the smallest (ties by lowest
 ///    id) is merged into the neighbour, across any edge, of the same transparency whose colour is
 ///    closest (ties by lowest triangle index); a region with no such neighbour stays.
-/// Deterministic. Preconditions: trixels.size() == t.triangles.size(); t as triangulate() returns it.
-/// Time O(n log n) for n triangles.
+/// Deterministic: the colours and the sorted candidates are computed on up to `threads` threads (0:
+/// every hardware thread) with the same result for any number. Preconditions: trixels.size() ==
+/// t.triangles.size(); t as triangulate() returns it. Time O(n log n) for n triangles.
 Regions group_trixels(const cdt::Triangulation& t, const TrixelColours& trixels,
-                      const GroupingOptions& options = {});
+                      const GroupingOptions& options = {}, unsigned threads = 1);
 
 /// CIELAB (D65 white) of a non-premultiplied sRGB colour with channels in [0, 1].
 std::array<double, 3> srgb_to_lab(const std::array<float, 3>& rgb);
