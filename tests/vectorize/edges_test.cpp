@@ -171,3 +171,48 @@ TEST(Edges, RejectsMalformedInput) {
 }
 
 } // namespace
+
+namespace {
+
+// Horizontal bands of changing colour (steps and ramps along y), with a diagonal line, shifted down by
+// `shift` rows; a transparent notch on the left when `notch`.
+Image banded_image(int shift, bool notch) {
+  return make_image(48, 120, [=](int x, int y) {
+    const int v = y - shift;
+    const float r = (v / 7) % 2 == 0 ? 0.2f : 0.8f;
+    const float g = static_cast<float>((v * 5) % 64) / 64.0f;
+    const float b = std::abs(x - v / 2) <= 1 ? 1.0f : 0.1f;
+    const float a = notch && x < 6 && v % 40 < 12 ? 0.0f : 1.0f;
+    return std::array{r, g, b, a};
+  });
+}
+
+} // namespace
+
+// The gradient is computed in bands of rows with the blur's and the Sobel filter's reach of rows
+// around each: an edge comes out the same wherever it falls relative to the bands (the picture moved
+// down by a few rows gives the same edges moved down), and for any number of threads.
+TEST(Edges, BandsAndThreadsDoNotChangeTheEdges) {
+  EdgeOptions options;
+  options.blur_sigma_px = 1.5;
+  options.low = 20.0;
+  options.high = 60.0;
+  for (const bool notch : {false, true}) {
+    const Image image = banded_image(0, notch);
+    const EdgeMap one = vectorize::detect_edges(image, options, 1);
+    ASSERT_GT(count_edges(one), 100);
+    for (const unsigned threads : {2u, 3u, 0u})
+      EXPECT_EQ(vectorize::detect_edges(image, options, threads).on, one.on) << "threads " << threads;
+    for (const int shift : {5, 13, 27}) {
+      const EdgeMap moved = vectorize::detect_edges(banded_image(shift, notch), options, 2);
+      int compared = 0;
+      for (int y = 10; y + shift < image.height - 10; ++y)
+        for (int x = 0; x < image.width; ++x) {
+          ASSERT_EQ(one.at(x, y), moved.at(x, y + shift))
+              << "pixel " << x << "," << y << " moved by " << shift << (notch ? " (notch)" : "");
+          ++compared;
+        }
+      EXPECT_GT(compared, 1000);
+    }
+  }
+}
