@@ -524,27 +524,18 @@ InsertStats insert(DeviceMesh::State& s, std::span<const MissingPoint> missing) 
             start[q] = o;
           }
           const std::uint32_t v = points[q].vertex;
-          const PointLocation loc = ::cdt::detail::locate_point(m, o, m.x[v], m.y[v]);
-          if (loc.status != WorkStatus::ok) {
-            failure.record(loc.status);
+          const ::cdt::detail::MissingPointPlace at =
+              ::cdt::detail::place_missing_point(m, o, m.x[v], m.y[v]);
+          if (at.status != WorkStatus::ok) {
+            failure.record(at.status);
             return;
           }
-          std::uint32_t u = kNoId, j = 3;
-          if (loc.edge != 3) {
-            const std::uint32_t e = m.adj[3 * loc.tri + loc.edge];
-            if (e == kNoId) {
-              failure.record(WorkStatus::boundary_edge);
-              return;
-            }
-            u = edge_tri(e);
-            j = edge_index(e);
-          }
-          loc_t[q] = loc.tri;
-          loc_e[q] = loc.edge;
-          loc_u[q] = u;
-          loc_j[q] = j;
-          atomicMin(mark + loc.tri, q);
-          if (u != kNoId) atomicMin(mark + u, q);
+          loc_t[q] = at.tri;
+          loc_e[q] = at.edge;
+          loc_u[q] = at.u;
+          loc_j[q] = at.j;
+          atomicMin(mark + at.tri, q);
+          if (at.u != kNoId) atomicMin(mark + at.u, q);
         },
         "locate_missing");
     s.check(failure, "inserting missing points (Algorithm 3, point location)");

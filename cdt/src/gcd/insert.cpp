@@ -75,27 +75,17 @@ InsertStats insert_missing_points(Mesh& mesh, std::span<const MissingPoint> miss
         start[q] = o;
       }
       const std::uint32_t v = missing[q].vertex;
-      const PointLocation loc = locate_point(m, o, m.x[v], m.y[v]);
-      if (loc.status != WorkStatus::ok) {
-        failure.record(loc.status);
+      const MissingPointPlace at = place_missing_point(m, o, m.x[v], m.y[v]);
+      if (at.status != WorkStatus::ok) {
+        failure.record(at.status);
         return;
       }
-      std::uint32_t u = kNoId, j = 3;
-      if (loc.edge != 3) {
-        const std::uint32_t e = m.adj[3 * loc.tri + loc.edge];
-        if (e == kNoId) {
-          failure.record(WorkStatus::boundary_edge);
-          return;
-        }
-        u = edge_tri(e);
-        j = edge_index(e);
-      }
-      loc_t[q] = loc.tri;
-      loc_e[q] = loc.edge;
-      loc_u[q] = u;
-      loc_j[q] = j;
-      atomic_min(&mark[loc.tri], q);
-      if (u != kNoId) atomic_min(&mark[u], q);
+      loc_t[q] = at.tri;
+      loc_e[q] = at.edge;
+      loc_u[q] = at.u;
+      loc_j[q] = at.j;
+      atomic_min(&mark[at.tri], q);
+      if (at.u != kNoId) atomic_min(&mark[at.u], q);
     });
     failure.check("inserting missing points (Algorithm 3, point location)");
 

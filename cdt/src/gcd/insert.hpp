@@ -174,6 +174,36 @@ CDT_HD inline PointLocation locate_point(MeshView m, std::uint32_t origin, doubl
 /// opposite vertex on, or from index 0 inside a triangle) and d, the apex of the second container.
 enum : std::uint8_t { kSplitOwnA = 1, kSplitOwnB = 2, kSplitOwnC = 4, kSplitOwnD = 8 };
 
+/// Where a missing point lies (Algorithm 3, lines 2-5): triangle `tri` holding it, the edge it lies
+/// on (3: strictly inside), and for an edge the triangle `u` across it with that edge's index `j` there
+/// (kNoId and 3 otherwise). status != ok when the walk fails, boundary_edge on a hull edge.
+struct MissingPointPlace {
+  std::uint32_t tri = kNoId;
+  std::uint32_t edge = 3;
+  std::uint32_t u = kNoId;
+  std::uint32_t j = 3;
+  WorkStatus status = WorkStatus::ok;
+};
+
+CDT_HD inline MissingPointPlace place_missing_point(MeshView m, std::uint32_t origin, double px, double py) {
+  const PointLocation loc = locate_point(m, origin, px, py);
+  MissingPointPlace out;
+  out.status = loc.status;
+  if (loc.status != WorkStatus::ok) return out;
+  out.tri = loc.tri;
+  out.edge = loc.edge;
+  if (loc.edge != 3) {
+    const std::uint32_t e = m.adj[3 * loc.tri + loc.edge];
+    if (e == kNoId) {
+      out.status = WorkStatus::boundary_edge;
+      return out;
+    }
+    out.u = edge_tri(e);
+    out.j = edge_index(e);
+  }
+  return out;
+}
+
 /// Algorithm 3 line 18 inside triangle t = (a, b, c): t becomes (p, b, c), s0 = (a, p, c), s1 = (a, b, p).
 /// The triangle that holds old edge k of t holds it at index k, so links into t can be forwarded by
 /// arithmetic (split_forward); the outer links are left pointing at the old neighbours for that repair.
