@@ -111,6 +111,13 @@ public:
     check_launch(name, __FILE__, __LINE__);
   }
 
+  /// The same as for_each: the CPU executor runs a few large parts differently from many small
+  /// elements, the device does not.
+  template <class F>
+  void for_each_part(std::size_t n, F f, const char* name = "for_each_part_kernel") {
+    for_each(n, f, name);
+  }
+
   /// Exclusive prefix sum of d_values[0, n) in place; returns the total (waits for it).
   template <class T>
   T exclusive_scan(T* d_values, std::size_t n) {

@@ -73,8 +73,20 @@ bool strictly_between(const Point& a, const Point& b, const Point& p) {
 
 // --- input checks ------------------------------------------------------------------------------------
 
-void validate_points(std::span<const Point> points) {
-  for (std::size_t i = 0; i < points.size(); ++i) {
+bool point_is_valid(const Point& p) {
+  return std::isfinite(p.x) && std::isfinite(p.y) && std::abs(p.x) <= kMaxCoordinate &&
+         std::abs(p.y) <= kMaxCoordinate;
+}
+
+void validate_points(std::span<const Point> points, CpuExecutor& executor) {
+  // Screened in parallel; the lowest invalid point is the one reported.
+  auto first_invalid = static_cast<std::uint32_t>(points.size());
+  executor.for_each(points.size(), [&](std::size_t i) {
+    if (!point_is_valid(points[i])) atomic_min(&first_invalid, static_cast<std::uint32_t>(i));
+  });
+  if (first_invalid == points.size()) return;
+  {
+    const std::size_t i = first_invalid;
     const Point& p = points[i];
     if (!std::isfinite(p.x) || !std::isfinite(p.y)) {
       throw InvalidInputError(Kind::non_finite_coordinate, i,
@@ -138,51 +150,49 @@ std::uint64_t point_hash(const Point& p) {
 std::vector<std::uint32_t> merge_duplicates(std::span<const Point> points, CpuExecutor& executor) {
   // Identical points only need to meet, not to be ordered: a stable radix sort by a hash of the
   // coordinates brings them together in linear time (a comparison sort of the coordinates took most of
-  // the preparation of a million points), in index order within each run of equal hashes.
-  struct Keyed {
-    std::uint32_t hash;
-    std::uint32_t index;
-  };
+  // the preparation of a million points), in index order within each run of equal hashes. 32 bits of
+  // hash are plenty to keep runs short.
   const std::size_t n = points.size();
-  std::vector<Keyed> order(n);
-  std::vector<Keyed> scratch(n);
+  std::vector<std::uint32_t> hash(n);
+  std::vector<std::uint32_t> order(n);
   executor.for_each(n, [&](std::size_t i) {
-    order[i] = {static_cast<std::uint32_t>(point_hash(points[i])), static_cast<std::uint32_t>(i)};
+    hash[i] = static_cast<std::uint32_t>(point_hash(points[i]));
+    order[i] = static_cast<std::uint32_t>(i);
   });
-  // 32 bits of hash are plenty to keep runs short, and three passes of 11 bits keep the scatter's
-  // write positions few enough to stay in the cache.
-  constexpr int kBits = 11;
-  constexpr std::size_t kBuckets = std::size_t{1} << kBits;
-  std::vector<std::uint32_t> count(kBuckets);
-  for (int shift = 0; shift < 32; shift += kBits) {
-    std::fill(count.begin(), count.end(), 0u);
-    for (const Keyed& k : order) ++count[(k.hash >> shift) & (kBuckets - 1)];
-    std::uint32_t sum = 0;
-    for (auto& c : count) {
-      const std::uint32_t value = c;
-      c = sum;
-      sum += value;
-    }
-    for (const Keyed& k : order) scratch[count[(k.hash >> shift) & (kBuckets - 1)]++] = k;
-    order.swap(scratch);
-  }
-  // Within a run of equal hashes the first earlier point with the same coordinates is the lowest index
-  // of those coordinates (runs are in index order), so it names the representative; a run holds one
-  // point's copies unless hashes collide, so the scan back is short.
+  executor.sort_pairs_by_key(hash, order, 32);
+  // Within a run of equal hashes the first point with given coordinates has the lowest index of them
+  // (runs are in index order): the representative. A run holds one point's copies unless hashes
+  // collide, so each point is compared with one or two representatives of its run, however many
+  // copies the run holds.
+  const std::vector<std::uint32_t> run_start =
+      executor.compact(n, [&](std::size_t k) { return k == 0 || hash[k] != hash[k - 1]; });
   std::vector<std::uint32_t> duplicate_of(n);
-  std::size_t run = 0;
-  for (std::size_t k = 0; k < n; ++k) {
-    if (k > 0 && order[k].hash != order[k - 1].hash) run = k;
-    const std::uint32_t i = order[k].index;
-    duplicate_of[i] = i;
-    for (std::size_t j = run; j < k; ++j) {
-      const Point& q = points[order[j].index];
-      if (q.x == points[i].x && q.y == points[i].y) {
-        duplicate_of[i] = duplicate_of[order[j].index];
-        break;
+  executor.for_each(run_start.size(), [&](std::size_t r) {
+    const std::size_t end = r + 1 < run_start.size() ? run_start[r + 1] : n;
+    std::uint32_t first[4];
+    std::vector<std::uint32_t> more; // representatives beyond the first four (hash collisions)
+    std::size_t count = 0;
+    for (std::size_t k = run_start[r]; k < end; ++k) {
+      const std::uint32_t i = order[k];
+      std::uint32_t representative = i;
+      for (std::size_t q = 0; q < count; ++q) {
+        const std::uint32_t c = q < 4 ? first[q] : more[q - 4];
+        if (points[c].x == points[i].x && points[c].y == points[i].y) {
+          representative = c;
+          break;
+        }
       }
+      if (representative == i) {
+        if (count < 4) {
+          first[count] = i;
+        } else {
+          more.push_back(i);
+        }
+        ++count;
+      }
+      duplicate_of[i] = representative;
     }
-  }
+  });
   return duplicate_of;
 }
 
@@ -266,13 +276,34 @@ SplitLists group_splits(std::vector<std::pair<std::uint32_t, std::uint32_t>>& pa
 
 // --- the grid ----------------------------------------------------------------------------------------
 
+/// The number of bits needed to write every value below `count`.
+int bits_below(std::size_t count) { return count <= 1 ? 0 : std::bit_width(count - 1); }
+
+/// Per key c in [0, num_keys], the position of the first of `sorted` (increasing) that is >= c: the
+/// row starts of a compressed layout whose entries were sorted by their row.
+std::vector<std::size_t> run_starts(const std::vector<std::uint32_t>& sorted, std::size_t num_keys,
+                                    CpuExecutor& executor) {
+  std::vector<std::size_t> start(num_keys + 1);
+  const std::size_t n = sorted.size();
+  // Each key's start is written once: by the entry where the keys step past it, or at the end.
+  executor.for_each(n + 1, [&](std::size_t k) {
+    const std::size_t from = k == 0 ? 0 : std::size_t{sorted[k - 1]} + 1;
+    const std::size_t to = k == n ? num_keys : std::size_t{sorted[k]};
+    for (std::size_t c = from; c <= to; ++c) start[c] = k;
+  });
+  return start;
+}
+
 /// The endpoints of each working segment, copied in segment order: the hot loops read them in sequence
 /// instead of chasing vertex indices across memory.
 using Ends = std::vector<std::array<Point, 2>>;
 
-Ends endpoints(const std::vector<WorkSegment>& segs, const std::vector<Point>& vertices) {
+Ends endpoints(const std::vector<WorkSegment>& segs, const std::vector<Point>& vertices,
+               CpuExecutor& executor) {
   Ends ends(segs.size());
-  for (std::size_t k = 0; k < segs.size(); ++k) ends[k] = {vertices[segs[k].a], vertices[segs[k].b]};
+  executor.for_each(segs.size(), [&](std::size_t k) {
+    ends[k] = {vertices[segs[k].a], vertices[segs[k].b]};
+  });
   return ends;
 }
 
@@ -297,7 +328,9 @@ public:
     // About four cells per segment (clustered data such as coastlines crowds many segments into the
     // cells of a uniform grid), but never more cells along a side than that, so that a very thin box
     // cannot ask for an absurd number of cells.
-    const double target = 4.0 * static_cast<double>(std::max<std::size_t>(num_segments, 1));
+    // At most 2^30 cells in the target, so that cell indices (at most 3 target + 1 of them) fit 32 bits.
+    const double target = std::min(4.0 * static_cast<double>(std::max<std::size_t>(num_segments, 1)),
+                                   static_cast<double>(std::uint32_t{1} << 30));
     size_ = std::max({std::sqrt(width * height / target), width / target, height / target});
     if (!(size_ > 0.0)) size_ = 1.0;
     nx_ = static_cast<std::uint32_t>(std::min(target, std::floor(width / size_)) + 1.0);
@@ -306,19 +339,27 @@ public:
     margin_ = std::max(1e-12 * magnitude(box), std::numeric_limits<double>::min());
   }
 
-  /// Registers every segment in the cells it may meet.
-  void build(const Ends& ends) {
-    start_.assign(num_cells() + 1, 0);
-    for (const auto& [a, b] : ends) {
-      for_each_cell(a, b, [&](std::size_t c) { ++start_[c + 1]; });
-    }
-    for (std::size_t c = 0; c < num_cells(); ++c) start_[c + 1] += start_[c];
-    items_.resize(start_.back());
-    std::vector<std::size_t> fill(start_.begin(), start_.end() - 1);
-    for (std::size_t k = 0; k < ends.size(); ++k) {
-      for_each_cell(ends[k][0], ends[k][1],
-                    [&](std::size_t c) { items_[fill[c]++] = static_cast<std::uint32_t>(k); });
-    }
+  /// Registers every segment in the cells it may meet; each cell lists its segments in increasing
+  /// order. (cell, segment) pairs are written in segment order and sorted stably by cell.
+  void build(const Ends& ends, CpuExecutor& executor) {
+    std::vector<std::size_t> at(ends.size());
+    executor.for_each(ends.size(), [&](std::size_t k) {
+      std::size_t count = 0;
+      for_each_cell(ends[k][0], ends[k][1], [&](std::size_t) { ++count; });
+      at[k] = count;
+    });
+    const std::size_t total = executor.exclusive_scan(at);
+    std::vector<std::uint32_t> cell(total);
+    items_.resize(total);
+    executor.for_each(ends.size(), [&](std::size_t k) {
+      std::size_t slot = at[k];
+      for_each_cell(ends[k][0], ends[k][1], [&](std::size_t c) {
+        cell[slot] = static_cast<std::uint32_t>(c);
+        items_[slot++] = static_cast<std::uint32_t>(k);
+      });
+    });
+    executor.sort_pairs_by_key(cell, items_, bits_below(num_cells()));
+    start_ = run_starts(cell, num_cells(), executor);
   }
 
   std::size_t num_cells() const { return static_cast<std::size_t>(nx_) * ny_; }
@@ -436,19 +477,15 @@ struct SiteCells {
 SiteCells bucket_sites(const SegmentGrid& grid, const std::vector<Point>& vertices,
                        const std::vector<std::uint32_t>& sites, CpuExecutor& executor) {
   SiteCells cells;
-  cells.start.assign(grid.num_cells() + 1, 0);
-  std::vector<std::size_t> cell(sites.size());
-  executor.for_each(sites.size(), [&](std::size_t k) { cell[k] = grid.cell_of(vertices[sites[k]]); });
-  for (std::size_t k = 0; k < sites.size(); ++k) ++cells.start[cell[k] + 1];
-  for (std::size_t c = 0; c < grid.num_cells(); ++c) cells.start[c + 1] += cells.start[c];
-  cells.id.resize(sites.size());
+  std::vector<std::uint32_t> cell(sites.size());
+  cells.id = sites;
+  executor.for_each(sites.size(), [&](std::size_t k) {
+    cell[k] = static_cast<std::uint32_t>(grid.cell_of(vertices[sites[k]]));
+  });
+  executor.sort_pairs_by_key(cell, cells.id, bits_below(grid.num_cells()));
+  cells.start = run_starts(cell, grid.num_cells(), executor);
   cells.point.resize(sites.size());
-  std::vector<std::size_t> fill(cells.start.begin(), cells.start.end() - 1);
-  for (std::size_t k = 0; k < sites.size(); ++k) {
-    const std::size_t slot = fill[cell[k]]++;
-    cells.id[slot] = sites[k];
-    cells.point[slot] = vertices[sites[k]];
-  }
+  executor.for_each(sites.size(), [&](std::size_t k) { cells.point[k] = vertices[cells.id[k]]; });
   // By x within each cell, so that a segment short against the cell (clustered data crowd many sites
   // into one cell) tests only the sites in its x-range. Ties by id: the order is the same for any
   // thread count.
@@ -782,7 +819,8 @@ enum class CutAt {
 /// the segment, which inherit what was already checked of it. After the crossing tests, pieces are
 /// clean unless bent by a crossing now, or by a snap earlier in this round (their sites are unchecked).
 std::vector<WorkSegment> cut_segments(const std::vector<WorkSegment>& segs, const SplitLists& cuts,
-                                      const std::vector<std::uint8_t>& bent, CutAt at) {
+                                      const std::vector<std::uint8_t>& bent, CutAt at,
+                                      CpuExecutor& executor) {
   std::vector<WorkSegment> pieces;
   pieces.reserve(segs.size() + cuts.vertex.size());
   std::vector<std::uint32_t> along;
@@ -802,7 +840,7 @@ std::vector<WorkSegment> cut_segments(const std::vector<WorkSegment>& segs, cons
     }
     pieces.push_back({std::min(from, g.b), std::max(from, g.b), g.label, dirty, snapped});
   }
-  std::sort(pieces.begin(), pieces.end(), [](const WorkSegment& p, const WorkSegment& q) {
+  executor.sort(pieces, [](const WorkSegment& p, const WorkSegment& q) {
     if (p.a != q.a) return p.a < q.a;
     if (p.b != q.b) return p.b < q.b;
     return p.label < q.label;
@@ -822,7 +860,8 @@ std::vector<WorkSegment> cut_segments(const std::vector<WorkSegment>& segs, cons
 
 /// The input segments between representatives, each vertex pair once (lowest segment id), all dirty.
 std::vector<WorkSegment> initial_segments(std::span<const Segment> segments,
-                                          const std::vector<std::uint32_t>& duplicate_of) {
+                                          const std::vector<std::uint32_t>& duplicate_of,
+                                          CpuExecutor& executor) {
   std::vector<WorkSegment> segs;
   segs.reserve(segments.size());
   for (std::size_t s = 0; s < segments.size(); ++s) {
@@ -833,20 +872,22 @@ std::vector<WorkSegment> initial_segments(std::span<const Segment> segments,
   }
   SplitLists none;
   none.start.assign(segs.size() + 1, 0);
-  return cut_segments(segs, none, std::vector<std::uint8_t>(segs.size(), 0), CutAt::sites);
+  return cut_segments(segs, none, std::vector<std::uint8_t>(segs.size(), 0), CutAt::sites, executor);
 }
 
 /// Orders segments by the grid cell of their first end, so that segments met together in the grid
 /// are also near each other in memory.
 void order_spatially(std::vector<WorkSegment>& segs, const std::vector<Point>& vertices,
                      const SegmentGrid& grid, CpuExecutor& executor) {
-  std::vector<std::pair<std::size_t, std::uint32_t>> keys(segs.size());
+  std::vector<std::uint32_t> cell(segs.size());
+  std::vector<std::uint32_t> order(segs.size());
   executor.for_each(segs.size(), [&](std::size_t k) {
-    keys[k] = {grid.cell_of(vertices[segs[k].a]), static_cast<std::uint32_t>(k)};
+    cell[k] = static_cast<std::uint32_t>(grid.cell_of(vertices[segs[k].a]));
+    order[k] = static_cast<std::uint32_t>(k);
   });
-  executor.sort(keys, std::less<>());
+  executor.sort_pairs_by_key(cell, order, bits_below(grid.num_cells()));
   std::vector<WorkSegment> sorted(segs.size());
-  executor.for_each(segs.size(), [&](std::size_t k) { sorted[k] = segs[keys[k].second]; });
+  executor.for_each(segs.size(), [&](std::size_t k) { sorted[k] = segs[order[k]]; });
   segs = std::move(sorted);
 }
 
@@ -875,17 +916,15 @@ PreparedPslg prepare_pslg(std::span<const Point> points, std::span<const Segment
       segments.size() >= std::numeric_limits<std::uint32_t>::max()) {
     throw Error("more than 2^32 - 2 points or segments");
   }
-  validate_points(points);
+  validate_points(points, executor);
   const std::size_t zero_length = validate_segments(points, segments, policy);
   PreparedPslg out;
   out.zero_length_segments = zero_length;
   out.duplicate_of = merge_duplicates(points, executor);
-  for (std::uint32_t i = 0; i < points.size(); ++i) {
-    if (out.duplicate_of[i] == i) out.sites.push_back(i);
-  }
+  out.sites = executor.compact(points.size(), [&](std::size_t i) { return out.duplicate_of[i] == i; });
   check_dimension(points, out.sites);
   out.vertices.assign(points.begin(), points.end());
-  std::vector<WorkSegment> segs = initial_segments(segments, out.duplicate_of);
+  std::vector<WorkSegment> segs = initial_segments(segments, out.duplicate_of, executor);
   if (segs.empty()) return out;
 
   // Crossing points are clamped into their segments' boxes, so this box holds every vertex to come.
@@ -902,21 +941,21 @@ PreparedPslg prepare_pslg(std::span<const Point> points, std::span<const Segment
   std::size_t first_round_vertices = 0;
   for (int round = 0; round < kMaxRounds; ++round) {
     order_spatially(segs, out.vertices, grid, executor);
-    Ends ends = endpoints(segs, out.vertices);
-    grid.build(ends);
+    Ends ends = endpoints(segs, out.vertices, executor);
+    grid.build(ends, executor);
     const SiteCells site_cells = bucket_sites(grid, out.vertices, out.sites, executor);
     // The first round is exact: snapping is only for repairing what rounding did.
     const PointSplits on_segment = find_points_on_segments(
         grid, site_cells, ends, segs, out.vertices, first_new, round == 0 ? 0.0 : snap_tolerance, executor);
     if (!on_segment.lists.vertex.empty()) {
-      segs = cut_segments(segs, on_segment.lists, on_segment.snapped, CutAt::sites);
+      segs = cut_segments(segs, on_segment.lists, on_segment.snapped, CutAt::sites, executor);
       order_spatially(segs, out.vertices, grid, executor);
-      ends = endpoints(segs, out.vertices);
-      grid.build(ends);
+      ends = endpoints(segs, out.vertices, executor);
+      grid.build(ends, executor);
     }
     const auto crossings = find_crossings(grid, ends, segs, executor);
     if (crossings.empty() && !on_segment.any_snapped) {
-      std::sort(segs.begin(), segs.end(), [](const WorkSegment& p, const WorkSegment& q) {
+      executor.sort(segs, [](const WorkSegment& p, const WorkSegment& q) {
         return p.a != q.a ? p.a < q.a : p.b < q.b;
       });
       out.pieces.reserve(segs.size());
@@ -950,7 +989,7 @@ PreparedPslg prepare_pslg(std::span<const Point> points, std::span<const Segment
     // Without crossings this only turns this round's snapped pieces from "snapped" into "dirty".
     std::vector<std::uint8_t> bent(segs.size(), 0);
     for (const auto& [i, j] : crossings) bent[i] = bent[j] = 1;
-    segs = cut_segments(segs, group_splits(cuts, segs, out.vertices), bent, CutAt::crossings);
+    segs = cut_segments(segs, group_splits(cuts, segs, out.vertices), bent, CutAt::crossings, executor);
   }
   throw Error("crossing segments: resolution did not converge"); // not reached: the loop throws first
 }

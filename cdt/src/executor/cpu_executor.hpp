@@ -45,8 +45,24 @@ public:
       for (std::size_t i = 0; i < n; ++i) f(i);
       return;
     }
-    run_chunks(n, [&f](std::size_t begin, std::size_t end) {
+    // Several chunks per thread for balance, but not so small that handing them out dominates.
+    const std::size_t chunk = std::max<std::size_t>(1024, n / (std::size_t{num_threads_} * 8));
+    run_chunks(n, chunk, [&f](std::size_t begin, std::size_t end) {
       for (std::size_t i = begin; i < end; ++i) f(i);
+    });
+  }
+
+  /// Calls f(p) for every part p in [0, parts) in parallel, one part at a time per thread: for steps
+  /// cut into a few large parts (blocks of a scan, of a compaction, of a sort pass).
+  template <class F>
+  void for_each_part(std::size_t parts, F&& f) {
+    if (parts == 0) return;
+    if (num_threads_ == 1 || parts == 1) {
+      for (std::size_t p = 0; p < parts; ++p) f(p);
+      return;
+    }
+    run_chunks(parts, 1, [&f](std::size_t begin, std::size_t end) {
+      for (std::size_t p = begin; p < end; ++p) f(p);
     });
   }
 
@@ -67,7 +83,7 @@ public:
     const std::size_t blocks = num_threads_ * 4;
     const std::size_t block = (n + blocks - 1) / blocks;
     std::vector<T> totals(blocks, T{});
-    for_each(blocks, [&](std::size_t b) {
+    for_each_part(blocks, [&](std::size_t b) {
       T sum{};
       for (std::size_t i = b * block; i < std::min(n, (b + 1) * block); ++i) sum += v[i];
       totals[b] = sum;
@@ -78,7 +94,7 @@ public:
       t = running;
       running += value;
     }
-    for_each(blocks, [&](std::size_t b) {
+    for_each_part(blocks, [&](std::size_t b) {
       T sum = totals[b];
       for (std::size_t i = b * block; i < std::min(n, (b + 1) * block); ++i) {
         const T value = v[i];
@@ -102,7 +118,7 @@ public:
     const std::size_t block = (n + blocks - 1) / blocks;
     std::vector<std::uint32_t> counts(blocks, 0);
     std::vector<std::uint8_t> flags(n);
-    for_each(blocks, [&](std::size_t b) {
+    for_each_part(blocks, [&](std::size_t b) {
       std::uint32_t c = 0;
       for (std::size_t i = b * block; i < std::min(n, (b + 1) * block); ++i) {
         flags[i] = keep(i) ? 1 : 0;
@@ -112,7 +128,7 @@ public:
     });
     const std::uint32_t total = exclusive_scan(counts);
     out.resize(total);
-    for_each(blocks, [&](std::size_t b) {
+    for_each_part(blocks, [&](std::size_t b) {
       std::uint32_t at = counts[b];
       for (std::size_t i = b * block; i < std::min(n, (b + 1) * block); ++i)
         if (flags[i]) out[at++] = static_cast<std::uint32_t>(i);
@@ -132,11 +148,11 @@ public:
     const std::size_t parts = num_threads_;
     std::vector<std::size_t> bounds(parts + 1);
     for (std::size_t p = 0; p <= parts; ++p) bounds[p] = n * p / parts;
-    for_each(parts,
-             [&](std::size_t p) { std::sort(v.begin() + bounds[p], v.begin() + bounds[p + 1], less); });
+    for_each_part(parts,
+                  [&](std::size_t p) { std::sort(v.begin() + bounds[p], v.begin() + bounds[p + 1], less); });
     for (std::size_t width = 1; width < parts; width *= 2) {
       const std::size_t pairs = (parts + 2 * width - 1) / (2 * width);
-      for_each(pairs, [&](std::size_t k) {
+      for_each_part(pairs, [&](std::size_t k) {
         const std::size_t lo = 2 * width * k;
         const std::size_t mid = std::min(parts, lo + width);
         const std::size_t hi = std::min(parts, lo + 2 * width);
@@ -146,10 +162,17 @@ public:
     }
   }
 
+  /// Sorts the pairs (keys[i], values[i]) by key, stably: pairs with equal keys keep their order. Only
+  /// the low key_bits bits of the keys are looked at (the others must be zero). A radix sort, 11 bits
+  /// a pass, each pass counted and scattered by blocks in parallel: linear in n, where a comparison
+  /// sort of the same pairs costs several times more.
+  void sort_pairs_by_key(std::vector<std::uint32_t>& keys, std::vector<std::uint32_t>& values, int key_bits);
+
 private:
   static constexpr std::size_t kSerialBelow = 4096;
 
-  void run_chunks(std::size_t n, const std::function<void(std::size_t, std::size_t)>& body);
+  void run_chunks(std::size_t n, std::size_t chunk,
+                  const std::function<void(std::size_t, std::size_t)>& body);
   void worker_loop(unsigned index);
 
   unsigned num_threads_ = 1;

@@ -137,7 +137,7 @@ Mesh dualize(std::span<const std::uint32_t> colour, std::uint32_t m, std::span<c
   std::vector<std::vector<Tri>> per_row(rows);
   std::vector<std::uint8_t> row_invalid(rows, 0);
   std::vector<std::vector<std::uint32_t>> row_culprits(degenerate != nullptr ? rows : 0);
-  executor.for_each(rows, [&](std::size_t r) {
+  executor.for_each_part(rows, [&](std::size_t r) {
     const auto gy = static_cast<std::uint32_t>(r);
     auto& list = per_row[r];
     for (std::uint32_t gx = 0; gx + 1 < m; ++gx) {

@@ -386,34 +386,36 @@ CDT_HD_INLINE std::uint32_t owner_at(const std::uint32_t* owner, std::uint32_t m
 /// The three phases of PBA on an executor: v.column receives the packed nearest site of every cell
 /// (kNone when no cell is occupied). Task indices: t = band * (groups) + group in phase 1 and
 /// t = row * (bands or pairs) + band or pair in phases 2 and 3, so the tasks next to each other (one
-/// thread's run on a CPU, one warp on a device) work on neighbouring columns: of neighbouring rows in
+/// thread's run on a CPU, one warp on a device) work on neighbouring columns; each task walks a whole
+/// column or row, so a CPU runs even a few of them in parallel (for_each_part): of neighbouring rows in
 /// phase 1, of one row in phases 2 and 3. (On an H100 the row-major order of phases 2 and 3 timed
 /// the same as one row per neighbouring task: those steps are bound by each task's serial walk
 /// through its stack, not by the order of the tasks.) Each for_each is a global barrier.
 template <class Executor>
 void run_pba(Executor& executor, const PbaView& v) {
   const std::uint32_t groups = v.groups();
-  executor.for_each(v.group_tasks(), [v, groups] CDT_HD(std::size_t t) {
+  executor.for_each_part(v.group_tasks(), [v, groups] CDT_HD(std::size_t t) {
     pba_band_ends(v, static_cast<std::uint32_t>(t / groups), static_cast<std::uint32_t>(t % groups));
   });
-  executor.for_each(groups, [v] CDT_HD(std::size_t g) { pba_link_bands(v, static_cast<std::uint32_t>(g)); });
-  executor.for_each(v.group_tasks(), [v, groups] CDT_HD(std::size_t t) {
+  executor.for_each_part(groups,
+                         [v] CDT_HD(std::size_t g) { pba_link_bands(v, static_cast<std::uint32_t>(g)); });
+  executor.for_each_part(v.group_tasks(), [v, groups] CDT_HD(std::size_t t) {
     pba_column_sweep(v, static_cast<std::uint32_t>(t / groups), static_cast<std::uint32_t>(t % groups));
   });
-  executor.for_each(v.row_tasks(), [v] CDT_HD(std::size_t t) {
+  executor.for_each_part(v.row_tasks(), [v] CDT_HD(std::size_t t) {
     pba_band_stack(v, static_cast<std::uint32_t>(t / v.col_bands),
                    static_cast<std::uint32_t>(t % v.col_bands));
   });
   // Pairwise merges: after the round with group width w, the groups of 2w bands hold merged stacks.
   for (std::uint32_t width = 1; width < v.col_bands; width *= 2) {
     const std::uint32_t pairs = v.merge_pairs(width);
-    executor.for_each(v.merge_tasks(width), [v, width, pairs] CDT_HD(std::size_t t) {
+    executor.for_each_part(v.merge_tasks(width), [v, width, pairs] CDT_HD(std::size_t t) {
       const auto left = static_cast<std::uint32_t>(t % pairs) * 2 * width;
       if (left + width < v.col_bands)
         pba_merge_stacks(v, static_cast<std::uint32_t>(t / pairs), left, left + width);
     });
   }
-  executor.for_each(v.row_tasks(), [v] CDT_HD(std::size_t t) {
+  executor.for_each_part(v.row_tasks(), [v] CDT_HD(std::size_t t) {
     pba_colour_band(v, static_cast<std::uint32_t>(t / v.col_bands),
                     static_cast<std::uint32_t>(t % v.col_bands));
   });
