@@ -14,6 +14,7 @@
 //   flip      Step 3: Lawson flips to the constrained Delaunay triangulation
 
 #include <algorithm>
+#include <bit>
 #include <chrono>
 #include <optional>
 #include <span>
@@ -100,28 +101,10 @@ std::vector<std::uint32_t> spatial_site_order(const detail::GridMapping& mapping
   executor.for_each(n, [&](std::size_t s) {
     key[s] = spread_bits(mapping.grid_x(x[s])) | (spread_bits(mapping.grid_y(y[s])) << 1);
   });
-  // Stable LSD radix sort of the site positions by key, 11 bits a pass (grid coordinates have at most 15
-  // bits each, so the key at most 30).
+  // Stable: ties keep their given order. Grid coordinates have at most 15 bits each, so keys at most 30.
   std::vector<std::uint32_t> order(n);
-  std::vector<std::uint32_t> scratch(n);
-  for (std::size_t s = 0; s < n; ++s) order[s] = static_cast<std::uint32_t>(s);
-  const std::uint32_t max_key = n == 0 ? 0 : *std::max_element(key.begin(), key.end());
-  constexpr int kBits = 11;
-  constexpr std::uint32_t kBuckets = 1u << kBits;
-  std::vector<std::uint32_t> count(kBuckets);
-  for (int shift = 0; shift < 32 && (max_key >> shift) != 0; shift += kBits) {
-    std::fill(count.begin(), count.end(), 0u);
-    for (std::size_t i = 0; i < n; ++i) ++count[(key[order[i]] >> shift) & (kBuckets - 1)];
-    std::uint32_t sum = 0;
-    for (auto& c : count) {
-      const std::uint32_t value = c;
-      c = sum;
-      sum += value;
-    }
-    for (std::size_t i = 0; i < n; ++i)
-      scratch[count[(key[order[i]] >> shift) & (kBuckets - 1)]++] = order[i];
-    order.swap(scratch);
-  }
+  executor.for_each(n, [&](std::size_t s) { order[s] = static_cast<std::uint32_t>(s); });
+  executor.sort_pairs_by_key(key, order, 2 * std::bit_width(mapping.m - 1));
   executor.for_each(n, [&](std::size_t s) { order[s] = sites[order[s]]; });
   return order;
 }

@@ -4,6 +4,7 @@
 #include "gcd/dualize.hpp"
 
 #include <algorithm>
+#include <bit>
 #include <cmath>
 #include <numbers>
 #include <vector>
@@ -174,25 +175,34 @@ Mesh dualize(std::span<const std::uint32_t> colour, std::uint32_t m, std::span<c
   mesh.y.assign(y.begin(), y.end());
   reserve_mesh_slots(mesh, n);
   mesh.grow_slots(num_dual);
-  // Slots ordered by each triangle's lowest vertex (a stable counting sort, the same for any thread
+  // Slots ordered by each triangle's lowest vertex (a stable radix sort, the same for any thread
   // count). Sites are numbered along a space-filling curve (triangulate.cpp), so a vertex's fan and its
   // neighbours' coordinates then sit close together in memory, and the later phases, which visit sites
   // in slot order, read them mostly from the cache.
   {
-    std::vector<std::uint32_t> start(static_cast<std::size_t>(n) + 1, 0);
-    for (const auto& list : per_row) {
-      for (const Tri& t : list) ++start[std::min({t.a, t.b, t.c}) + 1];
-    }
-    for (std::uint32_t v = 0; v < n; ++v) start[v + 1] += start[v];
-    std::uint32_t* tri = mesh.tri.data();
-    for (const auto& list : per_row) {
-      for (const Tri& t : list) {
-        std::uint32_t* out = tri + 3 * static_cast<std::size_t>(start[std::min({t.a, t.b, t.c})]++);
-        out[0] = t.a;
-        out[1] = t.b;
-        out[2] = t.c;
+    std::vector<std::uint32_t> key(num_dual);
+    std::vector<std::uint32_t> order(num_dual);
+    executor.for_each_part(rows, [&](std::size_t r) {
+      std::uint32_t k = row_start[r];
+      for (const Tri& t : per_row[r]) {
+        key[k] = std::min({t.a, t.b, t.c});
+        order[k] = k;
+        ++k;
       }
-    }
+    });
+    executor.sort_pairs_by_key(key, order, std::bit_width(n));
+    // order[k] is the position of the k-th triangle in the rows' concatenation: find its row.
+    std::uint32_t* tri = mesh.tri.data();
+    executor.for_each(num_dual, [&](std::size_t k) {
+      const std::uint32_t at = order[k];
+      const auto row = static_cast<std::size_t>(std::upper_bound(row_start.begin(), row_start.end(), at) -
+                                                row_start.begin() - 1);
+      const Tri& t = per_row[row][at - row_start[row]];
+      std::uint32_t* out = tri + 3 * k;
+      out[0] = t.a;
+      out[1] = t.b;
+      out[2] = t.c;
+    });
   }
   try {
     link_triangles(mesh, executor);

@@ -4,6 +4,7 @@
 #include "gcd/insert.hpp"
 
 #include <algorithm>
+#include <bit>
 #include <numeric>
 #include <string>
 #include <vector>
@@ -185,7 +186,7 @@ void remove_fake_boundary(Mesh& mesh, std::uint32_t first_fake, CpuExecutor& exe
   // Compaction, ordered by each triangle's lowest vertex; links and vert_tri are renumbered. Sites are
   // numbered along a space-filling curve (triangulate.cpp), so this puts neighbouring triangles next to
   // each other in memory, also the ones Algorithm 3 created at the end of the slot array, and the
-  // remaining steps (constraints, flips) mostly read cached slots. A stable counting sort keeps the
+  // remaining steps (constraints, flips) mostly read cached slots. A stable radix sort keeps the
   // result independent of the thread count.
   const MeshView m = mesh.view();
   std::vector<std::uint32_t> live;
@@ -197,11 +198,8 @@ void remove_fake_boundary(Mesh& mesh, std::uint32_t first_fake, CpuExecutor& exe
       const std::uint32_t t = alive[r];
       key[r] = std::min({m.tri[3 * t], m.tri[3 * t + 1], m.tri[3 * t + 2]});
     });
-    std::vector<std::uint32_t> start(static_cast<std::size_t>(nv) + 1, 0);
-    for (const std::uint32_t k : key) ++start[k + 1];
-    for (std::uint32_t v = 0; v < nv; ++v) start[v + 1] += start[v];
-    live.resize(alive.size());
-    for (std::size_t r = 0; r < alive.size(); ++r) live[start[key[r]]++] = alive[r];
+    live = alive;
+    executor.sort_pairs_by_key(key, live, std::bit_width(nv));
   }
   std::vector<std::uint32_t> new_id(m.num_slots, kNoId);
   executor.for_each(live.size(), [&](std::size_t r) { new_id[live[r]] = static_cast<std::uint32_t>(r); });
