@@ -13,8 +13,8 @@
 #              linked with CGAL, which that machine lacks), else the device build without CGAL
 #   batch      the vectorize batch benchmark, when its bundle was carried (scripts/device-bundle.sh)
 # The CDT matrix (TRIXEL_CDT_SIZES, POINTS:SEGMENTS pairs) is the paper's synthetic design, uniform and
-# Gaussian, plus a 4096 x 4096 lattice with random segments and the GSHHG coastlines when carried
-# (.carry/gshhg-high.txt.gz). Generated inputs are cached in build-gpu/inputs for the later parts.
+# Gaussian, plus a 4096 x 4096 lattice with random segments (TRIXEL_CDT_LATTICE=K for K x K, 0 for
+# none) and the GSHHG coastlines when carried (.carry/gshhg-high.txt.gz). Generated inputs are cached in build-gpu/inputs for the later parts.
 set -uo pipefail
 cd "$(dirname "$0")/.."
 parts=("$@")
@@ -63,7 +63,9 @@ fi
 # The CDT matrix: the GPU backend, then the CPU executor and CGAL on the same inputs.
 sizes=${TRIXEL_CDT_SIZES:-1000000:0,1000000:100000,10000000:0,10000000:100000,10000000:1000000}
 mkdir -p build-gpu/inputs
-matrix=(--sizes "$sizes" --lattice 4096 --cache build-gpu/inputs)
+lattice=${TRIXEL_CDT_LATTICE:-4096} # 0 leaves the lattice out
+matrix=(--sizes "$sizes" --cache build-gpu/inputs)
+[ "$lattice" != 0 ] && matrix+=(--lattice "$lattice")
 if [ -s .carry/gshhg-high.txt.gz ]; then
   [ -s build-gpu/inputs/gshhg-high.txt ] || gunzip -c .carry/gshhg-high.txt.gz > build-gpu/inputs/gshhg-high.txt
   matrix+=(--coast build-gpu/inputs/gshhg-high.txt)
