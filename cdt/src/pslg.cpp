@@ -23,6 +23,7 @@
 #include <functional>
 #include <limits>
 #include <string>
+#include <tuple>
 #include <unordered_map>
 #include <utility>
 
@@ -249,30 +250,12 @@ struct AlongSegment {
 
 /// Per segment: the vertices to split it at, in a compressed row layout.
 struct SplitLists {
-  std::vector<std::uint32_t> start; // segment s owns vertex[start[s] .. start[s + 1])
+  std::vector<std::size_t> start; // segment s owns vertex[start[s] .. start[s + 1])
   std::vector<std::uint32_t> vertex;
   std::span<const std::uint32_t> of(std::size_t s) const {
     return {vertex.data() + start[s], vertex.data() + start[s + 1]};
   }
 };
-
-/// Groups (segment, vertex) pairs by segment and sorts each group along its segment.
-SplitLists group_splits(std::vector<std::pair<std::uint32_t, std::uint32_t>>& pairs,
-                        const std::vector<WorkSegment>& segs, const std::vector<Point>& vertices) {
-  SplitLists lists;
-  lists.start.assign(segs.size() + 1, 0);
-  for (const auto& [s, v] : pairs) ++lists.start[s + 1];
-  for (std::size_t s = 0; s < segs.size(); ++s) lists.start[s + 1] += lists.start[s];
-  lists.vertex.resize(pairs.size());
-  std::vector<std::uint32_t> fill(lists.start.begin(), lists.start.end() - 1);
-  for (const auto& [s, v] : pairs) lists.vertex[fill[s]++] = v;
-  for (std::size_t s = 0; s < segs.size(); ++s) {
-    if (lists.start[s + 1] - lists.start[s] < 2) continue;
-    const AlongSegment along(vertices, vertices[segs[s].a], vertices[segs[s].b]);
-    std::sort(lists.vertex.begin() + lists.start[s], lists.vertex.begin() + lists.start[s + 1], along);
-  }
-  return lists;
-}
 
 // --- the grid ----------------------------------------------------------------------------------------
 
@@ -292,6 +275,28 @@ std::vector<std::size_t> run_starts(const std::vector<std::uint32_t>& sorted, st
     for (std::size_t c = from; c <= to; ++c) start[c] = k;
   });
   return start;
+}
+
+/// Groups (segment, vertex) pairs by segment and sorts each group along its segment.
+SplitLists group_splits(const std::vector<std::pair<std::uint32_t, std::uint32_t>>& pairs,
+                        const std::vector<WorkSegment>& segs, const std::vector<Point>& vertices,
+                        CpuExecutor& executor) {
+  std::vector<std::uint32_t> segment(pairs.size());
+  SplitLists lists;
+  lists.vertex.resize(pairs.size());
+  for (std::size_t k = 0; k < pairs.size(); ++k) std::tie(segment[k], lists.vertex[k]) = pairs[k];
+  executor.sort_pairs_by_key(segment, lists.vertex, bits_below(segs.size()));
+  lists.start = run_starts(segment, segs.size(), executor);
+  const std::vector<std::uint32_t> first =
+      executor.compact(segment.size(), [&](std::size_t k) { return k == 0 || segment[k] != segment[k - 1]; });
+  executor.for_each(first.size(), [&](std::size_t r) {
+    const std::uint32_t s = segment[first[r]];
+    if (lists.start[s + 1] - lists.start[s] < 2) return;
+    const AlongSegment along(vertices, vertices[segs[s].a], vertices[segs[s].b]);
+    std::sort(lists.vertex.begin() + static_cast<std::ptrdiff_t>(lists.start[s]),
+              lists.vertex.begin() + static_cast<std::ptrdiff_t>(lists.start[s + 1]), along);
+  });
+  return lists;
 }
 
 /// The endpoints of each working segment, copied in segment order: the hot loops read them in sequence
@@ -585,7 +590,7 @@ PointSplits find_points_on_segments(const SegmentGrid& grid, const SiteCells& si
       }
     });
   }
-  splits.lists = group_splits(hits, segs, vertices);
+  splits.lists = group_splits(hits, segs, vertices, executor);
   return splits;
 }
 
@@ -818,58 +823,88 @@ enum class CutAt {
 /// Dirty pieces are tested against everything in the coming round. Exact cuts at sites give parts of
 /// the segment, which inherit what was already checked of it. After the crossing tests, pieces are
 /// clean unless bent by a crossing now, or by a snap earlier in this round (their sites are unchecked).
+/// The positions of segs ordered by (a, b), ties in their given order: stable radix sorts by b, then
+/// by a.
+std::vector<std::uint32_t> order_by_ends(const std::vector<WorkSegment>& segs, std::size_t num_vertices,
+                                         CpuExecutor& executor) {
+  const int bits = bits_below(num_vertices);
+  std::vector<std::uint32_t> key(segs.size());
+  std::vector<std::uint32_t> order(segs.size());
+  executor.for_each(segs.size(), [&](std::size_t k) {
+    key[k] = segs[k].b;
+    order[k] = static_cast<std::uint32_t>(k);
+  });
+  executor.sort_pairs_by_key(key, order, bits);
+  executor.for_each(segs.size(), [&](std::size_t k) { key[k] = segs[order[k]].a; });
+  executor.sort_pairs_by_key(key, order, bits);
+  return order;
+}
+
 std::vector<WorkSegment> cut_segments(const std::vector<WorkSegment>& segs, const SplitLists& cuts,
                                       const std::vector<std::uint8_t>& bent, CutAt at,
                                       CpuExecutor& executor) {
-  std::vector<WorkSegment> pieces;
-  pieces.reserve(segs.size() + cuts.vertex.size());
-  std::vector<std::uint32_t> along;
-  for (std::size_t s = 0; s < segs.size(); ++s) {
+  // Calls piece(k, piece) for the pieces of segment s in order; returns their number.
+  const auto for_each_piece = [&](std::size_t s, auto&& piece) {
     const WorkSegment& g = segs[s];
-    const auto mine = cuts.of(s);
-    along.assign(mine.begin(), mine.end());
-    along.erase(std::unique(along.begin(), along.end()), along.end());
-    std::erase_if(along, [&](std::uint32_t v) { return v == g.a || v == g.b; });
     const bool is_bent = bent[s] != 0;
     const bool dirty = at == CutAt::sites ? g.dirty || is_bent : is_bent || g.snapped;
     const bool snapped = at == CutAt::sites && is_bent;
     std::uint32_t from = g.a;
-    for (std::uint32_t v : along) {
-      pieces.push_back({std::min(from, v), std::max(from, v), g.label, dirty, snapped});
+    std::size_t count = 0;
+    std::uint32_t last = std::numeric_limits<std::uint32_t>::max();
+    for (const std::uint32_t v : cuts.of(s)) {
+      if (v == last || v == g.a || v == g.b) continue; // repeated, or rounded onto an end of its own
+      last = v;
+      piece(count++, WorkSegment{std::min(from, v), std::max(from, v), g.label, dirty, snapped});
       from = v;
     }
-    pieces.push_back({std::min(from, g.b), std::max(from, g.b), g.label, dirty, snapped});
-  }
+    piece(count++, WorkSegment{std::min(from, g.b), std::max(from, g.b), g.label, dirty, snapped});
+    return count;
+  };
+  std::vector<std::size_t> first(segs.size());
+  executor.for_each(segs.size(),
+                    [&](std::size_t s) { first[s] = for_each_piece(s, [](std::size_t, auto&&) {}); });
+  const std::size_t total = executor.exclusive_scan(first);
+  std::vector<WorkSegment> pieces(total);
+  executor.for_each(segs.size(), [&](std::size_t s) {
+    for_each_piece(s, [&](std::size_t k, const WorkSegment& p) { pieces[first[s] + k] = p; });
+  });
   executor.sort(pieces, [](const WorkSegment& p, const WorkSegment& q) {
     if (p.a != q.a) return p.a < q.a;
     if (p.b != q.b) return p.b < q.b;
     return p.label < q.label;
   });
-  std::size_t kept = 0;
-  for (std::size_t k = 0; k < pieces.size(); ++k) {
-    if (kept > 0 && pieces[kept - 1].a == pieces[k].a && pieces[kept - 1].b == pieces[k].b) {
-      pieces[kept - 1].dirty = pieces[kept - 1].dirty || pieces[k].dirty;
-      pieces[kept - 1].snapped = pieces[kept - 1].snapped || pieces[k].snapped;
-    } else {
-      pieces[kept++] = pieces[k];
+  // Identical pieces merge into the first of their run (the lowest label), dirty or snapped if any is.
+  const std::vector<std::uint32_t> heads = executor.compact(total, [&](std::size_t k) {
+    return k == 0 || pieces[k].a != pieces[k - 1].a || pieces[k].b != pieces[k - 1].b;
+  });
+  std::vector<WorkSegment> merged(heads.size());
+  executor.for_each(heads.size(), [&](std::size_t r) {
+    const std::size_t end = r + 1 < heads.size() ? heads[r + 1] : total;
+    WorkSegment p = pieces[heads[r]];
+    for (std::size_t k = heads[r] + 1; k < end; ++k) {
+      p.dirty = p.dirty || pieces[k].dirty;
+      p.snapped = p.snapped || pieces[k].snapped;
     }
-  }
-  pieces.resize(kept);
-  return pieces;
+    merged[r] = p;
+  });
+  return merged;
 }
 
 /// The input segments between representatives, each vertex pair once (lowest segment id), all dirty.
 std::vector<WorkSegment> initial_segments(std::span<const Segment> segments,
                                           const std::vector<std::uint32_t>& duplicate_of,
                                           CpuExecutor& executor) {
-  std::vector<WorkSegment> segs;
-  segs.reserve(segments.size());
-  for (std::size_t s = 0; s < segments.size(); ++s) {
-    const std::uint32_t a = duplicate_of[segments[s].a];
-    const std::uint32_t b = duplicate_of[segments[s].b];
-    if (a == b) continue; // zero length: validated and ignored
-    segs.push_back({std::min(a, b), std::max(a, b), static_cast<std::uint32_t>(s), true, false});
-  }
+  // Zero-length segments were validated and are ignored.
+  const std::vector<std::uint32_t> kept = executor.compact(segments.size(), [&](std::size_t s) {
+    return duplicate_of[segments[s].a] != duplicate_of[segments[s].b];
+  });
+  std::vector<WorkSegment> segs(kept.size());
+  executor.for_each(kept.size(), [&](std::size_t k) {
+    const std::uint32_t a = duplicate_of[segments[kept[k]].a];
+    const std::uint32_t b = duplicate_of[segments[kept[k]].b];
+    segs[k] = {std::min(a, b), std::max(a, b), kept[k], true, false};
+  });
   SplitLists none;
   none.start.assign(segs.size() + 1, 0);
   return cut_segments(segs, none, std::vector<std::uint8_t>(segs.size(), 0), CutAt::sites, executor);
@@ -955,11 +990,12 @@ PreparedPslg prepare_pslg(std::span<const Point> points, std::span<const Segment
     }
     const auto crossings = find_crossings(grid, ends, segs, executor);
     if (crossings.empty() && !on_segment.any_snapped) {
-      executor.sort(segs, [](const WorkSegment& p, const WorkSegment& q) {
-        return p.a != q.a ? p.a < q.a : p.b < q.b;
+      const std::vector<std::uint32_t> order = order_by_ends(segs, out.vertices.size(), executor);
+      out.pieces.resize(segs.size());
+      executor.for_each(segs.size(), [&](std::size_t k) {
+        const WorkSegment& p = segs[order[k]];
+        out.pieces[k] = {p.a, p.b, p.label};
       });
-      out.pieces.reserve(segs.size());
-      for (const WorkSegment& p : segs) out.pieces.push_back({p.a, p.b, p.label});
       return out;
     }
     if (policy == CrossingSegments::reject && !crossings.empty()) reject_crossing(crossings, segs);
@@ -989,7 +1025,8 @@ PreparedPslg prepare_pslg(std::span<const Point> points, std::span<const Segment
     // Without crossings this only turns this round's snapped pieces from "snapped" into "dirty".
     std::vector<std::uint8_t> bent(segs.size(), 0);
     for (const auto& [i, j] : crossings) bent[i] = bent[j] = 1;
-    segs = cut_segments(segs, group_splits(cuts, segs, out.vertices), bent, CutAt::crossings, executor);
+    segs = cut_segments(segs, group_splits(cuts, segs, out.vertices, executor), bent, CutAt::crossings,
+                        executor);
   }
   throw Error("crossing segments: resolution did not converge"); // not reached: the loop throws first
 }
