@@ -50,8 +50,12 @@ void CpuExecutor::sort_pairs_by_key(std::vector<std::uint32_t>& keys, std::vecto
   const std::size_t blocks = num_threads_ == 1 || n < 4 * kSerialBelow ? 1 : std::size_t{num_threads_} * 2;
   const std::size_t block = (n + blocks - 1) / blocks;
   std::vector<std::size_t> offset(blocks * kDigits);
-  std::vector<std::uint32_t> keys_out(n);
-  std::vector<std::uint32_t> values_out(n);
+  // The scatter targets are kept between calls: fresh pages of a large buffer cost a page fault each,
+  // which on many threads costs more than the sort itself.
+  std::vector<std::uint32_t>& keys_out = sort_keys_;
+  std::vector<std::uint32_t>& values_out = sort_values_;
+  keys_out.resize(n);
+  values_out.resize(n);
   for (int shift = 0; shift < key_bits; shift += kBits) {
     const std::uint32_t mask = static_cast<std::uint32_t>(kDigits - 1);
     const auto digit = [&](std::uint32_t key) { return (key >> shift) & mask; };

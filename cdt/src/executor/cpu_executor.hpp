@@ -188,6 +188,9 @@ private:
   std::size_t n_ = 0;
   std::size_t chunk_ = 0;
   std::atomic<std::size_t> next_{0};
+  // Scratch of sort_pairs_by_key, reused from call to call.
+  std::vector<std::uint32_t> sort_keys_;
+  std::vector<std::uint32_t> sort_values_;
 };
 
 } // namespace cdt::detail
