@@ -5,12 +5,14 @@
 #include <cstddef>
 #include <cstdint>
 #include <memory>
+#include <optional>
 #include <span>
 #include <string>
 #include <vector>
 
 namespace cdt::detail {
 struct Mesh;             // cdt/src/gcd/mesh.hpp
+struct Box;              // cdt/src/gcd/dualize.hpp
 struct MissingPoint;     // cdt/src/gcd/shift.hpp
 struct ShiftStats;       // cdt/src/gcd/shift.hpp
 struct InsertStats;      // cdt/src/gcd/insert.hpp
@@ -19,6 +21,8 @@ struct ConstraintStats;  // cdt/src/gcd/constraints.hpp
 } // namespace cdt::detail
 
 namespace cdt::gpu {
+
+class DeviceMesh;
 
 /// Number of CUDA devices this process can use; 0 without a device or driver. Never throws.
 int device_count() noexcept;
@@ -129,6 +133,17 @@ public:
   DualOutcome dual(::cdt::detail::Mesh& mesh, DualStats* stats = nullptr,
                    std::vector<std::uint32_t>* degenerate = nullptr);
 
+  /// dual() and then cdt::detail::complete_dual without the mesh leaving the device: only the dual's
+  /// open edges come to the host, where the hull completion and the fake boundary are planned
+  /// (cdt::detail::plan_dual_completion); the added triangles, their links and the fake vertices go
+  /// back up. When built, `out` holds the completed mesh, slot for slot the one complete_dual gives,
+  /// and site_vert_tri the n sites' vert_tri (kNoId for the sites the dual does not reach). Also
+  /// declined when the dual's boundary is not one simple cycle (complete_dual then starts from the
+  /// fake polygon alone). mesh.x, mesh.y hold the n sites as for dual(); the other arrays are left empty.
+  DualOutcome complete_dual(::cdt::detail::Mesh& mesh, const ::cdt::detail::Box& bounds,
+                            std::optional<DeviceMesh>& out, std::vector<std::uint32_t>& site_vert_tri,
+                            std::vector<std::uint32_t>* degenerate = nullptr);
+
   /// Replaces the colouring on the device (after cdt::detail::remove_sites_from_colouring on a copy).
   void set_colour(std::span<const std::uint32_t> colour);
 
@@ -167,6 +182,9 @@ class DeviceMesh {
 public:
   /// Copies the mesh to the device.
   explicit DeviceMesh(const ::cdt::detail::Mesh& mesh);
+  struct State; ///< device buffers and stream (defined by the CUDA code)
+  /// Takes over a mesh already on the device (the CUDA code builds one in DeviceVoronoi::complete_dual).
+  explicit DeviceMesh(std::unique_ptr<State> state);
   ~DeviceMesh();
   DeviceMesh(DeviceMesh&&) noexcept;
   DeviceMesh& operator=(DeviceMesh&&) noexcept;
@@ -192,8 +210,6 @@ public:
 
   /// Copies the mesh back into `mesh` (every array replaced).
   void download(::cdt::detail::Mesh& mesh) const;
-
-  struct State; ///< device buffers and stream (defined by the CUDA code)
 
 private:
   std::unique_ptr<State> state_;

@@ -40,6 +40,9 @@ struct DeviceFlipBatch {
 void apply_flips(CudaExecutor& executor, DeviceFlipBatch& batch, const ::cdt::detail::MeshView& m,
                  const std::uint32_t* edges, std::uint32_t n);
 
+/// Device memory of a mesh of `slots` triangles over nv vertices, in bytes.
+std::size_t mesh_device_bytes(std::size_t slots, std::size_t nv);
+
 } // namespace detail
 
 struct DeviceMesh::State {

@@ -8,16 +8,23 @@
 //   3. links: every directed edge keyed by its two vertices, sorted, equal neighbours paired;
 //   4. vert_tri: the highest incident slot (atomicMax), which is the CPU executor's last write.
 // Hull completion and the fake boundary touch only the dual's boundary, a few thousand edges: the host
-// does them on the copied mesh (cdt::detail::complete_dual).
+// plans them from the open edges alone (cdt::detail::plan_dual_completion), and complete_dual applies
+// the plan on the device, so the mesh never leaves it (dual() copies the linked dual to the host for
+// the CPU executor's complete_dual instead).
 
 #include <algorithm>
 #include <cstddef>
 #include <cstdint>
+#include <memory>
+#include <optional>
 #include <string>
+#include <utility>
+#include <vector>
 
 #include "cdt_kernels.hpp"
 #include "cuda_check.cuh"
 #include "cuda_executor.cuh"
+#include "device_mesh.cuh"
 #include "device_voronoi.cuh"
 #include "gcd/dualize.hpp"
 
@@ -37,6 +44,13 @@ int bits_below(std::uint64_t limit) {
   int bits = 1;
   while (bits < 64 && (std::uint64_t{1} << bits) < limit) ++bits;
   return bits;
+}
+
+/// dst[0, n) = src[0, n) on the device, queued on the executor's stream.
+template <class T>
+void copy_on_device(CudaExecutor& executor, T* dst, const T* src, std::size_t n, const char* name) {
+  executor.for_each(
+      n, [=] __device__(std::size_t k) { dst[k] = src[k]; }, name);
 }
 
 /// Device memory of the dual and its links for n sites, in bytes (about 2n triangles; the sorts'
@@ -158,11 +172,15 @@ void DeviceVoronoi::set_colour(std::span<const std::uint32_t> colour) {
   state_->executor.upload(state_->buffers.colour.data(), colour.data(), cells);
 }
 
-DeviceVoronoi::DualOutcome DeviceVoronoi::dual(::cdt::detail::Mesh& mesh, DualStats* stats,
-                                               std::vector<std::uint32_t>* degenerate) {
-  DualStats local;
-  DualStats& st = stats != nullptr ? *stats : local;
-  st = DualStats{};
+namespace detail {
+
+/// The part of DeviceVoronoi::dual before the copy to the host: the linked dual in b (b.tri, b.adj,
+/// b.vert_tri) with num_dual slots when built. Times the steps into st.
+DeviceVoronoi::DualOutcome build_dual(DeviceVoronoi::State& state, ::cdt::detail::Mesh& mesh, DualStats& st,
+                                      std::vector<std::uint32_t>* degenerate, DualBuffers& b,
+                                      std::uint32_t& num_dual, DeviceEvent& started, DeviceEvent& linked) {
+  using DualOutcome = DeviceVoronoi::DualOutcome;
+  DeviceVoronoi::State* state_ = &state;
   detail::CudaExecutor& executor = state_->executor;
   const std::uint32_t m = state_->m;
   const std::uint32_t n = mesh.num_vertices();
@@ -176,9 +194,8 @@ DeviceVoronoi::DualOutcome DeviceVoronoi::dual(::cdt::detail::Mesh& mesh, DualSt
   detail::require_device_memory(st.device_bytes, 0,
                                 "the dual triangulation of " + std::to_string(n) + " sites");
 
-  detail::DeviceEvent started, written, linked, done;
+  detail::DeviceEvent written;
   started.record(executor.stream());
-  detail::DualBuffers b;
   state_->site_x.resize(n);
   state_->site_y.resize(n);
   executor.upload(state_->site_x.data(), mesh.x.data(), n);
@@ -213,7 +230,7 @@ DeviceVoronoi::DualOutcome DeviceVoronoi::dual(::cdt::detail::Mesh& mesh, DualSt
     detail::list_culprits(*state_, bad_list, bad, mesh, *degenerate);
     return DualOutcome::degenerate;
   }
-  const std::uint32_t num_dual = executor.exclusive_scan(count, corners);
+  num_dual = executor.exclusive_scan(count, corners);
   if (num_dual == 0) return DualOutcome::declined;
 
   b.unsorted.resize(3 * static_cast<std::size_t>(num_dual));
@@ -254,6 +271,26 @@ DeviceVoronoi::DualOutcome DeviceVoronoi::dual(::cdt::detail::Mesh& mesh, DualSt
   const bool linked_ok = detail::link_on_device(executor, b, num_dual, n);
   linked.record(executor.stream());
   if (!linked_ok) return DualOutcome::declined;
+  st.dual_triangles = num_dual;
+  st.triangles_ms = written.since(started);
+  st.link_ms = linked.since(written);
+  return DualOutcome::built;
+}
+
+} // namespace detail
+
+DeviceVoronoi::DualOutcome DeviceVoronoi::dual(::cdt::detail::Mesh& mesh, DualStats* stats,
+                                               std::vector<std::uint32_t>* degenerate) {
+  DualStats local;
+  DualStats& st = stats != nullptr ? *stats : local;
+  st = DualStats{};
+  detail::DualBuffers b;
+  std::uint32_t num_dual = 0;
+  detail::DeviceEvent started, linked, done;
+  const DualOutcome outcome = detail::build_dual(*state_, mesh, st, degenerate, b, num_dual, started, linked);
+  if (outcome != DualOutcome::built) return outcome;
+  const std::uint32_t n = mesh.num_vertices();
+  detail::CudaExecutor& executor = state_->executor;
 
   const std::size_t words = 3 * static_cast<std::size_t>(num_dual);
   mesh.tri.resize(words);
@@ -264,10 +301,96 @@ DeviceVoronoi::DualOutcome DeviceVoronoi::dual(::cdt::detail::Mesh& mesh, DualSt
   executor.download(mesh.adj.data(), b.adj.data(), words);
   executor.download(mesh.vert_tri.data(), b.vert_tri.data(), n);
   done.record(executor.stream());
-  st.dual_triangles = num_dual;
-  st.triangles_ms = written.since(started);
-  st.link_ms = linked.since(written);
   st.download_ms = done.since(linked);
+  return DualOutcome::built;
+}
+
+DeviceVoronoi::DualOutcome DeviceVoronoi::complete_dual(::cdt::detail::Mesh& mesh,
+                                                        const ::cdt::detail::Box& bounds,
+                                                        std::optional<DeviceMesh>& out,
+                                                        std::vector<std::uint32_t>& site_vert_tri,
+                                                        std::vector<std::uint32_t>* degenerate) {
+  DualStats st;
+  detail::DualBuffers b;
+  std::uint32_t num_dual = 0;
+  detail::DeviceEvent started, linked;
+  const DualOutcome outcome = detail::build_dual(*state_, mesh, st, degenerate, b, num_dual, started, linked);
+  if (outcome != DualOutcome::built) return outcome;
+  detail::CudaExecutor& executor = state_->executor;
+  const std::uint32_t n = mesh.num_vertices();
+  const std::size_t words = 3 * static_cast<std::size_t>(num_dual);
+
+  // The open edges (every dual slot is live) and their ends, in increasing edge order.
+  const std::uint32_t* tri = b.tri.data();
+  const std::uint32_t* adj = b.adj.data();
+  std::uint32_t* open_ids = b.edge.data(); // the links' scratch, 3 words per slot, free again
+  const std::uint32_t num_open = executor.compact(
+      words, [=] __device__(std::size_t e) { return adj[e] == ::cdt::detail::kNoId; }, open_ids);
+  detail::DeviceBuffer<std::uint32_t> d_open(3 * static_cast<std::size_t>(num_open) + 1);
+  std::uint32_t* open = d_open.data();
+  executor.for_each(
+      num_open,
+      [=] __device__(std::size_t k) {
+        const std::uint32_t e = open_ids[k];
+        const std::uint32_t t = ::cdt::detail::edge_tri(e), i = ::cdt::detail::edge_index(e);
+        open[3 * k] = e;
+        open[3 * k + 1] = tri[3 * t + ::cdt::detail::next3(i)];
+        open[3 * k + 2] = tri[3 * t + ::cdt::detail::prev3(i)];
+      },
+      "open_edges");
+  std::vector<::cdt::detail::OpenEdge> h_open(num_open);
+  static_assert(sizeof(::cdt::detail::OpenEdge) == 3 * sizeof(std::uint32_t));
+  executor.download(reinterpret_cast<std::uint32_t*>(h_open.data()), open,
+                    3 * static_cast<std::size_t>(num_open));
+  const std::optional<::cdt::detail::DualCompletion> plan =
+      ::cdt::detail::plan_dual_completion(h_open, mesh.x, mesh.y, num_dual, bounds);
+  if (!plan) return DualOutcome::declined;
+
+  const auto k_fake = static_cast<std::uint32_t>(plan->fake_x.size());
+  const auto added = static_cast<std::uint32_t>(plan->triangles.size());
+  auto state = std::make_unique<DeviceMesh::State>();
+  DeviceMesh::State& s = *state;
+  s.num_slots = num_dual + added;
+  s.num_vertices = n + k_fake;
+  detail::require_device_memory(detail::mesh_device_bytes(s.num_slots, s.num_vertices), 0,
+                                "a mesh of " + std::to_string(s.num_slots) + " triangles");
+  const std::size_t all_words = 3 * static_cast<std::size_t>(s.num_slots);
+  s.x.resize(s.num_vertices);
+  s.y.resize(s.num_vertices);
+  s.tri.resize(all_words);
+  s.adj.resize(all_words);
+  s.seg.resize(all_words);
+  s.vert_tri.resize(s.num_vertices);
+  // The dual's arrays copied on the device, the added parts uploaded behind them.
+  detail::copy_on_device(executor, s.x.data(), state_->site_x.data(), n, "copy_x");
+  detail::copy_on_device(executor, s.y.data(), state_->site_y.data(), n, "copy_y");
+  detail::copy_on_device(executor, s.tri.data(), tri, words, "copy_tri");
+  detail::copy_on_device(executor, s.adj.data(), adj, words, "copy_adj");
+  detail::copy_on_device(executor, s.vert_tri.data(), b.vert_tri.data(), n, "copy_vert_tri");
+  executor.upload(s.x.data() + n, plan->fake_x.data(), k_fake);
+  executor.upload(s.y.data() + n, plan->fake_y.data(), k_fake);
+  static_assert(sizeof(::cdt::detail::DualTriangle) == 3 * sizeof(std::uint32_t));
+  executor.upload(s.tri.data() + words, reinterpret_cast<const std::uint32_t*>(plan->triangles.data()),
+                  3 * static_cast<std::size_t>(added));
+  executor.upload(s.adj.data() + words, plan->adj.data(), plan->adj.size());
+  executor.upload(s.vert_tri.data() + n, plan->fake_vert_tri.data(), k_fake);
+  executor.fill_bytes(s.seg.data(), 0xFF, all_words);
+  if (!plan->links.empty()) {
+    static_assert(sizeof(plan->links[0]) == 2 * sizeof(std::uint32_t));
+    detail::DeviceBuffer<std::uint32_t> d_links(2 * plan->links.size());
+    executor.upload(d_links.data(), reinterpret_cast<const std::uint32_t*>(plan->links.data()),
+                    2 * plan->links.size());
+    std::uint32_t* links = d_links.data();
+    std::uint32_t* new_adj = s.adj.data();
+    executor.for_each(
+        plan->links.size(), [=] __device__(std::size_t k) { new_adj[links[2 * k]] = links[2 * k + 1]; },
+        "link_open_edges");
+    executor.synchronize(); // d_links is freed at the end of this scope
+  }
+  site_vert_tri.resize(n);
+  executor.download(site_vert_tri.data(), b.vert_tri.data(), n);
+  executor.synchronize();
+  out.emplace(std::move(state));
   return DualOutcome::built;
 }
 

@@ -754,6 +754,8 @@ DeviceMesh::DeviceMesh(const ::cdt::detail::Mesh& mesh) : state_(std::make_uniqu
   s.executor.upload(s.vert_tri.data(), mesh.vert_tri.data(), s.num_vertices);
 }
 
+DeviceMesh::DeviceMesh(std::unique_ptr<State> state) : state_(std::move(state)) {}
+
 DeviceMesh::~DeviceMesh() = default;
 DeviceMesh::DeviceMesh(DeviceMesh&&) noexcept = default;
 DeviceMesh& DeviceMesh::operator=(DeviceMesh&&) noexcept = default;

@@ -186,6 +186,10 @@ Triangulation triangulate_on(std::span<const Point> points, std::span<const Segm
   // With the GPU backend the colouring stays on the device while passes build the dual there; a
   // pass that finds degenerate corners edits a host copy of the colouring, as the CPU executor does.
   Mesh mesh;
+#if defined(TRIXEL_HAVE_CUDA)
+  std::optional<gpu::DeviceMesh> device_mesh; // the mesh of Phases 3 to 6 with the GPU backend
+  std::vector<std::uint32_t> site_vert_tri;   // the sites' vert_tri when the dual was completed there
+#endif
   std::vector<std::uint32_t> degenerate;
   int passes = 1;
   for (;; ++passes) {
@@ -193,13 +197,19 @@ Triangulation triangulate_on(std::span<const Point> points, std::span<const Segm
 #if defined(TRIXEL_HAVE_CUDA)
     if (device_diagram) {
       using Outcome = gpu::DeviceVoronoi::DualOutcome;
+      // The dual is built and completed on the device and stays there for Phase 3 (only its open
+      // edges come to the host); dual reads the sites' positions from x and y, lent for the call.
       Mesh dual;
-      dual.x = x;
-      dual.y = y;
-      reserve_mesh_slots(dual, n);
-      const Outcome outcome = device_diagram->dual(dual, nullptr, list);
+      dual.x.swap(x);
+      dual.y.swap(y);
+      const Outcome outcome = device_diagram->complete_dual(dual, bounds, device_mesh, site_vert_tri, list);
+      x.swap(dual.x);
+      y.swap(dual.y);
       if (outcome == Outcome::built) {
-        mesh = complete_dual(std::move(dual), kept, bounds, executor);
+        for (std::uint32_t v = 0; v < n; ++v) {
+          if (kept[v] == 0 && site_vert_tri[v] != kNoId)
+            throw Error("internal error: a missing site was dualized");
+        }
         break;
       }
       colour = device_diagram->colour();
@@ -233,16 +243,19 @@ Triangulation triangulate_on(std::span<const Point> points, std::span<const Segm
 #endif
   // Kept sites the dual did not reach (degenerate diagrams) are inserted like missing points, starting
   // from the fake boundary, which is always in the mesh.
+  const std::uint32_t* vert_tri = mesh.vert_tri.data();
+#if defined(TRIXEL_HAVE_CUDA)
+  if (device_mesh) vert_tri = site_vert_tri.data();
+#endif
   for (const std::uint32_t s :
-       executor.compact(n, [&](std::size_t s) { return kept[s] != 0 && mesh.vert_tri[s] == kNoId; }))
+       executor.compact(n, [&](std::size_t s) { return kept[s] != 0 && vert_tri[s] == kNoId; }))
     missing.push_back({s, n});
   timer.end("dualize").iterations = static_cast<std::uint64_t>(passes);
 
   // Phases 3 to 6. With the GPU backend the mesh goes to the device once and stays there until the
   // flips are done.
 #if defined(TRIXEL_HAVE_CUDA)
-  std::optional<gpu::DeviceMesh> device_mesh;
-  if (on_gpu) device_mesh.emplace(mesh);
+  if (on_gpu && !device_mesh) device_mesh.emplace(mesh);
 #endif
   // Phase 3.
   ShiftStats shift;

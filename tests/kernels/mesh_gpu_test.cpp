@@ -5,7 +5,9 @@
 // and both executors must agree on every result.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cstdint>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -122,6 +124,21 @@ TEST_F(MeshGpu, DualMatchesTheCpuExecutor) {
         EXPECT_GT(stats.dual_triangles, 0u) << what;
         const Mesh device = complete_dual(std::move(dual), in.kept, in.bounds, executor);
         expect_same_mesh(device, host, what);
+        // Completed on the device, without the copy to the host: the same mesh, slot for slot.
+        Mesh sites;
+        sites.x = in.x;
+        sites.y = in.y;
+        std::optional<cdt::gpu::DeviceMesh> on_device;
+        std::vector<std::uint32_t> site_vert_tri;
+        ASSERT_EQ(diagram.complete_dual(sites, in.bounds, on_device, site_vert_tri),
+                  cdt::gpu::DeviceVoronoi::DualOutcome::built)
+            << what;
+        ASSERT_TRUE(on_device.has_value()) << what;
+        Mesh completed;
+        on_device->download(completed);
+        expect_same_mesh(completed, host, what + ", completed on the device");
+        ASSERT_EQ(site_vert_tri.size(), in.x.size()) << what;
+        EXPECT_TRUE(std::equal(site_vert_tri.begin(), site_vert_tri.end(), host.vert_tri.begin())) << what;
         ++compared;
         break;
       }

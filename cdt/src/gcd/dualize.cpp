@@ -7,6 +7,8 @@
 #include <bit>
 #include <cmath>
 #include <numbers>
+#include <optional>
+#include <unordered_map>
 #include <vector>
 
 #include "cdt/detail/predicates.hpp"
@@ -25,7 +27,7 @@ CDT_HD_INLINE int orient(const double* x, const double* y, std::uint32_t a, std:
 
 /// The fake boundary: a regular polygon of k vertices around `bounds`, its inscribed circle three
 /// times as large as the box's circumscribed one, so every site position is strictly inside.
-void add_fake_polygon(Mesh& mesh, const Box& bounds, std::uint32_t k) {
+void fake_polygon(const Box& bounds, std::uint32_t k, std::vector<double>& fx, std::vector<double>& fy) {
   const double cx = 0.5 * (bounds.min_x + bounds.max_x);
   const double cy = 0.5 * (bounds.min_y + bounds.max_y);
   double half_diagonal = 0.5 * std::hypot(bounds.max_x - bounds.min_x, bounds.max_y - bounds.min_y);
@@ -33,9 +35,13 @@ void add_fake_polygon(Mesh& mesh, const Box& bounds, std::uint32_t k) {
   const double radius = 3.0 * half_diagonal / std::cos(std::numbers::pi / k);
   for (std::uint32_t i = 0; i < k; ++i) {
     const double angle = 2.0 * std::numbers::pi * i / k;
-    mesh.x.push_back(cx + radius * std::cos(angle));
-    mesh.y.push_back(cy + radius * std::sin(angle));
+    fx.push_back(cx + radius * std::cos(angle));
+    fy.push_back(cy + radius * std::sin(angle));
   }
+}
+
+void add_fake_polygon(Mesh& mesh, const Box& bounds, std::uint32_t k) {
+  fake_polygon(bounds, k, mesh.x, mesh.y);
 }
 
 /// Adds outside vertex f to the convex hull `hull` (counter-clockwise), emitting a triangle for every
@@ -66,31 +72,25 @@ void add_outside_vertex(std::vector<std::uint32_t>& hull, std::uint32_t f, const
   hull.swap(next);
 }
 
-/// The sites' boundary cycle (counter-clockwise), or empty when the boundary is not one simple cycle.
-std::vector<std::uint32_t> boundary_cycle(const Mesh& mesh) {
-  std::vector<std::uint32_t> next(mesh.num_vertices(), kNoId);
-  std::size_t edges = 0;
+/// The boundary cycle (counter-clockwise) through the open edges (in increasing edge order), or empty
+/// when they do not form one simple cycle.
+std::vector<std::uint32_t> boundary_cycle(std::span<const OpenEdge> open) {
+  std::unordered_map<std::uint32_t, std::uint32_t> next;
+  next.reserve(2 * open.size());
   std::uint32_t first = kNoId;
-  for (std::uint32_t t = 0; t < mesh.num_slots(); ++t) {
-    if (!mesh.alive(t)) continue;
-    for (std::uint32_t i = 0; i < 3; ++i) {
-      if (mesh.adj[3 * t + i] != kNoId) continue;
-      const std::uint32_t from = mesh.tri[3 * t + next3(i)];
-      const std::uint32_t to = mesh.tri[3 * t + prev3(i)];
-      if (next[from] != kNoId) return {}; // two boundary edges leave one vertex: a pinch
-      next[from] = to;
-      first = from;
-      ++edges;
-    }
+  for (const OpenEdge& e : open) {
+    if (!next.emplace(e.from, e.to).second) return {}; // two boundary edges leave one vertex: a pinch
+    first = e.from;
   }
   std::vector<std::uint32_t> cycle;
   if (first == kNoId) return cycle;
   std::uint32_t v = first;
   do {
     cycle.push_back(v);
-    v = next[v];
-  } while (v != kNoId && v != first && cycle.size() <= edges);
-  if (v != first || cycle.size() != edges) return {};
+    const auto it = next.find(v);
+    v = it == next.end() ? kNoId : it->second;
+  } while (v != kNoId && v != first && cycle.size() <= open.size());
+  if (v != first || cycle.size() != open.size()) return {};
   return cycle;
 }
 
@@ -220,49 +220,140 @@ void reserve_mesh_slots(Mesh& mesh, std::uint32_t n) {
   mesh.seg.reserve(room);
 }
 
-Mesh complete_dual(Mesh mesh, std::span<const std::uint8_t> kept, const Box& bounds, CpuExecutor& executor,
-                   DualizeStats* stats) {
-  const std::uint32_t n = mesh.num_vertices();
-  const std::uint32_t num_dual = mesh.num_slots();
-  std::vector<std::uint32_t> boundary = boundary_cycle(mesh);
-  if (boundary.size() < 3) return fake_polygon_only(mesh.x, mesh.y, bounds, executor, stats);
+std::optional<DualCompletion> plan_dual_completion(std::span<const OpenEdge> open, std::span<const double> x,
+                                                   std::span<const double> y, std::uint32_t num_dual,
+                                                   const Box& bounds) {
+  const auto n = static_cast<std::uint32_t>(x.size());
+  const std::vector<std::uint32_t> boundary = boundary_cycle(open);
+  if (boundary.size() < 3) return std::nullopt;
 
+  // The hull and the fake boundary are worked out on the boundary's vertices alone, numbered locally:
+  // boundary vertex k is k, fake vertex f is boundary.size() + f.
+  const auto b = static_cast<std::uint32_t>(boundary.size());
+  std::vector<double> lx(b);
+  std::vector<double> ly(b);
+  for (std::uint32_t k = 0; k < b; ++k) {
+    lx[k] = x[boundary[k]];
+    ly[k] = y[boundary[k]];
+  }
   // Hull completion (Graham-scan-like): start at the lowest-leftmost boundary vertex, which is on the
   // convex hull, and fill every reflex turn with a triangle outside the current mesh.
-  const double* px = mesh.x.data();
-  const double* py = mesh.y.data();
-  const auto lowest =
-      std::min_element(boundary.begin(), boundary.end(), [&](std::uint32_t a, std::uint32_t b) {
-        return py[a] < py[b] || (py[a] == py[b] && px[a] < px[b]);
-      });
-  std::rotate(boundary.begin(), lowest, boundary.end());
+  std::uint32_t lowest = 0;
+  for (std::uint32_t k = 1; k < b; ++k) {
+    if (ly[k] < ly[lowest] || (ly[k] == ly[lowest] && lx[k] < lx[lowest])) lowest = k;
+  }
   std::vector<Tri> added;
   std::vector<std::uint32_t> stack;
-  for (std::size_t i = 0; i <= boundary.size(); ++i) {
-    const std::uint32_t r = boundary[i % boundary.size()];
-    while (stack.size() >= 2 && orient(px, py, stack[stack.size() - 2], stack.back(), r) < 0) {
+  for (std::uint32_t i = 0; i <= b; ++i) {
+    const std::uint32_t r = (lowest + i) % b;
+    while (stack.size() >= 2 && orient(lx.data(), ly.data(), stack[stack.size() - 2], stack.back(), r) < 0) {
       added.push_back({stack[stack.size() - 2], r, stack.back()});
       stack.pop_back();
     }
-    if (i < boundary.size()) stack.push_back(r);
+    if (i < b) stack.push_back(r);
   }
   std::vector<std::uint32_t> hull = stack;
-  const auto hull_triangles = added.size();
+  DualCompletion plan;
+  plan.hull_triangles = added.size();
 
   // Fake boundary: about sqrt(k) vertices (k = hull size), as the paper suggests, at least 8.
   const auto k_fake = std::max<std::uint32_t>(
       8, static_cast<std::uint32_t>(std::ceil(std::sqrt(static_cast<double>(hull.size())))));
-  add_fake_polygon(mesh, bounds, k_fake);
-  px = mesh.x.data();
-  py = mesh.y.data();
-  for (std::uint32_t f = n; f < n + k_fake; ++f) add_outside_vertex(hull, f, px, py, added);
-  const std::uint32_t first_added = mesh.num_slots();
-  for (const Tri& t : added) mesh.add_triangle(t.a, t.b, t.c);
-  link_new_triangles(mesh, first_added, executor);
+  fake_polygon(bounds, k_fake, plan.fake_x, plan.fake_y);
+  lx.insert(lx.end(), plan.fake_x.begin(), plan.fake_x.end());
+  ly.insert(ly.end(), plan.fake_y.begin(), plan.fake_y.end());
+  for (std::uint32_t f = b; f < b + k_fake; ++f) add_outside_vertex(hull, f, lx.data(), ly.data(), added);
+  const auto global = [&](std::uint32_t local) { return local < b ? boundary[local] : n + (local - b); };
+  plan.triangles.reserve(added.size());
+  for (const Tri& t : added) plan.triangles.push_back({global(t.a), global(t.b), global(t.c)});
+
+  // Links: each edge of a new triangle meets another new triangle's edge, an open edge of the dual, or
+  // nothing (the fake polygon's outside). Edges are keyed by their ends, lower first.
+  const auto key = [](std::uint32_t from, std::uint32_t to) {
+    return from < to ? (std::uint64_t{from} << 32) | to : (std::uint64_t{to} << 32) | from;
+  };
+  struct Record {
+    std::uint64_t key;
+    std::uint32_t edge;
+    std::uint32_t from;
+  };
+  std::vector<Record> records;
+  records.reserve(open.size() + 3 * plan.triangles.size());
+  for (const OpenEdge& e : open) records.push_back({key(e.from, e.to), e.edge, e.from});
+  for (std::size_t k = 0; k < plan.triangles.size(); ++k) {
+    const std::uint32_t v[3] = {plan.triangles[k].a, plan.triangles[k].b, plan.triangles[k].c};
+    for (std::uint32_t i = 0; i < 3; ++i) {
+      const std::uint32_t from = v[next3(i)];
+      const std::uint32_t to = v[prev3(i)];
+      records.push_back({key(from, to), edge_id(num_dual + static_cast<std::uint32_t>(k), i), from});
+    }
+  }
+  std::sort(records.begin(), records.end(), [](const Record& p, const Record& q) {
+    return p.key != q.key ? p.key < q.key : p.edge < q.edge;
+  });
+  plan.adj.assign(3 * plan.triangles.size(), kNoId);
+  const std::uint32_t first_new_edge = edge_id(num_dual, 0);
+  const auto link = [&](std::uint32_t e, std::uint32_t to) {
+    if (e >= first_new_edge) {
+      plan.adj[e - first_new_edge] = to;
+    } else {
+      plan.links.emplace_back(e, to);
+    }
+  };
+  for (std::size_t k = 0; k < records.size();) {
+    std::size_t end = k + 1;
+    while (end < records.size() && records[end].key == records[k].key) ++end;
+    if (end - k > 2) throw Error("internal error: an edge is shared by more than two triangles");
+    if (end - k == 2) {
+      if (records[k].from == records[k + 1].from) {
+        throw Error("internal error: two triangles overlap along an edge (same direction)");
+      }
+      link(records[k].edge, records[k + 1].edge);
+      link(records[k + 1].edge, records[k].edge);
+    }
+    k = end;
+  }
+  // Each fake vertex's first new triangle (the boundary's vertices have theirs in the dual).
+  plan.fake_vert_tri.assign(k_fake, kNoId);
+  for (std::size_t k = 0; k < plan.triangles.size(); ++k) {
+    for (const std::uint32_t v : {plan.triangles[k].a, plan.triangles[k].b, plan.triangles[k].c}) {
+      if (v >= n && plan.fake_vert_tri[v - n] == kNoId)
+        plan.fake_vert_tri[v - n] = num_dual + static_cast<std::uint32_t>(k);
+    }
+  }
+  return plan;
+}
+
+Mesh complete_dual(Mesh mesh, std::span<const std::uint8_t> kept, const Box& bounds, CpuExecutor& executor,
+                   DualizeStats* stats) {
+  const std::uint32_t n = mesh.num_vertices();
+  const std::uint32_t num_dual = mesh.num_slots();
+  const MeshView m = mesh.view();
+  const std::vector<std::uint32_t> open_ids =
+      executor.compact(3 * static_cast<std::size_t>(num_dual), [&](std::size_t e) {
+        return m.alive(static_cast<std::uint32_t>(e / 3)) && m.adj[e] == kNoId;
+      });
+  std::vector<OpenEdge> open(open_ids.size());
+  for (std::size_t k = 0; k < open.size(); ++k) {
+    const std::uint32_t e = open_ids[k];
+    open[k] = {e, m.v(edge_tri(e), next3(edge_index(e))), m.v(edge_tri(e), prev3(edge_index(e)))};
+  }
+  const std::optional<DualCompletion> plan = plan_dual_completion(open, mesh.x, mesh.y, num_dual, bounds);
+  if (!plan) return fake_polygon_only(mesh.x, mesh.y, bounds, executor, stats);
+
+  mesh.x.insert(mesh.x.end(), plan->fake_x.begin(), plan->fake_x.end());
+  mesh.y.insert(mesh.y.end(), plan->fake_y.begin(), plan->fake_y.end());
+  for (const Tri& t : plan->triangles) mesh.add_triangle(t.a, t.b, t.c);
+  std::copy(plan->adj.begin(), plan->adj.end(), mesh.adj.begin() + 3 * static_cast<std::ptrdiff_t>(num_dual));
+  for (const auto& [e, to] : plan->links) mesh.adj[e] = to;
+  mesh.vert_tri.resize(n);
+  mesh.vert_tri.insert(mesh.vert_tri.end(), plan->fake_vert_tri.begin(), plan->fake_vert_tri.end());
   for (std::uint32_t v = 0; v < n; ++v) {
     if (kept[v] == 0 && mesh.vert_tri[v] != kNoId) throw Error("internal error: a missing site was dualized");
   }
-  if (stats != nullptr) *stats = DualizeStats{num_dual, hull_triangles, k_fake};
+  if (stats != nullptr) {
+    *stats = DualizeStats{num_dual, plan->hull_triangles, static_cast<std::uint32_t>(plan->fake_x.size())};
+  }
   return mesh;
 }
 

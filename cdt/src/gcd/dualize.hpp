@@ -3,7 +3,9 @@
 // completed to a convex hull and enclosed by a fake boundary.
 
 #include <cstdint>
+#include <optional>
 #include <span>
+#include <utility>
 #include <vector>
 
 #include "cdt/detail/host_device.hpp"
@@ -63,6 +65,35 @@ void corner_culprits(const std::uint32_t q[4], const double* x, const double* y,
 /// vertices, at most about sqrt(n) of them), so that hull completion and Phase 4 append slots without
 /// reallocating. Pages past the used part are never touched, so this costs address space only.
 void reserve_mesh_slots(Mesh& mesh, std::uint32_t n);
+
+/// A boundary edge of a linked mesh: its encoded id and its ends, counter-clockwise around the mesh.
+struct OpenEdge {
+  std::uint32_t edge;
+  std::uint32_t from;
+  std::uint32_t to;
+};
+
+/// What completes a dual: hull completion and the fake boundary (the second half of dualize), worked
+/// out from the dual's open edges alone, so that it applies alike to a mesh on the host and one on the
+/// device. The dual has n sites and num_dual slots; what is added comes after them.
+struct DualCompletion {
+  std::vector<double> fake_x; ///< the fake boundary's vertices, numbered n, n + 1, ...
+  std::vector<double> fake_y;
+  std::vector<DualTriangle> triangles; ///< in slots num_dual, num_dual + 1, ...
+  std::vector<std::uint32_t> adj;      ///< 3 per added triangle
+  /// (open edge of the dual, the added edge now across it)
+  std::vector<std::pair<std::uint32_t, std::uint32_t>> links;
+  std::vector<std::uint32_t> fake_vert_tri; ///< per fake vertex, its first added triangle
+  std::uint64_t hull_triangles = 0;
+};
+
+/// Plans the completion of a dual from its open edges (in increasing edge order) and the sites'
+/// positions x, y (the n sites as the dual has them). std::nullopt when the open edges are not one simple
+/// cycle: then only the fake polygon alone can start the mesh. Throws Error when the added triangles
+/// do not pair up with the open edges (not a valid dual).
+std::optional<DualCompletion> plan_dual_completion(std::span<const OpenEdge> open, std::span<const double> x,
+                                                   std::span<const double> y, std::uint32_t num_dual,
+                                                   const Box& bounds);
 
 /// The second half of dualize, for a mesh whose dual triangles are in place and linked (slots ordered
 /// by their lowest vertex, vert_tri the highest incident slot, as dualize leaves them; the CUDA
