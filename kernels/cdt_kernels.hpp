@@ -2,6 +2,7 @@
 // Host-callable entry points of the CUDA code. This header includes no CUDA header, so cdt and the
 // tests can include it from plain C++.
 
+#include <array>
 #include <cstddef>
 #include <cstdint>
 #include <memory>
@@ -210,6 +211,15 @@ public:
 
   /// Copies the mesh back into `mesh` (every array replaced).
   void download(::cdt::detail::Mesh& mesh) const;
+
+  /// cdt::Triangulation's triangles, neighbors and segment_of_edge, made on the device from the live
+  /// slots in order (cdt::detail::output_triangle) and copied straight into the arrays (replaced):
+  /// sites mapped to vertex ids through vertex_of, constraint pieces to input segments through
+  /// segment_of_piece. The mesh itself is not copied back.
+  void output(std::span<const std::uint32_t> vertex_of, std::span<const std::uint32_t> segment_of_piece,
+              std::vector<std::array<std::uint32_t, 3>>& triangles,
+              std::vector<std::array<std::uint32_t, 3>>& neighbors,
+              std::vector<std::array<std::uint32_t, 3>>& segment_of_edge) const;
 
 private:
   std::unique_ptr<State> state_;

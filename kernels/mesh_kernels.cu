@@ -4,6 +4,7 @@
 // steps as its CPU executor twin (cdt/src/gcd/shift.cpp, insert.cpp) in the same order with the same
 // ordered compactions, so both executors leave the same mesh slot for slot.
 
+#include <array>
 #include <cstddef>
 #include <cstdint>
 #include <string>
@@ -771,6 +772,53 @@ InsertStats DeviceMesh::insert(std::span<const MissingPoint> missing) {
 
 void DeviceMesh::remove_fake_boundary(std::uint32_t first_fake) {
   detail::remove_fake_boundary(*state_, first_fake);
+}
+
+void DeviceMesh::output(std::span<const std::uint32_t> vertex_of,
+                        std::span<const std::uint32_t> segment_of_piece,
+                        std::vector<std::array<std::uint32_t, 3>>& triangles,
+                        std::vector<std::array<std::uint32_t, 3>>& neighbors,
+                        std::vector<std::array<std::uint32_t, 3>>& segment_of_edge) const {
+  static_assert(sizeof(std::array<std::uint32_t, 3>) == 3 * sizeof(std::uint32_t));
+  State& s = *state_;
+  detail::CudaExecutor& executor = s.executor;
+  const ::cdt::detail::MeshView m = s.view();
+  detail::DeviceBuffer<std::uint32_t> live(static_cast<std::size_t>(s.num_slots) + 1);
+  const std::uint32_t count = executor.compact(
+      s.num_slots, [m] __device__(std::size_t t) { return m.alive(static_cast<std::uint32_t>(t)); },
+      live.data());
+  detail::DeviceBuffer<std::uint32_t> index_of_slot(static_cast<std::size_t>(s.num_slots) + 1);
+  std::uint32_t* index = index_of_slot.data();
+  const std::uint32_t* order = live.data();
+  executor.fill_bytes(index, 0xFF, s.num_slots);
+  executor.for_each(
+      count, [=] __device__(std::size_t k) { index[order[k]] = static_cast<std::uint32_t>(k); },
+      "index_of_slot");
+  detail::DeviceBuffer<std::uint32_t> d_vertex_of(vertex_of.size() + 1);
+  detail::DeviceBuffer<std::uint32_t> d_segment_of_piece(segment_of_piece.size() + 1);
+  executor.upload(d_vertex_of.data(), vertex_of.data(), vertex_of.size());
+  executor.upload(d_segment_of_piece.data(), segment_of_piece.data(), segment_of_piece.size());
+  const std::size_t words = 3 * static_cast<std::size_t>(count);
+  detail::DeviceBuffer<std::uint32_t> corners(words + 1);
+  detail::DeviceBuffer<std::uint32_t> neighbours(words + 1);
+  detail::DeviceBuffer<std::uint32_t> segments(words + 1);
+  std::uint32_t* c = corners.data();
+  std::uint32_t* nb = neighbours.data();
+  std::uint32_t* sg = segments.data();
+  const std::uint32_t* v_of = d_vertex_of.data();
+  const std::uint32_t* s_of = d_segment_of_piece.data();
+  executor.for_each(
+      count,
+      [=] __device__(std::size_t k) {
+        ::cdt::detail::output_triangle(m, order[k], v_of, index, s_of, c + 3 * k, nb + 3 * k, sg + 3 * k);
+      },
+      "output_triangles");
+  triangles.resize(count);
+  neighbors.resize(count);
+  segment_of_edge.resize(count);
+  executor.download(reinterpret_cast<std::uint32_t*>(triangles.data()), c, words);
+  executor.download(reinterpret_cast<std::uint32_t*>(neighbors.data()), nb, words);
+  executor.download(reinterpret_cast<std::uint32_t*>(segment_of_edge.data()), sg, words);
 }
 
 void DeviceMesh::download(::cdt::detail::Mesh& mesh) const {

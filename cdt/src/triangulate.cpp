@@ -311,8 +311,6 @@ Triangulation triangulate_on(std::span<const Point> points, std::span<const Segm
     const gpu::FlipResult device = device_mesh->flip();
     flips.flips = device.flips;
     flips.rounds = device.rounds;
-    device_mesh->download(mesh);
-    device_mesh.reset();
   }
 #endif
   if (!on_gpu) flips = flip_to_delaunay(mesh, executor);
@@ -325,24 +323,33 @@ Triangulation triangulate_on(std::span<const Point> points, std::span<const Segm
   // Output in input numbering: live slots in order, links renumbered to triangle indices.
   result.vertices = std::move(pslg.vertices);
   result.duplicate_of = std::move(pslg.duplicate_of);
-  const std::vector<std::uint32_t> live = executor.compact(
-      mesh.num_slots(), [&](std::size_t t) { return mesh.alive(static_cast<std::uint32_t>(t)); });
-  std::vector<std::uint32_t> index_of_slot(mesh.num_slots(), kNoId);
-  executor.for_each(live.size(),
-                    [&](std::size_t k) { index_of_slot[live[k]] = static_cast<std::uint32_t>(k); });
-  result.triangles.resize(live.size());
-  result.neighbors.resize(live.size());
-  result.segment_of_edge.resize(live.size());
-  executor.for_each(live.size(), [&](std::size_t out) {
-    const std::uint32_t t = live[out];
-    for (std::uint32_t i = 0; i < 3; ++i) {
-      result.triangles[out][i] = site_vertex[mesh.tri[3 * t + i]];
-      const std::uint32_t e = mesh.adj[3 * t + i];
-      result.neighbors[out][i] = e == kNoId ? kNone : index_of_slot[edge_tri(e)];
-      const std::uint32_t piece = mesh.seg[3 * t + i];
-      result.segment_of_edge[out][i] = piece == kNoId ? kNone : pslg.pieces[piece].segment;
-    }
-  });
+  static_assert(kNone == kNoId);
+  std::vector<std::uint32_t> segment_of_piece(pslg.pieces.size());
+  executor.for_each(pslg.pieces.size(), [&](std::size_t k) { segment_of_piece[k] = pslg.pieces[k].segment; });
+#if defined(TRIXEL_HAVE_CUDA)
+  if (device_mesh) {
+    // Made on the device and copied straight into the result; the mesh itself stays there.
+    device_mesh->output(site_vertex, segment_of_piece, result.triangles, result.neighbors,
+                        result.segment_of_edge);
+    device_mesh.reset();
+  }
+#endif
+  if (!on_gpu) {
+    const MeshView view = mesh.view();
+    const std::vector<std::uint32_t> live = executor.compact(
+        view.num_slots, [&](std::size_t t) { return view.alive(static_cast<std::uint32_t>(t)); });
+    std::vector<std::uint32_t> index_of_slot(view.num_slots, kNoId);
+    executor.for_each(live.size(),
+                      [&](std::size_t k) { index_of_slot[live[k]] = static_cast<std::uint32_t>(k); });
+    result.triangles.resize(live.size());
+    result.neighbors.resize(live.size());
+    result.segment_of_edge.resize(live.size());
+    executor.for_each(live.size(), [&](std::size_t out) {
+      output_triangle(view, live[out], site_vertex.data(), index_of_slot.data(), segment_of_piece.data(),
+                      result.triangles[out].data(), result.neighbors[out].data(),
+                      result.segment_of_edge[out].data());
+    });
+  }
   timer.end("output");
   stats.total_milliseconds = std::chrono::duration<double, std::milli>(Clock::now() - t_start).count();
   return result;

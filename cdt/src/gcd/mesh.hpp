@@ -135,4 +135,20 @@ CDT_HD inline void flip_edge(MeshView m, std::uint32_t t, std::uint32_t i) {
   m.vert_tri[c] = u;
 }
 
+/// The output of slot t (cdt::Triangulation's arrays, 3 entries each): its corners as vertex ids
+/// (vertex_of[site]), its neighbours as output triangle indices (index_of_slot[slot]; kNoId on the hull),
+/// and per edge the input segment it lies on (segment_of_piece[constraint piece]; kNoId when none).
+CDT_HD_INLINE void output_triangle(const MeshView& m, std::uint32_t t, const std::uint32_t* vertex_of,
+                                   const std::uint32_t* index_of_slot, const std::uint32_t* segment_of_piece,
+                                   std::uint32_t* corners, std::uint32_t* neighbours,
+                                   std::uint32_t* segments) {
+  for (std::uint32_t i = 0; i < 3; ++i) {
+    corners[i] = vertex_of[m.tri[3 * t + i]];
+    const std::uint32_t e = m.adj[3 * t + i];
+    neighbours[i] = e == kNoId ? kNoId : index_of_slot[edge_tri(e)];
+    const std::uint32_t piece = m.seg[3 * t + i];
+    segments[i] = piece == kNoId ? kNoId : segment_of_piece[piece];
+  }
+}
+
 } // namespace cdt::detail
