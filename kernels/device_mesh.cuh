@@ -74,6 +74,10 @@ struct DeviceMesh::State {
                   ::cdt::detail::work_status_message(static_cast<::cdt::detail::WorkStatus>(code)));
   }
 
+  /// Sizes every array for `slots` triangles over nv vertices (contents left as they are), after
+  /// checking that the device has the memory.
+  void allocate(std::uint32_t slots, std::uint32_t nv);
+
   /// Mesh::grow_slots: n more free slots at the end (the arrays are copied into larger buffers).
   void grow_slots(std::uint32_t n);
 };

@@ -350,17 +350,8 @@ DeviceVoronoi::DualOutcome DeviceVoronoi::complete_dual(::cdt::detail::Mesh& mes
   const auto added = static_cast<std::uint32_t>(plan->triangles.size());
   auto state = std::make_unique<DeviceMesh::State>();
   DeviceMesh::State& s = *state;
-  s.num_slots = num_dual + added;
-  s.num_vertices = n + k_fake;
-  detail::require_device_memory(detail::mesh_device_bytes(s.num_slots, s.num_vertices), 0,
-                                "a mesh of " + std::to_string(s.num_slots) + " triangles");
+  s.allocate(num_dual + added, n + k_fake);
   const std::size_t all_words = 3 * static_cast<std::size_t>(s.num_slots);
-  s.x.resize(s.num_vertices);
-  s.y.resize(s.num_vertices);
-  s.tri.resize(all_words);
-  s.adj.resize(all_words);
-  s.seg.resize(all_words);
-  s.vert_tri.resize(s.num_vertices);
   // The dual's arrays copied on the device, the added parts uploaded behind them.
   detail::copy_on_device(executor, s.x.data(), state_->site_x.data(), n, "copy_x");
   detail::copy_on_device(executor, s.y.data(), state_->site_y.data(), n, "copy_y");

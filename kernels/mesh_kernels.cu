@@ -736,23 +736,28 @@ void DeviceMesh::State::grow_slots(std::uint32_t n) {
 
 DeviceMesh::DeviceMesh(const ::cdt::detail::Mesh& mesh) : state_(std::make_unique<State>()) {
   State& s = *state_;
-  s.num_slots = mesh.num_slots();
-  s.num_vertices = mesh.num_vertices();
-  detail::require_device_memory(detail::mesh_device_bytes(s.num_slots, s.num_vertices), 0,
-                                "a mesh of " + std::to_string(s.num_slots) + " triangles");
+  s.allocate(mesh.num_slots(), mesh.num_vertices());
   const std::size_t words = 3 * static_cast<std::size_t>(s.num_slots);
-  s.x.resize(s.num_vertices);
-  s.y.resize(s.num_vertices);
-  s.tri.resize(words);
-  s.adj.resize(words);
-  s.seg.resize(words);
-  s.vert_tri.resize(s.num_vertices);
   s.executor.upload(s.x.data(), mesh.x.data(), s.num_vertices);
   s.executor.upload(s.y.data(), mesh.y.data(), s.num_vertices);
   s.executor.upload(s.tri.data(), mesh.tri.data(), words);
   s.executor.upload(s.adj.data(), mesh.adj.data(), words);
   s.executor.upload(s.seg.data(), mesh.seg.data(), words);
   s.executor.upload(s.vert_tri.data(), mesh.vert_tri.data(), s.num_vertices);
+}
+
+void DeviceMesh::State::allocate(std::uint32_t slots, std::uint32_t nv) {
+  detail::require_device_memory(detail::mesh_device_bytes(slots, nv), 0,
+                                "a mesh of " + std::to_string(slots) + " triangles");
+  num_slots = slots;
+  num_vertices = nv;
+  const std::size_t words = 3 * static_cast<std::size_t>(slots);
+  x.resize(nv);
+  y.resize(nv);
+  tri.resize(words);
+  adj.resize(words);
+  seg.resize(words);
+  vert_tri.resize(nv);
 }
 
 DeviceMesh::DeviceMesh(std::unique_ptr<State> state) : state_(std::move(state)) {}
