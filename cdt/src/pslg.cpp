@@ -86,20 +86,17 @@ void validate_points(std::span<const Point> points, CpuExecutor& executor) {
     if (!point_is_valid(points[i])) atomic_min(&first_invalid, static_cast<std::uint32_t>(i));
   });
   if (first_invalid == points.size()) return;
-  {
-    const std::size_t i = first_invalid;
-    const Point& p = points[i];
-    if (!std::isfinite(p.x) || !std::isfinite(p.y)) {
-      throw InvalidInputError(Kind::non_finite_coordinate, i,
-                              "point " + std::to_string(i) + " has a non-finite coordinate " +
-                                  format_point(p));
-    }
-    if (std::abs(p.x) > kMaxCoordinate || std::abs(p.y) > kMaxCoordinate) {
-      throw InvalidInputError(Kind::coordinate_out_of_range, i,
-                              "point " + std::to_string(i) + " has a coordinate beyond +-" +
-                                  format_number(kMaxCoordinate) + " " + format_point(p) +
-                                  ": the exact predicates' products would overflow");
-    }
+  const std::size_t i = first_invalid;
+  const Point& p = points[i];
+  if (!std::isfinite(p.x) || !std::isfinite(p.y)) {
+    throw InvalidInputError(Kind::non_finite_coordinate, i,
+                            "point " + std::to_string(i) + " has a non-finite coordinate " + format_point(p));
+  }
+  if (std::abs(p.x) > kMaxCoordinate || std::abs(p.y) > kMaxCoordinate) {
+    throw InvalidInputError(Kind::coordinate_out_of_range, i,
+                            "point " + std::to_string(i) + " has a coordinate beyond +-" +
+                                format_number(kMaxCoordinate) + " " + format_point(p) +
+                                ": the exact predicates' products would overflow");
   }
 }
 
@@ -170,27 +167,18 @@ std::vector<std::uint32_t> merge_duplicates(std::span<const Point> points, CpuEx
   std::vector<std::uint32_t> duplicate_of(n);
   executor.for_each(run_start.size(), [&](std::size_t r) {
     const std::size_t end = r + 1 < run_start.size() ? run_start[r + 1] : n;
-    std::uint32_t first[4];
-    std::vector<std::uint32_t> more; // representatives beyond the first four (hash collisions)
-    std::size_t count = 0;
+    thread_local std::vector<std::uint32_t> representatives; // one per distinct point of the run
+    representatives.clear();
     for (std::size_t k = run_start[r]; k < end; ++k) {
       const std::uint32_t i = order[k];
       std::uint32_t representative = i;
-      for (std::size_t q = 0; q < count; ++q) {
-        const std::uint32_t c = q < 4 ? first[q] : more[q - 4];
+      for (const std::uint32_t c : representatives) {
         if (points[c].x == points[i].x && points[c].y == points[i].y) {
           representative = c;
           break;
         }
       }
-      if (representative == i) {
-        if (count < 4) {
-          first[count] = i;
-        } else {
-          more.push_back(i);
-        }
-        ++count;
-      }
+      if (representative == i) representatives.push_back(i);
       duplicate_of[i] = representative;
     }
   });
@@ -816,13 +804,6 @@ enum class CutAt {
   crossings, ///< rounded crossing points, after this round's tests
 };
 
-/// Cuts every segment at its cut vertices (sorted along it) and merges identical pieces, keeping the
-/// lowest label. A cut at an end of its own segment (a crossing point rounded onto it) is no cut.
-/// bent[s] says that segment s was bent by its cuts (snapped sites or crossings).
-///
-/// Dirty pieces are tested against everything in the coming round. Exact cuts at sites give parts of
-/// the segment, which inherit what was already checked of it. After the crossing tests, pieces are
-/// clean unless bent by a crossing now, or by a snap earlier in this round (their sites are unchecked).
 /// The positions of segs ordered by (a, b), ties in their given order: stable radix sorts by b, then
 /// by a.
 std::vector<std::uint32_t> order_by_ends(const std::vector<WorkSegment>& segs, std::size_t num_vertices,
@@ -840,6 +821,13 @@ std::vector<std::uint32_t> order_by_ends(const std::vector<WorkSegment>& segs, s
   return order;
 }
 
+/// Cuts every segment at its cut vertices (sorted along it) and merges identical pieces, keeping the
+/// lowest label. A cut at an end of its own segment (a crossing point rounded onto it) is no cut.
+/// bent[s] says that segment s was bent by its cuts (snapped sites or crossings).
+///
+/// Dirty pieces are tested against everything in the coming round. Exact cuts at sites give parts of
+/// the segment, which inherit what was already checked of it. After the crossing tests, pieces are
+/// clean unless bent by a crossing now, or by a snap earlier in this round (their sites are unchecked).
 std::vector<WorkSegment> cut_segments(const std::vector<WorkSegment>& segs, const SplitLists& cuts,
                                       const std::vector<std::uint8_t>& bent, CutAt at,
                                       CpuExecutor& executor) {

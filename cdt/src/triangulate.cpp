@@ -206,10 +206,7 @@ Triangulation triangulate_on(std::span<const Point> points, std::span<const Segm
       x.swap(dual.x);
       y.swap(dual.y);
       if (outcome == Outcome::built) {
-        for (std::uint32_t v = 0; v < n; ++v) {
-          if (kept[v] == 0 && site_vert_tri[v] != kNoId)
-            throw Error("internal error: a missing site was dualized");
-        }
+        check_missing_sites_left_out(kept, site_vert_tri);
         break;
       }
       colour = device_diagram->colour();

@@ -40,10 +40,6 @@ void fake_polygon(const Box& bounds, std::uint32_t k, std::vector<double>& fx, s
   }
 }
 
-void add_fake_polygon(Mesh& mesh, const Box& bounds, std::uint32_t k) {
-  fake_polygon(bounds, k, mesh.x, mesh.y);
-}
-
 /// Adds outside vertex f to the convex hull `hull` (counter-clockwise), emitting a triangle for every
 /// hull edge that f sees strictly from outside.
 void add_outside_vertex(std::vector<std::uint32_t>& hull, std::uint32_t f, const double* x, const double* y,
@@ -101,7 +97,7 @@ Mesh fake_polygon_only(std::span<const double> x, std::span<const double> y, con
   mesh.y.assign(y.begin(), y.end());
   const auto n = static_cast<std::uint32_t>(x.size());
   constexpr std::uint32_t k = 8;
-  add_fake_polygon(mesh, bounds, k);
+  fake_polygon(bounds, k, mesh.x, mesh.y);
   for (std::uint32_t i = 1; i + 1 < k; ++i) mesh.add_triangle(n, n + i, n + i + 1);
   link_triangles(mesh, executor);
   if (stats != nullptr) *stats = DualizeStats{0, 0, k};
@@ -180,28 +176,25 @@ Mesh dualize(std::span<const std::uint32_t> colour, std::uint32_t m, std::span<c
   // neighbours' coordinates then sit close together in memory, and the later phases, which visit sites
   // in slot order, read them mostly from the cache.
   {
+    std::vector<Tri> all(num_dual);
     std::vector<std::uint32_t> key(num_dual);
     std::vector<std::uint32_t> order(num_dual);
     executor.for_each_part(rows, [&](std::size_t r) {
       std::uint32_t k = row_start[r];
       for (const Tri& t : per_row[r]) {
+        all[k] = t;
         key[k] = std::min({t.a, t.b, t.c});
         order[k] = k;
         ++k;
       }
     });
     executor.sort_pairs_by_key(key, order, std::bit_width(n));
-    // order[k] is the position of the k-th triangle in the rows' concatenation: find its row.
     std::uint32_t* tri = mesh.tri.data();
     executor.for_each(num_dual, [&](std::size_t k) {
-      const std::uint32_t at = order[k];
-      const auto row = static_cast<std::size_t>(std::upper_bound(row_start.begin(), row_start.end(), at) -
-                                                row_start.begin() - 1);
-      const Tri& t = per_row[row][at - row_start[row]];
-      std::uint32_t* out = tri + 3 * k;
-      out[0] = t.a;
-      out[1] = t.b;
-      out[2] = t.c;
+      const Tri& t = all[order[k]];
+      tri[3 * k] = t.a;
+      tri[3 * k + 1] = t.b;
+      tri[3 * k + 2] = t.c;
     });
   }
   try {
@@ -324,6 +317,13 @@ std::optional<DualCompletion> plan_dual_completion(std::span<const OpenEdge> ope
   return plan;
 }
 
+void check_missing_sites_left_out(std::span<const std::uint8_t> kept,
+                                  std::span<const std::uint32_t> vert_tri) {
+  for (std::size_t v = 0; v < kept.size(); ++v) {
+    if (kept[v] == 0 && vert_tri[v] != kNoId) throw Error("internal error: a missing site was dualized");
+  }
+}
+
 Mesh complete_dual(Mesh mesh, std::span<const std::uint8_t> kept, const Box& bounds, CpuExecutor& executor,
                    DualizeStats* stats) {
   const std::uint32_t n = mesh.num_vertices();
@@ -348,9 +348,7 @@ Mesh complete_dual(Mesh mesh, std::span<const std::uint8_t> kept, const Box& bou
   for (const auto& [e, to] : plan->links) mesh.adj[e] = to;
   mesh.vert_tri.resize(n);
   mesh.vert_tri.insert(mesh.vert_tri.end(), plan->fake_vert_tri.begin(), plan->fake_vert_tri.end());
-  for (std::uint32_t v = 0; v < n; ++v) {
-    if (kept[v] == 0 && mesh.vert_tri[v] != kNoId) throw Error("internal error: a missing site was dualized");
-  }
+  check_missing_sites_left_out(kept, mesh.vert_tri);
   if (stats != nullptr) {
     *stats = DualizeStats{num_dual, plan->hull_triangles, static_cast<std::uint32_t>(plan->fake_x.size())};
   }

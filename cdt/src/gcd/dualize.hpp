@@ -95,6 +95,11 @@ std::optional<DualCompletion> plan_dual_completion(std::span<const OpenEdge> ope
                                                    std::span<const double> y, std::uint32_t num_dual,
                                                    const Box& bounds);
 
+/// Throws Error when a site that is not kept (a missing point) has a triangle in the dual: vert_tri
+/// holds at least the sites' entries.
+void check_missing_sites_left_out(std::span<const std::uint8_t> kept,
+                                  std::span<const std::uint32_t> vert_tri);
+
 /// The second half of dualize, for a mesh whose dual triangles are in place and linked (slots ordered
 /// by their lowest vertex, vert_tri the highest incident slot, as dualize leaves them; the CUDA
 /// executor builds that part on the device): completes the hull, adds the fake boundary and links it.

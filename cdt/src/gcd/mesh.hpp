@@ -80,12 +80,6 @@ class CpuExecutor;
 /// triangles or used twice in the same direction (not a valid triangulation).
 void link_triangles(Mesh& mesh, CpuExecutor& executor);
 
-/// Links the triangles in slots [first_new, num_slots) to each other and to the open edges of the
-/// already linked slots below, and gives vertices without one an incident triangle. For a few new
-/// triangles along the boundary of a large mesh (hull completion, fake boundary): O(n / threads +
-/// k log k) for k open and new edges. Throws Error like link_triangles.
-void link_new_triangles(Mesh& mesh, std::uint32_t first_new, CpuExecutor& executor);
-
 /// Flips edge i of triangle t with its neighbour u (the quadrilateral must be strictly convex):
 /// t = (a, b, c) with edge i = (b, c) and u = (c, b, d) become t = (a, b, d) and u = (d, c, a).
 /// The four outer links and vert_tri of the four vertices are updated directly, so the caller must
