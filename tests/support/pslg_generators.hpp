@@ -125,6 +125,23 @@ public:
     seen.erase(std::unique(seen.begin(), seen.end()), seen.end());
     for (std::size_t c : seen) f(c);
   }
+  /// Whether pred(c) holds for a cell c that the segment a-b passes through, sampled a quarter cell
+  /// apart (no neighbourhoods, so it may miss a cell the segment clips); stops at the first one. A
+  /// cheap first test: a crossing found here is certain, none found is settled by for_cells.
+  template <class Pred>
+  bool any_sampled_cell(const cdt::Point& a, const cdt::Point& b, Pred&& pred) const {
+    const double length = std::hypot(b.x - a.x, b.y - a.y);
+    const auto steps = static_cast<std::size_t>(std::ceil(length * side_ * 4)) + 1;
+    std::size_t last = static_cast<std::size_t>(-1);
+    for (std::size_t k = 0; k <= steps; ++k) {
+      const double t = static_cast<double>(k) / static_cast<double>(steps);
+      const std::size_t c = cell_of({a.x + t * (b.x - a.x), a.y + t * (b.y - a.y)});
+      if (c == last) continue;
+      last = c;
+      if (pred(c)) return true;
+    }
+    return false;
+  }
   /// The cell holding point q.
   std::size_t cell_of(const cdt::Point& q) const {
     return static_cast<std::size_t>(coordinate_cell(q.y)) * side_ +
@@ -162,6 +179,15 @@ inline Pslg synthetic_pslg(std::size_t num_points, std::size_t num_segments, Dis
     const double angle = 6.283185307179586 * rng.unit();
     const cdt::Point b{a.x + length * std::cos(angle), a.y + length * std::sin(angle)};
     if (b.x < 0 || b.x >= 1 || b.y < 0 || b.y >= 1) continue;
+    // Most long candidates cross something on their way: find that cheaply before the full check.
+    const auto crosses_in = [&](std::size_t c) {
+      for (std::uint32_t s : grid.at(c)) {
+        const auto& q = p.segments[s];
+        if (detail::segments_cross_or_touch(a, b, p.points[q.a], p.points[q.b])) return true;
+      }
+      return false;
+    };
+    if (grid.any_sampled_cell(a, b, crosses_in)) continue;
     bool ok = true;
     grid.for_cells(a, b, [&](std::size_t c) {
       for (std::uint32_t s : grid.at(c)) {
