@@ -56,6 +56,7 @@ void print_stats(const cdt::Triangulation& t, std::size_t points, std::size_t se
 } // namespace
 
 int main(int argc, char** argv) {
+  cdt::retain_freed_memory(); // large inputs: later phases reuse the pages of earlier ones
   CLI::App app{
       "cdt: constrained Delaunay triangulation of a planar straight-line graph (the gCD algorithm,\n"
       "exact predicates). Reads Triangle's .node and .poly files and the 'nV nE / x y / v1 v2' edge-list\n"

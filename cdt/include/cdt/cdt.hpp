@@ -103,6 +103,15 @@ struct Triangulation {
 /// without CUDA. Never throws.
 int gpu_device_count() noexcept;
 
+/// Makes freed memory stay in the process for reuse (glibc's allocator: no block is mapped on its own,
+/// the heap is not trimmed). Without it every array larger than 32 MiB is mapped when allocated and
+/// unmapped when freed, so each comes back as fresh pages whose first touch, at 10^7 points, costs
+/// as much as the work done in them; with it later phases and later calls reuse the pages of earlier
+/// ones. Process-wide and for the process's lifetime, so it is the program's choice, not the
+/// library's: the cdt command and the benchmarks call it first thing. Returns false where the C
+/// library does not support it (nothing changes then).
+bool retain_freed_memory() noexcept;
+
 /// Computes the constrained Delaunay triangulation of the points and segments.
 ///
 /// Duplicate points are merged (see Triangulation::duplicate_of), points lying on a segment split it,
