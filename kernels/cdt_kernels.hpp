@@ -5,11 +5,14 @@
 #include <array>
 #include <cstddef>
 #include <cstdint>
+#include <functional>
 #include <memory>
 #include <optional>
 #include <span>
 #include <string>
 #include <vector>
+
+#include "cdt/cdt.hpp"
 
 namespace cdt::detail {
 struct Mesh;             // cdt/src/gcd/mesh.hpp
@@ -24,6 +27,10 @@ struct ConstraintStats;  // cdt/src/gcd/constraints.hpp
 namespace cdt::gpu {
 
 class DeviceMesh;
+
+/// Runs body(part) for every part in [0, parts), on host threads where it has them (the CPU
+/// executor's for_each_part): large copies out of the device spread their host side over it.
+using HostParallelFor = std::function<void(std::size_t parts, const std::function<void(std::size_t)>& body)>;
 
 /// Number of CUDA devices this process can use; 0 without a device or driver. Never throws.
 int device_count() noexcept;
@@ -215,11 +222,11 @@ public:
   /// cdt::Triangulation's triangles, neighbors and segment_of_edge, made on the device from the live
   /// slots in order (cdt::detail::output_triangle) and copied straight into the arrays (replaced):
   /// sites mapped to vertex ids through vertex_of, constraint pieces to input segments through
-  /// segment_of_piece. The mesh itself is not copied back.
+  /// segment_of_piece. The mesh itself is not copied back. The copies' host side runs on `parallel`
+  /// when given (it writes fresh pages of 36 bytes per triangle).
   void output(std::span<const std::uint32_t> vertex_of, std::span<const std::uint32_t> segment_of_piece,
-              std::vector<std::array<std::uint32_t, 3>>& triangles,
-              std::vector<std::array<std::uint32_t, 3>>& neighbors,
-              std::vector<std::array<std::uint32_t, 3>>& segment_of_edge) const;
+              TriangleArray& triangles, TriangleArray& neighbors, TriangleArray& segment_of_edge,
+              const HostParallelFor& parallel = {}) const;
 
 private:
   std::unique_ptr<State> state_;

@@ -26,13 +26,24 @@ inline void check_launch(const char* kernel, const char* file, int line) {
   if (debug_sync()) check(cudaDeviceSynchronize(), kernel, file, line);
 }
 
-/// Throws DeviceError when the device has less than `bytes` free.
+/// Throws DeviceError when the device has less than `bytes` free (blocks kept for reuse count as free:
+/// they are given back first).
 void check_free_memory(std::size_t bytes);
 inline constexpr std::size_t kCheckFreeAbove = std::size_t{64} << 20;
 
-/// A device buffer owned by RAII; plain cudaMalloc, never managed memory. resize() keeps the
-/// allocation when it is large enough, so one buffer serves several phases; the contents are not
-/// kept when it grows.
+/// Device memory of at least `bytes` bytes: a block kept from an earlier release when one of about that
+/// size is there, else cudaMalloc (after giving the kept blocks back when it fails). Returns the
+/// status of the cudaMalloc that failed, with *d_ptr null.
+cudaError_t device_allocate(void** d_ptr, std::size_t bytes);
+/// Gives a block of device_allocate back. Large blocks are kept for reuse: cudaFree of hundreds of
+/// megabytes costs milliseconds, and every triangulation frees and allocates the same sizes phase
+/// after phase and call after call. The device is synchronised first (as cudaFree would), so no
+/// queued work still uses the block when it is handed out again.
+void device_release(void* d_ptr, std::size_t bytes) noexcept;
+
+/// A device buffer owned by RAII; plain device memory (device_allocate), never managed memory.
+/// resize() keeps the allocation when it is large enough, so one buffer serves several phases; the
+/// contents are not kept when it grows.
 template <class T>
 class DeviceBuffer {
 public:
@@ -64,7 +75,7 @@ public:
     // call for compute-sanitizer to report.
     if (count * sizeof(T) >= kCheckFreeAbove) check_free_memory(count * sizeof(T));
     void* d_new = nullptr;
-    const cudaError_t status = cudaMalloc(&d_new, count * sizeof(T));
+    const cudaError_t status = device_allocate(&d_new, count * sizeof(T));
     if (status != cudaSuccess) {
       cudaGetLastError(); // an allocation failure is not sticky; leave no error behind for the next check
       raise_cuda_error(status, ("cudaMalloc of " + std::to_string(count * sizeof(T)) + " bytes").c_str(),
@@ -82,7 +93,7 @@ public:
 private:
   void release() noexcept {
     // A failing cudaFree (a sticky error from an earlier fault) was already reported where it arose.
-    if (d_ptr_ != nullptr) cudaFree(d_ptr_);
+    if (d_ptr_ != nullptr) device_release(d_ptr_, capacity_ * sizeof(T));
     d_ptr_ = nullptr;
     num_ = 0;
     capacity_ = 0;

@@ -22,6 +22,7 @@
 #include <limits>
 #include <string>
 
+#include "cdt_kernels.hpp"
 #include "cuda_check.cuh"
 
 namespace cdt::gpu::detail {
@@ -194,10 +195,11 @@ public:
     copy_to_device(d_dst, h_src, n * sizeof(T));
   }
 
-  /// Device to host copy of n elements; waits for it and for all work queued before it.
+  /// Device to host copy of n elements; waits for it and for all work queued before it. Large copies
+  /// spread their host side (out of the pinned staging blocks) over `parallel` when it is given.
   template <class T>
-  void download(T* h_dst, const T* d_src, std::size_t n) {
-    copy_to_host(h_dst, d_src, n * sizeof(T));
+  void download(T* h_dst, const T* d_src, std::size_t n, const HostParallelFor* parallel = nullptr) {
+    copy_to_host(h_dst, d_src, n * sizeof(T), parallel);
   }
 
   /// Sets n elements of d_dst to the byte value `byte` (0 or 0xFF fill 32-bit words with 0 or kNone).
@@ -235,7 +237,7 @@ private:
   }
 
   void copy_to_device(void* d_dst, const void* h_src, std::size_t bytes);
-  void copy_to_host(void* h_dst, const void* d_src, std::size_t bytes);
+  void copy_to_host(void* h_dst, const void* d_src, std::size_t bytes, const HostParallelFor* parallel);
   /// The two pinned staging blocks of large copies and their events, made on first use.
   void make_staging();
 

@@ -4,6 +4,9 @@
 #include <atomic>
 #include <cstdlib>
 #include <cstring>
+#include <map>
+#include <mutex>
+#include <utility>
 #include <string>
 
 #include "cdt_kernels.hpp"
@@ -30,9 +33,85 @@ bool debug_sync() noexcept {
   return from_env || g_debug_sync.load(std::memory_order_relaxed);
 }
 
+namespace {
+
+/// Blocks of at least this size are kept for reuse when released; smaller ones are freed.
+constexpr std::size_t kKeepAbove = std::size_t{1} << 20;
+
+/// Released device blocks kept for reuse, by size, per device.
+struct KeptBlocks {
+  std::mutex mutex;
+  std::multimap<std::size_t, std::pair<int, void*>> blocks; ///< bytes -> (device, pointer)
+};
+
+KeptBlocks& kept_blocks() {
+  static KeptBlocks* kept = new KeptBlocks; // never destroyed: blocks may be released at exit
+  return *kept;
+}
+
+/// cudaFree of every kept block of the current device.
+void free_kept_blocks() noexcept {
+  int device = 0;
+  if (cudaGetDevice(&device) != cudaSuccess) return;
+  KeptBlocks& kept = kept_blocks();
+  std::lock_guard lock(kept.mutex);
+  for (auto it = kept.blocks.begin(); it != kept.blocks.end();) {
+    if (it->second.first == device) {
+      cudaFree(it->second.second);
+      it = kept.blocks.erase(it);
+    } else {
+      ++it;
+    }
+  }
+}
+
+} // namespace
+
+cudaError_t device_allocate(void** d_ptr, std::size_t bytes) {
+  *d_ptr = nullptr;
+  int device = 0;
+  if (const cudaError_t status = cudaGetDevice(&device); status != cudaSuccess) return status;
+  if (bytes >= kKeepAbove) {
+    // A kept block of the size asked for, or up to a quarter larger.
+    KeptBlocks& kept = kept_blocks();
+    std::lock_guard lock(kept.mutex);
+    for (auto it = kept.blocks.lower_bound(bytes); it != kept.blocks.end() && it->first <= bytes + bytes / 4;
+         ++it) {
+      if (it->second.first != device) continue;
+      *d_ptr = it->second.second;
+      kept.blocks.erase(it);
+      return cudaSuccess;
+    }
+  }
+  cudaError_t status = cudaMalloc(d_ptr, bytes);
+  if (status == cudaErrorMemoryAllocation) {
+    cudaGetLastError();
+    free_kept_blocks();
+    status = cudaMalloc(d_ptr, bytes);
+  }
+  if (status != cudaSuccess) *d_ptr = nullptr;
+  return status;
+}
+
+void device_release(void* d_ptr, std::size_t bytes) noexcept {
+  if (d_ptr == nullptr) return;
+  int device = 0;
+  if (bytes < kKeepAbove || cudaGetDevice(&device) != cudaSuccess || cudaDeviceSynchronize() != cudaSuccess) {
+    cudaFree(d_ptr);
+    return;
+  }
+  KeptBlocks& kept = kept_blocks();
+  std::lock_guard lock(kept.mutex);
+  kept.blocks.emplace(bytes, std::make_pair(device, d_ptr));
+}
+
 void check_free_memory(std::size_t bytes) {
   std::size_t free_bytes = 0, total_bytes = 0;
   CDT_CUDA_CHECK(cudaMemGetInfo(&free_bytes, &total_bytes));
+  if (bytes > free_bytes) {
+    free_kept_blocks();
+    CDT_CUDA_CHECK(cudaMemGetInfo(&free_bytes, &total_bytes));
+  }
   if (bytes > free_bytes)
     throw DeviceError("cannot allocate " + std::to_string(bytes >> 20) +
                       " MiB of device memory: " + std::to_string(free_bytes >> 20) + " MiB free of " +
@@ -53,7 +132,11 @@ void require_device_memory(std::size_t needed_bytes, std::size_t limit_bytes, co
                         mib(limit_bytes) + " it was given");
     return;
   }
-  const DeviceMemory memory = device_memory();
+  DeviceMemory memory = device_memory();
+  if (needed_bytes > memory.free_bytes) {
+    free_kept_blocks(); // blocks kept for reuse are this process's to give back
+    memory = device_memory();
+  }
   if (needed_bytes > memory.free_bytes)
     throw DeviceError(what + " needs " + mib(needed_bytes) + " of device memory, but the device has only " +
                       mib(memory.free_bytes) + " free (of " + mib(memory.total_bytes) +
@@ -93,6 +176,7 @@ namespace {
 /// this size and staged through two pinned blocks, the host's memcpy of one block overlapping the
 /// bus transfer of the other.
 constexpr std::size_t kStagingBytes = std::size_t{8} << 20;
+constexpr std::size_t kCopyPartBytes = std::size_t{512} << 10; ///< a host thread's share of a block
 } // namespace
 
 void CudaExecutor::make_staging() {
@@ -123,7 +207,8 @@ void CudaExecutor::copy_to_device(void* d_dst, const void* h_src, std::size_t by
   }
 }
 
-void CudaExecutor::copy_to_host(void* h_dst, const void* d_src, std::size_t bytes) {
+void CudaExecutor::copy_to_host(void* h_dst, const void* d_src, std::size_t bytes,
+                                const HostParallelFor* parallel) {
   if (bytes <= kStagingBytes) {
     if (bytes != 0) CDT_CUDA_CHECK(cudaMemcpyAsync(h_dst, d_src, bytes, cudaMemcpyDeviceToHost, stream_));
     synchronize();
@@ -137,7 +222,19 @@ void CudaExecutor::copy_to_host(void* h_dst, const void* d_src, std::size_t byte
     const int buf = static_cast<int>(k % 2);
     const std::size_t at = k * kStagingBytes;
     CDT_CUDA_CHECK(cudaEventSynchronize(staged_[buf]));
-    std::memcpy(dst + at, h_staging_[buf], std::min(kStagingBytes, bytes - at));
+    const std::size_t len = std::min(kStagingBytes, bytes - at);
+    const auto* from = static_cast<const unsigned char*>(h_staging_[buf]);
+    if (parallel == nullptr || !*parallel) {
+      std::memcpy(dst + at, from, len);
+      return;
+    }
+    // The destination is often fresh memory: its page faults cost more than the copy, and spread
+    // over threads as well as the copy does.
+    const std::size_t parts = (len + kCopyPartBytes - 1) / kCopyPartBytes;
+    (*parallel)(parts, [&](std::size_t p) {
+      const std::size_t offset = p * kCopyPartBytes;
+      std::memcpy(dst + at + offset, from + offset, std::min(kCopyPartBytes, len - offset));
+    });
   };
   for (std::size_t k = 0; k < blocks; ++k) {
     const int buf = static_cast<int>(k % 2);

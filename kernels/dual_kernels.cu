@@ -21,6 +21,7 @@
 #include <utility>
 #include <vector>
 
+#include "cdt/detail/trace.hpp"
 #include "cdt_kernels.hpp"
 #include "cuda_check.cuh"
 #include "cuda_executor.cuh"
@@ -314,9 +315,12 @@ DeviceVoronoi::DualOutcome DeviceVoronoi::complete_dual(::cdt::detail::Mesh& mes
   detail::DualBuffers b;
   std::uint32_t num_dual = 0;
   detail::DeviceEvent started, linked;
+  ::cdt::detail::StepTrace trace("device dual");
   const DualOutcome outcome = detail::build_dual(*state_, mesh, st, degenerate, b, num_dual, started, linked);
   if (outcome != DualOutcome::built) return outcome;
   detail::CudaExecutor& executor = state_->executor;
+  executor.synchronize();
+  trace.mark("built and linked");
   const std::uint32_t n = mesh.num_vertices();
   const std::size_t words = 3 * static_cast<std::size_t>(num_dual);
 
@@ -342,9 +346,11 @@ DeviceVoronoi::DualOutcome DeviceVoronoi::complete_dual(::cdt::detail::Mesh& mes
   static_assert(sizeof(::cdt::detail::OpenEdge) == 3 * sizeof(std::uint32_t));
   executor.download(reinterpret_cast<std::uint32_t*>(h_open.data()), open,
                     3 * static_cast<std::size_t>(num_open));
+  trace.mark("open edges downloaded");
   const std::optional<::cdt::detail::DualCompletion> plan =
       ::cdt::detail::plan_dual_completion(h_open, mesh.x, mesh.y, num_dual, bounds);
   if (!plan) return DualOutcome::declined;
+  trace.mark("completion planned");
 
   const auto k_fake = static_cast<std::uint32_t>(plan->fake_x.size());
   const auto added = static_cast<std::uint32_t>(plan->triangles.size());
@@ -378,9 +384,12 @@ DeviceVoronoi::DualOutcome DeviceVoronoi::complete_dual(::cdt::detail::Mesh& mes
         "link_open_edges");
     executor.synchronize(); // d_links is freed at the end of this scope
   }
+  executor.synchronize();
+  trace.mark("completion applied");
   site_vert_tri.resize(n);
   executor.download(site_vert_tri.data(), b.vert_tri.data(), n);
   executor.synchronize();
+  trace.mark("vert_tri downloaded");
   out.emplace(std::move(state));
   return DualOutcome::built;
 }

@@ -11,6 +11,7 @@
 #include <utility>
 #include <vector>
 
+#include "cdt/detail/trace.hpp"
 #include "cdt_kernels.hpp"
 #include "cuda_check.cuh"
 #include "cuda_executor.cuh"
@@ -781,12 +782,12 @@ void DeviceMesh::remove_fake_boundary(std::uint32_t first_fake) {
 
 void DeviceMesh::output(std::span<const std::uint32_t> vertex_of,
                         std::span<const std::uint32_t> segment_of_piece,
-                        std::vector<std::array<std::uint32_t, 3>>& triangles,
-                        std::vector<std::array<std::uint32_t, 3>>& neighbors,
-                        std::vector<std::array<std::uint32_t, 3>>& segment_of_edge) const {
+                        TriangleArray& triangles, TriangleArray& neighbors, TriangleArray& segment_of_edge,
+                        const HostParallelFor& parallel) const {
   static_assert(sizeof(std::array<std::uint32_t, 3>) == 3 * sizeof(std::uint32_t));
   State& s = *state_;
   detail::CudaExecutor& executor = s.executor;
+  ::cdt::detail::StepTrace trace("device output");
   const ::cdt::detail::MeshView m = s.view();
   detail::DeviceBuffer<std::uint32_t> live(static_cast<std::size_t>(s.num_slots) + 1);
   const std::uint32_t count = executor.compact(
@@ -818,12 +819,16 @@ void DeviceMesh::output(std::span<const std::uint32_t> vertex_of,
         ::cdt::detail::output_triangle(m, order[k], v_of, index, s_of, c + 3 * k, nb + 3 * k, sg + 3 * k);
       },
       "output_triangles");
+  executor.synchronize();
+  trace.mark("made");
   triangles.resize(count);
   neighbors.resize(count);
   segment_of_edge.resize(count);
-  executor.download(reinterpret_cast<std::uint32_t*>(triangles.data()), c, words);
-  executor.download(reinterpret_cast<std::uint32_t*>(neighbors.data()), nb, words);
-  executor.download(reinterpret_cast<std::uint32_t*>(segment_of_edge.data()), sg, words);
+  trace.mark("host arrays sized");
+  executor.download(reinterpret_cast<std::uint32_t*>(triangles.data()), c, words, &parallel);
+  executor.download(reinterpret_cast<std::uint32_t*>(neighbors.data()), nb, words, &parallel);
+  executor.download(reinterpret_cast<std::uint32_t*>(segment_of_edge.data()), sg, words, &parallel);
+  trace.mark("downloaded");
 }
 
 void DeviceMesh::download(::cdt::detail::Mesh& mesh) const {

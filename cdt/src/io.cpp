@@ -476,7 +476,7 @@ Pslg read_pslg(const std::filesystem::path& path) {
   return read_edge_list(path);
 }
 
-std::vector<std::array<std::uint32_t, 3>> read_ele(const std::filesystem::path& path, unsigned first_index) {
+TriangleArray read_ele(const std::filesystem::path& path, unsigned first_index) {
   check_first_index(path, first_index);
   Parser p(path);
   const std::string header = "<#triangles> <nodes per triangle> <#attributes>";
@@ -492,7 +492,7 @@ std::vector<std::array<std::uint32_t, 3>> read_ele(const std::filesystem::path& 
 
   std::string layout = nodes == 3 ? "<index> <v1> <v2> <v3>" : "<index> <v1> ... <v6>";
   if (attributes > 0) layout += " <" + std::to_string(attributes) + " attributes>";
-  std::vector<std::array<std::uint32_t, 3>> triangles;
+  TriangleArray triangles;
   triangles.reserve(static_cast<std::size_t>(n));
   Numbering numbering("triangle");
   for (std::uint64_t k = 0; k < n; ++k) {

@@ -27,6 +27,7 @@
 #include <unordered_map>
 #include <utility>
 
+#include "cdt/detail/trace.hpp"
 #include "cdt/detail/predicates.hpp"
 #include "cdt/errors.hpp"
 #include "executor/cpu_executor.hpp"
@@ -939,15 +940,20 @@ PreparedPslg prepare_pslg(std::span<const Point> points, std::span<const Segment
       segments.size() >= std::numeric_limits<std::uint32_t>::max()) {
     throw Error("more than 2^32 - 2 points or segments");
   }
+  StepTrace trace("prepare");
   validate_points(points, executor);
   const std::size_t zero_length = validate_segments(points, segments, policy);
+  trace.mark("validated");
   PreparedPslg out;
   out.zero_length_segments = zero_length;
   out.duplicate_of = merge_duplicates(points, executor);
+  trace.mark("duplicates");
   out.sites = executor.compact(points.size(), [&](std::size_t i) { return out.duplicate_of[i] == i; });
   check_dimension(points, out.sites);
   out.vertices.assign(points.begin(), points.end());
+  trace.mark("sites");
   std::vector<WorkSegment> segs = initial_segments(segments, out.duplicate_of, executor);
+  trace.mark("initial segments");
   if (segs.empty()) return out;
 
   // Crossing points are clamped into their segments' boxes, so this box holds every vertex to come.
@@ -964,12 +970,16 @@ PreparedPslg prepare_pslg(std::span<const Point> points, std::span<const Segment
   std::size_t first_round_vertices = 0;
   for (int round = 0; round < kMaxRounds; ++round) {
     order_spatially(segs, out.vertices, grid, executor);
+    trace.mark("segments ordered");
     Ends ends = endpoints(segs, out.vertices, executor);
     grid.build(ends, executor);
+    trace.mark("segment grid");
     const SiteCells site_cells = bucket_sites(grid, out.vertices, out.sites, executor);
+    trace.mark("sites bucketed");
     // The first round is exact: snapping is only for repairing what rounding did.
     const PointSplits on_segment = find_points_on_segments(
         grid, site_cells, ends, segs, out.vertices, first_new, round == 0 ? 0.0 : snap_tolerance, executor);
+    trace.mark("points on segments");
     if (!on_segment.lists.vertex.empty()) {
       segs = cut_segments(segs, on_segment.lists, on_segment.snapped, CutAt::sites, executor);
       order_spatially(segs, out.vertices, grid, executor);
@@ -977,6 +987,7 @@ PreparedPslg prepare_pslg(std::span<const Point> points, std::span<const Segment
       grid.build(ends, executor);
     }
     const auto crossings = find_crossings(grid, ends, segs, executor);
+    trace.mark("crossings");
     if (crossings.empty() && !on_segment.any_snapped) {
       const std::vector<std::uint32_t> order = order_by_ends(segs, out.vertices.size(), executor);
       out.pieces.resize(segs.size());
@@ -984,6 +995,7 @@ PreparedPslg prepare_pslg(std::span<const Point> points, std::span<const Segment
         const WorkSegment& p = segs[order[k]];
         out.pieces[k] = {p.a, p.b, p.label};
       });
+      trace.mark("pieces");
       return out;
     }
     if (policy == CrossingSegments::reject && !crossings.empty()) reject_crossing(crossings, segs);

@@ -16,12 +16,14 @@
 #include <algorithm>
 #include <bit>
 #include <chrono>
+#include <functional>
 #include <optional>
 #include <span>
 #include <string>
 #include <vector>
 
 #include "cdt/cdt.hpp"
+#include "cdt/detail/trace.hpp"
 #include "executor/cpu_executor.hpp"
 #include "gcd/constraints.hpp"
 #include "gcd/dualize.hpp"
@@ -119,9 +121,11 @@ Triangulation triangulate_on(std::span<const Point> points, std::span<const Segm
   stats.backend = on_gpu ? kGpuBackendName : "cpu";
   PhaseTimer timer(stats);
   CpuExecutor executor(options.threads);
+  StepTrace trace("triangulate");
 
   // Input checks and cleaning.
   PreparedPslg pslg = prepare_pslg(points, segments, options.crossings, executor);
+  trace.mark("prepare");
   timer.end("prepare");
   stats.added_vertices = pslg.vertices.size() - points.size();
   stats.zero_length_segments = pslg.zero_length_segments;
@@ -137,10 +141,13 @@ Triangulation triangulate_on(std::span<const Point> points, std::span<const Segm
     true_x[s] = pslg.vertices[pslg.sites[s]].x;
     true_y[s] = pslg.vertices[pslg.sites[s]].y;
   });
+  trace.mark("sites' coordinates");
   const GridMapping mapping = make_grid_mapping(true_x, true_y, m);
+  trace.mark("grid mapping");
   const std::vector<std::uint32_t> site_vertex =
       spatial_site_order(mapping, true_x, true_y, pslg.sites, executor);
   std::vector<std::uint32_t> site_of_vertex(pslg.vertices.size(), kNoId);
+  trace.mark("spatial order");
   executor.for_each(n, [&](std::size_t s) {
     true_x[s] = pslg.vertices[site_vertex[s]].x;
     true_y[s] = pslg.vertices[site_vertex[s]].y;
@@ -148,13 +155,16 @@ Triangulation triangulate_on(std::span<const Point> points, std::span<const Segm
   });
 
   // Phase 1. On the device the colouring stays there for Phase 2.
+  trace.mark("renumbering");
   const GridSites grid = assign_sites(mapping, true_x, true_y, executor);
+  trace.mark("site assignment");
   std::vector<std::uint32_t> colour;
 #if defined(TRIXEL_HAVE_CUDA)
   std::optional<gpu::DeviceVoronoi> device_diagram;
   if (on_gpu) device_diagram.emplace(grid.cell_owner, grid.gx, grid.gy, m);
 #endif
   if (!on_gpu) colour = compute_digital_voronoi(grid, m, executor);
+  trace.mark("digital voronoi");
   timer.end("voronoi").missing = grid.missing.size();
 
   // Phase 2: kept sites at their exact grid positions.
@@ -169,13 +179,26 @@ Triangulation triangulate_on(std::span<const Point> points, std::span<const Segm
       y[s] = mapping.to_y(grid.gy[s]);
     }
   });
-  Box bounds{true_x[0], true_y[0], true_x[0], true_y[0]};
-  for (std::uint32_t s = 0; s < n; ++s) {
-    bounds.min_x = std::min({bounds.min_x, x[s], true_x[s]});
-    bounds.min_y = std::min({bounds.min_y, y[s], true_y[s]});
-    bounds.max_x = std::max({bounds.max_x, x[s], true_x[s]});
-    bounds.max_y = std::max({bounds.max_y, y[s], true_y[s]});
+  // The box of both positions of every site, from per-part boxes.
+  constexpr std::size_t kBoundsParts = 64;
+  std::vector<Box> part_bounds(kBoundsParts, Box{true_x[0], true_y[0], true_x[0], true_y[0]});
+  executor.for_each_part(kBoundsParts, [&](std::size_t part) {
+    Box& b = part_bounds[part];
+    for (std::size_t s = n * part / kBoundsParts; s < n * (part + 1) / kBoundsParts; ++s) {
+      b.min_x = std::min({b.min_x, x[s], true_x[s]});
+      b.min_y = std::min({b.min_y, y[s], true_y[s]});
+      b.max_x = std::max({b.max_x, x[s], true_x[s]});
+      b.max_y = std::max({b.max_y, y[s], true_y[s]});
+    }
+  });
+  Box bounds = part_bounds[0];
+  for (const Box& b : part_bounds) {
+    bounds.min_x = std::min(bounds.min_x, b.min_x);
+    bounds.min_y = std::min(bounds.min_y, b.min_y);
+    bounds.max_x = std::max(bounds.max_x, b.max_x);
+    bounds.max_y = std::max(bounds.max_y, b.max_y);
   }
+  trace.mark("kept sites and bounds");
   std::vector<MissingPoint> missing(grid.missing.size());
   executor.for_each(missing.size(), [&](std::size_t k) {
     missing[k] = {grid.missing[k], grid.missing_owner[k]};
@@ -238,6 +261,7 @@ Triangulation triangulate_on(std::span<const Point> points, std::span<const Segm
 #if defined(TRIXEL_HAVE_CUDA)
   device_diagram.reset(); // its device memory is free for the later phases
 #endif
+  trace.mark("dual");
   // Kept sites the dual did not reach (degenerate diagrams) are inserted like missing points, starting
   // from the fake boundary, which is always in the mesh.
   const std::uint32_t* vert_tri = mesh.vert_tri.data();
@@ -318,6 +342,7 @@ Triangulation triangulate_on(std::span<const Point> points, std::span<const Segm
   }
 
   // Output in input numbering: live slots in order, links renumbered to triangle indices.
+  trace.mark("flip");
   result.vertices = std::move(pslg.vertices);
   result.duplicate_of = std::move(pslg.duplicate_of);
   static_assert(kNone == kNoId);
@@ -326,9 +351,15 @@ Triangulation triangulate_on(std::span<const Point> points, std::span<const Segm
 #if defined(TRIXEL_HAVE_CUDA)
   if (device_mesh) {
     // Made on the device and copied straight into the result; the mesh itself stays there.
+    trace.mark("segment of piece");
+    const gpu::HostParallelFor parallel = [&](std::size_t parts, const std::function<void(std::size_t)>& body) {
+      executor.for_each_part(parts, body);
+    };
     device_mesh->output(site_vertex, segment_of_piece, result.triangles, result.neighbors,
-                        result.segment_of_edge);
+                        result.segment_of_edge, parallel);
+    trace.mark("device output");
     device_mesh.reset();
+    trace.mark("device mesh freed");
   }
 #endif
   if (!on_gpu) {

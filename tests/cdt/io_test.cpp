@@ -361,7 +361,7 @@ TEST_F(Io, AcceptsNumberSpellingsTriangleAccepts) {
 
 TEST_F(Io, ReadsEleWithSixNodesAndAttributes) {
   const fs::path path = write("a.ele", "2 6 1\n1 1 2 3 4 5 6 0.5\n2 3 2 1 6 5 4 -1\n");
-  const std::vector<std::array<std::uint32_t, 3>> want = {{0, 1, 2}, {2, 1, 0}};
+  const cdt::TriangleArray want = {{0, 1, 2}, {2, 1, 0}};
   EXPECT_EQ(cdt::io::read_ele(path, 1), want);
 }
 

@@ -30,7 +30,7 @@ make_mesh(std::vector<Point> vertices, std::vector<Triangle> triangles,
           std::size_t num_points = 0) {
   Triangulation t;
   t.vertices = std::move(vertices);
-  t.triangles = std::move(triangles);
+  t.triangles.assign(triangles.begin(), triangles.end());
   const std::size_t n = t.triangles.size();
   t.neighbors.assign(n, {kNone, kNone, kNone});
   t.segment_of_edge.assign(n, {kNone, kNone, kNone});

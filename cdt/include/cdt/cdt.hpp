@@ -7,8 +7,11 @@
 
 #include <array>
 #include <cstdint>
+#include <memory>
 #include <span>
 #include <string>
+#include <type_traits>
+#include <utility>
 #include <vector>
 
 #include "cdt/errors.hpp"
@@ -81,6 +84,32 @@ struct Statistics {
   std::vector<PhaseStats> phases;
 };
 
+/// The allocator of Triangulation's per-triangle arrays. Growing such an array (resize) leaves the new
+/// elements default-initialised, which for these element types means unwritten: the triangulation
+/// writes every element itself, in parallel, and a zero fill first would cost as much again at 10^7
+/// triangles. Anything else (push_back, assign, copies) behaves as with std::allocator.
+template <class T>
+struct DefaultInitAllocator : std::allocator<T> {
+  template <class U>
+  struct rebind {
+    using other = DefaultInitAllocator<U>;
+  };
+  DefaultInitAllocator() = default;
+  template <class U>
+  DefaultInitAllocator(const DefaultInitAllocator<U>&) noexcept {}
+  template <class U>
+  void construct(U* p) noexcept(std::is_nothrow_default_constructible_v<U>) {
+    ::new (static_cast<void*>(p)) U;
+  }
+  template <class U, class... Args>
+  void construct(U* p, Args&&... args) {
+    ::new (static_cast<void*>(p)) U(std::forward<Args>(args)...);
+  }
+};
+
+/// Three 32-bit entries per triangle (vertices, neighbours or segments of its edges).
+using TriangleArray = std::vector<std::array<std::uint32_t, 3>, DefaultInitAllocator<std::array<std::uint32_t, 3>>>;
+
 /// A constrained Delaunay triangulation.
 ///
 /// Triangle t has vertices triangles[t] in counter-clockwise order. Edge i of t joins
@@ -90,9 +119,9 @@ struct Statistics {
 struct Triangulation {
   /// The input points at their input indices, then vertices added where crossing segments were split.
   std::vector<Point> vertices;
-  std::vector<std::array<std::uint32_t, 3>> triangles;
-  std::vector<std::array<std::uint32_t, 3>> neighbors;
-  std::vector<std::array<std::uint32_t, 3>> segment_of_edge;
+  TriangleArray triangles;
+  TriangleArray neighbors;
+  TriangleArray segment_of_edge;
   /// duplicate_of[i] is the vertex that input point i was merged into (i itself when it is not a
   /// duplicate). Only such representatives appear in triangles.
   std::vector<std::uint32_t> duplicate_of;

@@ -54,7 +54,7 @@ Pslg read_pslg(const std::filesystem::path& path);
 /// dropped). first_index (0 or 1) is the number of the first vertex of the matching .node file; the
 /// result holds 0-based vertex indices. Indices are checked against first_index, not against a
 /// vertex count, which the .ele does not know.
-std::vector<std::array<std::uint32_t, 3>> read_ele(const std::filesystem::path& path, unsigned first_index);
+TriangleArray read_ele(const std::filesystem::path& path, unsigned first_index);
 
 /// Writes a Triangle .node file of the vertices (no attributes, no markers), numbered from
 /// first_index (0 or 1). Coordinates must be finite.
