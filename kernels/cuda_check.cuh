@@ -38,7 +38,8 @@ cudaError_t device_allocate(void** d_ptr, std::size_t bytes);
 /// Gives a block of device_allocate back. Large blocks are kept for reuse: cudaFree of hundreds of
 /// megabytes costs milliseconds, and every triangulation frees and allocates the same sizes phase
 /// after phase and call after call. The device is synchronised first (as cudaFree would), so no
-/// queued work still uses the block when it is handed out again.
+/// queued work still uses the block when it is handed out again. With the debug switch on, blocks are
+/// freed at once (compute-sanitizer then reports any use of a released buffer).
 void device_release(void* d_ptr, std::size_t bytes) noexcept;
 
 /// A device buffer owned by RAII; plain device memory (device_allocate), never managed memory.

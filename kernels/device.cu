@@ -96,7 +96,10 @@ cudaError_t device_allocate(void** d_ptr, std::size_t bytes) {
 void device_release(void* d_ptr, std::size_t bytes) noexcept {
   if (d_ptr == nullptr) return;
   int device = 0;
-  if (bytes < kKeepAbove || cudaGetDevice(&device) != cudaSuccess || cudaDeviceSynchronize() != cudaSuccess) {
+  // With the debug switch every block is freed at once, so that compute-sanitizer sees any use of a
+  // released buffer.
+  if (bytes < kKeepAbove || debug_sync() || cudaGetDevice(&device) != cudaSuccess ||
+      cudaDeviceSynchronize() != cudaSuccess) {
     cudaFree(d_ptr);
     return;
   }

@@ -48,7 +48,9 @@ if want tests; then
     # Every GPU test but the million-point triangulations (minutes under the sanitizers); the mid-size
     # PSLGs with segments of TriangulateGpu.SegmentsMatchTheCpuBackend stay in.
     sanitized=--gtest_filter=-TriangulateGpu.PointsMatchTheCpuBackend
-    step memcheck compute-sanitizer --tool memcheck --error-exitcode 1 build-gpu/bin/kernels_tests "$sanitized"
+    # TRIXEL_CUDA_SYNC=1: each launch checked where it ran, and released device blocks freed at once
+    # (not kept for reuse), so a use of a released buffer is seen.
+    step memcheck env TRIXEL_CUDA_SYNC=1 compute-sanitizer --tool memcheck --error-exitcode 1 build-gpu/bin/kernels_tests "$sanitized"
     step racecheck compute-sanitizer --tool racecheck --error-exitcode 1 build-gpu/bin/kernels_tests \
       "$sanitized:TriangulateGpu.ArtemOgreFilesVerify:TriangulateGpu.LatticesVerify"
   fi

@@ -179,6 +179,7 @@ Triangulation triangulate_on(std::span<const Point> points, std::span<const Segm
       y[s] = mapping.to_y(grid.gy[s]);
     }
   });
+  trace.mark("kept sites");
   // The box of both positions of every site, from per-part boxes.
   constexpr std::size_t kBoundsParts = 64;
   std::vector<Box> part_bounds(kBoundsParts, Box{true_x[0], true_y[0], true_x[0], true_y[0]});
@@ -229,6 +230,7 @@ Triangulation triangulate_on(std::span<const Point> points, std::span<const Segm
       x.swap(dual.x);
       y.swap(dual.y);
       if (outcome == Outcome::built) {
+        trace.mark("device dual");
         check_missing_sites_left_out(kept, site_vert_tri);
         break;
       }
@@ -259,6 +261,7 @@ Triangulation triangulate_on(std::span<const Point> points, std::span<const Segm
 #endif
   }
 #if defined(TRIXEL_HAVE_CUDA)
+  trace.mark("dual checked");
   device_diagram.reset(); // its device memory is free for the later phases
 #endif
   trace.mark("dual");
