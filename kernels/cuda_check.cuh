@@ -26,23 +26,22 @@ inline void check_launch(const char* kernel, const char* file, int line) {
   if (debug_sync()) check(cudaDeviceSynchronize(), kernel, file, line);
 }
 
-/// Throws DeviceError when the device has less than `bytes` free (blocks kept for reuse count as free:
-/// they are given back first).
+/// Throws DeviceError when the device has less than `bytes` free (memory the buffer pool keeps counts as
+/// free: it is given back first).
 void check_free_memory(std::size_t bytes);
 inline constexpr std::size_t kCheckFreeAbove = std::size_t{64} << 20;
 
-/// Device memory of at least `bytes` bytes: a block kept from an earlier release when one of about that
-/// size is there, else cudaMalloc (after giving the kept blocks back when it fails). Returns the
-/// status of the cudaMalloc that failed, with *d_ptr null.
-cudaError_t device_allocate(void** d_ptr, std::size_t bytes);
-/// Gives a block of device_allocate back. Large blocks are kept for reuse: cudaFree of hundreds of
-/// megabytes costs milliseconds, and every triangulation frees and allocates the same sizes phase
-/// after phase and call after call. The device is synchronised first (as cudaFree would), so no
-/// queued work still uses the block when it is handed out again. With the debug switch on, blocks are
-/// freed at once (compute-sanitizer then reports any use of a released buffer).
-void device_release(void* d_ptr, std::size_t bytes) noexcept;
+/// Device memory of `bytes` bytes for a buffer: from this library's stream-ordered pool on the calling
+/// thread's default stream (pooled = true), or with the debug switch on a plain cudaMalloc block. A
+/// pooled block must be released by the thread that allocated it (the executors queue all their work
+/// on that thread's stream, so the release is ordered after every use). Returns the failing status
+/// with *d_ptr null.
+cudaError_t device_allocate(void** d_ptr, std::size_t bytes, bool& pooled);
+/// Gives a block of device_allocate back: to the pool in stream order (kept there for reuse), or
+/// cudaFree.
+void device_release(void* d_ptr, bool pooled) noexcept;
 
-/// A device buffer owned by RAII; plain device memory (device_allocate), never managed memory.
+/// A device buffer owned by RAII; device memory from device_allocate, never managed memory.
 /// resize() keeps the allocation when it is large enough, so one buffer serves several phases; the
 /// contents are not kept when it grows.
 template <class T>
@@ -54,13 +53,14 @@ public:
   DeviceBuffer& operator=(const DeviceBuffer&) = delete;
   DeviceBuffer(DeviceBuffer&& other) noexcept
       : d_ptr_(std::exchange(other.d_ptr_, nullptr)), num_(std::exchange(other.num_, 0)),
-        capacity_(std::exchange(other.capacity_, 0)) {}
+        capacity_(std::exchange(other.capacity_, 0)), pooled_(other.pooled_) {}
   DeviceBuffer& operator=(DeviceBuffer&& other) noexcept {
     if (this != &other) {
       release();
       d_ptr_ = std::exchange(other.d_ptr_, nullptr);
       num_ = std::exchange(other.num_, 0);
       capacity_ = std::exchange(other.capacity_, 0);
+      pooled_ = other.pooled_;
     }
     return *this;
   }
@@ -76,7 +76,7 @@ public:
     // call for compute-sanitizer to report.
     if (count * sizeof(T) >= kCheckFreeAbove) check_free_memory(count * sizeof(T));
     void* d_new = nullptr;
-    const cudaError_t status = device_allocate(&d_new, count * sizeof(T));
+    const cudaError_t status = device_allocate(&d_new, count * sizeof(T), pooled_);
     if (status != cudaSuccess) {
       cudaGetLastError(); // an allocation failure is not sticky; leave no error behind for the next check
       raise_cuda_error(status, ("cudaMalloc of " + std::to_string(count * sizeof(T)) + " bytes").c_str(),
@@ -94,7 +94,7 @@ public:
 private:
   void release() noexcept {
     // A failing cudaFree (a sticky error from an earlier fault) was already reported where it arose.
-    if (d_ptr_ != nullptr) device_release(d_ptr_, capacity_ * sizeof(T));
+    if (d_ptr_ != nullptr) device_release(d_ptr_, pooled_);
     d_ptr_ = nullptr;
     num_ = 0;
     capacity_ = 0;
@@ -103,6 +103,7 @@ private:
   T* d_ptr_ = nullptr;
   std::size_t num_ = 0;
   std::size_t capacity_ = 0;
+  bool pooled_ = false; ///< d_ptr_ came from the pool (else cudaMalloc)
 };
 
 } // namespace cdt::gpu::detail

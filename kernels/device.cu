@@ -2,8 +2,10 @@
 
 #include <algorithm>
 #include <atomic>
+#include <cstdint>
 #include <cstdlib>
 #include <cstring>
+#include <limits>
 #include <map>
 #include <mutex>
 #include <utility>
@@ -35,84 +37,81 @@ bool debug_sync() noexcept {
 
 namespace {
 
-/// Blocks of at least this size are kept for reuse when released; smaller ones are freed.
-constexpr std::size_t kKeepAbove = std::size_t{1} << 20;
-
-/// Released device blocks kept for reuse, by size, per device.
-struct KeptBlocks {
-  std::mutex mutex;
-  std::multimap<std::size_t, std::pair<int, void*>> blocks; ///< bytes -> (device, pointer)
-};
-
-KeptBlocks& kept_blocks() {
-  static KeptBlocks* kept = new KeptBlocks; // never destroyed: blocks may be released at exit
-  return *kept;
+/// The memory pool of device buffers on each device: stream-ordered (cudaMallocFromPoolAsync and
+/// cudaFreeAsync on the calling thread's default stream), and with no release threshold, so memory a
+/// buffer frees stays in the pool for the next one instead of going back to the driver. cudaMalloc and
+/// cudaFree of hundreds of megabytes cost milliseconds each, and cudaFree waits for the whole device,
+/// which stalls every other thread's work on it; every triangulation frees and allocates the same sizes
+/// phase after phase and call after call.
+cudaMemPool_t buffer_pool(int device) {
+  static std::mutex mutex;
+  static std::map<int, cudaMemPool_t> pools; // never destroyed: buffers may be freed at exit
+  std::lock_guard lock(mutex);
+  if (const auto it = pools.find(device); it != pools.end()) return it->second;
+  cudaMemPoolProps props{};
+  props.allocType = cudaMemAllocationTypePinned;
+  props.location.type = cudaMemLocationTypeDevice;
+  props.location.id = device;
+  cudaMemPool_t pool = nullptr;
+  CDT_CUDA_CHECK(cudaMemPoolCreate(&pool, &props));
+  std::uint64_t keep_all = std::numeric_limits<std::uint64_t>::max();
+  CDT_CUDA_CHECK(cudaMemPoolSetAttribute(pool, cudaMemPoolAttrReleaseThreshold, &keep_all));
+  pools.emplace(device, pool);
+  return pool;
 }
 
-/// cudaFree of every kept block of the current device.
-void free_kept_blocks() noexcept {
+/// Gives the memory the pool of the current device keeps unused back to the driver (after the calling
+/// thread's queued frees are done).
+void trim_buffer_pool() noexcept {
   int device = 0;
   if (cudaGetDevice(&device) != cudaSuccess) return;
-  KeptBlocks& kept = kept_blocks();
-  std::lock_guard lock(kept.mutex);
-  for (auto it = kept.blocks.begin(); it != kept.blocks.end();) {
-    if (it->second.first == device) {
-      cudaFree(it->second.second);
-      it = kept.blocks.erase(it);
-    } else {
-      ++it;
-    }
+  try {
+    const cudaMemPool_t pool = buffer_pool(device);
+    cudaStreamSynchronize(cudaStreamPerThread);
+    cudaMemPoolTrimTo(pool, 0);
+  } catch (const DeviceError&) {
+    // No pool: nothing to give back.
   }
 }
 
 } // namespace
 
-cudaError_t device_allocate(void** d_ptr, std::size_t bytes) {
+cudaError_t device_allocate(void** d_ptr, std::size_t bytes, bool& pooled) {
   *d_ptr = nullptr;
+  pooled = false;
+  // With the debug switch buffers are plain cudaMalloc blocks, freed at once, so that compute-sanitizer
+  // sees any use of a released buffer.
+  if (debug_sync()) return cudaMalloc(d_ptr, bytes);
   int device = 0;
   if (const cudaError_t status = cudaGetDevice(&device); status != cudaSuccess) return status;
-  if (bytes >= kKeepAbove) {
-    // A kept block of the size asked for, or up to a quarter larger.
-    KeptBlocks& kept = kept_blocks();
-    std::lock_guard lock(kept.mutex);
-    for (auto it = kept.blocks.lower_bound(bytes); it != kept.blocks.end() && it->first <= bytes + bytes / 4;
-         ++it) {
-      if (it->second.first != device) continue;
-      *d_ptr = it->second.second;
-      kept.blocks.erase(it);
-      return cudaSuccess;
-    }
-  }
-  cudaError_t status = cudaMalloc(d_ptr, bytes);
+  const cudaMemPool_t pool = buffer_pool(device);
+  cudaError_t status = cudaMallocFromPoolAsync(d_ptr, bytes, pool, cudaStreamPerThread);
   if (status == cudaErrorMemoryAllocation) {
     cudaGetLastError();
-    free_kept_blocks();
-    status = cudaMalloc(d_ptr, bytes);
+    trim_buffer_pool();
+    status = cudaMallocFromPoolAsync(d_ptr, bytes, pool, cudaStreamPerThread);
   }
-  if (status != cudaSuccess) *d_ptr = nullptr;
-  return status;
+  if (status != cudaSuccess) {
+    *d_ptr = nullptr;
+    return status;
+  }
+  pooled = true;
+  return cudaSuccess;
 }
 
-void device_release(void* d_ptr, std::size_t bytes) noexcept {
+void device_release(void* d_ptr, bool pooled) noexcept {
   if (d_ptr == nullptr) return;
-  int device = 0;
-  // With the debug switch every block is freed at once, so that compute-sanitizer sees any use of a
-  // released buffer.
-  if (bytes < kKeepAbove || debug_sync() || cudaGetDevice(&device) != cudaSuccess ||
-      cudaDeviceSynchronize() != cudaSuccess) {
+  if (pooled)
+    cudaFreeAsync(d_ptr, cudaStreamPerThread);
+  else
     cudaFree(d_ptr);
-    return;
-  }
-  KeptBlocks& kept = kept_blocks();
-  std::lock_guard lock(kept.mutex);
-  kept.blocks.emplace(bytes, std::make_pair(device, d_ptr));
 }
 
 void check_free_memory(std::size_t bytes) {
   std::size_t free_bytes = 0, total_bytes = 0;
   CDT_CUDA_CHECK(cudaMemGetInfo(&free_bytes, &total_bytes));
   if (bytes > free_bytes) {
-    free_kept_blocks();
+    trim_buffer_pool();
     CDT_CUDA_CHECK(cudaMemGetInfo(&free_bytes, &total_bytes));
   }
   if (bytes > free_bytes)
@@ -137,7 +136,7 @@ void require_device_memory(std::size_t needed_bytes, std::size_t limit_bytes, co
   }
   DeviceMemory memory = device_memory();
   if (needed_bytes > memory.free_bytes) {
-    free_kept_blocks(); // blocks kept for reuse are this process's to give back
+    trim_buffer_pool(); // what the pool keeps for reuse is this process's to give back
     memory = device_memory();
   }
   if (needed_bytes > memory.free_bytes)
@@ -154,24 +153,21 @@ CudaExecutor::CudaExecutor() {
   CDT_CUDA_CHECK(cudaDeviceGetAttribute(&sms, cudaDevAttrMultiProcessorCount, device));
   // Enough blocks of 256 threads to fill every SM several times; longer ranges loop in the kernel.
   max_blocks_ = static_cast<std::size_t>(sms > 0 ? sms : 1) * 32;
-  CDT_CUDA_CHECK(cudaStreamCreateWithFlags(&stream_, cudaStreamNonBlocking));
-  try {
-    scalar_.resize(1);
-  } catch (...) {
-    cudaStreamDestroy(stream_);
-    throw;
-  }
+  // The calling thread's default stream: every executor of a thread queues in one order, which is what
+  // lets device buffers be freed and reused in stream order (see device_allocate), and threads still
+  // run side by side.
+  stream_ = cudaStreamPerThread;
+  scalar_.resize(1);
 }
 
 CudaExecutor::~CudaExecutor() {
-  // Buffers are freed by their own destructors (cudaFree waits for the device); errors here were
-  // reported by the call that caused them.
-  if (stream_ != nullptr) cudaStreamSynchronize(stream_);
+  // Buffers are freed by their own destructors, in stream order; errors here were reported by the call
+  // that caused them. The stream is the thread's own and stays.
+  cudaStreamSynchronize(stream_);
   for (int k = 0; k < 2; ++k) {
     if (h_staging_[k] != nullptr) cudaFreeHost(h_staging_[k]);
     if (staged_[k] != nullptr) cudaEventDestroy(staged_[k]);
   }
-  if (stream_ != nullptr) cudaStreamDestroy(stream_);
 }
 
 namespace {

@@ -231,7 +231,7 @@ Triangulation triangulate_on(std::span<const Point> points, std::span<const Segm
       y.swap(dual.y);
       if (outcome == Outcome::built) {
         trace.mark("device dual");
-        check_missing_sites_left_out(kept, site_vert_tri);
+        check_missing_sites_left_out(kept, site_vert_tri, executor);
         break;
       }
       colour = device_diagram->colour();

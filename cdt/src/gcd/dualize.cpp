@@ -317,11 +317,13 @@ std::optional<DualCompletion> plan_dual_completion(std::span<const OpenEdge> ope
   return plan;
 }
 
-void check_missing_sites_left_out(std::span<const std::uint8_t> kept,
-                                  std::span<const std::uint32_t> vert_tri) {
-  for (std::size_t v = 0; v < kept.size(); ++v) {
-    if (kept[v] == 0 && vert_tri[v] != kNoId) throw Error("internal error: a missing site was dualized");
-  }
+void check_missing_sites_left_out(std::span<const std::uint8_t> kept, std::span<const std::uint32_t> vert_tri,
+                                  CpuExecutor& executor) {
+  std::uint32_t first_bad = kNoId;
+  executor.for_each(kept.size(), [&](std::size_t v) {
+    if (kept[v] == 0 && vert_tri[v] != kNoId) atomic_min(&first_bad, static_cast<std::uint32_t>(v));
+  });
+  if (first_bad != kNoId) throw Error("internal error: a missing site was dualized");
 }
 
 Mesh complete_dual(Mesh mesh, std::span<const std::uint8_t> kept, const Box& bounds, CpuExecutor& executor,
@@ -348,7 +350,7 @@ Mesh complete_dual(Mesh mesh, std::span<const std::uint8_t> kept, const Box& bou
   for (const auto& [e, to] : plan->links) mesh.adj[e] = to;
   mesh.vert_tri.resize(n);
   mesh.vert_tri.insert(mesh.vert_tri.end(), plan->fake_vert_tri.begin(), plan->fake_vert_tri.end());
-  check_missing_sites_left_out(kept, mesh.vert_tri);
+  check_missing_sites_left_out(kept, mesh.vert_tri, executor);
   if (stats != nullptr) {
     *stats = DualizeStats{num_dual, plan->hull_triangles, static_cast<std::uint32_t>(plan->fake_x.size())};
   }

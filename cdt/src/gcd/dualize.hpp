@@ -97,8 +97,8 @@ std::optional<DualCompletion> plan_dual_completion(std::span<const OpenEdge> ope
 
 /// Throws Error when a site that is not kept (a missing point) has a triangle in the dual: vert_tri
 /// holds at least the sites' entries.
-void check_missing_sites_left_out(std::span<const std::uint8_t> kept,
-                                  std::span<const std::uint32_t> vert_tri);
+void check_missing_sites_left_out(std::span<const std::uint8_t> kept, std::span<const std::uint32_t> vert_tri,
+                                  CpuExecutor& executor);
 
 /// The second half of dualize, for a mesh whose dual triangles are in place and linked (slots ordered
 /// by their lowest vertex, vert_tri the highest incident slot, as dualize leaves them; the CUDA
