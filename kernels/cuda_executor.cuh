@@ -1,8 +1,8 @@
 #pragma once
 // The CUDA executor of gCD: the data-parallel steps the algorithm is written in (for-each-index,
 // prefix sum, stream compaction, sort, atomic minimum) on the calling thread's default CUDA stream
-// (so threads run side by side, and device buffers are freed and reused in stream order), the same steps as the CPU
-// executor (cdt/src/executor/cpu_executor.hpp) so that per-element work written once with CDT_HD runs
+// (so threads run side by side, and device buffers are freed and reused in stream order), the same steps as
+// the CPU executor (cdt/src/executor/cpu_executor.hpp) so that per-element work written once with CDT_HD runs
 // on both. Scan, compaction and sorts are CUB's; for_each launches a grid-stride kernel over a functor
 // or an extended lambda (nvcc --extended-lambda).
 //

@@ -8,8 +8,8 @@
 #include <limits>
 #include <map>
 #include <mutex>
-#include <utility>
 #include <string>
+#include <utility>
 
 #include "cdt_kernels.hpp"
 #include "cuda_check.cuh"

@@ -781,8 +781,8 @@ void DeviceMesh::remove_fake_boundary(std::uint32_t first_fake) {
 }
 
 void DeviceMesh::output(std::span<const std::uint32_t> vertex_of,
-                        std::span<const std::uint32_t> segment_of_piece,
-                        TriangleArray& triangles, TriangleArray& neighbors, TriangleArray& segment_of_edge,
+                        std::span<const std::uint32_t> segment_of_piece, TriangleArray& triangles,
+                        TriangleArray& neighbors, TriangleArray& segment_of_edge,
                         const HostParallelFor& parallel) const {
   static_assert(sizeof(std::array<std::uint32_t, 3>) == 3 * sizeof(std::uint32_t));
   State& s = *state_;

@@ -27,8 +27,8 @@
 #include <unordered_map>
 #include <utility>
 
-#include "cdt/detail/trace.hpp"
 #include "cdt/detail/predicates.hpp"
+#include "cdt/detail/trace.hpp"
 #include "cdt/errors.hpp"
 #include "executor/cpu_executor.hpp"
 

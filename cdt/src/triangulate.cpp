@@ -355,7 +355,8 @@ Triangulation triangulate_on(std::span<const Point> points, std::span<const Segm
   if (device_mesh) {
     // Made on the device and copied straight into the result; the mesh itself stays there.
     trace.mark("segment of piece");
-    const gpu::HostParallelFor parallel = [&](std::size_t parts, const std::function<void(std::size_t)>& body) {
+    const gpu::HostParallelFor parallel = [&](std::size_t parts,
+                                              const std::function<void(std::size_t)>& body) {
       executor.for_each_part(parts, body);
     };
     device_mesh->output(site_vertex, segment_of_piece, result.triangles, result.neighbors,

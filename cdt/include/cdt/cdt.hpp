@@ -108,7 +108,8 @@ struct DefaultInitAllocator : std::allocator<T> {
 };
 
 /// Three 32-bit entries per triangle (vertices, neighbours or segments of its edges).
-using TriangleArray = std::vector<std::array<std::uint32_t, 3>, DefaultInitAllocator<std::array<std::uint32_t, 3>>>;
+using TriangleArray =
+    std::vector<std::array<std::uint32_t, 3>, DefaultInitAllocator<std::array<std::uint32_t, 3>>>;
 
 /// A constrained Delaunay triangulation.
 ///
