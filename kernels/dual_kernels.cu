@@ -319,7 +319,6 @@ DeviceVoronoi::DualOutcome DeviceVoronoi::complete_dual(::cdt::detail::Mesh& mes
   const DualOutcome outcome = detail::build_dual(*state_, mesh, st, degenerate, b, num_dual, started, linked);
   if (outcome != DualOutcome::built) return outcome;
   detail::CudaExecutor& executor = state_->executor;
-  executor.synchronize();
   trace.mark("built and linked");
   const std::uint32_t n = mesh.num_vertices();
   const std::size_t words = 3 * static_cast<std::size_t>(num_dual);
@@ -384,12 +383,11 @@ DeviceVoronoi::DualOutcome DeviceVoronoi::complete_dual(::cdt::detail::Mesh& mes
         "link_open_edges");
     executor.synchronize(); // d_links is freed at the end of this scope
   }
-  executor.synchronize();
-  trace.mark("completion applied");
+  trace.mark("completion queued");
   site_vert_tri.resize(n);
   executor.download(site_vert_tri.data(), b.vert_tri.data(), n);
   executor.synchronize();
-  trace.mark("vert_tri downloaded");
+  trace.mark("completion applied, vert_tri downloaded");
   out.emplace(std::move(state));
   return DualOutcome::built;
 }

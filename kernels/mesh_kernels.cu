@@ -819,8 +819,6 @@ void DeviceMesh::output(std::span<const std::uint32_t> vertex_of,
         ::cdt::detail::output_triangle(m, order[k], v_of, index, s_of, c + 3 * k, nb + 3 * k, sg + 3 * k);
       },
       "output_triangles");
-  executor.synchronize();
-  trace.mark("made");
   triangles.resize(count);
   neighbors.resize(count);
   segment_of_edge.resize(count);
@@ -828,7 +826,7 @@ void DeviceMesh::output(std::span<const std::uint32_t> vertex_of,
   executor.download(reinterpret_cast<std::uint32_t*>(triangles.data()), c, words, &parallel);
   executor.download(reinterpret_cast<std::uint32_t*>(neighbors.data()), nb, words, &parallel);
   executor.download(reinterpret_cast<std::uint32_t*>(segment_of_edge.data()), sg, words, &parallel);
-  trace.mark("downloaded");
+  trace.mark("made and downloaded");
 }
 
 void DeviceMesh::download(::cdt::detail::Mesh& mesh) const {

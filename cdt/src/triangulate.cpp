@@ -181,25 +181,26 @@ Triangulation triangulate_on(std::span<const Point> points, std::span<const Segm
   });
   trace.mark("kept sites");
   // The box of both positions of every site, from per-part boxes.
+  const auto extend = [](Box& b, double px, double py) {
+    b.min_x = std::min(b.min_x, px);
+    b.min_y = std::min(b.min_y, py);
+    b.max_x = std::max(b.max_x, px);
+    b.max_y = std::max(b.max_y, py);
+  };
   constexpr std::size_t kBoundsParts = 64;
   std::vector<Box> part_bounds(kBoundsParts, Box{true_x[0], true_y[0], true_x[0], true_y[0]});
   executor.for_each_part(kBoundsParts, [&](std::size_t part) {
-    Box& b = part_bounds[part];
     for (std::size_t s = n * part / kBoundsParts; s < n * (part + 1) / kBoundsParts; ++s) {
-      b.min_x = std::min({b.min_x, x[s], true_x[s]});
-      b.min_y = std::min({b.min_y, y[s], true_y[s]});
-      b.max_x = std::max({b.max_x, x[s], true_x[s]});
-      b.max_y = std::max({b.max_y, y[s], true_y[s]});
+      extend(part_bounds[part], x[s], y[s]);
+      extend(part_bounds[part], true_x[s], true_y[s]);
     }
   });
   Box bounds = part_bounds[0];
   for (const Box& b : part_bounds) {
-    bounds.min_x = std::min(bounds.min_x, b.min_x);
-    bounds.min_y = std::min(bounds.min_y, b.min_y);
-    bounds.max_x = std::max(bounds.max_x, b.max_x);
-    bounds.max_y = std::max(bounds.max_y, b.max_y);
+    extend(bounds, b.min_x, b.min_y);
+    extend(bounds, b.max_x, b.max_y);
   }
-  trace.mark("kept sites and bounds");
+  trace.mark("bounds");
   std::vector<MissingPoint> missing(grid.missing.size());
   executor.for_each(missing.size(), [&](std::size_t k) {
     missing[k] = {grid.missing[k], grid.missing_owner[k]};

@@ -108,19 +108,15 @@ public:
   /// their 3 x 3 neighbourhoods, a superset of the cells the segment passes through.
   template <class F>
   void for_cells(const cdt::Point& a, const cdt::Point& b, F&& f) const {
-    const auto cell = [&](double v) { return coordinate_cell(v); };
-    const double length = std::hypot(b.x - a.x, b.y - a.y);
-    const auto steps = static_cast<std::size_t>(std::ceil(length * side_ * 4)) + 1;
     std::vector<std::size_t> seen;
-    for (std::size_t k = 0; k <= steps; ++k) {
-      const double t = static_cast<double>(k) / static_cast<double>(steps);
-      const std::int64_t cx = cell(a.x + t * (b.x - a.x)), cy = cell(a.y + t * (b.y - a.y));
+    any_sample(a, b, [&](std::int64_t cx, std::int64_t cy) {
       for (std::int64_t y = std::max<std::int64_t>(0, cy - 1); y <= std::min<std::int64_t>(side_ - 1, cy + 1);
            ++y)
         for (std::int64_t x = std::max<std::int64_t>(0, cx - 1);
              x <= std::min<std::int64_t>(side_ - 1, cx + 1); ++x)
           seen.push_back(static_cast<std::size_t>(y) * side_ + static_cast<std::size_t>(x));
-    }
+      return false;
+    });
     std::sort(seen.begin(), seen.end());
     seen.erase(std::unique(seen.begin(), seen.end()), seen.end());
     for (std::size_t c : seen) f(c);
@@ -130,17 +126,13 @@ public:
   /// cheap first test: a crossing found here is certain, none found is settled by for_cells.
   template <class Pred>
   bool any_sampled_cell(const cdt::Point& a, const cdt::Point& b, Pred&& pred) const {
-    const double length = std::hypot(b.x - a.x, b.y - a.y);
-    const auto steps = static_cast<std::size_t>(std::ceil(length * side_ * 4)) + 1;
     std::size_t last = static_cast<std::size_t>(-1);
-    for (std::size_t k = 0; k <= steps; ++k) {
-      const double t = static_cast<double>(k) / static_cast<double>(steps);
-      const std::size_t c = cell_of({a.x + t * (b.x - a.x), a.y + t * (b.y - a.y)});
-      if (c == last) continue;
+    return any_sample(a, b, [&](std::int64_t cx, std::int64_t cy) {
+      const std::size_t c = static_cast<std::size_t>(cy) * side_ + static_cast<std::size_t>(cx);
+      if (c == last) return false;
       last = c;
-      if (pred(c)) return true;
-    }
-    return false;
+      return static_cast<bool>(pred(c));
+    });
   }
   /// The cell holding point q.
   std::size_t cell_of(const cdt::Point& q) const {
@@ -151,6 +143,18 @@ public:
   const std::vector<std::uint32_t>& at(std::size_t c) const { return cells_[c]; }
 
 private:
+  /// Calls f(cx, cy) for the cells of samples of the segment a-b a quarter cell apart, in order, until
+  /// it returns true; returns whether it did.
+  template <class F>
+  bool any_sample(const cdt::Point& a, const cdt::Point& b, F&& f) const {
+    const double length = std::hypot(b.x - a.x, b.y - a.y);
+    const auto steps = static_cast<std::size_t>(std::ceil(length * side_ * 4)) + 1;
+    for (std::size_t k = 0; k <= steps; ++k) {
+      const double t = static_cast<double>(k) / static_cast<double>(steps);
+      if (f(coordinate_cell(a.x + t * (b.x - a.x)), coordinate_cell(a.y + t * (b.y - a.y)))) return true;
+    }
+    return false;
+  }
   std::int64_t coordinate_cell(double v) const {
     return static_cast<std::int64_t>(std::min<double>(side_ - 1, std::max(0.0, v * side_)));
   }
@@ -190,11 +194,7 @@ inline Pslg synthetic_pslg(std::size_t num_points, std::size_t num_segments, Dis
     if (grid.any_sampled_cell(a, b, crosses_in)) continue;
     bool ok = true;
     grid.for_cells(a, b, [&](std::size_t c) {
-      for (std::uint32_t s : grid.at(c)) {
-        if (!ok) return;
-        const auto& q = p.segments[s];
-        if (detail::segments_cross_or_touch(a, b, p.points[q.a], p.points[q.b])) ok = false;
-      }
+      if (ok && crosses_in(c)) ok = false;
     });
     if (!ok) continue;
     const auto ia = static_cast<std::uint32_t>(p.points.size());

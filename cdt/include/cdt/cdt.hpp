@@ -11,7 +11,6 @@
 #include <span>
 #include <string>
 #include <type_traits>
-#include <utility>
 #include <vector>
 
 #include "cdt/errors.hpp"
@@ -87,7 +86,7 @@ struct Statistics {
 /// The allocator of Triangulation's per-triangle arrays. Growing such an array (resize) leaves the new
 /// elements default-initialised, which for these element types means unwritten: the triangulation
 /// writes every element itself, in parallel, and a zero fill first would cost as much again at 10^7
-/// triangles. Anything else (push_back, assign, copies) behaves as with std::allocator.
+/// triangles. Construction with arguments (push_back, assign, copies) behaves as with std::allocator.
 template <class T>
 struct DefaultInitAllocator : std::allocator<T> {
   template <class U>
@@ -100,10 +99,6 @@ struct DefaultInitAllocator : std::allocator<T> {
   template <class U>
   void construct(U* p) noexcept(std::is_nothrow_default_constructible_v<U>) {
     ::new (static_cast<void*>(p)) U;
-  }
-  template <class U, class... Args>
-  void construct(U* p, Args&&... args) {
-    ::new (static_cast<void*>(p)) U(std::forward<Args>(args)...);
   }
 };
 
