@@ -270,7 +270,8 @@ int main(int argc, char** argv) {
   app.add_option("--from-list", batch.from_list,
                  "Batch mode: read more input paths from FILE, one per line ('-' = stdin)");
   app.add_option("-j,--jobs", batch.jobs,
-                 "Batch mode: images converted at once (default: every core). Memory grows with it: about "
+                 "Batch mode: cores to use, one image at a time on each (default: every core; with fewer "
+                 "images than cores, each image gets several). Memory grows with it: about "
                  "64 bytes per pixel of the largest image per worker, plus 20 MB (a 3072 x 2048 photo "
                  "peaks at 400 MB)")
       ->check(CLI::Range(0u, 1024u));

@@ -153,14 +153,15 @@ JobResult run_job(const BatchJob& job, const BatchOptions& options, const Option
 } // namespace
 
 std::vector<JobResult> run_batch(const std::vector<BatchJob>& jobs, const BatchOptions& options) {
-  const unsigned hardware = std::max(1u, std::thread::hardware_concurrency());
+  // -j N is a budget of N cores: N images at a time, each on one thread; with fewer images than that,
+  // the cores are shared out among them. So -j 1 converts on one core, and N workers never run
+  // N x cores threads.
+  const unsigned cores =
+      options.workers == 0 ? std::max(1u, std::thread::hardware_concurrency()) : options.workers;
   const unsigned workers =
-      std::max(1u, std::min<unsigned>(options.workers == 0 ? hardware : options.workers,
-                                      static_cast<unsigned>(std::max<std::size_t>(jobs.size(), 1))));
-  // The cores are shared out: each worker's conversion gets its part, so N workers never run N x cores
-  // threads.
+      std::max(1u, std::min<unsigned>(cores, static_cast<unsigned>(std::max<std::size_t>(jobs.size(), 1))));
   Options conversion = options.conversion;
-  if (conversion.threads == 0) conversion.threads = std::max(1u, hardware / workers);
+  if (conversion.threads == 0) conversion.threads = std::max(1u, cores / workers);
 
   std::vector<JobResult> results(jobs.size());
   std::vector<char> ran(jobs.size(), 0);

@@ -59,7 +59,8 @@ struct JobResult {
 
 struct BatchOptions {
   Options conversion;
-  /// Worker threads; 0 uses every hardware thread.
+  /// Cores to use (the -j budget): that many images at a time, each on one thread, or with fewer images
+  /// the cores shared out among them; 0 uses every hardware thread.
   unsigned workers = 0;
   /// Leave jobs whose output already exists alone (resuming an interrupted batch).
   bool skip_existing = false;
@@ -75,8 +76,9 @@ struct BatchOptions {
   std::function<void(const JobResult&, std::size_t done, std::size_t total)> on_done;
 };
 
-/// Runs the jobs on `workers` threads, each converting one image at a time (so memory stays bounded by
-/// workers x one image's working set), the CDT engine's threads shared out between them. Every job's
+/// Runs the jobs on min(options.workers, jobs) threads, each converting one image at a time (so memory
+/// stays bounded by workers x one image's working set), the cores of options.workers shared out
+/// between them. Every job's
 /// result is returned in the order of `jobs`; jobs never started because of `stop` are absent.
 std::vector<JobResult> run_batch(const std::vector<BatchJob>& jobs, const BatchOptions& options);
 
