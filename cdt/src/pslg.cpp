@@ -16,6 +16,7 @@
 
 #include <algorithm>
 #include <array>
+#include <atomic>
 #include <bit>
 #include <charconv>
 #include <cmath>
@@ -501,6 +502,69 @@ SiteCells bucket_sites(const SegmentGrid& grid, const std::vector<Point>& vertic
   return cells;
 }
 
+/// Adds sites to cells built by bucket_sites (the vertices a repair round added: few), giving what
+/// bucket_sites would give for all of them, without bucketing the others again.
+void add_sites(SiteCells& cells, const SegmentGrid& grid, const std::vector<Point>& vertices,
+               std::span<const std::uint32_t> added, CpuExecutor& executor) {
+  if (added.empty()) return;
+  struct Entry {
+    std::size_t cell;
+    Point point;
+    std::uint32_t id;
+  };
+  std::vector<Entry> fresh(added.size());
+  for (std::size_t k = 0; k < added.size(); ++k) {
+    fresh[k] = {grid.cell_of(vertices[added[k]]), vertices[added[k]], added[k]};
+  }
+  const auto before = [](const Point& p, std::uint32_t i, const Point& q, std::uint32_t j) {
+    return p.x != q.x ? p.x < q.x : i < j;
+  };
+  std::sort(fresh.begin(), fresh.end(), [&](const Entry& e, const Entry& f) {
+    return e.cell != f.cell ? e.cell < f.cell : before(e.point, e.id, f.point, f.id);
+  });
+  // Each entry's place among the old ones: in its cell, by x then id.
+  std::vector<std::size_t> place(fresh.size());
+  for (std::size_t k = 0; k < fresh.size(); ++k) {
+    const Entry& e = fresh[k];
+    std::size_t at = cells.start[e.cell];
+    while (at < cells.start[e.cell + 1] && before(cells.point[at], cells.id[at], e.point, e.id)) ++at;
+    place[k] = at;
+  }
+  // Every cell's start moves by the number of new entries in earlier cells: parts of the cells, each
+  // walking the sorted entries from where its first cell stands.
+  const std::size_t num_starts = cells.start.size();
+  const std::size_t parts = std::min<std::size_t>(num_starts, 4 * std::size_t{executor.threads()});
+  executor.for_each_part(parts, [&](std::size_t part) {
+    const std::size_t first = num_starts * part / parts;
+    const std::size_t last = num_starts * (part + 1) / parts;
+    std::size_t k = static_cast<std::size_t>(
+        std::partition_point(fresh.begin(), fresh.end(), [&](const Entry& e) { return e.cell < first; }) -
+        fresh.begin());
+    for (std::size_t c = first; c < last; ++c) {
+      while (k < fresh.size() && fresh[k].cell < c) ++k;
+      cells.start[c] += k;
+    }
+  });
+  std::vector<std::uint32_t> id;
+  std::vector<Point> point;
+  id.reserve(cells.id.size() + fresh.size());
+  point.reserve(cells.point.size() + fresh.size());
+  std::size_t copied = 0;
+  for (std::size_t k = 0; k < fresh.size(); ++k) {
+    id.insert(id.end(), cells.id.begin() + static_cast<std::ptrdiff_t>(copied),
+              cells.id.begin() + static_cast<std::ptrdiff_t>(place[k]));
+    point.insert(point.end(), cells.point.begin() + static_cast<std::ptrdiff_t>(copied),
+                 cells.point.begin() + static_cast<std::ptrdiff_t>(place[k]));
+    copied = place[k];
+    id.push_back(fresh[k].id);
+    point.push_back(fresh[k].point);
+  }
+  id.insert(id.end(), cells.id.begin() + static_cast<std::ptrdiff_t>(copied), cells.id.end());
+  point.insert(point.end(), cells.point.begin() + static_cast<std::ptrdiff_t>(copied), cells.point.end());
+  cells.id = std::move(id);
+  cells.point = std::move(point);
+}
+
 /// The vertices to split the segments at, and per segment whether any of them was snapped (lies off
 /// the segment, so that its pieces are bent).
 struct PointSplits {
@@ -599,9 +663,11 @@ bool properly_cross(const std::array<Point, 2>& i, const std::array<Point, 2>& j
 }
 
 /// All pairs of segments that properly cross, as index pairs (lower first). Each candidate pair of the
-/// grid is tested once, and only when one of the two is dirty.
+/// grid is tested once, and only when one of the two is dirty. every_segment_dirty (the first round)
+/// picks the screen that suits it.
 std::vector<std::pair<std::uint32_t, std::uint32_t>> find_crossings(const SegmentGrid& grid, const Ends& ends,
                                                                     const std::vector<WorkSegment>& segs,
+                                                                    bool every_segment_dirty,
                                                                     CpuExecutor& executor) {
   // Disjoint bounding boxes rule a crossing out with four comparisons; in crowded cells (coastlines) most
   // candidate pairs are far apart within the cell.
@@ -611,28 +677,43 @@ std::vector<std::pair<std::uint32_t, std::uint32_t>> find_crossings(const Segmen
     return std::max(c.x, d.x) >= std::min(a.x, b.x) && std::min(c.x, d.x) <= std::max(a.x, b.x) &&
            std::max(c.y, d.y) >= std::min(a.y, b.y) && std::min(c.y, d.y) <= std::max(a.y, b.y);
   };
-  // Crossings are rare: every segment is screened in parallel (a pair met in two cells is simply tested
-  // twice), and the few with a crossing are listed again in order, so the list is the same for any thread
-  // count.
-  const std::vector<std::uint32_t> crossing = executor.compact(segs.size(), [&](std::size_t k) {
-    const auto i = static_cast<std::uint32_t>(k);
-    const bool dirty = segs[i].dirty;
-    bool found = false;
-    grid.for_each_cell(ends[i][0], ends[i][1], [&](std::size_t cell) {
-      if (found) return;
-      // A cell lists its segments in increasing order; only the pairs with j > i are i's to test.
-      const std::span<const std::uint32_t> in_cell = grid.segments_in(cell);
-      for (auto it = std::upper_bound(in_cell.begin(), in_cell.end(), i); it != in_cell.end(); ++it) {
-        const std::uint32_t j = *it;
-        if ((!dirty && !segs[j].dirty) || !boxes_meet(i, j)) continue;
-        if (properly_cross(ends[i], ends[j])) {
-          found = true;
-          return;
-        }
-      }
+  // Crossings are rare: segments are screened in parallel (a pair met in two cells is simply tested
+  // twice) for the lower segments of crossing pairs, and the few found are listed again in order, so the
+  // list is the same for any thread count.
+  std::vector<std::uint32_t> crossing;
+  if (every_segment_dirty) {
+    // Each segment screens the pairs with the higher segments of its cells (cells list their segments
+    // in increasing order).
+    crossing = executor.compact(segs.size(), [&](std::size_t k) {
+      const auto i = static_cast<std::uint32_t>(k);
+      bool found = false;
+      grid.for_each_cell(ends[i][0], ends[i][1], [&](std::size_t cell) {
+        const std::span<const std::uint32_t> in_cell = grid.segments_in(cell);
+        for (auto it = std::upper_bound(in_cell.begin(), in_cell.end(), i); it != in_cell.end() && !found;
+             ++it)
+          found = boxes_meet(i, *it) && properly_cross(ends[i], ends[*it]);
+      });
+      return found;
     });
-    return found;
-  });
+  } else {
+    // A repair round: only the few dirty segments screen, marking the lower segment of each crossing,
+    // so the screen costs what they meet rather than a pass over every cell's pairs. A pair of dirty
+    // segments is screened from its lower side.
+    const std::vector<std::uint32_t> dirty_ids =
+        executor.compact(segs.size(), [&](std::size_t k) { return segs[k].dirty; });
+    std::vector<std::uint8_t> marked(segs.size(), 0);
+    executor.for_each(dirty_ids.size(), [&](std::size_t k) {
+      const std::uint32_t d = dirty_ids[k];
+      grid.for_each_cell(ends[d][0], ends[d][1], [&](std::size_t cell) {
+        for (const std::uint32_t e : grid.segments_in(cell)) {
+          if (e == d || (e < d && segs[e].dirty) || !boxes_meet(d, e)) continue;
+          if (properly_cross(ends[d], ends[e]))
+            std::atomic_ref<std::uint8_t>(marked[std::min(d, e)]).store(1, std::memory_order_relaxed);
+        }
+      });
+    });
+    crossing = executor.compact(segs.size(), [&](std::size_t k) { return marked[k] != 0; });
+  }
   std::vector<std::pair<std::uint32_t, std::uint32_t>> crossings;
   std::vector<std::uint32_t> tested_with(segs.size(), std::numeric_limits<std::uint32_t>::max());
   for (const std::uint32_t i : crossing) {
@@ -880,6 +961,77 @@ std::vector<WorkSegment> cut_segments(const std::vector<WorkSegment>& segs, cons
   return merged;
 }
 
+/// cut_segments at crossings when few segments are cut, for segments in spatial order (order_spatially:
+/// by the grid cell of a, then a, then b, each pair once): the same merged pieces, already in that
+/// order, without sorting them all again. The pieces of the cut segments are sorted alone and put in
+/// their places; an uncut segment equal to one of them absorbs it (lowest label, flags of either).
+std::vector<WorkSegment> cut_few_segments(const std::vector<WorkSegment>& segs, const SplitLists& cuts,
+                                          const std::vector<std::uint8_t>& bent, const SegmentGrid& grid,
+                                          const std::vector<Point>& vertices, CpuExecutor& executor) {
+  const auto key = [&](const WorkSegment& p) { return std::tuple{grid.cell_of(vertices[p.a]), p.a, p.b}; };
+  const std::vector<std::uint32_t> cut = executor.compact(
+      segs.size(), [&](std::size_t s) { return cuts.start[s + 1] > cuts.start[s] || bent[s] != 0; });
+  // The pieces of the cut segments, as cut_segments makes them, with their places among segs.
+  std::vector<WorkSegment> fresh;
+  {
+    std::vector<std::uint8_t> one_bent{0};
+    SplitLists own;
+    CpuExecutor serial(1);
+    for (const std::uint32_t s : cut) {
+      own.start = {0, cuts.start[s + 1] - cuts.start[s]};
+      own.vertex.assign(cuts.of(s).begin(), cuts.of(s).end());
+      const std::vector<WorkSegment> single{segs[s]};
+      one_bent[0] = bent[s];
+      const std::vector<WorkSegment> pieces = cut_segments(single, own, one_bent, CutAt::crossings, serial);
+      fresh.insert(fresh.end(), pieces.begin(), pieces.end());
+    }
+  }
+  std::sort(fresh.begin(), fresh.end(), [&](const WorkSegment& p, const WorkSegment& q) {
+    return std::tuple_cat(key(p), std::tuple{p.label}) < std::tuple_cat(key(q), std::tuple{q.label});
+  });
+  // Merge equal pieces among themselves (into the lowest label, flags of any).
+  std::vector<WorkSegment> unique;
+  for (const WorkSegment& p : fresh) {
+    if (!unique.empty() && unique.back().a == p.a && unique.back().b == p.b) {
+      unique.back().dirty = unique.back().dirty || p.dirty;
+      unique.back().snapped = unique.back().snapped || p.snapped;
+    } else {
+      unique.push_back(p);
+    }
+  }
+  // The uncut segments keep their order. After the crossing tests, they are clean unless bent by a
+  // snap in this round.
+  std::vector<std::uint8_t> is_cut(segs.size(), 0);
+  for (const std::uint32_t s : cut) is_cut[s] = 1;
+  const std::vector<std::uint32_t> kept =
+      executor.compact(segs.size(), [&](std::size_t s) { return is_cut[s] == 0; });
+  std::vector<WorkSegment> rest(kept.size());
+  executor.for_each(kept.size(), [&](std::size_t k) {
+    rest[k] = segs[kept[k]];
+    rest[k].dirty = rest[k].snapped;
+    rest[k].snapped = false;
+  });
+  // Each new piece goes before the first uncut segment not below it, or into it when equal.
+  std::vector<WorkSegment> out;
+  out.reserve(rest.size() + unique.size());
+  std::size_t copied = 0;
+  for (WorkSegment p : unique) {
+    const auto at = std::partition_point(rest.begin() + static_cast<std::ptrdiff_t>(copied), rest.end(),
+                                         [&](const WorkSegment& g) { return key(g) < key(p); });
+    out.insert(out.end(), rest.begin() + static_cast<std::ptrdiff_t>(copied), at);
+    copied = static_cast<std::size_t>(at - rest.begin());
+    if (at != rest.end() && at->a == p.a && at->b == p.b) {
+      at->label = std::min(at->label, p.label);
+      at->dirty = at->dirty || p.dirty;
+      at->snapped = at->snapped || p.snapped;
+    } else {
+      out.push_back(p);
+    }
+  }
+  out.insert(out.end(), rest.begin() + static_cast<std::ptrdiff_t>(copied), rest.end());
+  return out;
+}
+
 /// The input segments between representatives, each vertex pair once (lowest segment id), all dirty.
 std::vector<WorkSegment> initial_segments(std::span<const Segment> segments,
                                           const std::vector<std::uint32_t>& duplicate_of,
@@ -968,13 +1120,21 @@ PreparedPslg prepare_pslg(std::span<const Point> points, std::span<const Segment
   // points. Pairs settled in an earlier round are not tested again (see WorkSegment::dirty).
   std::uint32_t first_new = 0;
   std::size_t first_round_vertices = 0;
+  bool spatial_order = false; // segs in order_spatially's order already
+  SiteCells site_cells;       // out.sites[0, bucketed) by cell
+  std::size_t bucketed = 0;
   for (int round = 0; round < kMaxRounds; ++round) {
-    order_spatially(segs, out.vertices, grid, executor);
+    if (!spatial_order) order_spatially(segs, out.vertices, grid, executor);
     trace.mark("segments ordered");
     Ends ends = endpoints(segs, out.vertices, executor);
     grid.build(ends, executor);
     trace.mark("segment grid");
-    const SiteCells site_cells = bucket_sites(grid, out.vertices, out.sites, executor);
+    if (round == 0) {
+      site_cells = bucket_sites(grid, out.vertices, out.sites, executor);
+    } else {
+      add_sites(site_cells, grid, out.vertices, std::span(out.sites).subspan(bucketed), executor);
+    }
+    bucketed = out.sites.size();
     trace.mark("sites bucketed");
     // The first round is exact: snapping is only for repairing what rounding did.
     const PointSplits on_segment = find_points_on_segments(
@@ -986,7 +1146,7 @@ PreparedPslg prepare_pslg(std::span<const Point> points, std::span<const Segment
       ends = endpoints(segs, out.vertices, executor);
       grid.build(ends, executor);
     }
-    const auto crossings = find_crossings(grid, ends, segs, executor);
+    const auto crossings = find_crossings(grid, ends, segs, round == 0, executor);
     trace.mark("crossings");
     if (crossings.empty() && !on_segment.any_snapped) {
       const std::vector<std::uint32_t> order = order_by_ends(segs, out.vertices.size(), executor);
@@ -1025,8 +1185,12 @@ PreparedPslg prepare_pslg(std::span<const Point> points, std::span<const Segment
     // Without crossings this only turns this round's snapped pieces from "snapped" into "dirty".
     std::vector<std::uint8_t> bent(segs.size(), 0);
     for (const auto& [i, j] : crossings) bent[i] = bent[j] = 1;
-    segs = cut_segments(segs, group_splits(cuts, segs, out.vertices, executor), bent, CutAt::crossings,
-                        executor);
+    const SplitLists crossing_cuts = group_splits(cuts, segs, out.vertices, executor);
+    // Crossings are rare in most inputs: when few segments are cut, their pieces are put in their
+    // places apart, and the rest keep their order (so the next round need not order them again).
+    spatial_order = 8 * cuts.size() < segs.size();
+    segs = spatial_order ? cut_few_segments(segs, crossing_cuts, bent, grid, out.vertices, executor)
+                         : cut_segments(segs, crossing_cuts, bent, CutAt::crossings, executor);
   }
   throw Error("crossing segments: resolution did not converge"); // not reached: the loop throws first
 }

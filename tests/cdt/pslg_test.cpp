@@ -420,6 +420,25 @@ TEST(PslgCrossing, SegmentsOverlappingWithinRoundingErrorConverge) {
   EXPECT_LT(out.vertices.size(), 20 * p.size());
 }
 
+// Cutting a few crossing segments among many puts their pieces into place without sorting every
+// segment again: here a small star of segments crossing near one point, among thousands of segments
+// that do not cross, takes that path.
+TEST(PslgCrossing, FewCrossingsAmongManySegmentsConverge) {
+  trixel_gen::Pslg in = trixel_gen::synthetic_pslg(20000, 4000, trixel_gen::Distribution::uniform, 5);
+  const int n = 8;
+  for (int k = 0; k < n; ++k) {
+    const double angle = 3.141592653589793 * (k + 0.37) / n;
+    const auto a = static_cast<std::uint32_t>(in.points.size());
+    in.points.push_back({0.5 + 0.01 * std::cos(angle), 0.5 + 0.01 * std::sin(angle)});
+    in.points.push_back({0.5 - 0.01 * std::cos(angle), 0.5 - 0.01 * std::sin(angle)});
+    in.segments.push_back({a, a + 1});
+  }
+  const PreparedPslg out = prepare_pslg(in.points, in.segments, CrossingSegments::resolve);
+  EXPECT_GT(out.vertices.size(), in.points.size());
+  EXPECT_EQ(contract_violation(out), "");
+  EXPECT_TRUE(segments_connected(out, in.segments));
+}
+
 // --- property tests ----------------------------------------------------------------------------------
 
 /// Random segments on a k x k lattice: many collinear overlaps, points on segments, and crossings at
