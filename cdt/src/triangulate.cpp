@@ -216,6 +216,7 @@ Triangulation triangulate_on(std::span<const Point> points, std::span<const Segm
   std::vector<std::uint32_t> site_vert_tri;   // the sites' vert_tri when the dual was completed there
 #endif
   std::vector<std::uint32_t> degenerate;
+  DualCorners corners; // the CPU executor's dual rows, kept from pass to pass
   int passes = 1;
   for (;; ++passes) {
     std::vector<std::uint32_t>* list = passes <= 8 ? &degenerate : nullptr;
@@ -240,12 +241,12 @@ Triangulation triangulate_on(std::span<const Point> points, std::span<const Segm
     }
     if (!device_diagram) {
 #endif
-      mesh = dualize(colour, m, x, y, kept, bounds, executor, nullptr, list);
+      mesh = dualize(colour, m, x, y, kept, bounds, executor, nullptr, list, &corners);
       if (mesh.num_slots() > 0) break;
 #if defined(TRIXEL_HAVE_CUDA)
     }
 #endif
-    remove_sites_from_colouring(colour, grid, m, degenerate);
+    corners.mark_changed(remove_sites_from_colouring(colour, grid, m, degenerate), m);
     for (const std::uint32_t s : degenerate) {
       kept[s] = 0;
       x[s] = true_x[s];

@@ -123,20 +123,42 @@ void corner_culprits(const std::uint32_t q[4], const double* x, const double* y,
   out.insert(out.end(), ring, ring + n);
 }
 
+void DualCorners::mark_changed(std::span<const std::uint32_t> cells, std::uint32_t m) {
+  if (stale.size() != per_row.size()) stale.assign(per_row.size(), 0);
+  for (const std::uint32_t c : cells) {
+    const std::uint32_t y = c / m;
+    if (y > 0 && y - 1 < stale.size()) stale[y - 1] = 1;
+    if (y < stale.size()) stale[y] = 1;
+  }
+}
+
 Mesh dualize(std::span<const std::uint32_t> colour, std::uint32_t m, std::span<const double> x,
              std::span<const double> y, std::span<const std::uint8_t> kept, const Box& bounds,
-             CpuExecutor& executor, DualizeStats* stats, std::vector<std::uint32_t>* degenerate) {
+             CpuExecutor& executor, DualizeStats* stats, std::vector<std::uint32_t>* degenerate,
+             DualCorners* corners) {
   const auto n = static_cast<std::uint32_t>(x.size());
   if (colour.size() != static_cast<std::size_t>(m) * m) throw Error("internal error: colour grid size");
 
   // Dual triangles, one grid row of corners per task so each task appends to its own list.
   const std::uint32_t rows = m > 1 ? m - 1 : 0;
-  std::vector<std::vector<Tri>> per_row(rows);
-  std::vector<std::uint8_t> row_invalid(rows, 0);
-  std::vector<std::vector<std::uint32_t>> row_culprits(degenerate != nullptr ? rows : 0);
+  DualCorners local;
+  DualCorners& rows_of = corners != nullptr ? *corners : local;
+  const bool reuse = rows_of.per_row.size() == rows && rows_of.stale.size() == rows;
+  if (!reuse) {
+    rows_of.per_row.assign(rows, {});
+    rows_of.invalid.assign(rows, 0);
+    rows_of.culprits.assign(rows, {});
+  }
+  auto& per_row = rows_of.per_row;
+  auto& row_invalid = rows_of.invalid;
+  auto& row_culprits = rows_of.culprits;
   executor.for_each_part(rows, [&](std::size_t r) {
+    if (reuse && rows_of.stale[r] == 0) return;
     const auto gy = static_cast<std::uint32_t>(r);
     auto& list = per_row[r];
+    list.clear();
+    row_invalid[r] = 0;
+    row_culprits[r].clear();
     for (std::uint32_t gx = 0; gx + 1 < m; ++gx) {
       std::uint32_t q[4];
       corner_colours(colour.data(), m, gx, gy, q);
@@ -150,6 +172,7 @@ Mesh dualize(std::span<const std::uint32_t> colour, std::uint32_t m, std::span<c
       for (int k = 0; k < count; ++k) list.push_back(out[k]);
     }
   });
+  rows_of.stale.clear();
   const bool invalid =
       std::any_of(row_invalid.begin(), row_invalid.end(), [](std::uint8_t v) { return v != 0; });
   // Row lists concatenated by a prefix sum, each row copied into the mesh by its own task.

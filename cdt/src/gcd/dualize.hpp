@@ -32,6 +32,18 @@ struct DualizeStats {
   std::uint32_t fake_vertices = 0;  ///< size of the fake boundary
 };
 
+/// The dual triangles of a colouring by row of grid corners (row r: the corners between cell rows r
+/// and r + 1), as dualize found them, for a later call to reuse.
+struct DualCorners {
+  std::vector<std::vector<DualTriangle>> per_row;
+  std::vector<std::uint8_t> invalid;                ///< per row: a corner gave no valid triangles
+  std::vector<std::vector<std::uint32_t>> culprits; ///< per row: the sites its invalid corners name
+  std::vector<std::uint8_t> stale;                  ///< per row: to recompute; empty = every row
+
+  /// Marks the rows of the corners around each recoloured cell (cell = y * m + x) stale.
+  void mark_changed(std::span<const std::uint32_t> cells, std::uint32_t m);
+};
+
 /// Builds the phase-2 mesh.
 ///
 /// colour: m * m site indices (row-major, gy * m + gx), every grid point coloured, each colour region
@@ -50,10 +62,14 @@ struct DualizeStats {
 /// `degenerate` given, dualize then returns an empty mesh and lists there the sites to take out of the
 /// diagram (remove_sites_from_colouring) before trying again; without it, it falls back to the fake
 /// polygon alone.
+///
+/// `corners` (optional) keeps the dual triangles of every row of grid corners from one call to the
+/// next: a call after remove_sites_from_colouring then recomputes only the rows marked stale (the rows
+/// of corners that touch a recoloured cell), where a full pass costs a scan of the whole grid.
 Mesh dualize(std::span<const std::uint32_t> colour, std::uint32_t m, std::span<const double> x,
              std::span<const double> y, std::span<const std::uint8_t> kept, const Box& bounds,
              CpuExecutor& executor, DualizeStats* stats = nullptr,
-             std::vector<std::uint32_t>* degenerate = nullptr);
+             std::vector<std::uint32_t>* degenerate = nullptr, DualCorners* corners = nullptr);
 
 /// Appends to out the sites to take out of the diagram for an invalid corner (corner_triangles returned
 /// -1): the middle one of three collinear sites (the diagram degenerates there), else every site of the

@@ -215,8 +215,9 @@ std::size_t amend_to_standard_flooding(std::vector<std::uint32_t>& colour, const
   return recolour_debris(colour, find_orphans(site.data(), m, scratch.get(), executor), sites, m);
 }
 
-void remove_sites_from_colouring(std::vector<std::uint32_t>& colour, const GridSites& sites, std::uint32_t m,
-                                 std::span<const std::uint32_t> removed) {
+std::vector<std::uint32_t> remove_sites_from_colouring(std::vector<std::uint32_t>& colour,
+                                                       const GridSites& sites, std::uint32_t m,
+                                                       std::span<const std::uint32_t> removed) {
   if (colour.size() != static_cast<std::size_t>(m) * m) throw Error("internal error: colour is not m * m");
   FloodView v;
   v.colour = colour.data();
@@ -264,6 +265,7 @@ void remove_sites_from_colouring(std::vector<std::uint32_t>& colour, const GridS
     colour[e.cell] = e.site;
     push_neighbours(e.cell);
   }
+  return cleared;
 }
 
 std::vector<std::uint32_t> compute_digital_voronoi(const GridSites& sites, std::uint32_t m,

@@ -43,9 +43,11 @@ std::vector<std::uint32_t> compute_euclidean_colouring(std::span<const std::uint
 /// Takes the sites in `removed` out of an amended colouring, in place: their regions are cleared and
 /// flooded from the neighbouring regions, nearest site first, so every region stays connected to its
 /// site. Used when a degenerate corner (three collinear sites meeting at a grid corner) makes the dual
-/// invalid: the middle site leaves the diagram and is inserted later as a missing point.
-void remove_sites_from_colouring(std::vector<std::uint32_t>& colour, const GridSites& sites, std::uint32_t m,
-                                 std::span<const std::uint32_t> removed);
+/// invalid: the middle site leaves the diagram and is inserted later as a missing point. Returns the
+/// cells that changed colour.
+std::vector<std::uint32_t> remove_sites_from_colouring(std::vector<std::uint32_t>& colour,
+                                                       const GridSites& sites, std::uint32_t m,
+                                                       std::span<const std::uint32_t> removed);
 
 /// Algorithm A.1 on a Euclidean colouring of sites, in place: the debris (cells that no 4-connected
 /// path of their own colour reaches from their site; see voronoi.cpp for the exact test) are
