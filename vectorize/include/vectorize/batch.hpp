@@ -78,8 +78,8 @@ struct BatchOptions {
 
 /// Runs the jobs on min(options.workers, jobs) threads, each converting one image at a time (so memory
 /// stays bounded by workers x one image's working set), the cores of options.workers shared out
-/// between them. Every job's
-/// result is returned in the order of `jobs`; jobs never started because of `stop` are absent.
+/// between them. Every job's result is returned in the order of `jobs`; jobs never started because of
+/// `stop` are absent.
 std::vector<JobResult> run_batch(const std::vector<BatchJob>& jobs, const BatchOptions& options);
 
 /// The results as a JSON report (one object per image: input, output, status, error, seconds, sizes,
