@@ -161,7 +161,7 @@ private:
   std::unique_ptr<State> state_;
 };
 
-// --- Phase 6 on the device: Lawson flips to the (constrained) Delaunay triangulation ------------------
+// --- Phase 5 and Step 3 on the device: Lawson flips to the (constrained) Delaunay triangulation --------
 
 /// What the device's flipping did.
 struct FlipResult {
@@ -209,12 +209,17 @@ public:
   /// of their lowest vertex.
   void remove_fake_boundary(std::uint32_t first_fake);
 
-  /// cdt::detail::insert_constraints (Step 2, Algorithms 4 and 5), with the same hang guard.
+  /// cdt::detail::insert_constraints (Step 2, Algorithms 4 and 5), with the same hang guard. Keeps on
+  /// the device which slots its flips rewrote, for flip_after_constraints().
   ::cdt::detail::ConstraintStats insert_constraints(std::span<const ::cdt::detail::ConstraintPiece2> pieces,
                                                     unsigned inner_iterations);
 
   /// cdt::detail::flip_to_delaunay (constraint edges never flip); upload_ms and download_ms stay 0.
   FlipResult flip();
+
+  /// Step 3 after Phase 5: cdt::detail::flip_to_delaunay checking at first only the slots that the last
+  /// insert_constraints flipped (none when it was not called).
+  FlipResult flip_after_constraints();
 
   /// Copies the mesh back into `mesh` (every array replaced).
   void download(::cdt::detail::Mesh& mesh) const;

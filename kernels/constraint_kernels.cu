@@ -48,7 +48,7 @@ __device__ bool is_error(ConstraintStatus s) { return s >= ConstraintStatus::ver
 } // namespace
 
 ConstraintStats insert_constraints(DeviceMesh::State& s, std::span<const ConstraintPiece2> host_pieces,
-                                   unsigned inner_iterations) {
+                                   unsigned inner_iterations, std::uint8_t* flipped) {
   ConstraintStats stats;
   const std::uint32_t slots = s.num_slots;
   ::cdt::detail::check_constraint_pieces(slots, s.num_vertices, host_pieces);
@@ -234,6 +234,7 @@ ConstraintStats insert_constraints(DeviceMesh::State& s, std::span<const Constra
             [=] __device__(std::size_t k) {
               const std::uint32_t A = act[winners[k]];
               ::cdt::detail::mark_after_flip(m, cmark, piece, A, partner[A], cmark[A]);
+              flipped[A] = flipped[partner[A]] = 1; // the pairs are disjoint: one writer per slot
             },
             "mark_after_flip");
       }
@@ -265,7 +266,10 @@ ConstraintStats insert_constraints(DeviceMesh::State& s, std::span<const Constra
 
 ConstraintStats DeviceMesh::insert_constraints(std::span<const ConstraintPiece2> pieces,
                                                unsigned inner_iterations) {
-  return detail::insert_constraints(*state_, pieces, inner_iterations);
+  detail::DeviceBuffer<std::uint8_t>& flipped = state_->flipped_by_constraints;
+  flipped.resize(state_->num_slots);
+  state_->executor.fill_bytes(flipped.data(), 0, state_->num_slots);
+  return detail::insert_constraints(*state_, pieces, inner_iterations, flipped.data());
 }
 
 } // namespace cdt::gpu

@@ -52,6 +52,8 @@ struct DeviceMesh::State {
   std::uint32_t num_slots = 0;
   std::uint32_t num_vertices = 0;
   detail::DeviceBuffer<std::uint32_t> failure_word{1};
+  /// Per slot, 1 where the last insert_constraints flipped it (empty before the first call).
+  detail::DeviceBuffer<std::uint8_t> flipped_by_constraints;
 
   ::cdt::detail::MeshView view() {
     return ::cdt::detail::MeshView{x.data(),   y.data(),        tri.data(), adj.data(),

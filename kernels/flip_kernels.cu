@@ -86,8 +86,9 @@ void apply_flips(CudaExecutor& executor, DeviceFlipBatch& batch, const MeshView&
   }
 }
 
-/// The flips on a mesh on the device: flip_to_delaunay's rounds.
-FlipResult flip_mesh(DeviceMesh::State& s) {
+/// The flips on a mesh on the device: flip_to_delaunay's rounds, the first over the live slots t with
+/// only[t] != 0 when only is given.
+FlipResult flip_mesh(DeviceMesh::State& s, const std::uint8_t* only) {
   FlipResult result;
   const std::uint32_t slots = s.num_slots;
   if (slots == 0) return result;
@@ -113,7 +114,11 @@ FlipResult flip_mesh(DeviceMesh::State& s) {
   std::uint32_t* list = d_list.data();
   std::uint32_t* next = d_next.data();
   std::uint32_t n = executor.compact(
-      slots, [=] __device__(std::size_t t) { return m.alive(static_cast<std::uint32_t>(t)); }, list);
+      slots,
+      [=] __device__(std::size_t t) {
+        return m.alive(static_cast<std::uint32_t>(t)) && (only == nullptr || only[t] != 0);
+      },
+      list);
   {
     const std::uint32_t* l = list;
     executor.for_each(
@@ -209,7 +214,13 @@ FlipResult flip_mesh(DeviceMesh::State& s) {
 
 } // namespace detail
 
-FlipResult DeviceMesh::flip() { return detail::flip_mesh(*state_); }
+FlipResult DeviceMesh::flip() { return detail::flip_mesh(*state_, nullptr); }
+
+FlipResult DeviceMesh::flip_after_constraints() {
+  const detail::DeviceBuffer<std::uint8_t>& flipped = state_->flipped_by_constraints;
+  if (flipped.size() != state_->num_slots) return FlipResult{}; // no constraints were inserted
+  return detail::flip_mesh(*state_, flipped.data());
+}
 
 FlipResult flip_to_delaunay(::cdt::detail::Mesh& mesh) {
   using Clock = std::chrono::steady_clock;

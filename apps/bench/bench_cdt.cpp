@@ -3,12 +3,15 @@
 // then random points on no segment; uniform and Gaussian), uniform points without segments, and
 // optionally a GIS coastline file as printed by `gmt coast -Rg -Dh -W -M` ('>'-separated polylines).
 //
-// usage: bench_cdt [--quick] [--coast FILE] [--threads N] [--repeat R] [--case TEXT] [--no-cgal] [--grid M]
+// usage: bench_cdt [--quick] [--coast FILE] [--file PSLG]... [--threads N] [--repeat R] [--case TEXT]
+// [--no-cgal] [--grid M]
 //                  [--backend auto|cpu|gpu] [--sizes LIST] [--lattice K]
 // --sizes replaces the default inputs by the paper's synthetic design at the sizes listed as
 // POINTS:SEGMENTS pairs separated by commas (e.g. 10000000:1000000), uniform and Gaussian each, and
 // uniform points alone where SEGMENTS is 0; --lattice adds a K x K lattice with K * K / 16 random
-// short segments (crossings and overlaps included).
+// short segments (crossings and overlaps included). --file adds a PSLG file in any format `cdt` reads
+// (Triangle's .node or .poly, or the edge-list format), e.g. the PSLG of a photograph that
+// `vectorize` triangulates; it may be given several times.
 // --cache DIR keeps each generated input of --sizes and --lattice in DIR as a binary file and reads
 // it from there next time (large synthetic inputs take longer to generate than to triangulate).
 // --case keeps only the inputs whose name contains TEXT; --no-cgal skips the competitor (profiling);
@@ -37,6 +40,8 @@
 #include <vector>
 
 #include "cdt/cdt.hpp"
+#include "cdt/errors.hpp"
+#include "cdt/io.hpp"
 #include "cdt/verify.hpp"
 #include "pslg_generators.hpp"
 
@@ -202,6 +207,7 @@ int main(int argc, char** argv) {
   cdt::retain_freed_memory();
   bool quick = false;
   std::string coast;
+  std::vector<std::string> files;
   unsigned threads = 0;
   int repeat = 3;
   std::string only;
@@ -216,6 +222,8 @@ int main(int argc, char** argv) {
       quick = true;
     else if (!std::strcmp(argv[i], "--coast") && i + 1 < argc)
       coast = argv[++i];
+    else if (!std::strcmp(argv[i], "--file") && i + 1 < argc)
+      files.emplace_back(argv[++i]);
     else if (!std::strcmp(argv[i], "--threads") && i + 1 < argc)
       threads = static_cast<unsigned>(std::atoi(argv[++i]));
     else if (!std::strcmp(argv[i], "--repeat") && i + 1 < argc)
@@ -237,10 +245,10 @@ int main(int argc, char** argv) {
               !std::strcmp(argv[i + 1], "gpu")))
       backend_name = argv[++i];
     else {
-      std::fprintf(stderr,
-                   "usage: bench_cdt [--quick] [--coast FILE] [--threads N] [--repeat R] [--case TEXT] "
-                   "[--no-cgal] [--grid M] [--backend auto|cpu|gpu] [--sizes POINTS:SEGMENTS,...] "
-                   "[--lattice K] [--cache DIR]\n");
+      std::fprintf(stderr, "usage: bench_cdt [--quick] [--coast FILE] [--file PSLG]... [--threads N] "
+                           "[--repeat R] [--case TEXT] "
+                           "[--no-cgal] [--grid M] [--backend auto|cpu|gpu] [--sizes POINTS:SEGMENTS,...] "
+                           "[--lattice K] [--cache DIR]\n");
       return 2;
     }
   }
@@ -293,6 +301,16 @@ int main(int argc, char** argv) {
     inputs.push_back(
         {"synthetic gaussian", trixel_gen::synthetic_pslg(n, n / 10, trixel_gen::Distribution::gaussian, 3)});
   if (!coast.empty() && wanted("GSHHG coastlines")) inputs.push_back({"GSHHG coastlines", read_coast(coast)});
+  for (const std::string& file : files) {
+    if (!wanted(file.c_str())) continue;
+    try {
+      cdt::io::Pslg read = cdt::io::read_pslg(file);
+      inputs.push_back({file, {std::move(read.points), std::move(read.segments)}});
+    } catch (const cdt::Error& e) {
+      std::fprintf(stderr, "bench_cdt: %s\n", e.what());
+      return 1;
+    }
+  }
 
   std::printf("| input | points | segments | ours ms (median of %d) | phases ms | flips | missing | verified "
               "| peak MiB "

@@ -444,6 +444,39 @@ TEST(ConstraintInsert, RandomSegmentsGiveTheConstrainedDelaunayTriangulation) {
   }
 }
 
+TEST(ConstraintInsert, StepThreeFromTheFlippedSlotsAfterPhaseFive) {
+  // The pipeline's order: Phase 5 first, then Step 2 records the slots its flips rewrote, and Step 3
+  // starts from those alone. It must end where flipping everything does, and every slot whose content
+  // changed must be among the recorded ones.
+  for (const std::uint64_t seed : {4u, 5u, 6u}) {
+    const Input in = random_input(2000, 900, seed);
+    Mesh delaunay = trixel_test::sweep_triangulate(in.x, in.y);
+    CpuExecutor executor(2);
+    flip_to_delaunay(delaunay, executor);
+    Mesh mesh = delaunay;
+    std::vector<std::uint8_t> flipped(mesh.num_slots(), 0);
+    const ConstraintStats stats =
+        insert_constraints(mesh, in.pieces, 5, executor, kInnerGuard, flipped.data());
+    ASSERT_GT(stats.flips, 0u);
+    std::size_t changed = 0;
+    for (std::uint32_t t = 0; t < mesh.num_slots(); ++t) {
+      const bool same =
+          std::equal(mesh.tri.begin() + 3 * t, mesh.tri.begin() + 3 * t + 3, delaunay.tri.begin() + 3 * t);
+      if (!same) {
+        ++changed;
+        EXPECT_EQ(flipped[t], 1) << "slot " << t << " changed but is not recorded";
+      }
+    }
+    EXPECT_GT(changed, 0u);
+    const FlipStats step3 = flip_to_delaunay(mesh, executor, flipped.data());
+    expect_valid_mesh(mesh);
+    expect_pieces_present(mesh, in.pieces);
+    EXPECT_TRUE(trixel_test::is_locally_delaunay(mesh)) << "constrained Delaunay from the flipped slots";
+    EXPECT_EQ(triangle_set(mesh), triangle_set(insert_and_flip(delaunay, in.pieces, 2, 5)));
+    EXPECT_GT(step3.flips, 0u);
+  }
+}
+
 TEST(ConstraintInsert, LatticeWithAxisAndDiagonalConstraints) {
   // Lines along the lattice are split at every lattice point (a precondition), so each piece joins two
   // neighbouring points; crossing unit diagonals of one cell are dropped. Co-circular everywhere.

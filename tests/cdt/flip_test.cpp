@@ -209,6 +209,40 @@ TEST(FlipToDelaunay, DelaunayInputNeedsNoFlip) {
   EXPECT_EQ(twice.tri, once.tri);
 }
 
+TEST(FlipToDelaunay, OnlyTheGivenSlotsAreCheckedAtFirst) {
+  // A Delaunay mesh with a few edges flipped back: starting from those pairs' slots is enough, and with
+  // no slot given nothing is checked, so nothing flips.
+  const Points pts = uniform_points(3000, 77);
+  Mesh mesh = flipped(sweep_triangulate(pts.x, pts.y), 2);
+  const Mesh reference = mesh;
+  std::vector<std::uint8_t> only(mesh.num_slots(), 0);
+  std::size_t undone = 0;
+  for (std::uint32_t t = 0; t < mesh.num_slots() && undone < 40; t += 61) {
+    const MeshView m = mesh.view();
+    for (std::uint32_t i = 0; i < 3; ++i) {
+      const std::uint32_t e = m.adj[3 * t + i];
+      if (e == kNoId || only[t] || only[edge_tri(e)] || !flip_is_convex(m, t, i)) continue;
+      only[t] = only[edge_tri(e)] = 1;
+      flip_edge(m, t, i);
+      ++undone;
+      break;
+    }
+  }
+  ASSERT_GT(undone, 20u);
+  ASSERT_FALSE(is_locally_delaunay(mesh));
+  Mesh untouched = mesh;
+  CpuExecutor executor(2);
+  const std::vector<std::uint8_t> none(mesh.num_slots(), 0);
+  const FlipStats idle = flip_to_delaunay(untouched, executor, none.data());
+  EXPECT_EQ(idle.flips, 0u);
+  EXPECT_EQ(idle.rounds, 0u);
+  const FlipStats stats = flip_to_delaunay(mesh, executor, only.data());
+  expect_valid_mesh(mesh);
+  EXPECT_TRUE(is_locally_delaunay(mesh));
+  EXPECT_EQ(triangle_set(mesh), triangle_set(reference));
+  EXPECT_GE(stats.flips, undone);
+}
+
 TEST(FlipToDelaunay, TinyAndEmptyMeshes) {
   Mesh empty;
   CpuExecutor executor(2);

@@ -47,9 +47,9 @@ namespace {
 } // namespace
 
 ConstraintStats insert_constraints(Mesh& mesh, std::span<const ConstraintPiece2> pieces,
-                                   unsigned inner_iterations, CpuExecutor& executor) {
+                                   unsigned inner_iterations, CpuExecutor& executor, std::uint8_t* flipped) {
   return insert_constraints(mesh, pieces, inner_iterations, executor,
-                            constraint_iteration_bound(mesh.num_vertices()));
+                            constraint_iteration_bound(mesh.num_vertices()), flipped);
 }
 
 std::uint64_t constraint_iteration_bound(std::uint64_t n) {
@@ -74,7 +74,7 @@ void check_constraint_pieces(std::uint32_t num_slots, std::uint32_t num_vertices
 
 ConstraintStats insert_constraints(Mesh& mesh, std::span<const ConstraintPiece2> pieces,
                                    unsigned inner_iterations, CpuExecutor& executor,
-                                   std::uint64_t max_inner_iterations) {
+                                   std::uint64_t max_inner_iterations, std::uint8_t* flipped) {
   ConstraintStats stats;
   const std::uint32_t slots = mesh.num_slots();
   check_constraint_pieces(slots, mesh.num_vertices(), pieces);
@@ -215,6 +215,7 @@ ConstraintStats insert_constraints(Mesh& mesh, std::span<const ConstraintPiece2>
         executor.for_each(winners.size(), [&](std::size_t k) {
           const std::uint32_t A = act[w[k]];
           mark_after_flip(m, cmark, piece, A, partner[A], cmark[A]);
+          if (flipped != nullptr) flipped[A] = flipped[partner[A]] = 1; // pairs are disjoint: one writer
         });
       }
       stats.flips += winners.size();

@@ -45,15 +45,18 @@ struct ConstraintStats {
 /// per marking pass (the paper suggests 5 to 10; 0 counts as 1). Duplicate pieces are allowed: their edge
 /// gets the smallest id. Throws Error on a violated precondition that it detects (instead of looping) and
 /// when the mesh has 2^30 slots or more (the labels keep 2 bits for the case).
+/// With `flipped` (one byte per slot, num_slots of them), sets flipped[t] = 1 for every slot t that a flip
+/// rewrote (the others keep their value): the triangles whose edges Step 3 must check.
 ConstraintStats insert_constraints(Mesh& mesh, std::span<const ConstraintPiece2> pieces,
-                                   unsigned inner_iterations, CpuExecutor& executor);
+                                   unsigned inner_iterations, CpuExecutor& executor,
+                                   std::uint8_t* flipped = nullptr);
 
 /// The same, throwing Error once more than max_inner_iterations flipping passes have run in total (a hang
 /// guard for tests; the 4-argument form uses 16 n^2 + 10^7 for n vertices, far above the Theta(n^2) flips of
 /// Claim 3, since every pass flips at least once).
 ConstraintStats insert_constraints(Mesh& mesh, std::span<const ConstraintPiece2> pieces,
                                    unsigned inner_iterations, CpuExecutor& executor,
-                                   std::uint64_t max_inner_iterations);
+                                   std::uint64_t max_inner_iterations, std::uint8_t* flipped = nullptr);
 
 /// The hang guard of the 4-argument insert_constraints for n vertices: 16 n^2 + 10^7 inner iterations.
 std::uint64_t constraint_iteration_bound(std::uint64_t n);

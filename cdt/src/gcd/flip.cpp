@@ -48,7 +48,7 @@ void FlipBatch::apply(Mesh& mesh, std::span<const std::uint32_t> edges, CpuExecu
   }
 }
 
-FlipStats flip_to_delaunay(Mesh& mesh, CpuExecutor& executor) {
+FlipStats flip_to_delaunay(Mesh& mesh, CpuExecutor& executor, const std::uint8_t* only) {
   FlipStats stats;
   const std::uint32_t slots = mesh.num_slots();
   const MeshView m = mesh.view();
@@ -58,8 +58,9 @@ FlipStats flip_to_delaunay(Mesh& mesh, CpuExecutor& executor) {
   std::uint32_t* marks = mark.data();
   std::uint8_t* active_flag = in_active.data();
 
-  std::vector<std::uint32_t> active =
-      executor.compact(slots, [&](std::size_t t) { return m.alive(static_cast<std::uint32_t>(t)); });
+  std::vector<std::uint32_t> active = executor.compact(slots, [&](std::size_t t) {
+    return m.alive(static_cast<std::uint32_t>(t)) && (only == nullptr || only[t] != 0);
+  });
   std::vector<std::uint32_t> proposed_edge;
   std::vector<std::uint32_t> proposed_nbr;
   std::vector<std::uint8_t> owned;

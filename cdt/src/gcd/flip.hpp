@@ -30,7 +30,11 @@ struct FlipStats {
 /// (seg != kNoId) are never flipped. Preconditions: mesh is a valid triangulation (CCW, links symmetric,
 /// vert_tri incident). Only strict incircle results flip, so co-circular input terminates; the result
 /// does not depend on the executor's thread count.
-FlipStats flip_to_delaunay(Mesh& mesh, CpuExecutor& executor);
+///
+/// With `only` (one byte per slot), the first round checks only the live slots t with only[t] != 0: the
+/// caller knows that every edge between two other slots passes the test (Step 3 after Phase 5, where
+/// only the triangles that constraint insertion flipped can have failing edges).
+FlipStats flip_to_delaunay(Mesh& mesh, CpuExecutor& executor, const std::uint8_t* only = nullptr);
 
 // --- per-element work (host and device) --------------------------------------------------------------
 
