@@ -106,9 +106,38 @@ void validate_points(std::span<const Point> points, CpuExecutor& executor) {
 /// are ignored under CrossingSegments::resolve (the point is a vertex anyway) and an error under
 /// CrossingSegments::reject.
 std::size_t validate_segments(std::span<const Point> points, std::span<const Segment> segments,
-                              CrossingSegments policy) {
+                              CrossingSegments policy, CpuExecutor& executor) {
+  // Per part: the zero-length segments and the first segment that is an error; the error reported is
+  // the lowest-numbered one, as a serial scan would find it.
+  struct Part {
+    std::size_t zero_length = 0;
+    std::size_t first_bad;
+  };
+  const std::size_t n = segments.size();
+  const std::size_t num_parts = std::min<std::size_t>(64, n);
+  std::vector<Part> parts(num_parts, Part{0, n});
+  executor.for_each_part(num_parts, [&](std::size_t part) {
+    Part& p = parts[part];
+    for (std::size_t s = n * part / num_parts; s < n * (part + 1) / num_parts; ++s) {
+      const Segment& g = segments[s];
+      if (g.a >= points.size() || g.b >= points.size()) {
+        p.first_bad = s;
+        return;
+      }
+      if (g.a == g.b || points[g.a] == points[g.b]) {
+        ++p.zero_length;
+        if (policy != CrossingSegments::resolve) {
+          p.first_bad = s;
+          return;
+        }
+      }
+    }
+  });
   std::size_t zero_length = 0;
-  for (std::size_t s = 0; s < segments.size(); ++s) {
+  for (const Part& p : parts) {
+    zero_length += p.zero_length;
+    if (p.first_bad == n) continue;
+    const std::size_t s = p.first_bad;
     const Segment& g = segments[s];
     if (g.a >= points.size() || g.b >= points.size()) {
       throw InvalidInputError(Kind::index_out_of_range, s,
@@ -116,14 +145,10 @@ std::size_t validate_segments(std::span<const Point> points, std::span<const Seg
                                   std::to_string(g.b) + ") refers to a point beyond the " +
                                   std::to_string(points.size()) + " points given");
     }
-    if (g.a == g.b || points[g.a] == points[g.b]) {
-      ++zero_length;
-      if (policy == CrossingSegments::resolve) continue;
-      throw InvalidInputError(Kind::degenerate_segment, s,
-                              "segment " + std::to_string(s) + " (" + std::to_string(g.a) + ", " +
-                                  std::to_string(g.b) + ") has zero length: both ends are at " +
-                                  format_point(points[g.a]));
-    }
+    throw InvalidInputError(Kind::degenerate_segment, s,
+                            "segment " + std::to_string(s) + " (" + std::to_string(g.a) + ", " +
+                                std::to_string(g.b) + ") has zero length: both ends are at " +
+                                format_point(points[g.a]));
   }
   return zero_length;
 }
@@ -1067,13 +1092,26 @@ void order_spatially(std::vector<WorkSegment>& segs, const std::vector<Point>& v
   segs = std::move(sorted);
 }
 
-Box bounding_box(const std::vector<Point>& vertices, const std::vector<std::uint32_t>& sites) {
-  Box box{vertices[sites[0]].x, vertices[sites[0]].y, vertices[sites[0]].x, vertices[sites[0]].y};
-  for (std::uint32_t v : sites) {
-    box.min_x = std::min(box.min_x, vertices[v].x);
-    box.min_y = std::min(box.min_y, vertices[v].y);
-    box.max_x = std::max(box.max_x, vertices[v].x);
-    box.max_y = std::max(box.max_y, vertices[v].y);
+Box bounding_box(const std::vector<Point>& vertices, const std::vector<std::uint32_t>& sites,
+                 CpuExecutor& executor) {
+  const auto extend = [](Box& box, const Point& p) {
+    box.min_x = std::min(box.min_x, p.x);
+    box.min_y = std::min(box.min_y, p.y);
+    box.max_x = std::max(box.max_x, p.x);
+    box.max_y = std::max(box.max_y, p.y);
+  };
+  const Point& first = vertices[sites[0]];
+  const std::size_t n = sites.size();
+  const std::size_t num_parts = std::min<std::size_t>(64, n);
+  std::vector<Box> parts(num_parts, Box{first.x, first.y, first.x, first.y});
+  executor.for_each_part(num_parts, [&](std::size_t part) {
+    for (std::size_t k = n * part / num_parts; k < n * (part + 1) / num_parts; ++k)
+      extend(parts[part], vertices[sites[k]]);
+  });
+  Box box = parts[0];
+  for (const Box& b : parts) {
+    extend(box, {b.min_x, b.min_y});
+    extend(box, {b.max_x, b.max_y});
   }
   return box;
 }
@@ -1094,7 +1132,7 @@ PreparedPslg prepare_pslg(std::span<const Point> points, std::span<const Segment
   }
   StepTrace trace("prepare");
   validate_points(points, executor);
-  const std::size_t zero_length = validate_segments(points, segments, policy);
+  const std::size_t zero_length = validate_segments(points, segments, policy, executor);
   trace.mark("validated");
   PreparedPslg out;
   out.zero_length_segments = zero_length;
@@ -1109,7 +1147,7 @@ PreparedPslg prepare_pslg(std::span<const Point> points, std::span<const Segment
   if (segs.empty()) return out;
 
   // Crossing points are clamped into their segments' boxes, so this box holds every vertex to come.
-  const Box box = bounding_box(out.vertices, out.sites);
+  const Box box = bounding_box(out.vertices, out.sites, executor);
   SegmentGrid grid(box, segs.size());
   // Rounding a crossing point moves it by an ulp or two of the largest coordinate; snapping works at
   // a few times that.

@@ -146,7 +146,7 @@ Triangulation triangulate_on(std::span<const Point> points, std::span<const Segm
     true_y[s] = pslg.vertices[pslg.sites[s]].y;
   });
   trace.mark("sites' coordinates");
-  const GridMapping mapping = make_grid_mapping(true_x, true_y, m);
+  const GridMapping mapping = make_grid_mapping(true_x, true_y, m, executor);
   trace.mark("grid mapping");
   const std::vector<std::uint32_t> site_vertex =
       spatial_site_order(mapping, true_x, true_y, pslg.sites, executor);

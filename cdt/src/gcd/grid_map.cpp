@@ -16,6 +16,7 @@
 #include <cmath>
 #include <cstdint>
 #include <string>
+#include <vector>
 
 #include "cdt/errors.hpp"
 #include "executor/cpu_executor.hpp"
@@ -54,6 +55,12 @@ std::uint32_t choose_grid_size(std::size_t num_points) {
 }
 
 GridMapping make_grid_mapping(std::span<const double> x, std::span<const double> y, std::uint32_t m) {
+  CpuExecutor serial(1);
+  return make_grid_mapping(x, y, m, serial);
+}
+
+GridMapping make_grid_mapping(std::span<const double> x, std::span<const double> y, std::uint32_t m,
+                              CpuExecutor& executor) {
   if (m == 0 || m > kMaxGridSize)
     throw Error("grid size " + std::to_string(m) + " is outside [1, " + std::to_string(kMaxGridSize) + "]");
   if (x.size() != y.size()) throw Error("internal error: x and y of different lengths");
@@ -62,15 +69,36 @@ GridMapping make_grid_mapping(std::span<const double> x, std::span<const double>
   mapping.scale = 1.0;
   if (x.empty()) return mapping;
 
+  // The bounding box from per-part boxes, and the first point with a non-finite coordinate.
+  struct Part {
+    double x_min, x_max, y_min, y_max;
+    std::size_t bad;
+  };
+  const std::size_t n = x.size();
+  const std::size_t num_parts = std::min<std::size_t>(64, n);
+  std::vector<Part> parts(num_parts, Part{x[0], x[0], y[0], y[0], n});
+  executor.for_each_part(num_parts, [&](std::size_t part) {
+    Part& p = parts[part];
+    for (std::size_t i = n * part / num_parts; i < n * (part + 1) / num_parts; ++i) {
+      if (!std::isfinite(x[i]) || !std::isfinite(y[i])) {
+        p.bad = i;
+        return;
+      }
+      p.x_min = std::min(p.x_min, x[i]);
+      p.x_max = std::max(p.x_max, x[i]);
+      p.y_min = std::min(p.y_min, y[i]);
+      p.y_max = std::max(p.y_max, y[i]);
+    }
+  });
   double x_min = x[0], x_max = x[0], y_min = y[0], y_max = y[0];
-  for (std::size_t i = 0; i < x.size(); ++i) {
-    if (!std::isfinite(x[i]) || !std::isfinite(y[i]))
-      throw InvalidInputError(InvalidInputError::Kind::non_finite_coordinate, i,
-                              "point " + std::to_string(i) + " has a non-finite coordinate");
-    x_min = std::min(x_min, x[i]);
-    x_max = std::max(x_max, x[i]);
-    y_min = std::min(y_min, y[i]);
-    y_max = std::max(y_max, y[i]);
+  for (const Part& p : parts) {
+    if (p.bad != n)
+      throw InvalidInputError(InvalidInputError::Kind::non_finite_coordinate, p.bad,
+                              "point " + std::to_string(p.bad) + " has a non-finite coordinate");
+    x_min = std::min(x_min, p.x_min);
+    x_max = std::max(x_max, p.x_max);
+    y_min = std::min(y_min, p.y_min);
+    y_max = std::max(y_max, p.y_max);
   }
 
   const int p_m = std::bit_width(m - 1);    // bits of the largest grid coordinate

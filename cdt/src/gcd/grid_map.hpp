@@ -74,6 +74,10 @@ std::uint32_t choose_grid_size(std::size_t num_points);
 /// Throws InvalidInputError for a non-finite coordinate and Error for m outside [1, kMaxGridSize].
 GridMapping make_grid_mapping(std::span<const double> x, std::span<const double> y, std::uint32_t m);
 
+/// The same, the points' bounding box found on the executor's threads.
+GridMapping make_grid_mapping(std::span<const double> x, std::span<const double> y, std::uint32_t m,
+                              CpuExecutor& executor);
+
 /// The grid sites of Phase 1: each input point's grid cell and the one point kept per occupied cell.
 struct GridSites {
   std::vector<std::uint32_t> gx, gy;     ///< per input point
