@@ -17,6 +17,7 @@
 
 #include "cdt/detail/predicates.hpp"
 #include "cdt/io.hpp"
+#include "executor/cpu_executor.hpp"
 #include "pslg_generators.hpp"
 
 #ifndef TRIXEL_TEST_DATA_DIR
@@ -29,6 +30,7 @@ using cdt::CrossingSegments;
 using cdt::Point;
 using cdt::Segment;
 using cdt::detail::ConstraintPiece;
+using cdt::detail::CpuExecutor;
 using cdt::detail::prepare_pslg;
 using cdt::detail::PreparedPslg;
 using Kind = cdt::InvalidInputError::Kind;
@@ -221,6 +223,32 @@ TEST(PslgErrors, ZeroLengthSegmentsAreRejectedUnderRejectAndNamed) {
       invalid_input({{0, 0}, {1, 0}, {0, 1}, {1, 0}}, {{0, 2}, {1, 2}, {3, 1}}, CrossingSegments::reject);
   EXPECT_EQ(same_place.kind(), Kind::degenerate_segment);
   EXPECT_EQ(same_place.item(), 2u);
+}
+
+TEST(PslgErrors, TheLowestNumberedBadSegmentIsNamedWhateverTheThreads) {
+  // Segments are checked in parts on several threads; the error must still be the first in order.
+  std::vector<Point> points;
+  std::vector<Segment> segments;
+  for (std::uint32_t k = 0; k < 600; ++k)
+    points.push_back({static_cast<double>(k), static_cast<double>(k * k % 7)});
+  for (std::uint32_t k = 0; k + 1 < 600; ++k) segments.push_back({k, k + 1});
+  segments[100] = {5, 5};    // zero length: an error only under reject
+  segments[300] = {7, 9000}; // out of range
+  segments[450] = {8, 8};    // zero length
+  segments[580] = {9000, 3}; // out of range
+  for (const unsigned threads : {1u, 3u}) {
+    CpuExecutor executor(threads);
+    for (const CrossingSegments policy : {CrossingSegments::resolve, CrossingSegments::reject}) {
+      try {
+        prepare_pslg(points, segments, policy, executor);
+        ADD_FAILURE() << "no error with " << threads << " threads";
+      } catch (const cdt::InvalidInputError& e) {
+        const bool reject = policy == CrossingSegments::reject;
+        EXPECT_EQ(e.kind(), reject ? Kind::degenerate_segment : Kind::index_out_of_range) << threads;
+        EXPECT_EQ(e.item(), reject ? 100u : 300u) << threads;
+      }
+    }
+  }
 }
 
 TEST(Pslg, ZeroLengthSegmentsAreIgnoredAndCountedUnderResolve) {
