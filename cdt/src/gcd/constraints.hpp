@@ -242,14 +242,65 @@ CDT_HD inline ConstraintStatus propose_constraint_flip(const MeshView& m, const 
   return ConstraintStatus::ok;
 }
 
+/// Which triangles of a pair just flipped for the piece a-b meet the open piece: t = (x, p, y) and
+/// u = (y, q, x), the new diagonal x-y, the old one p-q. The piece met both triangles before the flip,
+/// so it crossed p-q in its interior: p and q lie strictly on either side of its line and are not its
+/// endpoints, and the piece meets the quadrilateral's interior. Then two or three orientations decide
+/// (a full triangle test takes up to eighteen):
+/// - the diagonal is the piece: neither;
+/// - the diagonal starts at an endpoint e of the piece: the piece leaves e on one side of the diagonal
+///   and, being straight, stays there: the triangle on the side of the other endpoint;
+/// - otherwise the piece runs through the whole quadrilateral: both when it crosses the diagonal
+///   (x and y on either side of its line), else the one whose lone vertex (p or q) is on the side
+///   apart from x and y.
+/// Returns false, deciding nothing, when an orientation it relies on is zero (a precondition broken).
+CDT_HD inline bool flipped_pair_crossings(const MeshView& m, std::uint32_t x, std::uint32_t p,
+                                          std::uint32_t y, std::uint32_t q, std::uint32_t a, std::uint32_t b,
+                                          bool& t_crossed, bool& u_crossed) {
+  if ((x == a && y == b) || (x == b && y == a)) {
+    t_crossed = u_crossed = false;
+    return true;
+  }
+  if (p == a || p == b || q == a || q == b) return false;
+  if (x == a || x == b || y == a || y == b) {
+    const bool at_x = x == a || x == b;
+    const std::uint32_t e = at_x ? x : y;
+    const std::uint32_t z = at_x ? y : x;
+    const std::uint32_t other = e == a ? b : a;
+    const int side_other = orient_vertices(m, e, z, other);
+    const int side_p = orient_vertices(m, e, z, p);
+    if (side_other == 0 || side_p == 0) return false;
+    t_crossed = side_other == side_p;
+    u_crossed = !t_crossed;
+    return true;
+  }
+  const int ox = orient_vertices(m, a, b, x), oy = orient_vertices(m, a, b, y);
+  if (ox == 0 || oy == 0) return false;
+  if (ox != oy) {
+    t_crossed = u_crossed = true;
+    return true;
+  }
+  const int op = orient_vertices(m, a, b, p);
+  if (op == 0) return false;
+  t_crossed = op != ox;
+  u_crossed = !t_crossed;
+  return true;
+}
+
 /// Algorithm 5, line 14, after the batch flip of the pair (t, u) for `piece` (the diagonal is edge 1 of
 /// both slots): each new triangle keeps the mark only while it still intersects the piece, and a diagonal
 /// that is the piece itself becomes a constraint edge at once, so no later flip can take it away.
 CDT_HD inline void mark_after_flip(const MeshView& m, std::uint32_t* cmark, const ConstraintPiece2* pieces,
                                    std::uint32_t t, std::uint32_t u, std::uint32_t piece) {
   const std::uint32_t a = pieces[piece].a, b = pieces[piece].b;
-  cmark[t] = triangle_crosses_segment(m, t, a, b) ? piece : kNoId;
-  cmark[u] = triangle_crosses_segment(m, u, a, b) ? piece : kNoId;
+  // flip_pair_contents' layout: t = (x, p, y), u = (y, q, x).
+  bool t_crossed = false, u_crossed = false;
+  if (!flipped_pair_crossings(m, m.v(t, 0), m.v(t, 1), m.v(t, 2), m.v(u, 1), a, b, t_crossed, u_crossed)) {
+    t_crossed = triangle_crosses_segment(m, t, a, b);
+    u_crossed = triangle_crosses_segment(m, u, a, b);
+  }
+  cmark[t] = t_crossed ? piece : kNoId;
+  cmark[u] = u_crossed ? piece : kNoId;
   const std::uint32_t d0 = m.v(t, 2), d1 = m.v(t, 0); // edge 1 of t runs from vertex 2 to vertex 0
   if ((d0 == a && d1 == b) || (d0 == b && d1 == a)) {
     m.seg[edge_id(t, 1)] = pieces[piece].id;
