@@ -139,7 +139,7 @@ FlipResult flip_mesh(DeviceMesh::State& s, const std::uint8_t* only) {
         n,
         [=] __device__(std::size_t k) {
           const std::uint32_t t = l[k];
-          const std::uint32_t e = ::cdt::detail::delaunay_flip_candidate(m, active_flag, t);
+          const std::uint32_t e = ::cdt::detail::delaunay_flip_candidate(m, active_flag, partner, t);
           cand[k] = e;
           nbr[k] = kNoId;
           if (e == kNoId) return;

@@ -70,6 +70,7 @@ FlipStats flip_to_delaunay(Mesh& mesh, CpuExecutor& executor, const std::uint8_t
     executor.for_each(active.size(), [&](std::size_t k) { active_flag[list[k]] = 1; });
   }
 
+  const std::uint32_t* partner = batch.partner();
   while (!active.empty()) {
     ++stats.rounds;
     const std::size_t n = active.size();
@@ -84,7 +85,7 @@ FlipStats flip_to_delaunay(Mesh& mesh, CpuExecutor& executor, const std::uint8_t
     // Propose and claim: the proposer's slot index is its label, so the lowest proposer wins.
     executor.for_each(n, [&](std::size_t k) {
       const std::uint32_t t = list[k];
-      const std::uint32_t e = delaunay_flip_candidate(m, active_flag, t);
+      const std::uint32_t e = delaunay_flip_candidate(m, active_flag, partner, t);
       cand[k] = e;
       nbr[k] = kNoId;
       if (e == kNoId) return;
@@ -130,7 +131,6 @@ FlipStats flip_to_delaunay(Mesh& mesh, CpuExecutor& executor, const std::uint8_t
     // Next round: proposers that could not flip yet, plus both new triangles of every flip (new
     // triangles are unmarked in the paper's terms). A losing proposer that was flipped as some winner's
     // neighbour comes in through the second list only.
-    const std::uint32_t* partner = batch.partner();
     const std::vector<std::uint32_t> waiting =
         executor.compact(n, [&](std::size_t k) { return cand[k] != kNoId && partner[list[k]] == kNoId; });
     std::vector<std::uint32_t> next(waiting.size() + 2 * winners.size());

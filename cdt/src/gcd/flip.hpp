@@ -65,10 +65,15 @@ CDT_HD_INLINE bool edge_wants_flip(const MeshView& m, std::uint32_t t, std::uint
 
 /// The encoded edge 3t + i that active triangle t proposes to flip this round, or kNoId. t checks the
 /// edge to neighbour u only when u > t or u is not active: each pair is checked once per round, and a
-/// pair stays checked as long as one side is active.
+/// pair stays checked as long as one side is active. partner (FlipBatch::partner of the last round's
+/// flips) spares a test whose answer is known: a pair flipped last round has as edge 1 the diagonal it
+/// flipped to, which passes the incircle test strictly (of four points in strictly convex position that
+/// fail it across one diagonal, the other diagonal passes), so skipping it changes nothing.
 CDT_HD inline std::uint32_t delaunay_flip_candidate(const MeshView& m, const std::uint8_t* active,
-                                                    std::uint32_t t) {
+                                                    const std::uint32_t* partner, std::uint32_t t) {
+  const bool fresh = partner[t] != kNoId;
   for (std::uint32_t i = 0; i < 3; ++i) {
+    if (fresh && i == 1) continue;
     const std::uint32_t e = m.adj[3 * t + i];
     if (e == kNoId) continue;
     const std::uint32_t u = edge_tri(e);
