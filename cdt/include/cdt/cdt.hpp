@@ -66,7 +66,9 @@ struct Options {
 
 /// Work and time of one phase of the algorithm.
 struct PhaseStats {
-  std::string name;             ///< e.g. "voronoi", "dualize", "shift", "insert", "constraints", "flip"
+  /// "prepare", "voronoi", "dualize", "shift", "insert", "delaunay" (Phase 5, Lawson flips to the
+  /// Delaunay triangulation), "constraints", "flip" (Lawson flips to the CDT) or "output"
+  std::string name;
   double milliseconds = 0.0;    ///< wall time (CPU) or CUDA-event time (GPU)
   std::uint64_t flips = 0;      ///< edge flips performed
   std::uint64_t missing = 0;    ///< points handled as missing points
