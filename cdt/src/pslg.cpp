@@ -928,41 +928,45 @@ std::vector<std::uint32_t> order_by_ends(const std::vector<WorkSegment>& segs, s
   return order;
 }
 
-/// Cuts every segment at its cut vertices (sorted along it) and merges identical pieces, keeping the
-/// lowest label. A cut at an end of its own segment (a crossing point rounded onto it) is no cut.
-/// bent[s] says that segment s was bent by its cuts (snapped sites or crossings).
+/// Calls piece(k, piece) for the pieces of segment g cut at `at_vertices` (sorted along it), in order;
+/// returns their number. A cut at an end of its own segment (a crossing point rounded onto it) is no
+/// cut. is_bent says that g was bent by its cuts (snapped sites or crossings).
 ///
 /// Dirty pieces are tested against everything in the coming round. Exact cuts at sites give parts of
 /// the segment, which inherit what was already checked of it. After the crossing tests, pieces are
 /// clean unless bent by a crossing now, or by a snap earlier in this round (their sites are unchecked).
+template <class Piece>
+std::size_t for_each_piece(const WorkSegment& g, std::span<const std::uint32_t> at_vertices, bool is_bent,
+                           CutAt at, Piece&& piece) {
+  const bool dirty = at == CutAt::sites ? g.dirty || is_bent : is_bent || g.snapped;
+  const bool snapped = at == CutAt::sites && is_bent;
+  std::uint32_t from = g.a;
+  std::size_t count = 0;
+  std::uint32_t last = std::numeric_limits<std::uint32_t>::max();
+  for (const std::uint32_t v : at_vertices) {
+    if (v == last || v == g.a || v == g.b) continue; // repeated, or rounded onto an end of its own
+    last = v;
+    piece(count++, WorkSegment{std::min(from, v), std::max(from, v), g.label, dirty, snapped});
+    from = v;
+  }
+  piece(count++, WorkSegment{std::min(from, g.b), std::max(from, g.b), g.label, dirty, snapped});
+  return count;
+}
+
+/// Cuts every segment at its cut vertices (for_each_piece) and merges identical pieces, keeping the
+/// lowest label. bent[s] says that segment s was bent by its cuts.
 std::vector<WorkSegment> cut_segments(const std::vector<WorkSegment>& segs, const SplitLists& cuts,
                                       const std::vector<std::uint8_t>& bent, CutAt at,
                                       CpuExecutor& executor) {
-  // Calls piece(k, piece) for the pieces of segment s in order; returns their number.
-  const auto for_each_piece = [&](std::size_t s, auto&& piece) {
-    const WorkSegment& g = segs[s];
-    const bool is_bent = bent[s] != 0;
-    const bool dirty = at == CutAt::sites ? g.dirty || is_bent : is_bent || g.snapped;
-    const bool snapped = at == CutAt::sites && is_bent;
-    std::uint32_t from = g.a;
-    std::size_t count = 0;
-    std::uint32_t last = std::numeric_limits<std::uint32_t>::max();
-    for (const std::uint32_t v : cuts.of(s)) {
-      if (v == last || v == g.a || v == g.b) continue; // repeated, or rounded onto an end of its own
-      last = v;
-      piece(count++, WorkSegment{std::min(from, v), std::max(from, v), g.label, dirty, snapped});
-      from = v;
-    }
-    piece(count++, WorkSegment{std::min(from, g.b), std::max(from, g.b), g.label, dirty, snapped});
-    return count;
+  const auto pieces_of = [&](std::size_t s, auto&& piece) {
+    return for_each_piece(segs[s], cuts.of(s), bent[s] != 0, at, piece);
   };
   std::vector<std::size_t> first(segs.size());
-  executor.for_each(segs.size(),
-                    [&](std::size_t s) { first[s] = for_each_piece(s, [](std::size_t, auto&&) {}); });
+  executor.for_each(segs.size(), [&](std::size_t s) { first[s] = pieces_of(s, [](std::size_t, auto&&) {}); });
   const std::size_t total = executor.exclusive_scan(first);
   std::vector<WorkSegment> pieces(total);
   executor.for_each(segs.size(), [&](std::size_t s) {
-    for_each_piece(s, [&](std::size_t k, const WorkSegment& p) { pieces[first[s] + k] = p; });
+    pieces_of(s, [&](std::size_t k, const WorkSegment& p) { pieces[first[s] + k] = p; });
   });
   executor.sort(pieces, [](const WorkSegment& p, const WorkSegment& q) {
     if (p.a != q.a) return p.a < q.a;
@@ -998,18 +1002,9 @@ std::vector<WorkSegment> cut_few_segments(const std::vector<WorkSegment>& segs, 
       segs.size(), [&](std::size_t s) { return cuts.start[s + 1] > cuts.start[s] || bent[s] != 0; });
   // The pieces of the cut segments, as cut_segments makes them, with their places among segs.
   std::vector<WorkSegment> fresh;
-  {
-    std::vector<std::uint8_t> one_bent{0};
-    SplitLists own;
-    CpuExecutor serial(1);
-    for (const std::uint32_t s : cut) {
-      own.start = {0, cuts.start[s + 1] - cuts.start[s]};
-      own.vertex.assign(cuts.of(s).begin(), cuts.of(s).end());
-      const std::vector<WorkSegment> single{segs[s]};
-      one_bent[0] = bent[s];
-      const std::vector<WorkSegment> pieces = cut_segments(single, own, one_bent, CutAt::crossings, serial);
-      fresh.insert(fresh.end(), pieces.begin(), pieces.end());
-    }
+  for (const std::uint32_t s : cut) {
+    for_each_piece(segs[s], cuts.of(s), bent[s] != 0, CutAt::crossings,
+                   [&](std::size_t, const WorkSegment& p) { fresh.push_back(p); });
   }
   std::sort(fresh.begin(), fresh.end(), [&](const WorkSegment& p, const WorkSegment& q) {
     return std::tuple_cat(key(p), std::tuple{p.label}) < std::tuple_cat(key(q), std::tuple{q.label});
