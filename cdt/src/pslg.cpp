@@ -107,50 +107,42 @@ void validate_points(std::span<const Point> points, CpuExecutor& executor) {
 /// CrossingSegments::reject.
 std::size_t validate_segments(std::span<const Point> points, std::span<const Segment> segments,
                               CrossingSegments policy, CpuExecutor& executor) {
-  // Per part: the zero-length segments and the first segment that is an error; the error reported is
-  // the lowest-numbered one, as a serial scan would find it.
-  struct Part {
+  // The zero-length segments, and the first segment that is an error (n when none): the error reported
+  // is the lowest-numbered one, as a serial scan would find it.
+  struct Scan {
     std::size_t zero_length = 0;
     std::size_t first_bad;
   };
   const std::size_t n = segments.size();
-  const std::size_t num_parts = std::min<std::size_t>(64, n);
-  std::vector<Part> parts(num_parts, Part{0, n});
-  executor.for_each_part(num_parts, [&](std::size_t part) {
-    Part& p = parts[part];
-    for (std::size_t s = n * part / num_parts; s < n * (part + 1) / num_parts; ++s) {
-      const Segment& g = segments[s];
-      if (g.a >= points.size() || g.b >= points.size()) {
-        p.first_bad = s;
-        return;
-      }
-      if (g.a == g.b || points[g.a] == points[g.b]) {
-        ++p.zero_length;
-        if (policy != CrossingSegments::resolve) {
-          p.first_bad = s;
-          return;
+  const Scan scan = executor.reduce(
+      n, Scan{0, n},
+      [&](Scan& acc, std::size_t s) {
+        if (acc.first_bad != n) return;
+        const Segment& g = segments[s];
+        if (g.a >= points.size() || g.b >= points.size()) {
+          acc.first_bad = s;
+        } else if (g.a == g.b || points[g.a] == points[g.b]) {
+          ++acc.zero_length;
+          if (policy != CrossingSegments::resolve) acc.first_bad = s;
         }
-      }
-    }
-  });
-  std::size_t zero_length = 0;
-  for (const Part& p : parts) {
-    zero_length += p.zero_length;
-    if (p.first_bad == n) continue;
-    const std::size_t s = p.first_bad;
-    const Segment& g = segments[s];
-    if (g.a >= points.size() || g.b >= points.size()) {
-      throw InvalidInputError(Kind::index_out_of_range, s,
-                              "segment " + std::to_string(s) + " (" + std::to_string(g.a) + ", " +
-                                  std::to_string(g.b) + ") refers to a point beyond the " +
-                                  std::to_string(points.size()) + " points given");
-    }
-    throw InvalidInputError(Kind::degenerate_segment, s,
+      },
+      [](Scan& acc, const Scan& part) {
+        acc.zero_length += part.zero_length;
+        acc.first_bad = std::min(acc.first_bad, part.first_bad);
+      });
+  if (scan.first_bad == n) return scan.zero_length;
+  const std::size_t s = scan.first_bad;
+  const Segment& g = segments[s];
+  if (g.a >= points.size() || g.b >= points.size()) {
+    throw InvalidInputError(Kind::index_out_of_range, s,
                             "segment " + std::to_string(s) + " (" + std::to_string(g.a) + ", " +
-                                std::to_string(g.b) + ") has zero length: both ends are at " +
-                                format_point(points[g.a]));
+                                std::to_string(g.b) + ") refers to a point beyond the " +
+                                std::to_string(points.size()) + " points given");
   }
-  return zero_length;
+  throw InvalidInputError(Kind::degenerate_segment, s,
+                          "segment " + std::to_string(s) + " (" + std::to_string(g.a) + ", " +
+                              std::to_string(g.b) + ") has zero length: both ends are at " +
+                              format_point(points[g.a]));
 }
 
 // --- duplicates --------------------------------------------------------------------------------------
@@ -1096,19 +1088,13 @@ Box bounding_box(const std::vector<Point>& vertices, const std::vector<std::uint
     box.max_y = std::max(box.max_y, p.y);
   };
   const Point& first = vertices[sites[0]];
-  const std::size_t n = sites.size();
-  const std::size_t num_parts = std::min<std::size_t>(64, n);
-  std::vector<Box> parts(num_parts, Box{first.x, first.y, first.x, first.y});
-  executor.for_each_part(num_parts, [&](std::size_t part) {
-    for (std::size_t k = n * part / num_parts; k < n * (part + 1) / num_parts; ++k)
-      extend(parts[part], vertices[sites[k]]);
-  });
-  Box box = parts[0];
-  for (const Box& b : parts) {
-    extend(box, {b.min_x, b.min_y});
-    extend(box, {b.max_x, b.max_y});
-  }
-  return box;
+  return executor.reduce(
+      sites.size(), Box{first.x, first.y, first.x, first.y},
+      [&](Box& box, std::size_t k) { extend(box, vertices[sites[k]]); },
+      [&](Box& box, const Box& part) {
+        extend(box, {part.min_x, part.min_y});
+        extend(box, {part.max_x, part.max_y});
+      });
 }
 
 } // namespace

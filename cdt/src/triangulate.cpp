@@ -194,26 +194,23 @@ Triangulation triangulate_on(std::span<const Point> points, std::span<const Segm
     }
   });
   trace.mark("kept sites");
-  // The box of both positions of every site, from per-part boxes.
+  // The box of both positions of every site.
   const auto extend = [](Box& b, double px, double py) {
     b.min_x = std::min(b.min_x, px);
     b.min_y = std::min(b.min_y, py);
     b.max_x = std::max(b.max_x, px);
     b.max_y = std::max(b.max_y, py);
   };
-  constexpr std::size_t kBoundsParts = 64;
-  std::vector<Box> part_bounds(kBoundsParts, Box{true_x[0], true_y[0], true_x[0], true_y[0]});
-  executor.for_each_part(kBoundsParts, [&](std::size_t part) {
-    for (std::size_t s = n * part / kBoundsParts; s < n * (part + 1) / kBoundsParts; ++s) {
-      extend(part_bounds[part], x[s], y[s]);
-      extend(part_bounds[part], true_x[s], true_y[s]);
-    }
-  });
-  Box bounds = part_bounds[0];
-  for (const Box& b : part_bounds) {
-    extend(bounds, b.min_x, b.min_y);
-    extend(bounds, b.max_x, b.max_y);
-  }
+  const Box bounds = executor.reduce(
+      n, Box{true_x[0], true_y[0], true_x[0], true_y[0]},
+      [&](Box& b, std::size_t s) {
+        extend(b, x[s], y[s]);
+        extend(b, true_x[s], true_y[s]);
+      },
+      [&](Box& b, const Box& part) {
+        extend(b, part.min_x, part.min_y);
+        extend(b, part.max_x, part.max_y);
+      });
   trace.mark("bounds");
   std::vector<MissingPoint> missing(grid.missing.size());
   executor.for_each(missing.size(), [&](std::size_t k) {

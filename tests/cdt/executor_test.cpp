@@ -104,6 +104,35 @@ TEST(CpuExecutor, SortPairsByKeyMatchesAStableSort) {
 }
 
 // The paper's marking relies on the smallest index winning however the threads interleave.
+TEST(CpuExecutor, ReduceJoinsThePartsInOrder) {
+  // A sum, and the first index failing a check (each part stops at its own first failure), for sizes
+  // below, at and above the number of parts, on one and on several threads.
+  for (const unsigned threads : {1u, 4u}) {
+    CpuExecutor executor(threads);
+    for (const std::size_t n : {std::size_t{0}, std::size_t{1}, std::size_t{63}, std::size_t{64},
+                                std::size_t{1000}, std::size_t{100003}}) {
+      const std::uint64_t sum = executor.reduce(
+          n, std::uint64_t{0}, [](std::uint64_t& acc, std::size_t i) { acc += i; },
+          [](std::uint64_t& acc, const std::uint64_t& part) { acc += part; });
+      EXPECT_EQ(sum, n == 0 ? 0 : std::uint64_t{n} * (n - 1) / 2) << n << " elements, " << threads;
+      // Fails at every multiple of 7 from n / 3 on: the first failure is the least such index.
+      const std::size_t first = executor.reduce(
+          n, n,
+          [&](std::size_t& acc, std::size_t i) {
+            if (acc == n && i >= n / 3 && i % 7 == 0) acc = i;
+          },
+          [](std::size_t& acc, const std::size_t& part) { acc = std::min(acc, part); });
+      std::size_t expected = n;
+      for (std::size_t i = n / 3; i < n; ++i)
+        if (i % 7 == 0) {
+          expected = i;
+          break;
+        }
+      EXPECT_EQ(first, expected) << n << " elements, " << threads;
+    }
+  }
+}
+
 TEST(CpuExecutor, AtomicMinKeepsTheSmallestValue) {
   CpuExecutor ex(4);
   std::vector<std::uint32_t> marks(64, 0xFFFFFFFFu);

@@ -66,6 +66,23 @@ public:
     });
   }
 
+  /// Folds [0, n) in contiguous parts on the threads and joins the parts' results in order: each part
+  /// starts from init and takes its elements in increasing order through fold(acc, i); then
+  /// join(result, next) adds the next part's accumulator to the result (a bounding box, a count, the
+  /// first index that fails a check). The result does not depend on the thread count.
+  template <class T, class Fold, class Join>
+  T reduce(std::size_t n, const T& init, Fold&& fold, Join&& join) {
+    if (n == 0) return init;
+    const std::size_t parts = std::min<std::size_t>(kReduceParts, n);
+    std::vector<T> acc(parts, init);
+    for_each_part(parts, [&](std::size_t p) {
+      for (std::size_t i = n * p / parts; i < n * (p + 1) / parts; ++i) fold(acc[p], i);
+    });
+    T result = acc[0];
+    for (std::size_t p = 1; p < parts; ++p) join(result, acc[p]);
+    return result;
+  }
+
   /// Exclusive prefix sum of v in place; returns the total.
   template <class T>
   T exclusive_scan(std::vector<T>& v) {
@@ -170,6 +187,7 @@ public:
 
 private:
   static constexpr std::size_t kSerialBelow = 4096;
+  static constexpr std::size_t kReduceParts = 64;
 
   void run_chunks(std::size_t n, std::size_t chunk,
                   const std::function<void(std::size_t, std::size_t)>& body);

@@ -16,7 +16,6 @@
 #include <cmath>
 #include <cstdint>
 #include <string>
-#include <vector>
 
 #include "cdt/errors.hpp"
 #include "executor/cpu_executor.hpp"
@@ -69,37 +68,36 @@ GridMapping make_grid_mapping(std::span<const double> x, std::span<const double>
   mapping.scale = 1.0;
   if (x.empty()) return mapping;
 
-  // The bounding box from per-part boxes, and the first point with a non-finite coordinate.
-  struct Part {
+  // The bounding box, and the first point with a non-finite coordinate (n when none).
+  struct Bounds {
     double x_min, x_max, y_min, y_max;
     std::size_t bad;
   };
   const std::size_t n = x.size();
-  const std::size_t num_parts = std::min<std::size_t>(64, n);
-  std::vector<Part> parts(num_parts, Part{x[0], x[0], y[0], y[0], n});
-  executor.for_each_part(num_parts, [&](std::size_t part) {
-    Part& p = parts[part];
-    for (std::size_t i = n * part / num_parts; i < n * (part + 1) / num_parts; ++i) {
-      if (!std::isfinite(x[i]) || !std::isfinite(y[i])) {
-        p.bad = i;
-        return;
-      }
-      p.x_min = std::min(p.x_min, x[i]);
-      p.x_max = std::max(p.x_max, x[i]);
-      p.y_min = std::min(p.y_min, y[i]);
-      p.y_max = std::max(p.y_max, y[i]);
-    }
-  });
-  double x_min = x[0], x_max = x[0], y_min = y[0], y_max = y[0];
-  for (const Part& p : parts) {
-    if (p.bad != n)
-      throw InvalidInputError(InvalidInputError::Kind::non_finite_coordinate, p.bad,
-                              "point " + std::to_string(p.bad) + " has a non-finite coordinate");
-    x_min = std::min(x_min, p.x_min);
-    x_max = std::max(x_max, p.x_max);
-    y_min = std::min(y_min, p.y_min);
-    y_max = std::max(y_max, p.y_max);
-  }
+  const Bounds bounds = executor.reduce(
+      n, Bounds{x[0], x[0], y[0], y[0], n},
+      [&](Bounds& b, std::size_t i) {
+        if (b.bad != n) return;
+        if (!std::isfinite(x[i]) || !std::isfinite(y[i])) {
+          b.bad = i;
+          return;
+        }
+        b.x_min = std::min(b.x_min, x[i]);
+        b.x_max = std::max(b.x_max, x[i]);
+        b.y_min = std::min(b.y_min, y[i]);
+        b.y_max = std::max(b.y_max, y[i]);
+      },
+      [](Bounds& b, const Bounds& part) {
+        b.bad = std::min(b.bad, part.bad);
+        b.x_min = std::min(b.x_min, part.x_min);
+        b.x_max = std::max(b.x_max, part.x_max);
+        b.y_min = std::min(b.y_min, part.y_min);
+        b.y_max = std::max(b.y_max, part.y_max);
+      });
+  if (bounds.bad != n)
+    throw InvalidInputError(InvalidInputError::Kind::non_finite_coordinate, bounds.bad,
+                            "point " + std::to_string(bounds.bad) + " has a non-finite coordinate");
+  const double x_min = bounds.x_min, x_max = bounds.x_max, y_min = bounds.y_min, y_max = bounds.y_max;
 
   const int p_m = std::bit_width(m - 1);    // bits of the largest grid coordinate
   const int p_s = kPMax - p_m;              // mantissa bits left for the scale
