@@ -300,4 +300,49 @@ TEST(FlipBatch, MatchesSequentialFlipEdge) {
   expect_valid_mesh(batched);
 }
 
+// link_triangles, which every phase that rebuilds a mesh relies on: the links and each vertex's triangle
+// (the highest live slot that has it) do not depend on the thread count, and free slots are skipped.
+TEST(LinkTriangles, SameLinksAndVertexTrianglesWhateverTheThreads) {
+  const Points p = from_pslg(trixel_gen::random_points(20000, trixel_gen::Distribution::gaussian, 17));
+  Mesh serial = sweep_triangulate(p.x, p.y);
+  // Free a few slots (a free slot's first vertex is kNoId): their triangles disappear from the links.
+  for (std::uint32_t t = 0; t < serial.num_slots(); t += 997) serial.tri[3 * t] = kNoId;
+  Mesh parallel = serial;
+  CpuExecutor one(1);
+  CpuExecutor four(4);
+  link_triangles(serial, one);
+  link_triangles(parallel, four);
+  EXPECT_EQ(parallel.adj, serial.adj);
+  EXPECT_EQ(parallel.vert_tri, serial.vert_tri);
+  std::vector<std::uint32_t> highest(serial.num_vertices(), kNoId);
+  for (std::uint32_t t = 0; t < serial.num_slots(); ++t) {
+    if (!serial.alive(t)) continue;
+    for (std::uint32_t i = 0; i < 3; ++i) highest[serial.tri[3 * t + i]] = t;
+  }
+  EXPECT_EQ(serial.vert_tri, highest);
+  for (std::uint32_t e = 0; e < serial.adj.size(); ++e) {
+    const std::uint32_t f = serial.adj[e];
+    if (f == kNoId) continue;
+    ASSERT_TRUE(serial.alive(edge_tri(e)));
+    ASSERT_TRUE(serial.alive(edge_tri(f)));
+    ASSERT_EQ(serial.adj[f], e);
+  }
+}
+
+TEST(LinkTriangles, AnEdgeOfThreeTrianglesIsAnErrorWhateverTheThreads) {
+  // Triangles (0, 1, 2), (1, 0, 3) and (0, 1, 4) all have edge 0-1; the first two use it in opposite
+  // directions, the third again from 0 to 1.
+  Mesh mesh;
+  mesh.x = {0, 1, 0.5, 0.5, 0.2};
+  mesh.y = {0, 0, 1, -1, 2};
+  mesh.add_triangle(0, 1, 2);
+  mesh.add_triangle(1, 0, 3);
+  mesh.add_triangle(0, 1, 4);
+  for (unsigned threads : {1u, 4u}) {
+    CpuExecutor executor(threads);
+    Mesh copy = mesh;
+    EXPECT_THROW(link_triangles(copy, executor), cdt::Error) << threads << " threads";
+  }
+}
+
 } // namespace

@@ -13,7 +13,15 @@
 #include <thread>
 #include <vector>
 
+#include "cdt/cdt.hpp"
+
 namespace cdt::detail {
+
+/// A buffer whose new elements start unwritten, for a step that writes every element itself in
+/// parallel: a std::vector would first zero it on one thread, which at millions of elements costs
+/// about as much as the parallel step.
+template <class T>
+using UnzeroedVector = std::vector<T, DefaultInitAllocator<T>>;
 
 /// Lowers *address to value if value is smaller; returns the previous value. Safe against concurrent
 /// callers on the same address (the paper's atomic minimum marking).
@@ -84,8 +92,8 @@ public:
   }
 
   /// Exclusive prefix sum of v in place; returns the total.
-  template <class T>
-  T exclusive_scan(std::vector<T>& v) {
+  template <class T, class Alloc>
+  T exclusive_scan(std::vector<T, Alloc>& v) {
     const std::size_t n = v.size();
     if (num_threads_ == 1 || n < kSerialBelow) {
       T sum{};

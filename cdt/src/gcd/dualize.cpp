@@ -199,7 +199,7 @@ Mesh dualize(std::span<const std::uint32_t> colour, std::uint32_t m, std::span<c
   // neighbours' coordinates then sit close together in memory, and the later phases, which visit sites
   // in slot order, read them mostly from the cache.
   {
-    std::vector<Tri> all(num_dual);
+    UnzeroedVector<Tri> all(num_dual);
     std::vector<std::uint32_t> key(num_dual);
     std::vector<std::uint32_t> order(num_dual);
     executor.for_each_part(rows, [&](std::size_t r) {

@@ -30,22 +30,24 @@ void link_triangles(Mesh& mesh, CpuExecutor& executor) {
   const std::uint32_t nv = mesh.num_vertices();
   const MeshView m = mesh.view();
   // Directed edges bucketed by their lower vertex (a counting sort, linear time): the two sides of an
-  // undirected edge land in the same small bucket, where they are matched by their upper vertex.
-  std::vector<std::uint32_t> start(static_cast<std::size_t>(nv) + 1, 0);
-  std::uint32_t* count = start.data() + 1;
-  executor.for_each(slots, [&, count](std::size_t k) {
+  // undirected edge land in the same small bucket, where they are matched by their upper vertex. Every
+  // buffer is written whole by a parallel step.
+  UnzeroedVector<std::uint32_t> start(static_cast<std::size_t>(nv) + 1);
+  executor.for_each(start.size(), [&](std::size_t v) { start[v] = 0; });
+  executor.for_each(slots, [&](std::size_t k) {
     const auto t = static_cast<std::uint32_t>(k);
     if (!m.alive(t)) return;
     for (std::uint32_t i = 0; i < 3; ++i) {
       const std::uint32_t from = m.v(t, next3(i)), to = m.v(t, prev3(i));
-      std::atomic_ref<std::uint32_t>(count[from < to ? from : to]).fetch_add(1, std::memory_order_relaxed);
+      std::atomic_ref<std::uint32_t>(start[from < to ? from : to]).fetch_add(1, std::memory_order_relaxed);
     }
   });
-  for (std::uint32_t v = 0; v < nv; ++v) start[v + 1] += start[v];
-  std::vector<std::uint32_t> fill(start.begin(), start.end() - 1);
+  executor.exclusive_scan(start); // the last entry, zero before, becomes the total
+  UnzeroedVector<std::uint32_t> fill(nv);
+  executor.for_each(nv, [&](std::size_t v) { fill[v] = start[v]; });
   // Each entry: the edge's upper vertex (high half) and its encoded id (low half), so matching needs
   // no further lookups. Scattered in any order: each bucket is sorted below.
-  std::vector<std::uint64_t> bucket(start[nv]);
+  UnzeroedVector<std::uint64_t> bucket(start[nv]);
   std::uint32_t* cursor = fill.data();
   std::uint64_t* out = bucket.data();
   executor.for_each(slots, [&, cursor, out](std::size_t k) {
@@ -59,10 +61,13 @@ void link_triangles(Mesh& mesh, CpuExecutor& executor) {
       out[at] = (hi << 32) | edge_id(t, i);
     }
   });
-  std::fill(mesh.adj.begin(), mesh.adj.end(), kNoId);
-  std::vector<std::uint8_t> bad(nv, 0);
   std::uint32_t* adj = mesh.adj.data();
+  executor.for_each(mesh.adj.size(), [adj](std::size_t e) { adj[e] = kNoId; });
+  // The lowest vertex with a bad edge, so that the error does not depend on the thread count.
+  std::uint32_t first_bad = kNoId;
+  UnzeroedVector<std::uint8_t> bad(nv);
   executor.for_each(nv, [&, adj](std::size_t v) {
+    bad[v] = 0;
     std::uint64_t* first = bucket.data() + start[v];
     std::uint64_t* last = bucket.data() + start[v + 1];
     // A bucket holds about a vertex's degree: insertion sort, unless a large fan makes it worth more.
@@ -93,18 +98,28 @@ void link_triangles(Mesh& mesh, CpuExecutor& executor) {
       }
       k = end;
     }
+    if (bad[v] != 0) atomic_min(&first_bad, static_cast<std::uint32_t>(v));
   });
-  for (std::uint32_t v = 0; v < nv; ++v) {
-    if (bad[v] == 1) throw Error("internal error: an edge is shared by more than two triangles");
-    if (bad[v] == 2) throw Error("internal error: two triangles overlap along an edge (same direction)");
-  }
-  mesh.vert_tri.assign(mesh.num_vertices(), kNoId);
-  // Any incident triangle will do; races between writers are benign but not allowed by the memory
-  // model, so this runs serially (it is a single pass over the slots).
-  for (std::uint32_t t = 0; t < slots; ++t) {
-    if (!m.alive(t)) continue;
-    for (std::uint32_t i = 0; i < 3; ++i) mesh.vert_tri[m.v(t, i)] = t;
-  }
+  const std::uint8_t bad_kind = first_bad == kNoId ? 0 : bad[first_bad];
+  if (bad_kind == 1) throw Error("internal error: an edge is shared by more than two triangles");
+  if (bad_kind == 2) throw Error("internal error: two triangles overlap along an edge (same direction)");
+  // Each vertex's incident triangle: the highest live slot that has it, found by an atomic maximum of
+  // t + 1 over 0 (none), so the result does not depend on the thread count.
+  mesh.vert_tri.resize(nv);
+  std::uint32_t* vert_tri = mesh.vert_tri.data();
+  executor.for_each(nv, [vert_tri](std::size_t v) { vert_tri[v] = 0; });
+  executor.for_each(slots, [&, vert_tri](std::size_t k) {
+    const auto t = static_cast<std::uint32_t>(k);
+    if (!m.alive(t)) return;
+    for (std::uint32_t i = 0; i < 3; ++i) {
+      std::atomic_ref<std::uint32_t> ref(vert_tri[m.v(t, i)]);
+      std::uint32_t current = ref.load(std::memory_order_relaxed);
+      while (current < t + 1 && !ref.compare_exchange_weak(current, t + 1, std::memory_order_relaxed)) {
+      }
+    }
+  });
+  executor.for_each(nv,
+                    [vert_tri](std::size_t v) { vert_tri[v] = vert_tri[v] == 0 ? kNoId : vert_tri[v] - 1; });
 }
 
 } // namespace cdt::detail
