@@ -294,17 +294,21 @@ Triangulation triangulate_on(std::span<const Point> points, std::span<const Segm
 #if defined(TRIXEL_HAVE_CUDA)
   if (on_gpu && !device_mesh) device_mesh.emplace(mesh);
 #endif
+  // Phases 3 to 6 report their rounds, and their flips or missing points, alike.
+  const auto end_phase = [&](const char* name, std::uint64_t iterations, std::uint64_t flips,
+                             std::uint64_t missing_points = 0) {
+    PhaseStats& p = timer.end(name);
+    p.iterations = iterations;
+    p.flips = flips;
+    p.missing = missing_points;
+  };
   // Phase 3.
   ShiftStats shift;
 #if defined(TRIXEL_HAVE_CUDA)
   if (on_gpu) shift = device_mesh->shift(n, true_x, true_y, missing);
 #endif
   if (!on_gpu) shift = shift_to_true_positions(mesh, n, true_x, true_y, missing, executor);
-  {
-    PhaseStats& p = timer.end("shift");
-    p.missing = shift.bad;
-    p.iterations = shift.rounds;
-  }
+  end_phase("shift", shift.rounds, 0, shift.bad);
 
   // Phase 4.
   InsertStats insert;
@@ -318,27 +322,17 @@ Triangulation triangulate_on(std::span<const Point> points, std::span<const Segm
     insert = insert_missing_points(mesh, missing, executor);
     remove_fake_boundary(mesh, n, executor);
   }
-  {
-    PhaseStats& p = timer.end("insert");
-    p.missing = missing.size();
-    p.iterations = insert.rounds;
-  }
+  end_phase("insert", insert.rounds, 0, missing.size());
 
   // Phase 5: Lawson flips to the Delaunay triangulation, before the constraints as in the paper. Pieces
   // cross far fewer triangles of a Delaunay mesh than of the one Phase 4 leaves (whose missing points
   // went in without flips): on the coastlines, 0.4M piece-triangle crossings instead of 7.8M.
-  // Phase 5 and Step 3 report their flips alike.
-  const auto end_flip_phase = [&](const char* name, const FlipStats& f) {
-    PhaseStats& p = timer.end(name);
-    p.flips = f.flips;
-    p.iterations = f.rounds;
-  };
   FlipStats delaunay;
 #if defined(TRIXEL_HAVE_CUDA)
   if (on_gpu) delaunay = flip_stats(device_mesh->flip());
 #endif
   if (!on_gpu) delaunay = flip_to_delaunay(mesh, executor);
-  end_flip_phase("delaunay", delaunay);
+  end_phase("delaunay", delaunay.rounds, delaunay.flips);
 
   // Step 2: constraints (pieces named by their index; seg holds the piece index).
   std::vector<ConstraintPiece2> pieces(pslg.pieces.size());
@@ -356,11 +350,7 @@ Triangulation triangulate_on(std::span<const Point> points, std::span<const Segm
     flipped.assign(mesh.num_slots(), 0);
     cons = insert_constraints(mesh, pieces, std::max(1u, options.inner_iterations), executor, flipped.data());
   }
-  {
-    PhaseStats& p = timer.end("constraints");
-    p.flips = cons.flips;
-    p.iterations = cons.outer_iterations;
-  }
+  end_phase("constraints", cons.outer_iterations, cons.flips);
 
   // Step 3: Lawson flips to the CDT, from the triangles the constraints flipped.
   FlipStats flips;
@@ -368,7 +358,7 @@ Triangulation triangulate_on(std::span<const Point> points, std::span<const Segm
   if (on_gpu) flips = flip_stats(device_mesh->flip_after_constraints());
 #endif
   if (!on_gpu) flips = flip_to_delaunay(mesh, executor, flipped.data());
-  end_flip_phase("flip", flips);
+  end_phase("flip", flips.rounds, flips.flips);
 
   // Output in input numbering: live slots in order, links renumbered to triangle indices.
   trace.mark("flip");

@@ -146,4 +146,17 @@ TEST(CpuExecutor, AtomicMinKeepsTheSmallestValue) {
   }
 }
 
+TEST(CpuExecutor, AtomicMaxKeepsTheLargest) {
+  cdt::detail::CpuExecutor ex(4);
+  std::vector<std::uint32_t> marks(64, 0);
+  ex.for_each(100000, [&](std::size_t i) {
+    cdt::detail::atomic_max(&marks[i % 64], static_cast<std::uint32_t>(i + 1));
+  });
+  for (std::size_t k = 0; k < 64; ++k) {
+    // The largest value written to slot k is i + 1 for the largest i with i % 64 == k.
+    const std::size_t largest = 99999 - ((99999 - k) % 64);
+    EXPECT_EQ(marks[k], largest + 1);
+  }
+}
+
 } // namespace

@@ -33,6 +33,16 @@ inline std::uint32_t atomic_min(std::uint32_t* address, std::uint32_t value) {
   return current;
 }
 
+/// Raises *address to value if value is larger; returns the previous value. Safe against concurrent
+/// callers on the same address.
+inline std::uint32_t atomic_max(std::uint32_t* address, std::uint32_t value) {
+  std::atomic_ref<std::uint32_t> ref(*address);
+  std::uint32_t current = ref.load(std::memory_order_relaxed);
+  while (value > current && !ref.compare_exchange_weak(current, value, std::memory_order_relaxed)) {
+  }
+  return current;
+}
+
 /// A fixed pool of worker threads running data-parallel steps. Each step returns only when every
 /// element is done, which is the global synchronisation the algorithm relies on between steps.
 class CpuExecutor {

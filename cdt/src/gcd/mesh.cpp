@@ -111,12 +111,7 @@ void link_triangles(Mesh& mesh, CpuExecutor& executor) {
   executor.for_each(slots, [&, vert_tri](std::size_t k) {
     const auto t = static_cast<std::uint32_t>(k);
     if (!m.alive(t)) return;
-    for (std::uint32_t i = 0; i < 3; ++i) {
-      std::atomic_ref<std::uint32_t> ref(vert_tri[m.v(t, i)]);
-      std::uint32_t current = ref.load(std::memory_order_relaxed);
-      while (current < t + 1 && !ref.compare_exchange_weak(current, t + 1, std::memory_order_relaxed)) {
-      }
-    }
+    for (std::uint32_t i = 0; i < 3; ++i) atomic_max(vert_tri + m.v(t, i), t + 1);
   });
   executor.for_each(nv,
                     [vert_tri](std::size_t v) { vert_tri[v] = vert_tri[v] == 0 ? kNoId : vert_tri[v] - 1; });
