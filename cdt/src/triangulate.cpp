@@ -331,7 +331,7 @@ Triangulation triangulate_on(std::span<const Point> points, std::span<const Segm
 #if defined(TRIXEL_HAVE_CUDA)
   if (on_gpu) delaunay = flip_stats(device_mesh->flip());
 #endif
-  if (!on_gpu) delaunay = flip_to_delaunay(mesh, executor);
+  if (!on_gpu) delaunay = flip_to_delaunay_in_parts(mesh, executor);
   end_phase("delaunay", delaunay.rounds, delaunay.flips);
 
   // Step 2: constraints (pieces named by their index; seg holds the piece index).
@@ -357,7 +357,7 @@ Triangulation triangulate_on(std::span<const Point> points, std::span<const Segm
 #if defined(TRIXEL_HAVE_CUDA)
   if (on_gpu) flips = flip_stats(device_mesh->flip_after_constraints());
 #endif
-  if (!on_gpu) flips = flip_to_delaunay(mesh, executor, flipped.data());
+  if (!on_gpu) flips = flip_to_delaunay_in_parts(mesh, executor, flipped.data());
   end_phase("flip", flips.rounds, flips.flips);
 
   // Output in input numbering: live slots in order, links renumbered to triangle indices.

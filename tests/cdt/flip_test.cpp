@@ -40,11 +40,22 @@ Points uniform_points(std::size_t n, std::uint64_t seed) {
   return from_pslg(trixel_gen::random_points(n, trixel_gen::Distribution::uniform, seed));
 }
 
-// Runs the parallel flipping on a copy and checks validity and the Delaunay property.
-Mesh flipped(const Mesh& input, unsigned threads, FlipStats* stats = nullptr) {
+using FlipFunction = FlipStats (*)(Mesh&, CpuExecutor&, const std::uint8_t*);
+
+// The two schedules of the same flips: parallel rounds (the device's), and parts with the rounds
+// for what lies between them (the CPU backend's).
+struct Schedule {
+  const char* name;
+  FlipFunction flip;
+};
+constexpr Schedule kSchedules[] = {{"rounds", &flip_to_delaunay}, {"parts", &flip_to_delaunay_in_parts}};
+
+// Runs the parallel flipping on a copy.
+Mesh flipped(const Mesh& input, unsigned threads, FlipStats* stats = nullptr,
+             FlipFunction flip = &flip_to_delaunay) {
   Mesh mesh = input;
   CpuExecutor executor(threads);
-  const FlipStats s = flip_to_delaunay(mesh, executor);
+  const FlipStats s = flip(mesh, executor, nullptr);
   if (stats) *stats = s;
   return mesh;
 }
@@ -66,20 +77,48 @@ TEST(FlipTestUtil, SweepTriangulatorIsValid) {
 }
 
 TEST(FlipToDelaunay, RandomUniformMatchesSerialReference) {
-  for (const std::size_t n : {10u, 100u, 1000u, 10000u}) {
-    const Points pts = uniform_points(n, 100 + n);
-    const Mesh input = sweep_triangulate(pts.x, pts.y);
-    FlipStats stats;
-    const Mesh mesh = flipped(input, 4, &stats);
-    expect_valid_mesh(mesh);
-    EXPECT_TRUE(is_locally_delaunay(mesh)) << n;
-    Mesh reference = input;
-    trixel_test::serial_lawson(reference);
-    // In general position the Delaunay triangulation is unique.
-    EXPECT_EQ(triangle_set(mesh), triangle_set(reference)) << n;
-    EXPECT_TRUE(n < 100 || stats.flips > 0) << n;
-    EXPECT_GE(stats.rounds, 1u);
+  for (const Schedule& schedule : kSchedules) {
+    for (const std::size_t n : {10u, 100u, 1000u, 10000u, 60000u}) {
+      const Points pts = uniform_points(n, 100 + n);
+      const Mesh input = sweep_triangulate(pts.x, pts.y);
+      FlipStats stats;
+      const Mesh mesh = flipped(input, 4, &stats, schedule.flip);
+      expect_valid_mesh(mesh);
+      EXPECT_TRUE(is_locally_delaunay(mesh)) << schedule.name << " " << n;
+      Mesh reference = input;
+      trixel_test::serial_lawson(reference);
+      // In general position the Delaunay triangulation is unique.
+      EXPECT_EQ(triangle_set(mesh), triangle_set(reference)) << schedule.name << " " << n;
+      EXPECT_TRUE(n < 100 || stats.flips > 0) << schedule.name << " " << n;
+    }
   }
+}
+
+TEST(FlipToDelaunayInParts, ManyPartsGiveTheSameMeshForAnyThreadCount) {
+  // 60000 points give about 120000 slots, several parts; the sweep numbers its triangles from left to
+  // right, so each part is a strip and most flips stay inside one. The parts are fixed, so every thread
+  // count gives the same mesh, vertex array included.
+  const Points pts = uniform_points(60000, 31);
+  const Mesh input = sweep_triangulate(pts.x, pts.y);
+  ASSERT_GT(input.num_slots(), 100000u);
+  FlipStats one_stats, two_stats, four_stats, rounds_stats;
+  const Mesh one = flipped(input, 1, &one_stats, &flip_to_delaunay_in_parts);
+  const Mesh two = flipped(input, 2, &two_stats, &flip_to_delaunay_in_parts);
+  const Mesh four = flipped(input, 4, &four_stats, &flip_to_delaunay_in_parts);
+  expect_valid_mesh(four);
+  EXPECT_TRUE(is_locally_delaunay(four));
+  EXPECT_EQ(one.tri, two.tri);
+  EXPECT_EQ(one.tri, four.tri);
+  EXPECT_EQ(one.adj, four.adj);
+  EXPECT_EQ(one.vert_tri, two.vert_tri);
+  EXPECT_EQ(one.vert_tri, four.vert_tri);
+  EXPECT_EQ(one_stats.flips, four_stats.flips);
+  EXPECT_EQ(one_stats.rounds, four_stats.rounds);
+  // The same Delaunay triangulation as the parallel rounds, in fewer rounds: the parts made part of
+  // the flips on their own.
+  const Mesh rounds = flipped(input, 2, &rounds_stats, &flip_to_delaunay);
+  EXPECT_EQ(triangle_set(four), triangle_set(rounds));
+  EXPECT_LT(four_stats.rounds, rounds_stats.rounds);
 }
 
 TEST(FlipToDelaunay, SingleAndFourThreadsAgree) {
@@ -99,14 +138,16 @@ TEST(FlipToDelaunay, SingleAndFourThreadsAgree) {
 
 TEST(FlipToDelaunay, LatticeTerminates) {
   // A pixel lattice is co-circular everywhere: flipping on incircle == 0 would never stop.
-  for (const std::uint32_t k : {2u, 3u, 10u, 40u}) {
-    const Points pts = from_pslg(trixel_gen::lattice(k));
-    const Mesh input = sweep_triangulate(pts.x, pts.y);
-    const Mesh mesh = flipped(input, 4);
-    expect_valid_mesh(mesh);
-    EXPECT_TRUE(is_locally_delaunay(mesh)) << k;
-    EXPECT_EQ(triangle_set(mesh).size(), 2u * (k - 1) * (k - 1)) << k;
-    EXPECT_EQ(mesh.tri, flipped(input, 1).tri) << k;
+  for (const Schedule& schedule : kSchedules) {
+    for (const std::uint32_t k : {2u, 3u, 10u, 40u, 200u}) {
+      const Points pts = from_pslg(trixel_gen::lattice(k));
+      const Mesh input = sweep_triangulate(pts.x, pts.y);
+      const Mesh mesh = flipped(input, 4, nullptr, schedule.flip);
+      expect_valid_mesh(mesh);
+      EXPECT_TRUE(is_locally_delaunay(mesh)) << schedule.name << " " << k;
+      EXPECT_EQ(triangle_set(mesh).size(), 2u * (k - 1) * (k - 1)) << schedule.name << " " << k;
+      EXPECT_EQ(mesh.tri, flipped(input, 1, nullptr, schedule.flip).tri) << schedule.name << " " << k;
+    }
   }
 }
 
@@ -159,12 +200,14 @@ TEST(FlipToDelaunay, PointsOnACircle) {
 TEST(FlipToDelaunay, ClusteredPoints) {
   const Points pts = from_pslg(trixel_gen::clustered(5000, 7, 11));
   const Mesh input = sweep_triangulate(pts.x, pts.y);
-  const Mesh mesh = flipped(input, 4);
-  expect_valid_mesh(mesh);
-  EXPECT_TRUE(is_locally_delaunay(mesh));
   Mesh reference = input;
   trixel_test::serial_lawson(reference);
-  EXPECT_EQ(triangle_set(mesh), triangle_set(reference));
+  for (const Schedule& schedule : kSchedules) {
+    const Mesh mesh = flipped(input, 4, nullptr, schedule.flip);
+    expect_valid_mesh(mesh);
+    EXPECT_TRUE(is_locally_delaunay(mesh)) << schedule.name;
+    EXPECT_EQ(triangle_set(mesh), triangle_set(reference)) << schedule.name;
+  }
 }
 
 TEST(FlipToDelaunay, ConstraintEdgesAreNeverFlipped) {
@@ -184,19 +227,21 @@ TEST(FlipToDelaunay, ConstraintEdgesAreNeverFlipped) {
     }
   }
   ASSERT_GT(fixed.size(), 100u);
-  FlipStats stats;
-  const Mesh mesh = flipped(input, 4, &stats);
-  EXPECT_GT(stats.flips, 0u);
-  expect_valid_mesh(mesh);
-  EXPECT_TRUE(is_locally_delaunay(mesh));
-  for (std::uint32_t id = 0; id < fixed.size(); ++id) {
-    const std::uint32_t e = trixel_test::find_edge(mesh, fixed[id].first, fixed[id].second);
-    ASSERT_NE(e, kNoId) << "constraint " << id << " was flipped away";
-    EXPECT_EQ(mesh.seg[e], id);
-  }
   Mesh reference = input;
   trixel_test::serial_lawson(reference);
-  EXPECT_EQ(triangle_set(mesh), triangle_set(reference));
+  for (const Schedule& schedule : kSchedules) {
+    FlipStats stats;
+    const Mesh mesh = flipped(input, 4, &stats, schedule.flip);
+    EXPECT_GT(stats.flips, 0u) << schedule.name;
+    expect_valid_mesh(mesh);
+    EXPECT_TRUE(is_locally_delaunay(mesh)) << schedule.name;
+    for (std::uint32_t id = 0; id < fixed.size(); ++id) {
+      const std::uint32_t e = trixel_test::find_edge(mesh, fixed[id].first, fixed[id].second);
+      ASSERT_NE(e, kNoId) << schedule.name << ": constraint " << id << " was flipped away";
+      EXPECT_EQ(mesh.seg[e], id) << schedule.name;
+    }
+    EXPECT_EQ(triangle_set(mesh), triangle_set(reference)) << schedule.name;
+  }
 }
 
 TEST(FlipToDelaunay, DelaunayInputNeedsNoFlip) {
@@ -230,34 +275,39 @@ TEST(FlipToDelaunay, OnlyTheGivenSlotsAreCheckedAtFirst) {
   }
   ASSERT_GT(undone, 20u);
   ASSERT_FALSE(is_locally_delaunay(mesh));
-  Mesh untouched = mesh;
   CpuExecutor executor(2);
-  const std::vector<std::uint8_t> none(mesh.num_slots(), 0);
-  const FlipStats idle = flip_to_delaunay(untouched, executor, none.data());
-  EXPECT_EQ(idle.flips, 0u);
-  EXPECT_EQ(idle.rounds, 0u);
-  const FlipStats stats = flip_to_delaunay(mesh, executor, only.data());
-  expect_valid_mesh(mesh);
-  EXPECT_TRUE(is_locally_delaunay(mesh));
-  EXPECT_EQ(triangle_set(mesh), triangle_set(reference));
-  EXPECT_GE(stats.flips, undone);
+  for (const Schedule& schedule : kSchedules) {
+    Mesh untouched = mesh;
+    const std::vector<std::uint8_t> none(mesh.num_slots(), 0);
+    const FlipStats idle = schedule.flip(untouched, executor, none.data());
+    EXPECT_EQ(idle.flips, 0u) << schedule.name;
+    EXPECT_EQ(idle.rounds, 0u) << schedule.name;
+    Mesh fixed = mesh;
+    const FlipStats stats = schedule.flip(fixed, executor, only.data());
+    expect_valid_mesh(fixed);
+    EXPECT_TRUE(is_locally_delaunay(fixed)) << schedule.name;
+    EXPECT_EQ(triangle_set(fixed), triangle_set(reference)) << schedule.name;
+    EXPECT_GE(stats.flips, undone) << schedule.name;
+  }
 }
 
 TEST(FlipToDelaunay, TinyAndEmptyMeshes) {
-  Mesh empty;
-  CpuExecutor executor(2);
-  EXPECT_EQ(flip_to_delaunay(empty, executor).flips, 0u);
-  const Mesh one = trixel_test::mesh_from_triangles({0, 1, 0}, {0, 0, 1}, {{0, 1, 2}});
-  FlipStats stats;
-  const Mesh out = flipped(one, 2, &stats);
-  EXPECT_EQ(stats.flips, 0u);
-  expect_valid_mesh(out);
-  // Two triangles whose shared edge fails: exactly one flip, to the other diagonal.
-  const Mesh quad = trixel_test::mesh_from_triangles({0, 10, 9, 0}, {0, 0, 9, 10}, {{0, 1, 3}, {1, 2, 3}});
-  const Mesh fixed = flipped(quad, 2, &stats);
-  EXPECT_EQ(stats.flips, 1u);
-  expect_valid_mesh(fixed);
-  EXPECT_NE(trixel_test::find_edge(fixed, 0, 2), kNoId);
+  for (const Schedule& schedule : kSchedules) {
+    Mesh empty;
+    CpuExecutor executor(2);
+    EXPECT_EQ(schedule.flip(empty, executor, nullptr).flips, 0u) << schedule.name;
+    const Mesh one = trixel_test::mesh_from_triangles({0, 1, 0}, {0, 0, 1}, {{0, 1, 2}});
+    FlipStats stats;
+    const Mesh out = flipped(one, 2, &stats, schedule.flip);
+    EXPECT_EQ(stats.flips, 0u) << schedule.name;
+    expect_valid_mesh(out);
+    // Two triangles whose shared edge fails: exactly one flip, to the other diagonal.
+    const Mesh quad = trixel_test::mesh_from_triangles({0, 10, 9, 0}, {0, 0, 9, 10}, {{0, 1, 3}, {1, 2, 3}});
+    const Mesh fixed = flipped(quad, 2, &stats, schedule.flip);
+    EXPECT_EQ(stats.flips, 1u) << schedule.name;
+    expect_valid_mesh(fixed);
+    EXPECT_NE(trixel_test::find_edge(fixed, 0, 2), kNoId) << schedule.name;
+  }
 }
 
 TEST(FlipBatch, MatchesSequentialFlipEdge) {

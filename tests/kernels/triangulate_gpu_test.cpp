@@ -1,6 +1,8 @@
 // triangulate() with Backend::gpu: the digital Voronoi diagram, the dual, shifting, missing points,
-// constraints and flips run on the device, each step for step the CPU executor's, so the whole result
-// must be the CPU backend's, triangle for triangle, with the same counts in every phase, and verify.
+// constraints and flips run on the device. Up to the missing points each phase is the CPU executor's
+// step for step, so those phases must count the same; the flips are scheduled differently (parallel
+// rounds on the device, parts of the mesh on CPU threads), so the result must be the CPU backend's
+// triangle for triangle where the CDT is unique (points in general position), and verify everywhere.
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -32,8 +34,12 @@ std::vector<std::array<std::uint32_t, 3>> canonical(const cdt::Triangulation& t)
   return out;
 }
 
+/// Whether the input's CDT is unique (no four co-circular points), so that both backends must give the
+/// same triangles; otherwise each gives one of the CDTs and both must verify.
+enum class Cdt { unique, any };
+
 void expect_same_as_cpu(const std::vector<cdt::Point>& points, const std::vector<cdt::Segment>& segments,
-                        const std::string& what) {
+                        const std::string& what, Cdt cdt_kind = Cdt::unique) {
   cdt::Options gpu;
   gpu.backend = cdt::Backend::gpu;
   cdt::Options cpu;
@@ -41,18 +47,25 @@ void expect_same_as_cpu(const std::vector<cdt::Point>& points, const std::vector
   const cdt::Triangulation on_gpu = cdt::triangulate(points, segments, gpu);
   const cdt::Triangulation on_cpu = cdt::triangulate(points, segments, cpu);
   EXPECT_EQ(on_gpu.stats.backend.rfind("gpu", 0), 0u) << what << ": backend " << on_gpu.stats.backend;
-  EXPECT_EQ(canonical(on_gpu), canonical(on_cpu)) << what;
+  if (cdt_kind == Cdt::unique) {
+    EXPECT_EQ(canonical(on_gpu), canonical(on_cpu)) << what;
+  }
+  EXPECT_EQ(on_gpu.triangles.size(), on_cpu.triangles.size()) << what;
   ASSERT_EQ(on_gpu.stats.phases.size(), on_cpu.stats.phases.size()) << what;
   for (std::size_t k = 0; k < on_cpu.stats.phases.size(); ++k) {
     const cdt::PhaseStats& g = on_gpu.stats.phases[k];
     const cdt::PhaseStats& c = on_cpu.stats.phases[k];
     EXPECT_EQ(g.name, c.name) << what;
+    if (c.name == "delaunay") break; // the flips and everything after them are scheduled differently
     EXPECT_EQ(g.flips, c.flips) << what << ", phase " << c.name;
     EXPECT_EQ(g.iterations, c.iterations) << what << ", phase " << c.name;
     EXPECT_EQ(g.missing, c.missing) << what << ", phase " << c.name;
   }
-  const cdt::VerifyReport report = cdt::verify(on_gpu, points, segments);
-  EXPECT_TRUE(report.ok()) << what << ": " << (report.problems.empty() ? "" : report.problems.front());
+  for (const auto* result : {&on_gpu, &on_cpu}) {
+    const cdt::VerifyReport report = cdt::verify(*result, points, segments);
+    EXPECT_TRUE(report.ok()) << what << (result == &on_gpu ? " (gpu): " : " (cpu): ")
+                             << (report.problems.empty() ? "" : report.problems.front());
+  }
 }
 
 class TriangulateGpu : public ::testing::Test {
@@ -82,7 +95,7 @@ TEST_F(TriangulateGpu, SegmentsMatchTheCpuBackend) {
 TEST_F(TriangulateGpu, LatticesVerify) {
   for (std::uint32_t k : {10u, 64u}) {
     const auto in = trixel_gen::lattice_with_segments(k, k, k);
-    expect_same_as_cpu(in.points, in.segments, "lattice " + std::to_string(k));
+    expect_same_as_cpu(in.points, in.segments, "lattice " + std::to_string(k), Cdt::any);
   }
 }
 
@@ -93,7 +106,7 @@ TEST_F(TriangulateGpu, ArtemOgreFilesVerify) {
     if (entry.path().extension() != ".txt") continue;
     ++files;
     const cdt::io::Pslg in = cdt::io::read_edge_list(entry.path());
-    expect_same_as_cpu(in.points, in.segments, entry.path().filename().string());
+    expect_same_as_cpu(in.points, in.segments, entry.path().filename().string(), Cdt::any);
   }
   EXPECT_EQ(files, 36);
 }

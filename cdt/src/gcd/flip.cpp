@@ -4,10 +4,12 @@
 
 #include "gcd/flip.hpp"
 
+#include <algorithm>
 #include <string>
 
 #include "cdt/errors.hpp"
 #include "executor/cpu_executor.hpp"
+#include "gcd/part_lawson.hpp"
 
 namespace cdt::detail {
 
@@ -48,42 +50,42 @@ void FlipBatch::apply(Mesh& mesh, std::span<const std::uint32_t> edges, CpuExecu
   }
 }
 
-FlipStats flip_to_delaunay(Mesh& mesh, CpuExecutor& executor, const std::uint8_t* only) {
-  FlipStats stats;
-  const std::uint32_t slots = mesh.num_slots();
-  const MeshView m = mesh.view();
-  std::vector<std::uint32_t> mark(slots, kNoId);
-  std::vector<std::uint8_t> in_active(slots, 0);
-  FlipBatch batch(slots);
-  std::uint32_t* marks = mark.data();
-  std::uint8_t* active_flag = in_active.data();
+namespace {
 
-  std::vector<std::uint32_t> active = executor.compact(slots, [&](std::size_t t) {
-    return m.alive(static_cast<std::uint32_t>(t)) && (only == nullptr || only[t] != 0);
-  });
-  std::vector<std::uint32_t> proposed_edge;
-  std::vector<std::uint32_t> proposed_nbr;
-  std::vector<std::uint8_t> owned;
-  std::vector<std::uint32_t> winner_edges;
-  {
-    const std::uint32_t* list = active.data();
-    executor.for_each(active.size(), [&](std::size_t k) { active_flag[list[k]] = 1; });
+/// The parallel rounds of Phase 5 (propose, claim by atomic minimum, flip the winners' batch), with the
+/// per-slot state they keep from round to round.
+class FlipRounds {
+public:
+  FlipRounds(Mesh& mesh, CpuExecutor& executor)
+      : mesh_(mesh), executor_(executor), mark_(mesh.num_slots(), kNoId), active_(mesh.num_slots(), 0),
+        batch_(mesh.num_slots()) {}
+
+  /// Flags the slots of `list` as active (the paper's marked triangles of the coming round).
+  void activate(const std::vector<std::uint32_t>& list) {
+    const std::uint32_t* l = list.data();
+    std::uint8_t* flag = active_.data();
+    executor_.for_each(list.size(), [&](std::size_t k) { flag[l[k]] = 1; });
   }
 
-  const std::uint32_t* partner = batch.partner();
-  while (!active.empty()) {
+  /// One round over `list` (flagged active): returns the next round's list, flagged active in its place,
+  /// or an empty list when no triangle proposed a flip. Adds the round and its flips to `stats`.
+  std::vector<std::uint32_t> round(const std::vector<std::uint32_t>& active, FlipStats& stats) {
     ++stats.rounds;
+    const MeshView m = mesh_.view();
     const std::size_t n = active.size();
-    proposed_edge.resize(n);
-    proposed_nbr.resize(n);
-    owned.resize(n);
+    proposed_edge_.resize(n);
+    proposed_nbr_.resize(n);
+    owned_.resize(n);
     const std::uint32_t* list = active.data();
-    std::uint32_t* cand = proposed_edge.data();
-    std::uint32_t* nbr = proposed_nbr.data();
-    std::uint8_t* own = owned.data();
+    std::uint32_t* cand = proposed_edge_.data();
+    std::uint32_t* nbr = proposed_nbr_.data();
+    std::uint8_t* own = owned_.data();
+    std::uint32_t* marks = mark_.data();
+    std::uint8_t* active_flag = active_.data();
+    const std::uint32_t* partner = batch_.partner();
 
     // Propose and claim: the proposer's slot index is its label, so the lowest proposer wins.
-    executor.for_each(n, [&](std::size_t k) {
+    executor_.for_each(n, [&](std::size_t k) {
       const std::uint32_t t = list[k];
       const std::uint32_t e = delaunay_flip_candidate(m, active_flag, partner, t);
       cand[k] = e;
@@ -96,7 +98,7 @@ FlipStats flip_to_delaunay(Mesh& mesh, CpuExecutor& executor, const std::uint8_t
     });
     // Read the claims only after every claim is in (the global synchronisation between steps); the bits
     // also say which marks this proposer must clear, so each mark has exactly one clearer.
-    executor.for_each(n, [&](std::size_t k) {
+    executor_.for_each(n, [&](std::size_t k) {
       if (cand[k] == kNoId) {
         own[k] = 0;
         return;
@@ -105,25 +107,26 @@ FlipStats flip_to_delaunay(Mesh& mesh, CpuExecutor& executor, const std::uint8_t
       own[k] = static_cast<std::uint8_t>((marks[t] == t ? 1u : 0u) | (marks[nbr[k]] == t ? 2u : 0u));
     });
     const std::vector<std::uint32_t> winners =
-        executor.compact(n, [&](std::size_t k) { return own[k] == 3; });
+        executor_.compact(n, [&](std::size_t k) { return own[k] == 3; });
     if (winners.empty()) {
       // The lowest proposer always holds both of its claims, so no winner means no proposal.
-      if (!executor.compact(n, [&](std::size_t k) { return cand[k] != kNoId; }).empty()) {
+      if (!executor_.compact(n, [&](std::size_t k) { return cand[k] != kNoId; }).empty()) {
         throw Error("internal error: a Delaunay flipping round claimed no pair");
       }
-      break;
+      executor_.for_each(n, [&](std::size_t k) { active_flag[list[k]] = 0; });
+      return {};
     }
 
-    winner_edges.resize(winners.size());
+    winner_edges_.resize(winners.size());
     {
       const std::uint32_t* w = winners.data();
-      std::uint32_t* out = winner_edges.data();
-      executor.for_each(winners.size(), [&](std::size_t k) { out[k] = cand[w[k]]; });
+      std::uint32_t* out = winner_edges_.data();
+      executor_.for_each(winners.size(), [&](std::size_t k) { out[k] = cand[w[k]]; });
     }
-    batch.apply(mesh, winner_edges, executor);
+    batch_.apply(mesh_, winner_edges_, executor_);
     stats.flips += winners.size();
 
-    executor.for_each(n, [&](std::size_t k) {
+    executor_.for_each(n, [&](std::size_t k) {
       if (own[k] & 1u) marks[list[k]] = kNoId;
       if (own[k] & 2u) marks[nbr[k]] = kNoId;
     });
@@ -132,27 +135,133 @@ FlipStats flip_to_delaunay(Mesh& mesh, CpuExecutor& executor, const std::uint8_t
     // triangles are unmarked in the paper's terms). A losing proposer that was flipped as some winner's
     // neighbour comes in through the second list only.
     const std::vector<std::uint32_t> waiting =
-        executor.compact(n, [&](std::size_t k) { return cand[k] != kNoId && partner[list[k]] == kNoId; });
+        executor_.compact(n, [&](std::size_t k) { return cand[k] != kNoId && partner[list[k]] == kNoId; });
     std::vector<std::uint32_t> next(waiting.size() + 2 * winners.size());
     {
       const std::uint32_t* wait = waiting.data();
       const std::uint32_t* w = winners.data();
       std::uint32_t* out = next.data();
       const std::size_t base = waiting.size();
-      executor.for_each(waiting.size(), [&](std::size_t k) { out[k] = list[wait[k]]; });
-      executor.for_each(winners.size(), [&](std::size_t k) {
+      executor_.for_each(waiting.size(), [&](std::size_t k) { out[k] = list[wait[k]]; });
+      executor_.for_each(winners.size(), [&](std::size_t k) {
         const std::uint32_t t = list[w[k]];
         out[base + 2 * k] = t;
         out[base + 2 * k + 1] = partner[t];
       });
     }
-    executor.for_each(n, [&](std::size_t k) { active_flag[list[k]] = 0; });
-    {
-      const std::uint32_t* out = next.data();
-      executor.for_each(next.size(), [&](std::size_t k) { active_flag[out[k]] = 1; });
-    }
-    active.swap(next);
+    executor_.for_each(n, [&](std::size_t k) { active_flag[list[k]] = 0; });
+    activate(next);
+    return next;
   }
+
+  /// Clears the active flags of `list` and forgets the last batch's pairs: after flips made outside the
+  /// rounds, a pair of the last batch no longer holds its fresh diagonal as edge 1.
+  void reset(const std::vector<std::uint32_t>& list) {
+    const std::uint32_t* l = list.data();
+    std::uint8_t* flag = active_.data();
+    executor_.for_each(list.size(), [&](std::size_t k) { flag[l[k]] = 0; });
+    batch_.forget(executor_);
+  }
+
+private:
+  Mesh& mesh_;
+  CpuExecutor& executor_;
+  std::vector<std::uint32_t> mark_;
+  std::vector<std::uint8_t> active_;
+  FlipBatch batch_;
+  std::vector<std::uint32_t> proposed_edge_;
+  std::vector<std::uint32_t> proposed_nbr_;
+  std::vector<std::uint8_t> owned_;
+  std::vector<std::uint32_t> winner_edges_;
+};
+
+} // namespace
+
+void FlipBatch::forget(CpuExecutor& executor) {
+  std::uint32_t* partner = partner_.data();
+  const std::uint32_t* last = last_pairs_.data();
+  executor.for_each(last_pairs_.size(), [&](std::size_t k) { partner[last[k]] = kNoId; });
+  last_pairs_.clear();
+}
+
+FlipStats flip_to_delaunay(Mesh& mesh, CpuExecutor& executor, const std::uint8_t* only) {
+  FlipStats stats;
+  const std::uint32_t slots = mesh.num_slots();
+  const MeshView m = mesh.view();
+  FlipRounds rounds(mesh, executor);
+  std::vector<std::uint32_t> active = executor.compact(slots, [&](std::size_t t) {
+    return m.alive(static_cast<std::uint32_t>(t)) && (only == nullptr || only[t] != 0);
+  });
+  rounds.activate(active);
+  while (!active.empty()) active = rounds.round(active, stats);
+  return stats;
+}
+
+FlipStats flip_to_delaunay_in_parts(Mesh& mesh, CpuExecutor& executor, const std::uint8_t* only) {
+  FlipStats stats;
+  const std::uint32_t slots = mesh.num_slots();
+  if (slots == 0) return stats;
+  const MeshView m = mesh.view();
+  const std::uint32_t parts = (slots + kPartSlots - 1) / kPartSlots;
+  const auto part_of = [](std::uint32_t t) { return t / kPartSlots; };
+  FlipRounds rounds(mesh, executor);
+  std::vector<std::vector<std::uint32_t>> stack(parts);    // edges to test, per part
+  std::vector<std::vector<std::uint32_t>> deferred(parts); // slots with an edge to another part, per part
+  std::vector<std::uint64_t> part_flips(parts, 0);
+  std::vector<std::uint8_t> is_deferred(slots, 0);
+  const auto defer = [&](std::uint32_t p, std::uint32_t t) {
+    if (is_deferred[t] == 0) {
+      is_deferred[t] = 1;
+      deferred[p].push_back(t);
+    }
+  };
+  // Drains part p's stack; the triangles it must leave wait for the next parallel round.
+  const auto drain = [&](std::uint32_t p) {
+    part_flips[p] += drain_in_part(
+        m, stack[p], [&](std::uint32_t t) { return part_of(t) == p; }, [&](std::uint32_t t) { defer(p, t); });
+  };
+
+  // First, every edge of the triangles to check, each edge once when both sides are to be checked.
+  executor.for_each_part(parts, [&](std::size_t pp) {
+    const auto p = static_cast<std::uint32_t>(pp);
+    const std::uint32_t lo = p * kPartSlots;
+    const std::uint32_t hi = std::min(slots, lo + kPartSlots);
+    const auto checked = [&](std::uint32_t t) { return m.alive(t) && (only == nullptr || only[t] != 0); };
+    for (std::uint32_t t = lo; t < hi; ++t) {
+      if (!checked(t)) continue;
+      for (std::uint32_t i = 0; i < 3; ++i) {
+        const std::uint32_t e = m.adj[3 * t + i];
+        if (e == kNoId) continue;
+        const std::uint32_t u = edge_tri(e);
+        if (u >= lo && u < hi && u < t && checked(u)) continue;
+        stack[p].push_back(edge_id(t, i));
+      }
+    }
+    // Popped from the back: reversed, the part is worked through in slot order.
+    std::reverse(stack[p].begin(), stack[p].end());
+    drain(p);
+  });
+  for (;;) {
+    std::vector<std::uint32_t> active;
+    for (auto& list : deferred) {
+      active.insert(active.end(), list.begin(), list.end());
+      list.clear();
+    }
+    if (active.empty()) break;
+    executor.for_each(active.size(), [&](std::size_t k) { is_deferred[active[k]] = 0; });
+    // One parallel round over the triangles the parts left; what it flipped, and the proposers it could
+    // not serve, go back to their parts.
+    rounds.activate(active);
+    const std::vector<std::uint32_t> next = rounds.round(active, stats);
+    rounds.reset(next);
+    if (next.empty()) break;
+    for (const std::uint32_t t : next) {
+      const std::uint32_t p = part_of(t);
+      for (std::uint32_t i = 0; i < 3; ++i) stack[p].push_back(edge_id(t, i));
+    }
+    executor.for_each_part(parts, [&](std::size_t p) { drain(static_cast<std::uint32_t>(p)); });
+  }
+  for (const std::uint64_t f : part_flips) stats.flips += f;
   return stats;
 }
 

@@ -36,6 +36,17 @@ struct FlipStats {
 /// only the triangles that constraint insertion flipped can have failing edges).
 FlipStats flip_to_delaunay(Mesh& mesh, CpuExecutor& executor, const std::uint8_t* only = nullptr);
 
+/// The same flips to the same end, scheduled for CPU threads: the slots are cut into fixed parts of
+/// consecutive slots (spatially compact, as the phases before number them along a space-filling
+/// curve); each part runs Lawson's algorithm with a stack on one thread, flipping the edges whose
+/// flips touch only its own slots, and the triangles it must leave (edges to or flips touching another
+/// part) go through flip_to_delaunay's parallel rounds, one round at a time, until nothing is left.
+/// Every flip makes the triangulation strictly more Delaunay, so the result is the Delaunay
+/// triangulation either way (unique for points in general position; with co-circular points, one of
+/// them). The parts do not depend on the thread count, and neither does the result. Counts one
+/// iteration per parallel round.
+FlipStats flip_to_delaunay_in_parts(Mesh& mesh, CpuExecutor& executor, const std::uint8_t* only = nullptr);
+
 // --- per-element work (host and device) --------------------------------------------------------------
 
 CDT_HD_INLINE int orient_vertices(const MeshView& m, std::uint32_t a, std::uint32_t b, std::uint32_t c) {
@@ -185,6 +196,9 @@ public:
   /// Per slot, the other slot of its pair in the last batch, kNoId when it did not flip. Valid until the
   /// next apply().
   const std::uint32_t* partner() const { return partner_.data(); }
+
+  /// Forgets the last batch: every partner entry becomes kNoId again.
+  void forget(CpuExecutor& executor);
 
 private:
   std::vector<std::uint32_t> partner_;

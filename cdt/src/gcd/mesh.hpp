@@ -80,12 +80,9 @@ class CpuExecutor;
 /// triangles or used twice in the same direction (not a valid triangulation).
 void link_triangles(Mesh& mesh, CpuExecutor& executor);
 
-/// Flips edge i of triangle t with its neighbour u (the quadrilateral must be strictly convex):
-/// t = (a, b, c) with edge i = (b, c) and u = (c, b, d) become t = (a, b, d) and u = (d, c, a).
-/// The four outer links and vert_tri of the four vertices are updated directly, so the caller must
-/// own t, u and the slots of their outer neighbours that face them. Constraint ids move with their
-/// edges; the new diagonal is not a constraint.
-CDT_HD inline void flip_edge(MeshView m, std::uint32_t t, std::uint32_t i) {
+/// flip_edge without the vertex array: t and u are rewritten and the four outer links updated, vert_tri
+/// is left to the caller.
+CDT_HD inline void flip_edge_links(MeshView m, std::uint32_t t, std::uint32_t i) {
   const std::uint32_t e = m.adj[3 * t + i];
   const std::uint32_t u = edge_tri(e);
   const std::uint32_t j = edge_index(e);
@@ -123,10 +120,20 @@ CDT_HD inline void flip_edge(MeshView m, std::uint32_t t, std::uint32_t i) {
   if (t_ab != kNoId) m.adj[t_ab] = edge_id(t, 2);
   if (t_ca != kNoId) m.adj[t_ca] = edge_id(u, 0);
   if (u_dc != kNoId) m.adj[u_dc] = edge_id(u, 2);
-  m.vert_tri[a] = t;
-  m.vert_tri[b] = t;
-  m.vert_tri[d] = u;
-  m.vert_tri[c] = u;
+}
+
+/// Flips edge i of triangle t with its neighbour u (the quadrilateral must be strictly convex):
+/// t = (a, b, c) with edge i = (b, c) and u = (c, b, d) become t = (a, b, d) and u = (d, c, a).
+/// The four outer links and vert_tri of the four vertices are updated directly, so the caller must
+/// own t, u and the slots of their outer neighbours that face them. Constraint ids move with their
+/// edges; the new diagonal is not a constraint.
+CDT_HD inline void flip_edge(MeshView m, std::uint32_t t, std::uint32_t i) {
+  const std::uint32_t u = edge_tri(m.adj[3 * t + i]);
+  flip_edge_links(m, t, i);
+  m.vert_tri[m.tri[3 * t + 0]] = t; // a
+  m.vert_tri[m.tri[3 * t + 1]] = t; // b
+  m.vert_tri[m.tri[3 * u + 0]] = u; // d
+  m.vert_tri[m.tri[3 * u + 1]] = u; // c
 }
 
 /// The output of slot t (cdt::Triangulation's arrays, 3 entries each): its corners as vertex ids
