@@ -12,6 +12,14 @@
 //   shift     Phase 3: points back to their true coordinates (Algorithms 1 and 2)
 //   insert    Phase 4: missing points (Algorithm 3), fake boundary removal
 //   delaunay  Phase 5: Lawson flips to the Delaunay triangulation
+//
+// On CPU threads Phases 4 and 5 and Step 3 are scheduled for a few fast cores rather than thousands of
+// slow ones: the mesh's slots are cut into fixed parts, each worked by one thread with Lawson's
+// algorithm (the sites' mesh flipped to Delaunay, then each missing point inserted and its flips made
+// at once), and only what crosses between parts goes through the parallel rounds. The rounds alone
+// spend most of their time re-reading the active lists (about ten passes a round, tens of rounds);
+// the parts do the same flips once each. The device keeps the paper's rounds. Where the CDT is unique
+// both give the same triangles; with co-circular points each gives one of the CDTs.
 //   constraints  Step 2: constraints inserted by flipping (Algorithms 4 and 5)
 //   flip      Step 3: Lawson flips to the constrained Delaunay triangulation, from the triangles
 //             that Step 2 flipped
@@ -318,20 +326,31 @@ Triangulation triangulate_on(std::span<const Point> points, std::span<const Segm
     device_mesh->remove_fake_boundary(n);
   }
 #endif
+  // On CPU threads the sites' mesh is made Delaunay first, so that each part can insert its points
+  // with Lawson's flips as it goes; what the parts leave is flagged in `dirty` for Phase 5.
+  std::vector<std::uint8_t> dirty;
   if (!on_gpu) {
-    insert = insert_missing_points(mesh, missing, executor);
-    remove_fake_boundary(mesh, n, executor);
+    insert.flips = flip_to_delaunay_in_parts(mesh, executor).flips;
+    trace.mark("sites' delaunay");
+    const InsertStats parts = insert_missing_points_in_parts(mesh, missing, executor, dirty);
+    trace.mark("missing points");
+    insert.rounds = parts.rounds;
+    insert.inserted = parts.inserted;
+    insert.flips += parts.flips;
+    remove_fake_boundary(mesh, n, executor, &dirty);
+    trace.mark("fake boundary");
   }
-  end_phase("insert", insert.rounds, 0, missing.size());
+  end_phase("insert", insert.rounds, insert.flips, missing.size());
 
   // Phase 5: Lawson flips to the Delaunay triangulation, before the constraints as in the paper. Pieces
   // cross far fewer triangles of a Delaunay mesh than of the one Phase 4 leaves (whose missing points
-  // went in without flips): on the coastlines, 0.4M piece-triangle crossings instead of 7.8M.
+  // went in without flips): on the coastlines, 0.4M piece-triangle crossings instead of 7.8M. On CPU
+  // threads only the triangles the parts left in `dirty` can still fail the incircle test.
   FlipStats delaunay;
 #if defined(TRIXEL_HAVE_CUDA)
   if (on_gpu) delaunay = flip_stats(device_mesh->flip());
 #endif
-  if (!on_gpu) delaunay = flip_to_delaunay_in_parts(mesh, executor);
+  if (!on_gpu) delaunay = flip_to_delaunay_in_parts(mesh, executor, dirty.data());
   end_phase("delaunay", delaunay.rounds, delaunay.flips);
 
   // Step 2: constraints (pieces named by their index; seg holds the piece index).

@@ -15,6 +15,7 @@
 #include "cdt/errors.hpp"
 #include "gcd/insert.hpp"
 #include "gcd/shift.hpp"
+#include "mesh_test_util.hpp"
 #include "shift_test_util.hpp"
 
 namespace {
@@ -229,6 +230,68 @@ TEST(ShiftInsert, OneAndFourThreadsGiveTheSameValidMesh) {
     EXPECT_EQ(f1.mesh.adj, f4.mesh.adj);
     EXPECT_EQ(f1.mesh.vert_tri, f4.mesh.vert_tri);
   }
+}
+
+// The CPU schedule of Phases 4 and 5 (parts inserting their points with Lawson's flips, the rounds for the
+// rest) ends in the Delaunay triangulation, the same as Algorithm 3's rounds followed by the flips, and in
+// the same mesh for any thread count.
+TEST(InsertInParts, SameDelaunayTriangulationAsTheRoundsForAnyThreadCount) {
+  const Points uniform_points = uniform(60000, 256.0, 5);
+  Points clustered;
+  {
+    std::mt19937_64 rng(9);
+    std::normal_distribution<double> d(0.0, 1.0);
+    for (int c = 0; c < 40; ++c) {
+      const double cx = 10.0 * c, cy = 3.0 * (c % 7);
+      for (int i = 0; i < 1500; ++i) clustered.add(cx + 0.05 * d(rng), cy + 0.05 * d(rng));
+    }
+    clustered = distinct(clustered);
+  }
+  for (const Points* p : {&uniform_points, static_cast<const Points*>(&clustered)}) {
+    const Fixture base = fixture(*p, {.cell = 2.0, .fakes = 16, .delaunay = true});
+    Fixture rounds = base;
+    CpuExecutor ex2(2);
+    ASSERT_EQ(run_phases(rounds, ex2).error, "");
+    cdt::detail::flip_to_delaunay(rounds.mesh, ex2);
+    Fixture one = base, two = base, four = base;
+    CpuExecutor ex1(1), ex4(4);
+    const auto r1 = run_phases(one, ex1, true);
+    const auto r2 = run_phases(two, ex2, true);
+    const auto r4 = run_phases(four, ex4, true);
+    ASSERT_EQ(r1.error, "");
+    ASSERT_EQ(r2.error, "");
+    ASSERT_EQ(r4.error, "");
+    EXPECT_GT(r1.missing, 10000u);
+    EXPECT_EQ(r1.insert.inserted, r1.missing);
+    EXPECT_GT(r1.insert.flips, 0u);
+    EXPECT_TRUE(trixel_test::is_locally_delaunay(one.mesh));
+    // In general position the Delaunay triangulation is unique.
+    EXPECT_EQ(trixel_test::triangle_set(one.mesh), trixel_test::triangle_set(rounds.mesh));
+    EXPECT_EQ(one.mesh.tri, two.mesh.tri);
+    EXPECT_EQ(one.mesh.tri, four.mesh.tri);
+    EXPECT_EQ(one.mesh.adj, four.mesh.adj);
+    EXPECT_EQ(one.mesh.vert_tri, four.mesh.vert_tri);
+    EXPECT_EQ(r1.insert.flips, r4.insert.flips);
+    EXPECT_EQ(r1.last_flips, r4.last_flips);
+  }
+}
+
+// Points whose hints are not in the mesh, and a lattice whose points fall on edges (2 -> 4 splits inside
+// the parts), still end Delaunay: the first go to Algorithm 3's rounds, whose triangles the last flips check.
+TEST(InsertInParts, UselessHintsAndPointsOnEdges) {
+  Points p;
+  for (int i = 0; i < 120; ++i)
+    for (int j = 0; j < 120; ++j) p.add(i, j);
+  for (int i = 0; i < 119; i += 3)
+    for (int j = 0; j < 119; j += 5) p.add(i + 0.5, j + 0.5); // on the diagonals of the lattice squares
+  Fixture f = fixture(p, {.cell = 2.0, .fakes = 8, .delaunay = true});
+  ASSERT_GT(f.missing.size(), 1000u);
+  for (std::size_t k = 0; k < f.missing.size(); k += 7) f.missing[k].hint = cdt::detail::kNoId;
+  CpuExecutor ex(2);
+  const auto r = run_phases(f, ex, true);
+  ASSERT_EQ(r.error, "");
+  EXPECT_GT(r.insert.rounds, 1u) << "the points without a hint go through the rounds";
+  EXPECT_TRUE(trixel_test::is_locally_delaunay(f.mesh));
 }
 
 /// A square 0-1-2-3 (CCW) split into the two triangles of the diagonal 0-2; further vertices unplaced.

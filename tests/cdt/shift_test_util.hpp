@@ -15,6 +15,7 @@
 
 #include "cdt/detail/predicates.hpp"
 #include "executor/cpu_executor.hpp"
+#include "gcd/flip.hpp"
 #include "gcd/insert.hpp"
 #include "gcd/mesh.hpp"
 #include "gcd/shift.hpp"
@@ -369,12 +370,15 @@ struct RunResult {
   cdt::detail::InsertStats insert;
   std::size_t missing = 0;       ///< points handed to Phase 4 (phase-1 missing plus bad cases)
   std::size_t delayed_hints = 0; ///< missing points whose hint was out of the mesh when Phase 4 began
+  std::uint64_t last_flips = 0;  ///< flips after the fake boundary's removal (in_parts only)
   std::string error;             ///< the first failed check, with its step; empty when all passed
 };
 
 /// Runs shift, insert and fake boundary removal; after the last, checks that exactly the sites are used, each
-/// at its true position, and that no free slot is left.
-inline RunResult run_phases(Fixture& f, cdt::detail::CpuExecutor& executor) {
+/// at its true position, and that no free slot is left. With in_parts, the CPU schedule of triangulate():
+/// the sites' mesh made Delaunay, the points inserted by parts with their flips, the fake boundary removed,
+/// and the flips from the triangles the parts left, so that the result is the Delaunay triangulation.
+inline RunResult run_phases(Fixture& f, cdt::detail::CpuExecutor& executor, bool in_parts = false) {
   using namespace cdt::detail;
   RunResult r;
   Mesh& mesh = f.mesh;
@@ -397,15 +401,35 @@ inline RunResult run_phases(Fixture& f, cdt::detail::CpuExecutor& executor) {
   r.missing = missing.size();
   for (const MissingPoint& p : missing)
     r.delayed_hints += p.hint < mesh.num_vertices() && mesh.vert_tri[p.hint] == kNoId ? 1 : 0;
-  r.insert = insert_missing_points(mesh, missing, executor);
+  std::vector<std::uint8_t> dirty;
+  if (in_parts) {
+    r.insert.flips = flip_to_delaunay_in_parts(mesh, executor).flips;
+    const InsertStats parts = insert_missing_points_in_parts(mesh, missing, executor, dirty);
+    r.insert.rounds = parts.rounds;
+    r.insert.inserted = parts.inserted;
+    r.insert.flips += parts.flips;
+  } else {
+    r.insert = insert_missing_points(mesh, missing, executor);
+  }
   if (std::string e = check_mesh(mesh); !e.empty()) {
     r.error = "after insert: " + e;
     return r;
   }
-  remove_fake_boundary(mesh, f.num_sites, executor);
+  remove_fake_boundary(mesh, f.num_sites, executor, in_parts ? &dirty : nullptr);
   if (std::string e = check_mesh(mesh); !e.empty()) {
     r.error = "after fake boundary removal: " + e;
     return r;
+  }
+  if (in_parts) {
+    if (dirty.size() != mesh.num_slots()) {
+      r.error = "after fake boundary removal: the flags do not follow the slots";
+      return r;
+    }
+    r.last_flips = flip_to_delaunay_in_parts(mesh, executor, dirty.data()).flips;
+    if (std::string e = check_mesh(mesh); !e.empty()) {
+      r.error = "after the last flips: " + e;
+      return r;
+    }
   }
   if (mesh.num_vertices() != f.num_sites) {
     r.error = "fake vertices left in x/y/vert_tri";

@@ -4,17 +4,21 @@
 #include "gcd/insert.hpp"
 
 #include <algorithm>
+#include <atomic>
 #include <bit>
 #include <numeric>
 #include <string>
 #include <vector>
 
+#include "cdt/detail/trace.hpp"
 #include "cdt/errors.hpp"
 #include "executor/cpu_executor.hpp"
+#include "gcd/part_lawson.hpp"
 
 namespace cdt::detail {
 
-InsertStats insert_missing_points(Mesh& mesh, std::span<const MissingPoint> missing, CpuExecutor& executor) {
+InsertStats insert_missing_points(Mesh& mesh, std::span<const MissingPoint> missing, CpuExecutor& executor,
+                                  std::vector<std::uint8_t>* touched) {
   InsertStats stats;
   const std::size_t num = missing.size();
   if (num == 0) return stats;
@@ -34,6 +38,7 @@ InsertStats insert_missing_points(Mesh& mesh, std::span<const MissingPoint> miss
     }
   }
   const MeshView m = mesh.view();
+  if (touched != nullptr) touched->resize(m.num_slots, 0);
   const std::vector<std::uint32_t> free_slots =
       executor.compact(m.num_slots, [&](std::size_t t) { return !m.alive(t); });
 
@@ -147,6 +152,10 @@ InsertStats insert_missing_points(Mesh& mesh, std::span<const MissingPoint> miss
       else
         split_edge(m, v, loc_t[q], loc_e[q], loc_u[q], loc_j[q], new0[q], new1[q], own[q]);
       pending[v] = 0;
+      if (touched != nullptr) {
+        for (const std::uint32_t x : {loc_t[q], loc_u[q], new0[q], new1[q]})
+          if (x != kNoId) (*touched)[x] = 1;
+      }
     });
     // Lines 20-22: outer links.
     executor.for_each(num_winners, [&](std::size_t r) { link_split_outer_edges(m, round, winners[r]); });
@@ -166,7 +175,211 @@ InsertStats insert_missing_points(Mesh& mesh, std::span<const MissingPoint> miss
   return stats;
 }
 
-void remove_fake_boundary(Mesh& mesh, std::uint32_t first_fake, CpuExecutor& executor) {
+namespace {
+
+/// Where a walk inside a part ended.
+enum class PartWalk { inside, on_edge, left_part, failed };
+
+/// A visibility walk from triangle t towards (px, py) over the part's triangles (owns), at most
+/// kMaxPartWalk steps: crosses the first edge (in an order that turns with the step count, so that it
+/// cannot cycle for long) that has the point strictly on its far side. Ends inside a triangle, strictly
+/// inside one of its edges (edge), or, when the next triangle is another part's or there is none, the
+/// point is a vertex or the walk is too long, without a place.
+constexpr std::uint32_t kMaxPartWalk = 4096;
+
+template <class Owns>
+PartWalk walk_in_part(const MeshView& m, Owns&& owns, std::uint32_t& t, double px, double py,
+                      std::uint32_t& edge) {
+  for (std::uint32_t step = 0; step < kMaxPartWalk; ++step) {
+    if (!owns(t)) return PartWalk::left_part;
+    std::uint32_t zeros = 0;
+    std::uint32_t next = kNoId;
+    for (std::uint32_t r = 0; r < 3 && next == kNoId; ++r) {
+      const std::uint32_t k = (step + r) % 3;
+      const std::uint32_t a = m.tri[3 * t + next3(k)], b = m.tri[3 * t + prev3(k)];
+      const int o = orient2d(m.x[a], m.y[a], m.x[b], m.y[b], px, py);
+      if (o < 0) {
+        next = m.adj[3 * t + k];
+        if (next == kNoId) return PartWalk::failed;
+      } else if (o == 0) {
+        ++zeros;
+        edge = k;
+      }
+    }
+    if (next == kNoId) {
+      if (zeros == 0) return PartWalk::inside;
+      return zeros == 1 ? PartWalk::on_edge : PartWalk::failed;
+    }
+    t = edge_tri(next);
+  }
+  return PartWalk::failed;
+}
+
+/// Moves vert_tri[v] from `from` to `to` when it names `from` (see part_lawson.hpp).
+inline void move_vert_tri(const MeshView& m, std::uint32_t v, std::uint32_t from, std::uint32_t to) {
+  std::atomic_ref<std::uint32_t> at(m.vert_tri[v]);
+  if (at.load(std::memory_order_relaxed) == from) at.store(to, std::memory_order_relaxed);
+}
+
+/// Points the neighbour across encoded edge ne (just moved into a new slot) back at it.
+inline void relink_outer(const MeshView& m, std::uint32_t ne) {
+  const std::uint32_t old = m.adj[ne];
+  if (old != kNoId) m.adj[old] = ne;
+}
+
+} // namespace
+
+InsertStats insert_missing_points_in_parts(Mesh& mesh, std::span<const MissingPoint> missing,
+                                           CpuExecutor& executor, std::vector<std::uint8_t>& dirty) {
+  InsertStats stats;
+  const std::size_t num = missing.size();
+  const std::uint32_t slots_before = mesh.num_slots();
+  dirty.assign(slots_before, 0);
+  if (num == 0) return stats;
+  const std::uint32_t nv = mesh.num_vertices();
+  if (num >= kNoId / 2) throw Error("internal error: too many missing points");
+  // Per vertex, its place in `missing` (kNoId for the others).
+  std::vector<std::uint32_t> place(nv, kNoId);
+  for (std::size_t q = 0; q < num; ++q) {
+    const std::uint32_t v = missing[q].vertex;
+    if (v >= nv || mesh.vert_tri[v] != kNoId || place[v] != kNoId)
+      throw Error("internal error: missing point " + std::to_string(v) +
+                  " out of range, already in the mesh or listed twice");
+    place[v] = static_cast<std::uint32_t>(q);
+  }
+  // A start in the mesh for each point: its hint, or when that is a missing point too, the hint's hint
+  // (a few steps at most); kNoId when none is found.
+  std::vector<std::uint32_t> from(num);
+  executor.for_each(num, [&](std::size_t q) {
+    std::uint32_t h = missing[q].hint;
+    for (int step = 0; step < 4 && h < nv && mesh.vert_tri[h] == kNoId && place[h] != kNoId; ++step)
+      h = missing[place[h]].hint;
+    from[q] = h < nv && mesh.vert_tri[h] != kNoId ? h : kNoId;
+  });
+
+  // Each point's part: that of its hint's triangle (none when the hint is not in the mesh yet). The
+  // points of a part in the order of their vertices, which follows a space-filling curve.
+  const std::uint32_t parts = (slots_before + kPartSlots - 1) / kPartSlots;
+  std::vector<std::uint32_t> order(num);
+  {
+    std::vector<std::uint32_t> key(num);
+    executor.for_each(num, [&](std::size_t q) {
+      key[q] = missing[q].vertex;
+      order[q] = static_cast<std::uint32_t>(q);
+    });
+    executor.sort_pairs_by_key(key, order, std::bit_width(nv));
+    executor.for_each(num, [&](std::size_t k) {
+      const std::uint32_t h = from[order[k]];
+      key[k] = h == kNoId ? parts : mesh.vert_tri[h] / kPartSlots;
+    });
+    executor.sort_pairs_by_key(key, order, std::bit_width(parts));
+    // Where each part's points start; the points with no part come last.
+  }
+  std::vector<std::uint32_t> start(parts + 2, 0);
+  for (std::size_t k = 0; k < num; ++k) {
+    const std::uint32_t h = from[order[k]];
+    ++start[(h == kNoId ? parts : mesh.vert_tri[h] / kPartSlots) + 1];
+  }
+  for (std::uint32_t p = 0; p <= parts; ++p) start[p + 1] += start[p];
+  const std::uint32_t placed = start[parts];
+
+  // Each part's new slots: two per point, after the existing ones, in part order.
+  if (static_cast<std::uint64_t>(slots_before) + 2ull * placed >= kNoId / 3)
+    throw Error("internal error: too many triangle slots");
+  mesh.grow_slots(2 * placed);
+  const MeshView m = mesh.view();
+  std::vector<std::uint32_t> owner(m.num_slots);
+  executor.for_each(slots_before,
+                    [&](std::size_t t) { owner[t] = static_cast<std::uint32_t>(t) / kPartSlots; });
+  executor.for_each_part(parts, [&](std::size_t p) {
+    for (std::uint32_t k = start[p]; k < start[p + 1]; ++k) {
+      owner[slots_before + 2 * k] = static_cast<std::uint32_t>(p);
+      owner[slots_before + 2 * k + 1] = static_cast<std::uint32_t>(p);
+    }
+  });
+  dirty.assign(m.num_slots, 0);
+  std::vector<std::uint8_t> inserted(num, 0);
+  std::vector<std::uint64_t> part_flips(parts, 0);
+
+  StepTrace tr("insert");
+  executor.for_each_part(parts, [&](std::size_t pp) {
+    const auto p = static_cast<std::uint32_t>(pp);
+    const auto owns = [&](std::uint32_t t) { return owner[t] == p; };
+    const auto defer = [&](std::uint32_t t) { dirty[t] = 1; };
+    std::vector<std::uint32_t> todo;
+    std::uint32_t last = kNoId;
+    std::uint64_t flips = 0;
+    for (std::uint32_t k = start[p]; k < start[p + 1]; ++k) {
+      const std::uint32_t q = order[k];
+      const std::uint32_t v = missing[q].vertex;
+      const double px = m.x[v], py = m.y[v];
+      // Locate from the last point of the part, else from the hint.
+      std::uint32_t t = kNoId, edge = 3;
+      PartWalk where = PartWalk::failed;
+      for (const std::uint32_t origin : {last, from[q]}) {
+        if (origin == kNoId) continue;
+        t = std::atomic_ref<std::uint32_t>(m.vert_tri[origin]).load(std::memory_order_relaxed);
+        if (t == kNoId || !owns(t)) continue;
+        where = walk_in_part(m, owns, t, px, py, edge);
+        if (where == PartWalk::inside || where == PartWalk::on_edge) break;
+      }
+      const std::uint32_t s0 = slots_before + 2 * k, s1 = s0 + 1;
+      if (where == PartWalk::inside) {
+        // t = (a, b, c) -> (v, b, c), s0 = (a, v, c), s1 = (a, b, v); s0 and s1 take t's edges 1 and 2.
+        const std::uint32_t n1 = m.adj[3 * t + 1], n2 = m.adj[3 * t + 2];
+        if ((n1 != kNoId && !owns(edge_tri(n1))) || (n2 != kNoId && !owns(edge_tri(n2)))) continue;
+        const std::uint32_t a = m.tri[3 * t];
+        split_triangle(m, v, t, s0, s1, 0);
+        relink_outer(m, edge_id(s0, 1));
+        relink_outer(m, edge_id(s1, 2));
+        move_vert_tri(m, a, t, s0);
+        todo.insert(todo.end(), {edge_id(t, 0), edge_id(s0, 1), edge_id(s1, 2)});
+      } else if (where == PartWalk::on_edge) {
+        // Edge i of t = (a, b, c) is edge j of u = (d, c, b): t -> (a, b, v), s0 = (a, v, c),
+        // u -> (d, c, v), s1 = (d, v, b); s0 takes t's edge i1, s1 takes u's edge j1.
+        const std::uint32_t i = edge, f = m.adj[3 * t + i];
+        if (f == kNoId || !owns(edge_tri(f))) continue;
+        const std::uint32_t u = edge_tri(f), j = edge_index(f);
+        const std::uint32_t n_t = m.adj[3 * t + next3(i)], n_u = m.adj[3 * u + next3(j)];
+        if ((n_t != kNoId && !owns(edge_tri(n_t))) || (n_u != kNoId && !owns(edge_tri(n_u)))) continue;
+        const std::uint32_t b = m.tri[3 * t + next3(i)], c = m.tri[3 * t + prev3(i)];
+        split_edge(m, v, t, i, u, j, s0, s1, 0);
+        relink_outer(m, edge_id(s0, next3(i)));
+        relink_outer(m, edge_id(s1, next3(j)));
+        move_vert_tri(m, b, u, t);
+        move_vert_tri(m, c, t, u);
+        todo.insert(todo.end(), {edge_id(t, prev3(i)), edge_id(s0, next3(i)), edge_id(u, prev3(j)),
+                                 edge_id(s1, next3(j))});
+      } else {
+        continue;
+      }
+      inserted[q] = 1;
+      last = v;
+      flips += drain_in_part(m, todo, owns, defer);
+    }
+    part_flips[p] = flips;
+  });
+  tr.mark("parts");
+  stats.rounds = 1;
+  for (const std::uint64_t f : part_flips) stats.flips += f;
+
+  // The rest by Algorithm 3's rounds, without flips: their triangles are dirty.
+  const std::vector<std::uint32_t> rest =
+      executor.compact(num, [&](std::size_t q) { return inserted[q] == 0; });
+  stats.inserted = num - rest.size();
+  if (!rest.empty()) {
+    std::vector<MissingPoint> left(rest.size());
+    executor.for_each(rest.size(), [&](std::size_t k) { left[k] = missing[rest[k]]; });
+    const InsertStats r = insert_missing_points(mesh, left, executor, &dirty);
+    stats.rounds += r.rounds;
+    stats.inserted += r.inserted;
+  }
+  tr.mark("rounds");
+  return stats;
+}
+
+void remove_fake_boundary(Mesh& mesh, std::uint32_t first_fake, CpuExecutor& executor,
+                          std::vector<std::uint8_t>* changed) {
   const std::uint32_t nv = mesh.num_vertices();
   if (first_fake > nv) throw Error("internal error: remove_fake_boundary: first_fake beyond the vertices");
   {
@@ -178,6 +391,15 @@ void remove_fake_boundary(Mesh& mesh, std::uint32_t first_fake, CpuExecutor& exe
     std::vector<std::uint32_t> fakes =
         executor.compact(nv - first_fake, [&](std::size_t i) { return leaving[first_fake + i] != 0; });
     for (auto& f : fakes) f += first_fake;
+    // The fake vertices' fans: the holes are filled into these slots.
+    if (changed != nullptr) {
+      std::vector<std::uint8_t>& flag = *changed;
+      executor.for_each(m.num_slots, [&](std::size_t t) {
+        if (!m.alive(static_cast<std::uint32_t>(t))) return;
+        for (std::uint32_t i = 0; i < 3; ++i)
+          if (m.tri[3 * t + i] >= first_fake) flag[t] = 1;
+      });
+    }
     delete_vertices(
         mesh, std::move(fakes), HoleShape::open_fan, leaving,
         [](std::span<const std::uint32_t>, std::span<const std::uint32_t>) {}, executor);
@@ -201,9 +423,11 @@ void remove_fake_boundary(Mesh& mesh, std::uint32_t first_fake, CpuExecutor& exe
     live = alive;
     executor.sort_pairs_by_key(key, live, std::bit_width(nv));
   }
-  std::vector<std::uint32_t> new_id(m.num_slots, kNoId);
+  // Only live slots' entries of new_id are read (links and vert_tri name live slots), and the new
+  // arrays are written whole before they are copied back into the mesh's own storage.
+  UnzeroedVector<std::uint32_t> new_id(m.num_slots);
   executor.for_each(live.size(), [&](std::size_t r) { new_id[live[r]] = static_cast<std::uint32_t>(r); });
-  std::vector<std::uint32_t> tri(3 * live.size()), adj(3 * live.size()), seg(3 * live.size());
+  UnzeroedVector<std::uint32_t> tri(3 * live.size()), adj(3 * live.size()), seg(3 * live.size());
   executor.for_each(live.size(), [&](std::size_t r) {
     const std::uint32_t t = live[r];
     for (std::uint32_t i = 0; i < 3; ++i) {
@@ -217,9 +441,19 @@ void remove_fake_boundary(Mesh& mesh, std::uint32_t first_fake, CpuExecutor& exe
     const std::uint32_t vt = m.vert_tri[v];
     m.vert_tri[v] = vt == kNoId ? kNoId : new_id[vt];
   });
-  mesh.tri.swap(tri);
-  mesh.adj.swap(adj);
-  mesh.seg.swap(seg);
+  if (changed != nullptr) {
+    std::vector<std::uint8_t> moved(live.size());
+    executor.for_each(live.size(), [&](std::size_t r) { moved[r] = (*changed)[live[r]]; });
+    changed->swap(moved);
+  }
+  mesh.tri.resize(tri.size());
+  mesh.adj.resize(adj.size());
+  mesh.seg.resize(seg.size());
+  executor.for_each(tri.size(), [&](std::size_t k) {
+    mesh.tri[k] = tri[k];
+    mesh.adj[k] = adj[k];
+    mesh.seg[k] = seg[k];
+  });
   mesh.x.resize(first_fake);
   mesh.y.resize(first_fake);
   mesh.vert_tri.resize(first_fake);

@@ -18,6 +18,7 @@
 
 #include <cstdint>
 #include <span>
+#include <vector>
 
 #include "cdt/detail/host_device.hpp"
 #include "cdt/detail/predicates.hpp"
@@ -31,6 +32,7 @@ class CpuExecutor;
 struct InsertStats {
   std::uint64_t inserted = 0; ///< missing points inserted
   std::uint64_t rounds = 0;   ///< rounds of Algorithm 3
+  std::uint64_t flips = 0;    ///< Lawson flips made while inserting (insert_missing_points_in_parts)
 };
 
 /// Inserts every missing point (already at its true position in mesh.x/y) by Algorithm 3: locate the
@@ -41,7 +43,23 @@ struct InsertStats {
 /// repeat. Delays a point whose hint is a missing point not yet inserted; a hint that is neither in the mesh
 /// nor pending is replaced by a vertex of the mesh. Precondition: the fake boundary encloses every point
 /// strictly and no point coincides with a vertex (else cdt::Error).
-InsertStats insert_missing_points(Mesh& mesh, std::span<const MissingPoint> missing, CpuExecutor& executor);
+///
+/// With `touched`, it is resized to the mesh's slots after the insertion (new entries 0) and every slot
+/// a split rewrote is set to 1: the triangles whose edges may now fail the incircle test.
+InsertStats insert_missing_points(Mesh& mesh, std::span<const MissingPoint> missing, CpuExecutor& executor,
+                                  std::vector<std::uint8_t>* touched = nullptr);
+
+/// The same insertions scheduled for CPU threads, with Lawson's flips after each, for a mesh that is
+/// Delaunay (Phase 5 run first): the points go to fixed parts of the slots by the triangle of their
+/// hint (part_lawson.hpp), and each part inserts its points one after the other, each located by a
+/// walk from the part's last inserted point (points are numbered along a space-filling curve, so the
+/// walks are short), split into the part's own new slots and followed by the flips it calls for,
+/// as long as every slot involved is the part's. The rest (a walk or a flip that needs another part,
+/// a hint not in the mesh) goes to insert_missing_points's rounds, without flips. `dirty` is resized to
+/// the mesh's slots and flags every triangle with an edge that may still fail the incircle test, for
+/// a last flip_to_delaunay_in_parts from those. rounds counts one for the parts plus the rounds.
+InsertStats insert_missing_points_in_parts(Mesh& mesh, std::span<const MissingPoint> missing,
+                                           CpuExecutor& executor, std::vector<std::uint8_t>& dirty);
 
 /// Deletes the fake boundary vertices [first_fake, num_vertices) like bad cases, except that each hole is an
 /// open polygon: the region between the fake vertex's chain of neighbours and that chain's convex hull is
@@ -50,7 +68,11 @@ InsertStats insert_missing_points(Mesh& mesh, std::span<const MissingPoint> miss
 /// the triangle list (removes free slots, orders the triangles by their lowest vertex, renumbers links and
 /// vert_tri) and removes the fake vertices from x/y/vert_tri. Precondition: the fake vertices are strictly
 /// convex corners of the outer boundary.
-void remove_fake_boundary(Mesh& mesh, std::uint32_t first_fake, CpuExecutor& executor);
+///
+/// With `changed` (one flag per slot on entry), the flags follow their triangles into the compacted
+/// numbering, and every triangle that fills a hole is flagged too (its edges may fail the incircle test).
+void remove_fake_boundary(Mesh& mesh, std::uint32_t first_fake, CpuExecutor& executor,
+                          std::vector<std::uint8_t>* changed = nullptr);
 
 // ------------------------------------------------------------------------------------------------------------
 // Per-element work (host and device).
