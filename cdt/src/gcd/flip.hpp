@@ -102,36 +102,11 @@ CDT_HD inline std::uint32_t delaunay_flip_candidate(const MeshView& m, const std
 /// because nobody writes vert_tri during this step.
 CDT_HD inline std::uint8_t flip_pair_contents(const MeshView& m, std::uint32_t e) {
   const std::uint32_t t = edge_tri(e), i = edge_index(e);
-  const std::uint32_t f = m.adj[e];
-  const std::uint32_t u = edge_tri(f), j = edge_index(f);
-  const std::uint32_t i1 = next3(i), i2 = prev3(i);
-  const std::uint32_t j1 = next3(j), j2 = prev3(j);
-  const std::uint32_t a = m.tri[3 * t + i], b = m.tri[3 * t + i1], c = m.tri[3 * t + i2];
-  const std::uint32_t d = m.tri[3 * u + j];
-  const std::uint32_t t_ca = m.adj[3 * t + i1], t_ab = m.adj[3 * t + i2];
-  const std::uint32_t u_bd = m.adj[3 * u + j1], u_dc = m.adj[3 * u + j2];
-  const std::uint32_t s_ca = m.seg[3 * t + i1], s_ab = m.seg[3 * t + i2];
-  const std::uint32_t s_bd = m.seg[3 * u + j1], s_dc = m.seg[3 * u + j2];
+  const std::uint32_t u = edge_tri(m.adj[e]);
+  const std::uint32_t b = m.tri[3 * t + next3(i)], c = m.tri[3 * t + prev3(i)];
   const std::uint8_t fix =
       static_cast<std::uint8_t>((m.vert_tri[b] == u ? 1u : 0u) | (m.vert_tri[c] == t ? 2u : 0u));
-  m.tri[3 * t + 0] = a;
-  m.tri[3 * t + 1] = b;
-  m.tri[3 * t + 2] = d;
-  m.tri[3 * u + 0] = d;
-  m.tri[3 * u + 1] = c;
-  m.tri[3 * u + 2] = a;
-  m.adj[3 * t + 0] = u_bd;
-  m.adj[3 * t + 1] = edge_id(u, 1);
-  m.adj[3 * t + 2] = t_ab;
-  m.adj[3 * u + 0] = t_ca;
-  m.adj[3 * u + 1] = edge_id(t, 1);
-  m.adj[3 * u + 2] = u_dc;
-  m.seg[3 * t + 0] = s_bd;
-  m.seg[3 * t + 1] = kNoId;
-  m.seg[3 * t + 2] = s_ab;
-  m.seg[3 * u + 0] = s_ca;
-  m.seg[3 * u + 1] = kNoId;
-  m.seg[3 * u + 2] = s_dc;
+  rewrite_flipped_pair(m, t, i);
   return fix;
 }
 

@@ -80,9 +80,17 @@ class CpuExecutor;
 /// triangles or used twice in the same direction (not a valid triangulation).
 void link_triangles(Mesh& mesh, CpuExecutor& executor);
 
-/// flip_edge without the vertex array: t and u are rewritten and the four outer links updated, vert_tri
-/// is left to the caller.
-CDT_HD inline void flip_edge_links(MeshView m, std::uint32_t t, std::uint32_t i) {
+/// The outer links of a flipped pair, as they were before the flip: of t = (a, b, c), its edges (c, a)
+/// and (a, b); of u = (d, c, b), its edges (b, d) and (d, c).
+struct FlippedPairLinks {
+  std::uint32_t t_ca, t_ab, u_bd, u_dc;
+};
+
+/// Rewrites the two slots of the pair across edge i of t (t = (a, b, c), u = (c, b, d)) as t = (a, b, d)
+/// and u = (d, c, a), the new diagonal as edge 1 of both: vertices, links (the outer ones still naming
+/// the neighbours' edges, which are not touched) and constraint ids (moving with their edges; the
+/// diagonal has none). Returns the outer links for the caller to repair.
+CDT_HD inline FlippedPairLinks rewrite_flipped_pair(MeshView m, std::uint32_t t, std::uint32_t i) {
   const std::uint32_t e = m.adj[3 * t + i];
   const std::uint32_t u = edge_tri(e);
   const std::uint32_t j = edge_index(e);
@@ -92,8 +100,7 @@ CDT_HD inline void flip_edge_links(MeshView m, std::uint32_t t, std::uint32_t i)
   const std::uint32_t d = m.tri[3 * u + j];
   // Outer edges before the flip: of t, (c, a) is edge i1 and (a, b) is edge i2; of u, with
   // u = (d, c, b) in order j, j1, j2: (b, d) is edge j1 and (d, c) is edge j2.
-  const std::uint32_t t_ca = m.adj[3 * t + i1], t_ab = m.adj[3 * t + i2];
-  const std::uint32_t u_bd = m.adj[3 * u + j1], u_dc = m.adj[3 * u + j2];
+  const FlippedPairLinks outer{m.adj[3 * t + i1], m.adj[3 * t + i2], m.adj[3 * u + j1], m.adj[3 * u + j2]};
   const std::uint32_t s_ca = m.seg[3 * t + i1], s_ab = m.seg[3 * t + i2];
   const std::uint32_t s_bd = m.seg[3 * u + j1], s_dc = m.seg[3 * u + j2];
   // New t = (a, b, d): edge 0 = (b, d), edge 1 = (d, a) (the new diagonal), edge 2 = (a, b).
@@ -104,22 +111,30 @@ CDT_HD inline void flip_edge_links(MeshView m, std::uint32_t t, std::uint32_t i)
   m.tri[3 * u + 0] = d;
   m.tri[3 * u + 1] = c;
   m.tri[3 * u + 2] = a;
-  m.adj[3 * t + 0] = u_bd;
+  m.adj[3 * t + 0] = outer.u_bd;
   m.adj[3 * t + 1] = edge_id(u, 1);
-  m.adj[3 * t + 2] = t_ab;
-  m.adj[3 * u + 0] = t_ca;
+  m.adj[3 * t + 2] = outer.t_ab;
+  m.adj[3 * u + 0] = outer.t_ca;
   m.adj[3 * u + 1] = edge_id(t, 1);
-  m.adj[3 * u + 2] = u_dc;
+  m.adj[3 * u + 2] = outer.u_dc;
   m.seg[3 * t + 0] = s_bd;
   m.seg[3 * t + 1] = kNoId;
   m.seg[3 * t + 2] = s_ab;
   m.seg[3 * u + 0] = s_ca;
   m.seg[3 * u + 1] = kNoId;
   m.seg[3 * u + 2] = s_dc;
-  if (u_bd != kNoId) m.adj[u_bd] = edge_id(t, 0);
-  if (t_ab != kNoId) m.adj[t_ab] = edge_id(t, 2);
-  if (t_ca != kNoId) m.adj[t_ca] = edge_id(u, 0);
-  if (u_dc != kNoId) m.adj[u_dc] = edge_id(u, 2);
+  return outer;
+}
+
+/// flip_edge without the vertex array: t and u are rewritten and the four outer links updated, vert_tri
+/// is left to the caller.
+CDT_HD inline void flip_edge_links(MeshView m, std::uint32_t t, std::uint32_t i) {
+  const std::uint32_t u = edge_tri(m.adj[3 * t + i]);
+  const FlippedPairLinks outer = rewrite_flipped_pair(m, t, i);
+  if (outer.u_bd != kNoId) m.adj[outer.u_bd] = edge_id(t, 0);
+  if (outer.t_ab != kNoId) m.adj[outer.t_ab] = edge_id(t, 2);
+  if (outer.t_ca != kNoId) m.adj[outer.t_ca] = edge_id(u, 0);
+  if (outer.u_dc != kNoId) m.adj[outer.u_dc] = edge_id(u, 2);
 }
 
 /// Flips edge i of triangle t with its neighbour u (the quadrilateral must be strictly convex):
