@@ -261,25 +261,20 @@ InsertStats insert_missing_points_in_parts(Mesh& mesh, std::span<const MissingPo
   // points of a part in the order of their vertices, which follows a space-filling curve.
   const std::uint32_t parts = (slots_before + kPartSlots - 1) / kPartSlots;
   std::vector<std::uint32_t> order(num);
-  {
-    std::vector<std::uint32_t> key(num);
-    executor.for_each(num, [&](std::size_t q) {
-      key[q] = missing[q].vertex;
-      order[q] = static_cast<std::uint32_t>(q);
-    });
-    executor.sort_pairs_by_key(key, order, std::bit_width(nv));
-    executor.for_each(num, [&](std::size_t k) {
-      const std::uint32_t h = from[order[k]];
-      key[k] = h == kNoId ? parts : mesh.vert_tri[h] / kPartSlots;
-    });
-    executor.sort_pairs_by_key(key, order, std::bit_width(parts));
-    // Where each part's points start; the points with no part come last.
-  }
-  std::vector<std::uint32_t> start(parts + 2, 0);
-  for (std::size_t k = 0; k < num; ++k) {
+  std::vector<std::uint32_t> key(num);
+  executor.for_each(num, [&](std::size_t q) {
+    key[q] = missing[q].vertex;
+    order[q] = static_cast<std::uint32_t>(q);
+  });
+  executor.sort_pairs_by_key(key, order, std::bit_width(nv));
+  executor.for_each(num, [&](std::size_t k) {
     const std::uint32_t h = from[order[k]];
-    ++start[(h == kNoId ? parts : mesh.vert_tri[h] / kPartSlots) + 1];
-  }
+    key[k] = h == kNoId ? parts : mesh.vert_tri[h] / kPartSlots;
+  });
+  executor.sort_pairs_by_key(key, order, std::bit_width(parts));
+  // Where each part's points start, from the sorted parts; the points with no part come last.
+  std::vector<std::uint32_t> start(parts + 2, 0);
+  for (const std::uint32_t p : key) ++start[p + 1];
   for (std::uint32_t p = 0; p <= parts; ++p) start[p + 1] += start[p];
   const std::uint32_t placed = start[parts];
 
