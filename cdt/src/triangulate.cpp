@@ -326,17 +326,12 @@ Triangulation triangulate_on(std::span<const Point> points, std::span<const Segm
     device_mesh->remove_fake_boundary(n);
   }
 #endif
-  // On CPU threads the sites' mesh is made Delaunay first, so that each part can insert its points
-  // with Lawson's flips as it goes; what the parts leave is flagged in `dirty` for Phase 5.
+  // On CPU threads each part inserts its points with Lawson's flips as it goes; what the parts leave is
+  // flagged in `dirty` for Phase 5.
   std::vector<std::uint8_t> dirty;
   if (!on_gpu) {
-    insert.flips = flip_to_delaunay_in_parts(mesh, executor).flips;
-    trace.mark("sites' delaunay");
-    const InsertStats parts = insert_missing_points_in_parts(mesh, missing, executor, dirty);
+    insert = insert_missing_points_in_parts(mesh, missing, executor, dirty);
     trace.mark("missing points");
-    insert.rounds = parts.rounds;
-    insert.inserted = parts.inserted;
-    insert.flips += parts.flips;
     remove_fake_boundary(mesh, n, executor, &dirty);
     trace.mark("fake boundary");
   }

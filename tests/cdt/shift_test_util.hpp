@@ -402,15 +402,8 @@ inline RunResult run_phases(Fixture& f, cdt::detail::CpuExecutor& executor, bool
   for (const MissingPoint& p : missing)
     r.delayed_hints += p.hint < mesh.num_vertices() && mesh.vert_tri[p.hint] == kNoId ? 1 : 0;
   std::vector<std::uint8_t> dirty;
-  if (in_parts) {
-    r.insert.flips = flip_to_delaunay_in_parts(mesh, executor).flips;
-    const InsertStats parts = insert_missing_points_in_parts(mesh, missing, executor, dirty);
-    r.insert.rounds = parts.rounds;
-    r.insert.inserted = parts.inserted;
-    r.insert.flips += parts.flips;
-  } else {
-    r.insert = insert_missing_points(mesh, missing, executor);
-  }
+  r.insert = in_parts ? insert_missing_points_in_parts(mesh, missing, executor, dirty)
+                      : insert_missing_points(mesh, missing, executor);
   if (std::string e = check_mesh(mesh); !e.empty()) {
     r.error = "after insert: " + e;
     return r;

@@ -184,14 +184,22 @@ void FlipBatch::forget(CpuExecutor& executor) {
   last_pairs_.clear();
 }
 
+namespace {
+
+/// Whether slot t is checked at first: live, and flagged in `only` when it is given.
+bool checked_at_first(const MeshView& m, const std::uint8_t* only, std::uint32_t t) {
+  return m.alive(t) && (only == nullptr || only[t] != 0);
+}
+
+} // namespace
+
 FlipStats flip_to_delaunay(Mesh& mesh, CpuExecutor& executor, const std::uint8_t* only) {
   FlipStats stats;
   const std::uint32_t slots = mesh.num_slots();
   const MeshView m = mesh.view();
   FlipRounds rounds(mesh, executor);
-  std::vector<std::uint32_t> active = executor.compact(slots, [&](std::size_t t) {
-    return m.alive(static_cast<std::uint32_t>(t)) && (only == nullptr || only[t] != 0);
-  });
+  std::vector<std::uint32_t> active = executor.compact(
+      slots, [&](std::size_t t) { return checked_at_first(m, only, static_cast<std::uint32_t>(t)); });
   rounds.activate(active);
   while (!active.empty()) active = rounds.round(active, stats);
   return stats;
@@ -226,7 +234,7 @@ FlipStats flip_to_delaunay_in_parts(Mesh& mesh, CpuExecutor& executor, const std
     const auto p = static_cast<std::uint32_t>(pp);
     const std::uint32_t lo = p * kPartSlots;
     const std::uint32_t hi = std::min(slots, lo + kPartSlots);
-    const auto checked = [&](std::uint32_t t) { return m.alive(t) && (only == nullptr || only[t] != 0); };
+    const auto checked = [&](std::uint32_t t) { return checked_at_first(m, only, t); };
     for (std::uint32_t t = lo; t < hi; ++t) {
       if (!checked(t)) continue;
       for (std::uint32_t i = 0; i < 3; ++i) {

@@ -215,12 +215,6 @@ PartWalk walk_in_part(const MeshView& m, Owns&& owns, std::uint32_t& t, double p
   return PartWalk::failed;
 }
 
-/// Moves vert_tri[v] from `from` to `to` when it names `from` (see part_lawson.hpp).
-inline void move_vert_tri(const MeshView& m, std::uint32_t v, std::uint32_t from, std::uint32_t to) {
-  std::atomic_ref<std::uint32_t> at(m.vert_tri[v]);
-  if (at.load(std::memory_order_relaxed) == from) at.store(to, std::memory_order_relaxed);
-}
-
 /// Points the neighbour across encoded edge ne (just moved into a new slot) back at it.
 inline void relink_outer(const MeshView& m, std::uint32_t ne) {
   const std::uint32_t old = m.adj[ne];
@@ -233,6 +227,8 @@ InsertStats insert_missing_points_in_parts(Mesh& mesh, std::span<const MissingPo
                                            CpuExecutor& executor, std::vector<std::uint8_t>& dirty) {
   InsertStats stats;
   const std::size_t num = missing.size();
+  // Each insertion's flips below assume a Delaunay mesh around it.
+  stats.flips = flip_to_delaunay_in_parts(mesh, executor).flips;
   const std::uint32_t slots_before = mesh.num_slots();
   dirty.assign(slots_before, 0);
   if (num == 0) return stats;

@@ -23,16 +23,21 @@ namespace cdt::detail {
 /// consecutive slots is a compact region whose border holds a few percent of its triangles.
 inline constexpr std::uint32_t kPartSlots = 1u << 14;
 
+/// Moves vert_tri[v] from `from` to `to` when it names `from`, the calling part's slot (see above).
+inline void move_vert_tri(const MeshView& m, std::uint32_t v, std::uint32_t from, std::uint32_t to) {
+  std::atomic_ref<std::uint32_t> at(m.vert_tri[v]);
+  if (at.load(std::memory_order_relaxed) == from) at.store(to, std::memory_order_relaxed);
+}
+
 /// flip_edge for a flip whose two slots and four outer neighbours belong to the calling thread's part,
 /// with vert_tri moved as the header says.
 inline void flip_edge_in_part(const MeshView& m, std::uint32_t t, std::uint32_t i) {
   const std::uint32_t u = edge_tri(m.adj[3 * t + i]);
-  std::atomic_ref<std::uint32_t> at_b(m.vert_tri[m.tri[3 * t + next3(i)]]);
-  std::atomic_ref<std::uint32_t> at_c(m.vert_tri[m.tri[3 * t + prev3(i)]]);
+  const std::uint32_t b = m.tri[3 * t + next3(i)], c = m.tri[3 * t + prev3(i)];
   flip_edge_links(m, t, i);
   // t = (a, b, d) and u = (d, c, a) now: b left u, c left t.
-  if (at_b.load(std::memory_order_relaxed) == u) at_b.store(t, std::memory_order_relaxed);
-  if (at_c.load(std::memory_order_relaxed) == t) at_c.store(u, std::memory_order_relaxed);
+  move_vert_tri(m, b, u, t);
+  move_vert_tri(m, c, t, u);
 }
 
 /// Pops encoded edges off `todo` until it is empty, flipping every edge that fails the strict incircle
