@@ -155,7 +155,9 @@ Triangulation triangulate_on(std::span<const Point> points, std::span<const Segm
   // Sites: the distinct vertices, numbered 0..n-1 in the mesh in the order of their grid cells along a
   // Z curve (see spatial_site_order).
   const auto n = static_cast<std::uint32_t>(pslg.sites.size());
-  const std::uint32_t m = options.grid_size != 0 ? options.grid_size : choose_grid_size(n);
+  const std::uint32_t m = options.grid_size != 0
+                              ? options.grid_size
+                              : choose_grid_size(n, on_gpu ? GridFor::device : GridFor::host);
   stats.grid_size = m;
   std::vector<double> true_x(n);
   std::vector<double> true_y(n);

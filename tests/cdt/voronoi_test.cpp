@@ -329,6 +329,29 @@ TEST(GridMap, ChooseGridSizeIsABoundedPowerOfTwo) {
   }
 }
 
+// The CPU executor's coarser rule: sqrt(n / 8), the same clamps; small inputs keep the smallest grid.
+TEST(GridMap, ChooseGridSizeForTheHostIsCoarser) {
+  using cdt::detail::choose_grid_size;
+  using cdt::detail::GridFor;
+  EXPECT_EQ(choose_grid_size(0, GridFor::host), 256u);
+  EXPECT_EQ(choose_grid_size(65536, GridFor::host), 256u);
+  EXPECT_EQ(choose_grid_size(524288, GridFor::host), 256u); // sqrt(n / 8) = 256 exactly
+  EXPECT_EQ(choose_grid_size(524289, GridFor::host), 512u);
+  EXPECT_EQ(choose_grid_size(1000000, GridFor::host), 512u);
+  EXPECT_EQ(choose_grid_size(1949580, GridFor::host), 512u); // the GSHHG coastlines
+  EXPECT_EQ(choose_grid_size(10000000, GridFor::host), 2048u);
+  EXPECT_EQ(choose_grid_size(std::numeric_limits<std::size_t>::max(), GridFor::host), 8192u);
+  for (std::size_t n = 1; n < 100000000; n = n * 3 + 1) {
+    const std::uint32_t m = choose_grid_size(n, GridFor::host);
+    EXPECT_TRUE(std::has_single_bit(m));
+    EXPECT_LE(m, choose_grid_size(n, GridFor::device));
+    if (m > 256 && m < 8192) {
+      EXPECT_GE(static_cast<double>(m), std::sqrt(static_cast<double>(n) / 8));
+      EXPECT_LT(static_cast<double>(m), 2 * std::sqrt(static_cast<double>(n) / 8));
+    }
+  }
+}
+
 // Appendix B's whole point: the inverse mapping must be exact for inputs of any magnitude and offset.
 TEST(GridMap, GridPositionsAreExactForWildMagnitudesAndOffsets) {
   SplitMix64 rng(0xB0B);

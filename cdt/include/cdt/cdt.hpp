@@ -55,7 +55,8 @@ enum class CrossingSegments {
 /// Options of triangulate(). The defaults suit most inputs.
 struct Options {
   Backend backend = Backend::automatic;
-  /// Side m of the m x m grid of the digital Voronoi phase; 0 picks a power of two from the input.
+  /// Side m of the m x m grid of the digital Voronoi phase; 0 picks a power of two from the input size
+  /// and the backend (a coarser one for the CPU executor, see Statistics::grid_size).
   std::uint32_t grid_size = 0;
   /// CPU executor threads; 0 uses every hardware thread.
   unsigned threads = 0;

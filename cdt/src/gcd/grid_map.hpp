@@ -56,14 +56,23 @@ private:
   }
 };
 
-/// Grid side for num_points input points: the smallest power of two >= sqrt(num_points), clamped to
-/// [256, 8192], so between one and four cells per point. The paper finds larger grids better for
-/// larger inputs on its GPU (fewer missing points, section 5.1.1); measured here, a grid of
-/// 2 sqrt(n) made the whole triangulation slower on the CPU executor (Phases 1 and 2 cost per cell
-/// what Phase 4 saves per point: 33 against 41 ms on a 24K-point image PSLG, 125 against 212 ms on
-/// 100K uniform points) and no faster at 1M points, so both executors use sqrt(n). The grid arrays
-/// stay within 256 MiB at m = 8192.
-std::uint32_t choose_grid_size(std::size_t num_points);
+/// Which executor a grid is chosen for (choose_grid_size).
+enum class GridFor {
+  device, ///< the CUDA executor: the paper's rounds for every phase
+  host,   ///< the CPU executor: missing points inserted by parts with Lawson's algorithm
+};
+
+/// Grid side for num_points input points: a power of two clamped to [256, 8192]. For the device, the
+/// smallest one >= sqrt(num_points), between one and four cells per point: the paper finds larger
+/// grids better for larger inputs on its GPU (fewer missing points, section 5.1.1), as Algorithm 3's
+/// rounds are the device's slowest way to place a point. For the host, the smallest one >=
+/// sqrt(num_points / 8), between 1/8 and 1/2 cell per point: there the parts insert a missing point
+/// with its flips at about the cost of placing it in the diagram, dualizing and shifting it, so a
+/// coarser grid that leaves more points missing is cheaper in all (measured on 2 cores: 1M uniform
+/// points 1111 -> 941 ms at grid 512 instead of 1024, the GSHHG coastlines 3194 -> 2727 ms at 512
+/// instead of 2048; 256 and 128 no better on the second). Inputs of up to 65536 points, such as
+/// vectorize's PSLGs, get 256 either way. The grid arrays stay within 256 MiB at m = 8192.
+std::uint32_t choose_grid_size(std::size_t num_points, GridFor target = GridFor::device);
 
 /// Appendix B mapping of the points (x[i], y[i]) onto an m x m grid, 1 <= m <= kMaxGridSize.
 /// scale is rounded up so that its mantissa has at most 52 - bit_width(m - 1) bits (gx * scale is then
