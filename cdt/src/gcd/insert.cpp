@@ -7,6 +7,7 @@
 #include <atomic>
 #include <bit>
 #include <numeric>
+#include <ranges>
 #include <string>
 #include <vector>
 
@@ -272,17 +273,16 @@ InsertStats insert_missing_points_in_parts(Mesh& mesh, std::span<const MissingPo
   std::vector<std::uint32_t> start(parts + 2, 0);
   for (const std::uint32_t p : key) ++start[p + 1];
   for (std::uint32_t p = 0; p <= parts; ++p) start[p + 1] += start[p];
-  const std::uint32_t placed = start[parts];
 
-  // Each part's new slots: two per point, after the existing ones, in part order.
-  if (static_cast<std::uint64_t>(slots_before) + 2ull * placed >= kNoId / 3)
+  // New slots: two per point, after the existing ones, in part order (the points with no part last).
+  if (static_cast<std::uint64_t>(slots_before) + 2ull * num >= kNoId / 3)
     throw Error("internal error: too many triangle slots");
-  mesh.grow_slots(2 * placed);
+  mesh.grow_slots(static_cast<std::uint32_t>(2 * num));
   const MeshView m = mesh.view();
   std::vector<std::uint32_t> owner(m.num_slots);
   executor.for_each(slots_before,
                     [&](std::size_t t) { owner[t] = static_cast<std::uint32_t>(t) / kPartSlots; });
-  executor.for_each_part(parts, [&](std::size_t p) {
+  executor.for_each_part(parts + 1, [&](std::size_t p) {
     for (std::uint32_t k = start[p]; k < start[p + 1]; ++k) {
       owner[slots_before + 2 * k] = static_cast<std::uint32_t>(p);
       owner[slots_before + 2 * k + 1] = static_cast<std::uint32_t>(p);
@@ -290,21 +290,19 @@ InsertStats insert_missing_points_in_parts(Mesh& mesh, std::span<const MissingPo
   });
   dirty.assign(m.num_slots, 0);
   std::vector<std::uint8_t> inserted(num, 0);
-  std::vector<std::uint64_t> part_flips(parts, 0);
 
-  StepTrace tr("insert");
-  executor.for_each_part(parts, [&](std::size_t pp) {
-    const auto p = static_cast<std::uint32_t>(pp);
-    const auto owns = [&](std::uint32_t t) { return owner[t] == p; };
-    const auto defer = [&](std::uint32_t t) { dirty[t] = 1; };
+  // Inserts the points order[k] for the given k, each located by a walk over the slots it owns from
+  // the last point placed (else from its hint), split into its own two new slots and followed at once
+  // by its Lawson flips; a point whose walk, split or flips would need a slot it does not own is left
+  // out (split) or deferred to `defer` (flips). Returns the flips made.
+  const auto insert_points = [&](auto&& ks, auto&& owns, auto&& defer) {
     std::vector<std::uint32_t> todo;
     std::uint32_t last = kNoId;
     std::uint64_t flips = 0;
-    for (std::uint32_t k = start[p]; k < start[p + 1]; ++k) {
+    for (const std::uint32_t k : ks) {
       const std::uint32_t q = order[k];
       const std::uint32_t v = missing[q].vertex;
       const double px = m.x[v], py = m.y[v];
-      // Locate from the last point of the part, else from the hint.
       std::uint32_t t = kNoId, edge = 3;
       PartWalk where = PartWalk::failed;
       for (const std::uint32_t origin : {last, from[q]}) {
@@ -348,11 +346,41 @@ InsertStats insert_missing_points_in_parts(Mesh& mesh, std::span<const MissingPo
       last = v;
       flips += drain_in_part(m, todo, owns, defer);
     }
-    part_flips[p] = flips;
+    return flips;
+  };
+
+  StepTrace tr("insert");
+  std::vector<std::uint64_t> part_flips(parts, 0);
+  executor.for_each_part(parts, [&](std::size_t pp) {
+    const auto p = static_cast<std::uint32_t>(pp);
+    part_flips[p] = insert_points(
+        std::views::iota(start[p], start[p + 1]), [&](std::uint32_t t) { return owner[t] == p; },
+        [&](std::uint32_t t) { dirty[t] = 1; });
   });
   tr.mark("parts");
   stats.rounds = 1;
   for (const std::uint64_t f : part_flips) stats.flips += f;
+
+  // What the parts left (points near their borders, points with no part), on one thread that owns
+  // every slot: the same insertion with flips, far cheaper than Algorithm 3's rounds (each about ten
+  // passes over its points). It starts from the dirty triangles' flips: the parts' deferred edges.
+  {
+    std::vector<std::uint32_t> todo;
+    for (std::uint32_t t = 0; t < m.num_slots; ++t) {
+      if (dirty[t] == 0) continue;
+      dirty[t] = 0;
+      if (m.alive(t))
+        for (std::uint32_t i = 0; i < 3; ++i) todo.push_back(edge_id(t, i));
+    }
+    const auto everything = [](std::uint32_t) { return true; };
+    const auto none = [](std::uint32_t) {};
+    stats.flips += drain_in_part(m, todo, everything, none);
+    std::vector<std::uint32_t> left;
+    for (std::uint32_t k = 0; k < num; ++k)
+      if (inserted[order[k]] == 0) left.push_back(k);
+    stats.flips += insert_points(left, everything, none);
+  }
+  tr.mark("tail");
 
   // The rest by Algorithm 3's rounds, without flips: their triangles are dirty.
   const std::vector<std::uint32_t> rest =
