@@ -16,10 +16,10 @@
 // On CPU threads Phases 4 and 5 and Step 3 are scheduled for a few fast cores rather than thousands of
 // slow ones: the mesh's slots are cut into fixed parts, each worked by one thread with Lawson's
 // algorithm (the sites' mesh flipped to Delaunay, then each missing point inserted and its flips made
-// at once), and only what crosses between parts goes through the parallel rounds. The rounds alone
-// spend most of their time re-reading the active lists (about ten passes a round, tens of rounds);
-// the parts do the same flips once each. The device keeps the paper's rounds. Where the CDT is unique
-// both give the same triangles; with co-circular points each gives one of the CDTs.
+// at once), and what crosses between parts is then done by one thread that owns every slot. The
+// paper's rounds spend most of their time re-reading the active lists (about ten passes a round, tens
+// of rounds); the parts do the same flips once each. The device keeps the paper's rounds. Where the CDT is
+// unique both give the same triangles; with co-circular points each gives one of the CDTs.
 //   constraints  Step 2: constraints inserted by flipping (Algorithms 4 and 5)
 //   flip      Step 3: Lawson flips to the constrained Delaunay triangulation, from the triangles
 //             that Step 2 flipped

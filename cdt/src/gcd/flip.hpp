@@ -40,11 +40,11 @@ FlipStats flip_to_delaunay(Mesh& mesh, CpuExecutor& executor, const std::uint8_t
 /// consecutive slots (spatially compact, as the phases before number them along a space-filling
 /// curve); each part runs Lawson's algorithm with a stack on one thread, flipping the edges whose
 /// flips touch only its own slots, and the triangles it must leave (edges to or flips touching another
-/// part) go through flip_to_delaunay's parallel rounds, one round at a time, until nothing is left.
-/// Every flip makes the triangulation strictly more Delaunay, so the result is the Delaunay
-/// triangulation either way (unique for points in general position; with co-circular points, one of
-/// them). The parts do not depend on the thread count, and neither does the result. Counts one
-/// iteration per parallel round.
+/// part) are then worked by one thread that owns every slot. Every flip makes the triangulation
+/// strictly more Delaunay, so the result is the Delaunay triangulation either way (unique for points in
+/// general position; with co-circular points, one of them). The parts do not depend on the thread
+/// count, and neither does the result. Counts one iteration for the parts and one for what they left,
+/// if anything.
 FlipStats flip_to_delaunay_in_parts(Mesh& mesh, CpuExecutor& executor, const std::uint8_t* only = nullptr);
 
 // --- per-element work (host and device) --------------------------------------------------------------

@@ -54,11 +54,13 @@ InsertStats insert_missing_points(Mesh& mesh, std::span<const MissingPoint> miss
 /// the triangle of their hint (part_lawson.hpp), and each part inserts its points one after the other,
 /// each located by a walk from the part's last inserted point (points are numbered along a
 /// space-filling curve, so the walks are short), split into the part's own new slots and followed by
-/// the flips it calls for, as long as every slot involved is the part's. The rest (a walk or a flip
-/// that needs another part, a hint not in the mesh) goes to insert_missing_points's rounds, without
-/// flips. `dirty` is resized to the mesh's slots and flags every triangle with an edge that may still
-/// fail the incircle test, for a last flip_to_delaunay_in_parts from those. rounds counts one for the
-/// parts plus the rounds; flips counts the first flips and those made while inserting.
+/// the flips it calls for, as long as every slot involved is the part's. What the parts leave (a walk
+/// or a flip that needs another part, a hint not in the mesh) is then done the same way by one thread
+/// that owns every slot; only a point that walk cannot place (more than its step limit) goes to
+/// insert_missing_points's rounds, without flips. `dirty` is resized to the mesh's slots and flags
+/// every triangle with an edge that may still fail the incircle test, for a last
+/// flip_to_delaunay_in_parts from those. rounds counts one for the parts plus the rounds; flips
+/// counts the first flips and those made while inserting.
 InsertStats insert_missing_points_in_parts(Mesh& mesh, std::span<const MissingPoint> missing,
                                            CpuExecutor& executor, std::vector<std::uint8_t>& dirty);
 

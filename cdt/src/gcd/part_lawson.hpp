@@ -3,7 +3,7 @@
 // Phases 4 and 5 (flip_to_delaunay_in_parts, insert_missing_points_in_parts). A thread flips an edge
 // only when both triangles and their four outer neighbours belong to its part, so parts run side by
 // side without locks; an edge that needs another part is left to the caller (`defer`), which settles
-// it later with the parallel rounds.
+// it later on one thread that owns every slot.
 //
 // The one array parts share is vert_tri: an entry moves only when it names a slot of the calling part
 // that no longer holds the vertex, so each entry has one writer at a time (the part owning the slot it
