@@ -20,7 +20,8 @@
 // paper's rounds spend most of their time re-reading the active lists (about ten passes a round, tens
 // of rounds); the parts do the same flips once each. The device keeps the paper's rounds. Where the CDT is
 // unique both give the same triangles; with co-circular points each gives one of the CDTs.
-//   constraints  Step 2: constraints inserted by flipping (Algorithms 4 and 5)
+//   constraints  Step 2: constraints inserted by flipping (Algorithms 4 and 5 on the device; on CPU
+//             threads one walking pass, then the pieces not yet edges one by one, by Sloan's flipping)
 //   flip      Step 3: Lawson flips to the constrained Delaunay triangulation, from the triangles
 //             that Step 2 flipped
 
@@ -364,7 +365,7 @@ Triangulation triangulate_on(std::span<const Point> points, std::span<const Segm
 #endif
   if (!on_gpu) {
     flipped.assign(mesh.num_slots(), 0);
-    cons = insert_constraints(mesh, pieces, std::max(1u, options.inner_iterations), executor, flipped.data());
+    cons = insert_constraints_one_by_one(mesh, pieces, executor, flipped.data());
   }
   end_phase("constraints", cons.outer_iterations, cons.flips);
 

@@ -9,6 +9,7 @@
 #include <chrono>
 #include <cstdint>
 #include <cstdio>
+#include <numeric>
 #include <set>
 #include <string>
 #include <utility>
@@ -702,6 +703,164 @@ TEST(ConstraintInsert, ViolatedPreconditionsThrowInsteadOfLooping) {
     mesh.y.push_back(5);
     mesh.vert_tri.push_back(kNoId);
     EXPECT_THROW(insert_constraints(mesh, std::vector<ConstraintPiece2>{{0, 3, 0}}, 5, executor), cdt::Error);
+  }
+}
+
+// --- one by one (the CPU executor's schedule: a walking pass, then Sloan's flipping) -----------------
+
+// The CDT of points in general position is unique, so inserting one piece after the other and then
+// flipping from the recorded slots must end in the triangles of Algorithms 4 and 5, whatever the
+// thread count, and every slot whose content changed must be recorded for Step 3.
+TEST(ConstraintOneByOne, SameConstrainedDelaunayTriangulationAsAlgorithmFive) {
+  for (const std::uint64_t seed : {11u, 12u, 13u}) {
+    const Input in = random_input(2000, 900, seed);
+    ASSERT_GT(in.pieces.size(), 150u);
+    Mesh delaunay = trixel_test::sweep_triangulate(in.x, in.y);
+    CpuExecutor two(2);
+    flip_to_delaunay(delaunay, two);
+    for (const Mesh* start : {&delaunay}) {
+      std::vector<Mesh> results;
+      for (const unsigned threads : {1u, 2u}) {
+        Mesh mesh = *start;
+        CpuExecutor executor(threads);
+        std::vector<std::uint8_t> flipped(mesh.num_slots(), 0);
+        const ConstraintStats stats =
+            insert_constraints_one_by_one(mesh, in.pieces, executor, flipped.data());
+        EXPECT_GT(stats.flips, 0u);
+        EXPECT_GT(stats.intersections, 0u);
+        EXPECT_EQ(stats.outer_iterations, 2u);
+        expect_valid_mesh(mesh);
+        expect_pieces_present(mesh, in.pieces);
+        for (std::uint32_t t = 0; t < mesh.num_slots(); ++t) {
+          if (!std::equal(mesh.tri.begin() + 3 * t, mesh.tri.begin() + 3 * t + 3,
+                          start->tri.begin() + 3 * t)) {
+            EXPECT_EQ(flipped[t], 1) << "slot " << t << " changed but is not recorded";
+          }
+        }
+        flip_to_delaunay(mesh, executor, flipped.data());
+        expect_valid_mesh(mesh);
+        expect_pieces_present(mesh, in.pieces);
+        EXPECT_TRUE(trixel_test::is_locally_delaunay(mesh)) << "constrained Delaunay, seed " << seed;
+        results.push_back(mesh);
+      }
+      EXPECT_EQ(results[0].tri, results[1].tri) << "the same flips whatever the thread count";
+      EXPECT_EQ(triangle_set(results[0]), triangle_set(insert_and_flip(*start, in.pieces, 2, 5)));
+    }
+    // From a mesh far from Delaunay (the sweep's fans) too.
+    Mesh sweep = trixel_test::sweep_triangulate(in.x, in.y);
+    CpuExecutor executor(2);
+    insert_constraints_one_by_one(sweep, in.pieces, executor);
+    flip_to_delaunay(sweep, executor);
+    expect_pieces_present(sweep, in.pieces);
+    EXPECT_EQ(triangle_set(sweep), triangle_set(insert_and_flip(delaunay, in.pieces, 2, 5)));
+  }
+}
+
+// A long piece through a fan of slivers: every inner quadrilateral but the two at the ends is concave,
+// so most of the queue waits for its neighbours' flips (Sloan's worst shape).
+TEST(ConstraintOneByOne, LongPieceThroughAFan) {
+  const std::uint32_t k = 200;
+  std::vector<double> x{-1, double(k) + 1, double(k) / 2}, y{0, 0, -3};
+  std::vector<trixel_test::Triangle> tris;
+  for (std::uint32_t i = 0; i <= k; ++i) {
+    x.push_back(i);
+    y.push_back(1);
+  }
+  const auto p = [](std::uint32_t i) { return 3 + i; };
+  tris.push_back({0, 2, p(0)});
+  for (std::uint32_t i = 0; i < k; ++i) tris.push_back({2, p(i + 1), p(i)});
+  tris.push_back({2, 1, p(k)});
+  Mesh mesh = trixel_test::mesh_from_triangles(x, y, tris);
+  const std::vector<ConstraintPiece2> pieces{{0, 1, 42}};
+  CpuExecutor executor(2);
+  const ConstraintStats stats = insert_constraints_one_by_one(mesh, pieces, executor);
+  expect_valid_mesh(mesh);
+  expect_pieces_present(mesh, pieces);
+  EXPECT_EQ(stats.intersections, k + 2);
+  EXPECT_EQ(stats.flips, k + 1); // each of the k + 1 crossed edges flipped once, into a clear edge
+}
+
+// Pixel lattices (vectorize's PSLGs) are collinear and co-circular everywhere: flat quadrilaterals must
+// never flip, and the queue must still empty.
+TEST(ConstraintOneByOne, LatticeWithPrimitiveSegments) {
+  for (const std::uint64_t seed : {1u, 2u, 3u}) {
+    trixel_gen::Random rng(seed);
+    const int k = 24;
+    Input in;
+    for (int j = 0; j < k; ++j)
+      for (int i = 0; i < k; ++i) {
+        in.x.push_back(i);
+        in.y.push_back(j);
+      }
+    for (int attempt = 0; attempt < 4 * k; ++attempt) {
+      const int ax = static_cast<int>(rng.next() % k), ay = static_cast<int>(rng.next() % k);
+      const int dx = static_cast<int>(rng.range(-7, 7)), dy = static_cast<int>(rng.range(-7, 7));
+      if (std::gcd(dx, dy) != 1 || ax + dx < 0 || ay + dy < 0 || ax + dx >= k || ay + dy >= k) continue;
+      const auto a = static_cast<std::uint32_t>(ay * k + ax),
+                 b = static_cast<std::uint32_t>((ay + dy) * k + ax + dx);
+      bool ok = true;
+      for (const ConstraintPiece2& q : in.pieces) {
+        const bool collinear = orient2d(in.x[a], in.y[a], in.x[b], in.y[b], in.x[q.a], in.y[q.a]) == 0 &&
+                               orient2d(in.x[a], in.y[a], in.x[b], in.y[b], in.x[q.b], in.y[q.b]) == 0;
+        if (collinear || properly_cross(in, a, b, q.a, q.b)) ok = false;
+      }
+      if (ok) in.pieces.push_back({a, b, static_cast<std::uint32_t>(in.pieces.size())});
+    }
+    ASSERT_GT(in.pieces.size(), 5u);
+    Mesh mesh = trixel_test::sweep_triangulate(in.x, in.y);
+    CpuExecutor executor(2);
+    const ConstraintStats stats = insert_constraints_one_by_one(mesh, in.pieces, executor);
+    EXPECT_GT(stats.flips, 0u) << seed;
+    flip_to_delaunay(mesh, executor);
+    expect_valid_mesh(mesh);
+    expect_pieces_present(mesh, in.pieces);
+    EXPECT_TRUE(trixel_test::is_locally_delaunay(mesh)) << seed;
+  }
+}
+
+TEST(ConstraintOneByOne, PresentAndDuplicatePieces) {
+  const Input in = random_input(200, 0, 4);
+  Mesh mesh = trixel_test::sweep_triangulate(in.x, in.y);
+  const std::uint32_t e = 3 * 5 + 1;
+  const std::uint32_t a = mesh.tri[3 * 5 + 2], b = mesh.tri[3 * 5 + 0];
+  const std::vector<ConstraintPiece2> pieces{{a, b, 9}, {b, a, 3}, {a, b, 5}};
+  CpuExecutor executor(2);
+  const ConstraintStats stats = insert_constraints_one_by_one(mesh, pieces, executor);
+  EXPECT_EQ(stats.flips, 0u);
+  EXPECT_EQ(stats.outer_iterations, 1u);
+  EXPECT_EQ(mesh.seg[e], 3u);
+  EXPECT_EQ(mesh.seg[mesh.adj[e]], 3u);
+  expect_valid_mesh(mesh);
+  EXPECT_EQ(insert_constraints_one_by_one(mesh, {}, executor).outer_iterations, 0u);
+}
+
+TEST(ConstraintOneByOne, ViolatedPreconditionsThrowInsteadOfLooping) {
+  CpuExecutor executor(2);
+  {
+    Mesh mesh = trixel_test::sweep_triangulate({0, 1, 2, 0, 1, 2}, {0, 0, 0, 1, 1, 1});
+    EXPECT_THROW(insert_constraints_one_by_one(mesh, std::vector<ConstraintPiece2>{{0, 2, 0}}, executor),
+                 cdt::Error);
+  }
+  // The two diagonals of a convex quadrilateral: the second crosses the first once it is in.
+  {
+    Mesh mesh = trixel_test::sweep_triangulate({0, 4, 5, 1}, {0, 0.5, 4, 3});
+    const std::vector<ConstraintPiece2> pieces{{0, 2, 0}, {1, 3, 1}};
+    EXPECT_THROW(insert_constraints_one_by_one(mesh, pieces, executor), cdt::Error);
+  }
+  {
+    Mesh mesh = trixel_test::sweep_triangulate({0, 1, 0}, {0, 0, 1});
+    EXPECT_THROW(insert_constraints_one_by_one(mesh, std::vector<ConstraintPiece2>{{0, 0, 0}}, executor),
+                 cdt::Error);
+    EXPECT_THROW(insert_constraints_one_by_one(mesh, std::vector<ConstraintPiece2>{{0, 3, 0}}, executor),
+                 cdt::Error);
+  }
+  {
+    Mesh mesh = trixel_test::sweep_triangulate({0, 1, 0}, {0, 0, 1});
+    mesh.x.push_back(5);
+    mesh.y.push_back(5);
+    mesh.vert_tri.push_back(kNoId);
+    EXPECT_THROW(insert_constraints_one_by_one(mesh, std::vector<ConstraintPiece2>{{0, 3, 0}}, executor),
+                 cdt::Error);
   }
 }
 

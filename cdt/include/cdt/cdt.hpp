@@ -60,7 +60,8 @@ struct Options {
   std::uint32_t grid_size = 0;
   /// CPU executor threads; 0 uses every hardware thread.
   unsigned threads = 0;
-  /// Inner-loop iterations of constraint insertion per outer iteration (Algorithm 4-5), at least 1.
+  /// Inner-loop iterations of constraint insertion per outer iteration (Algorithm 4-5), at least 1. The
+  /// GPU backend's; the CPU executor inserts the pieces one by one (Sloan's flipping) after one pass.
   unsigned inner_iterations = 8;
   CrossingSegments crossings = CrossingSegments::resolve;
 };

@@ -4,9 +4,12 @@
 
 #include "gcd/constraints.hpp"
 
+#include <deque>
 #include <string>
+#include <utility>
 #include <vector>
 
+#include "cdt/detail/trace.hpp"
 #include "cdt/errors.hpp"
 #include "executor/cpu_executor.hpp"
 
@@ -242,6 +245,135 @@ ConstraintStats insert_constraints(Mesh& mesh, std::span<const ConstraintPiece2>
                   std::to_string(pending.size()) + " pieces pending (crossing pieces?)");
     }
   }
+  return stats;
+}
+
+namespace {
+
+/// The encoded edge of the mesh from u to v (in one of its two triangles), or kNoId when there is none:
+/// a rotation around u, counter-clockwise and then clockwise when its fan is open.
+std::uint32_t find_edge(const MeshView& m, std::uint32_t u, std::uint32_t v) {
+  const std::uint32_t start = m.vert_tri[u];
+  if (start == kNoId) return kNoId;
+  std::uint32_t t = start;
+  bool clockwise = false;
+  for (std::uint32_t steps = 0; steps <= m.num_slots; ++steps) {
+    const std::uint32_t k = m.index_of(t, u);
+    if (k == 3) return kNoId;
+    if (m.v(t, next3(k)) == v) return edge_id(t, prev3(k));
+    if (m.v(t, prev3(k)) == v) return edge_id(t, next3(k));
+    const std::uint32_t e = m.adj[edge_id(t, clockwise ? prev3(k) : next3(k))];
+    if (e == kNoId) {
+      if (clockwise) return kNoId;
+      clockwise = true;
+      t = start;
+      continue;
+    }
+    t = edge_tri(e);
+    if (t == start) return kNoId;
+  }
+  return kNoId;
+}
+
+/// Strictly on opposite sides of the line through a and b.
+bool straddles(const MeshView& m, std::uint32_t a, std::uint32_t b, std::uint32_t p, std::uint32_t q) {
+  const int op = orient_vertices(m, a, b, p), oq = orient_vertices(m, a, b, q);
+  return (op > 0 && oq < 0) || (op < 0 && oq > 0);
+}
+
+} // namespace
+
+ConstraintStats insert_constraints_one_by_one(Mesh& mesh, std::span<const ConstraintPiece2> pieces,
+                                              CpuExecutor& executor, std::uint8_t* flipped) {
+  ConstraintStats stats;
+  const std::uint32_t slots = mesh.num_slots();
+  check_constraint_pieces(slots, mesh.num_vertices(), pieces);
+  if (pieces.empty()) return stats;
+  const MeshView m = mesh.view();
+  StepTrace trace("constraints");
+
+  // The walking pass: which pieces are edges already (their seg is set here, the lowest id winning
+  // among duplicates), and which cross triangles.
+  ++stats.outer_iterations;
+  const std::size_t np = pieces.size();
+  std::vector<ConstraintStatus> status(np);
+  std::vector<std::uint32_t> present(np), crossings(np);
+  std::uint32_t error_at = kNoId;
+  executor.for_each(np, [&](std::size_t k) {
+    status[k] = walk_piece(
+        m, pieces[k].a, pieces[k].b, [](std::uint32_t) {}, present[k], crossings[k]);
+    if (is_error(status[k])) atomic_min(&error_at, static_cast<std::uint32_t>(k));
+  });
+  if (error_at != kNoId) fail(status[error_at], error_at, pieces[error_at]);
+  executor.for_each(np, [&](std::size_t k) {
+    if (status[k] != ConstraintStatus::present) return;
+    atomic_min(m.seg + present[k], pieces[k].id);
+    const std::uint32_t twin = m.adj[present[k]];
+    if (twin != kNoId) atomic_min(m.seg + twin, pieces[k].id);
+  });
+  const std::vector<std::uint32_t> pending =
+      executor.compact(np, [&](std::size_t k) { return status[k] == ConstraintStatus::ok; });
+  for (std::size_t k = 0; k < np; ++k) stats.intersections += crossings[k];
+  trace.mark("walks");
+  if (pending.empty()) return stats;
+  ++stats.outer_iterations;
+
+  // Sloan's flipping, one piece after the other. The crossed edges are kept as vertex pairs, since a
+  // flip rewrites the slots of its neighbours' edges; each is found again around its first vertex.
+  std::deque<std::pair<std::uint32_t, std::uint32_t>> queue;
+  std::vector<std::uint32_t> channel;
+  for (const std::uint32_t k : pending) {
+    const ConstraintPiece2& p = pieces[k];
+    channel.clear();
+    std::uint32_t present_edge = kNoId, count = 0;
+    const ConstraintStatus st = walk_piece(
+        m, p.a, p.b, [&](std::uint32_t t) { channel.push_back(t); }, present_edge, count);
+    if (is_error(st)) fail(st, k, p);
+    if (st == ConstraintStatus::ok) {
+      // Consecutive triangles of the channel share the crossed edges.
+      for (std::size_t c = 0; c + 1 < channel.size(); ++c) {
+        const std::uint32_t t = channel[c];
+        std::uint32_t i = 0;
+        while (i < 3 && (m.adj[3 * t + i] == kNoId || edge_tri(m.adj[3 * t + i]) != channel[c + 1])) ++i;
+        if (i == 3) fail(ConstraintStatus::corrupt_mesh, k, p);
+        queue.emplace_back(m.v(t, next3(i)), m.v(t, prev3(i)));
+      }
+      // Sloan: every full turn of the queue flips at least once, and there are O(c^2) flips for c
+      // crossings; beyond that bound only a broken mesh or input can keep it going.
+      const std::uint64_t c = queue.size();
+      const std::uint64_t bound = (c + 1) * (c + 1) * (c + 1) + 1000;
+      std::uint64_t pops = 0;
+      while (!queue.empty()) {
+        if (++pops > bound) fail(ConstraintStatus::corrupt_mesh, k, p);
+        const auto [u, v] = queue.front();
+        queue.pop_front();
+        const std::uint32_t e = find_edge(m, u, v);
+        if (e == kNoId || m.adj[e] == kNoId || m.seg[e] != kNoId) fail(ConstraintStatus::corrupt_mesh, k, p);
+        const std::uint32_t t = edge_tri(e), i = edge_index(e);
+        const std::uint32_t f = m.adj[e];
+        const std::uint32_t w = m.v(t, i), z = m.v(edge_tri(f), edge_index(f));
+        // Flippable when strictly convex: u and v strictly on opposite sides of the other diagonal.
+        if (!straddles(m, w, z, u, v)) {
+          queue.emplace_back(u, v);
+          continue;
+        }
+        const std::uint32_t partner = edge_tri(f);
+        flip_edge(m, t, i);
+        ++stats.flips;
+        if (flipped != nullptr) flipped[t] = flipped[partner] = 1;
+        // The new diagonal (w, z) is edge 1 of t; it is the piece itself, or crosses it still, or is
+        // clear of it.
+        if (!((w == p.a && z == p.b) || (w == p.b && z == p.a)) && straddles(m, p.a, p.b, w, z))
+          queue.emplace_back(w, z);
+      }
+      stats.inner_iterations += pops;
+    }
+    const std::uint32_t e = find_edge(m, p.a, p.b);
+    if (e == kNoId) fail(ConstraintStatus::corrupt_mesh, k, p);
+    m.seg[e] = std::min(m.seg[e], p.id);
+    if (m.adj[e] != kNoId) m.seg[m.adj[e]] = std::min(m.seg[m.adj[e]], p.id);
+  }
+  trace.mark("flips");
   return stats;
 }
 

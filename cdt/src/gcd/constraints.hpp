@@ -58,6 +58,18 @@ ConstraintStats insert_constraints(Mesh& mesh, std::span<const ConstraintPiece2>
                                    unsigned inner_iterations, CpuExecutor& executor,
                                    std::uint64_t max_inner_iterations, std::uint8_t* flipped = nullptr);
 
+/// The same result scheduled for CPU threads: one parallel pass walks every piece (setting seg for
+/// the pieces that are edges already, most of them after Phase 5), then one thread inserts the others
+/// in order by Sloan's edge flipping: the edges a piece crosses wait in a queue; one whose
+/// quadrilateral is strictly convex is flipped, and the new diagonal goes back into the queue while it
+/// still crosses the piece, so that each flip removes a crossing or makes the channel more convex.
+/// Algorithm 5's parallel passes spend most of their time re-reading the marked triangles of every
+/// pending piece (passes over all slots per marking pass); this flips each crossing once or a few
+/// times. Same preconditions, errors and `flipped` flags as insert_constraints; outer_iterations counts
+/// the walking pass (1, or 2 when any piece needed flips), inner_iterations the queue's pops.
+ConstraintStats insert_constraints_one_by_one(Mesh& mesh, std::span<const ConstraintPiece2> pieces,
+                                              CpuExecutor& executor, std::uint8_t* flipped = nullptr);
+
 /// The hang guard of the 4-argument insert_constraints for n vertices: 16 n^2 + 10^7 inner iterations.
 std::uint64_t constraint_iteration_bound(std::uint64_t n);
 
