@@ -18,6 +18,7 @@
 #include "cdt/errors.hpp"
 #include "executor/cpu_executor.hpp"
 #include "gcd/flip.hpp"
+#include "gcd/part_lawson.hpp"
 #include "mesh_test_util.hpp"
 #include "pslg_generators.hpp"
 
@@ -754,6 +755,32 @@ TEST(ConstraintOneByOne, SameConstrainedDelaunayTriangulationAsAlgorithmFive) {
     expect_pieces_present(sweep, in.pieces);
     EXPECT_EQ(triangle_set(sweep), triangle_set(insert_and_flip(delaunay, in.pieces, 2, 5)));
   }
+}
+
+// Enough triangles for several parts (part_lawson.hpp): pieces inside one part go in on its thread,
+// long ones across parts are left to the last thread, and the result must not depend on the threads.
+TEST(ConstraintOneByOne, PiecesAcrossPartsGiveTheSameTriangulationForAnyThreadCount) {
+  const Input in = random_input(36000, 1200, 21);
+  ASSERT_GT(in.pieces.size(), 200u);
+  Mesh delaunay = trixel_test::sweep_triangulate(in.x, in.y);
+  CpuExecutor two(2);
+  flip_to_delaunay(delaunay, two);
+  ASSERT_GT(delaunay.num_slots(), 3 * cdt::detail::kPartSlots);
+  std::vector<Mesh> results;
+  for (const unsigned threads : {1u, 2u, 4u}) {
+    Mesh mesh = delaunay;
+    CpuExecutor executor(threads);
+    std::vector<std::uint8_t> flipped(mesh.num_slots(), 0);
+    insert_constraints_one_by_one(mesh, in.pieces, executor, flipped.data());
+    expect_valid_mesh(mesh);
+    expect_pieces_present(mesh, in.pieces);
+    flip_to_delaunay(mesh, executor, flipped.data());
+    EXPECT_TRUE(trixel_test::is_locally_delaunay(mesh));
+    results.push_back(mesh);
+  }
+  EXPECT_EQ(results[0].tri, results[1].tri);
+  EXPECT_EQ(results[0].tri, results[2].tri);
+  EXPECT_EQ(triangle_set(results[0]), triangle_set(insert_and_flip(delaunay, in.pieces, 2, 5)));
 }
 
 // A long piece through a fan of slivers: every inner quadrilateral but the two at the ends is concave,

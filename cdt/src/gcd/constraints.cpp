@@ -4,6 +4,8 @@
 
 #include "gcd/constraints.hpp"
 
+#include <atomic>
+#include <bit>
 #include <deque>
 #include <string>
 #include <utility>
@@ -12,6 +14,7 @@
 #include "cdt/detail/trace.hpp"
 #include "cdt/errors.hpp"
 #include "executor/cpu_executor.hpp"
+#include "gcd/part_lawson.hpp"
 
 namespace cdt::detail {
 namespace {
@@ -250,35 +253,187 @@ ConstraintStats insert_constraints(Mesh& mesh, std::span<const ConstraintPiece2>
 
 namespace {
 
-/// The encoded edge of the mesh from u to v (in one of its two triangles), or kNoId when there is none:
-/// a rotation around u, counter-clockwise and then clockwise when its fan is open.
-std::uint32_t find_edge(const MeshView& m, std::uint32_t u, std::uint32_t v) {
-  const std::uint32_t start = m.vert_tri[u];
-  if (start == kNoId) return kNoId;
+/// Whether a step of a piece's insertion stayed within the slots it may touch.
+enum class Reach { done, outside };
+
+/// The encoded edge of the mesh from u to v (in one of its two triangles), kNoId when there is none: a
+/// rotation around u, counter-clockwise and then clockwise when its fan is open. outside when it meets a
+/// slot that owns() refuses before finding the edge.
+template <class Owns>
+Reach find_edge(const MeshView& m, std::uint32_t u, std::uint32_t v, Owns&& owns, std::uint32_t& edge) {
+  edge = kNoId;
+  const std::uint32_t start = std::atomic_ref<std::uint32_t>(m.vert_tri[u]).load(std::memory_order_relaxed);
+  if (start == kNoId) return Reach::done;
   std::uint32_t t = start;
   bool clockwise = false;
   for (std::uint32_t steps = 0; steps <= m.num_slots; ++steps) {
+    if (!owns(t)) return Reach::outside;
     const std::uint32_t k = m.index_of(t, u);
-    if (k == 3) return kNoId;
-    if (m.v(t, next3(k)) == v) return edge_id(t, prev3(k));
-    if (m.v(t, prev3(k)) == v) return edge_id(t, next3(k));
+    if (k == 3) return Reach::done;
+    if (m.v(t, next3(k)) == v) {
+      edge = edge_id(t, prev3(k));
+      return Reach::done;
+    }
+    if (m.v(t, prev3(k)) == v) {
+      edge = edge_id(t, next3(k));
+      return Reach::done;
+    }
     const std::uint32_t e = m.adj[edge_id(t, clockwise ? prev3(k) : next3(k))];
     if (e == kNoId) {
-      if (clockwise) return kNoId;
+      if (clockwise) return Reach::done;
       clockwise = true;
       t = start;
       continue;
     }
     t = edge_tri(e);
-    if (t == start) return kNoId;
+    if (t == start) return Reach::done;
   }
-  return kNoId;
+  return Reach::done;
 }
 
 /// Strictly on opposite sides of the line through a and b.
 bool straddles(const MeshView& m, std::uint32_t a, std::uint32_t b, std::uint32_t p, std::uint32_t q) {
   const int op = orient_vertices(m, a, b, p), oq = orient_vertices(m, a, b, q);
   return (op > 0 && oq < 0) || (op < 0 && oq > 0);
+}
+
+/// The edges that piece a-b crosses, as vertex pairs, walking from a to b like walk_piece but reading
+/// only slots that owns() accepts (outside otherwise). status: present (nothing crossed), ok, or an
+/// error.
+template <class Owns>
+Reach crossed_edges(const MeshView& m, std::uint32_t a, std::uint32_t b, Owns&& owns,
+                    std::vector<std::pair<std::uint32_t, std::uint32_t>>& crossed, ConstraintStatus& status) {
+  crossed.clear();
+  status = ConstraintStatus::corrupt_mesh;
+  std::uint32_t edge = kNoId;
+  if (find_edge(m, a, b, owns, edge) == Reach::outside) return Reach::outside;
+  if (edge != kNoId) {
+    status = ConstraintStatus::present;
+    return Reach::done;
+  }
+  // The wedge of a's fan that the piece leaves through.
+  const std::uint32_t start = std::atomic_ref<std::uint32_t>(m.vert_tri[a]).load(std::memory_order_relaxed);
+  if (start == kNoId) {
+    status = ConstraintStatus::endpoint_not_in_mesh;
+    return Reach::done;
+  }
+  std::uint32_t t = start, first = kNoId;
+  bool clockwise = false;
+  for (std::uint32_t steps = 0; first == kNoId; ++steps) {
+    if (steps > m.num_slots) return Reach::done;
+    if (!owns(t)) return Reach::outside;
+    const std::uint32_t k = m.index_of(t, a);
+    if (k == 3) return Reach::done;
+    const std::uint32_t p = m.v(t, next3(k)), q = m.v(t, prev3(k));
+    const int op = orient_vertices(m, a, p, b), oq = orient_vertices(m, a, q, b);
+    if ((op == 0 && same_direction(m, a, p, b)) || (oq == 0 && same_direction(m, a, q, b))) {
+      status = ConstraintStatus::vertex_on_piece;
+      return Reach::done;
+    }
+    if (op > 0 && oq < 0) {
+      first = t;
+      break;
+    }
+    const std::uint32_t e = m.adj[edge_id(t, clockwise ? prev3(k) : next3(k))];
+    if (e == kNoId) {
+      if (clockwise) {
+        status = ConstraintStatus::leaves_mesh;
+        return Reach::done;
+      }
+      clockwise = true;
+      t = start;
+      continue;
+    }
+    t = edge_tri(e);
+    if (t == start) return Reach::done;
+  }
+  const std::uint32_t k = m.index_of(first, a);
+  std::uint32_t r = m.v(first, next3(k)), l = m.v(first, prev3(k));
+  std::uint32_t at = edge_id(first, k);
+  for (std::uint32_t steps = 0; steps <= m.num_slots; ++steps) {
+    if (m.seg[at] != kNoId) {
+      status = ConstraintStatus::crosses_constraint;
+      return Reach::done;
+    }
+    crossed.emplace_back(r, l);
+    const std::uint32_t e = m.adj[at];
+    if (e == kNoId) {
+      status = ConstraintStatus::leaves_mesh;
+      return Reach::done;
+    }
+    const std::uint32_t n = edge_tri(e);
+    if (!owns(n)) return Reach::outside;
+    const std::uint32_t apex = m.v(n, edge_index(e));
+    if (apex == b) {
+      status = ConstraintStatus::ok;
+      return Reach::done;
+    }
+    const int side = orient_vertices(m, a, b, apex);
+    if (side == 0) {
+      status = ConstraintStatus::vertex_on_piece;
+      return Reach::done;
+    }
+    const std::uint32_t opposite = m.index_of(n, side > 0 ? l : r);
+    if (opposite == 3) return Reach::done;
+    at = edge_id(n, opposite);
+    (side > 0 ? l : r) = apex;
+  }
+  return Reach::done;
+}
+
+/// Inserts piece p (number k) by Sloan's flipping, touching only slots that owns() accepts: outside,
+/// with the mesh valid and the piece perhaps part way in, as soon as a walk or a flip would need
+/// another slot. Throws on a violated precondition.
+template <class Owns>
+Reach insert_piece(const MeshView& m, const ConstraintPiece2& p, std::uint32_t k, Owns&& owns,
+                   std::uint8_t* flipped, std::vector<std::pair<std::uint32_t, std::uint32_t>>& crossed,
+                   std::deque<std::pair<std::uint32_t, std::uint32_t>>& queue, ConstraintStats& stats) {
+  ConstraintStatus st = ConstraintStatus::corrupt_mesh;
+  if (crossed_edges(m, p.a, p.b, owns, crossed, st) == Reach::outside) return Reach::outside;
+  if (is_error(st)) fail(st, k, p);
+  queue.assign(crossed.begin(), crossed.end());
+  // Every full turn of the queue flips at least once, and there are O(c^2) flips for c crossings
+  // (Sloan); beyond that bound only a broken mesh or input can keep it going.
+  const std::uint64_t c = queue.size();
+  const std::uint64_t bound = (c + 1) * (c + 1) * (c + 1) + 1000;
+  std::uint64_t pops = 0;
+  const auto inside = [&](std::uint32_t e) { return e == kNoId || owns(edge_tri(e)); };
+  while (!queue.empty()) {
+    if (++pops > bound) fail(ConstraintStatus::corrupt_mesh, k, p);
+    const auto [u, v] = queue.front();
+    std::uint32_t e = kNoId;
+    if (find_edge(m, u, v, owns, e) == Reach::outside) return Reach::outside;
+    if (e == kNoId || m.adj[e] == kNoId || m.seg[e] != kNoId) fail(ConstraintStatus::corrupt_mesh, k, p);
+    const std::uint32_t t = edge_tri(e), i = edge_index(e);
+    const std::uint32_t f = m.adj[e];
+    const std::uint32_t partner = edge_tri(f), j = edge_index(f);
+    if (!owns(partner)) return Reach::outside;
+    const std::uint32_t w = m.v(t, i), z = m.v(partner, j);
+    queue.pop_front();
+    stats.inner_iterations++;
+    // Flippable when strictly convex: u and v strictly on opposite sides of the other diagonal.
+    if (!straddles(m, w, z, u, v)) {
+      queue.emplace_back(u, v);
+      continue;
+    }
+    if (!inside(m.adj[3 * t + next3(i)]) || !inside(m.adj[3 * t + prev3(i)]) ||
+        !inside(m.adj[3 * partner + next3(j)]) || !inside(m.adj[3 * partner + prev3(j)])) {
+      return Reach::outside;
+    }
+    flip_edge_in_part(m, t, i);
+    ++stats.flips;
+    if (flipped != nullptr) flipped[t] = flipped[partner] = 1;
+    // The new diagonal (w, z) is the piece itself, or crosses it still, or is clear of it.
+    if (!((w == p.a && z == p.b) || (w == p.b && z == p.a)) && straddles(m, p.a, p.b, w, z))
+      queue.emplace_back(w, z);
+  }
+  std::uint32_t e = kNoId;
+  if (find_edge(m, p.a, p.b, owns, e) == Reach::outside) return Reach::outside;
+  if (e == kNoId) fail(ConstraintStatus::corrupt_mesh, k, p);
+  if (!inside(m.adj[e])) return Reach::outside;
+  m.seg[e] = std::min(m.seg[e], p.id);
+  if (m.adj[e] != kNoId) m.seg[m.adj[e]] = std::min(m.seg[m.adj[e]], p.id);
+  return Reach::done;
 }
 
 } // namespace
@@ -318,62 +473,50 @@ ConstraintStats insert_constraints_one_by_one(Mesh& mesh, std::span<const Constr
   if (pending.empty()) return stats;
   ++stats.outer_iterations;
 
-  // Sloan's flipping, one piece after the other. The crossed edges are kept as vertex pairs, since a
-  // flip rewrites the slots of its neighbours' edges; each is found again around its first vertex.
-  std::deque<std::pair<std::uint32_t, std::uint32_t>> queue;
-  std::vector<std::uint32_t> channel;
-  for (const std::uint32_t k : pending) {
-    const ConstraintPiece2& p = pieces[k];
-    channel.clear();
-    std::uint32_t present_edge = kNoId, count = 0;
-    const ConstraintStatus st = walk_piece(
-        m, p.a, p.b, [&](std::uint32_t t) { channel.push_back(t); }, present_edge, count);
-    if (is_error(st)) fail(st, k, p);
-    if (st == ConstraintStatus::ok) {
-      // Consecutive triangles of the channel share the crossed edges.
-      for (std::size_t c = 0; c + 1 < channel.size(); ++c) {
-        const std::uint32_t t = channel[c];
-        std::uint32_t i = 0;
-        while (i < 3 && (m.adj[3 * t + i] == kNoId || edge_tri(m.adj[3 * t + i]) != channel[c + 1])) ++i;
-        if (i == 3) fail(ConstraintStatus::corrupt_mesh, k, p);
-        queue.emplace_back(m.v(t, next3(i)), m.v(t, prev3(i)));
+  // The pieces by the part of the slot at their first end (part_lawson.hpp), in order within each
+  // part; each part's thread inserts those that stay within its slots (walks, flips and the flips'
+  // outer neighbours), as the parts of Phases 4 and 5 do, and leaves the others where they are.
+  const std::uint32_t parts = (slots + kPartSlots - 1) / kPartSlots;
+  std::vector<std::uint32_t> key(pending.size()), order = pending;
+  executor.for_each(pending.size(),
+                    [&](std::size_t r) { key[r] = m.vert_tri[pieces[pending[r]].a] / kPartSlots; });
+  executor.sort_pairs_by_key(key, order, std::bit_width(parts));
+  std::vector<std::uint32_t> start(parts + 1, 0);
+  for (const std::uint32_t p : key) ++start[p + 1];
+  for (std::uint32_t p = 0; p < parts; ++p) start[p + 1] += start[p];
+  std::vector<ConstraintStats> part_stats(parts);
+  std::vector<std::uint8_t> done(np, 0);
+  executor.for_each_part(parts, [&](std::size_t pp) {
+    const auto p = static_cast<std::uint32_t>(pp);
+    const auto owns = [p](std::uint32_t t) { return t / kPartSlots == p; };
+    std::vector<std::pair<std::uint32_t, std::uint32_t>> crossed;
+    std::deque<std::pair<std::uint32_t, std::uint32_t>> queue;
+    for (std::uint32_t r = start[p]; r < start[p + 1]; ++r) {
+      const std::uint32_t k = order[r];
+      // A violated precondition is left for the one thread below to meet again and report: nothing
+      // is thrown out of a worker.
+      try {
+        if (insert_piece(m, pieces[k], k, owns, flipped, crossed, queue, part_stats[p]) == Reach::done)
+          done[k] = 1;
+      } catch (const Error&) {
       }
-      // Sloan: every full turn of the queue flips at least once, and there are O(c^2) flips for c
-      // crossings; beyond that bound only a broken mesh or input can keep it going.
-      const std::uint64_t c = queue.size();
-      const std::uint64_t bound = (c + 1) * (c + 1) * (c + 1) + 1000;
-      std::uint64_t pops = 0;
-      while (!queue.empty()) {
-        if (++pops > bound) fail(ConstraintStatus::corrupt_mesh, k, p);
-        const auto [u, v] = queue.front();
-        queue.pop_front();
-        const std::uint32_t e = find_edge(m, u, v);
-        if (e == kNoId || m.adj[e] == kNoId || m.seg[e] != kNoId) fail(ConstraintStatus::corrupt_mesh, k, p);
-        const std::uint32_t t = edge_tri(e), i = edge_index(e);
-        const std::uint32_t f = m.adj[e];
-        const std::uint32_t w = m.v(t, i), z = m.v(edge_tri(f), edge_index(f));
-        // Flippable when strictly convex: u and v strictly on opposite sides of the other diagonal.
-        if (!straddles(m, w, z, u, v)) {
-          queue.emplace_back(u, v);
-          continue;
-        }
-        const std::uint32_t partner = edge_tri(f);
-        flip_edge(m, t, i);
-        ++stats.flips;
-        if (flipped != nullptr) flipped[t] = flipped[partner] = 1;
-        // The new diagonal (w, z) is edge 1 of t; it is the piece itself, or crosses it still, or is
-        // clear of it.
-        if (!((w == p.a && z == p.b) || (w == p.b && z == p.a)) && straddles(m, p.a, p.b, w, z))
-          queue.emplace_back(w, z);
-      }
-      stats.inner_iterations += pops;
     }
-    const std::uint32_t e = find_edge(m, p.a, p.b);
-    if (e == kNoId) fail(ConstraintStatus::corrupt_mesh, k, p);
-    m.seg[e] = std::min(m.seg[e], p.id);
-    if (m.adj[e] != kNoId) m.seg[m.adj[e]] = std::min(m.seg[m.adj[e]], p.id);
+  });
+  for (const ConstraintStats& ps : part_stats) {
+    stats.flips += ps.flips;
+    stats.inner_iterations += ps.inner_iterations;
   }
-  trace.mark("flips");
+  trace.mark("parts");
+
+  // What the parts left, in order, on one thread that owns every slot.
+  {
+    const auto everything = [](std::uint32_t) { return true; };
+    std::vector<std::pair<std::uint32_t, std::uint32_t>> crossed;
+    std::deque<std::pair<std::uint32_t, std::uint32_t>> queue;
+    for (const std::uint32_t k : pending)
+      if (done[k] == 0) insert_piece(m, pieces[k], k, everything, flipped, crossed, queue, stats);
+  }
+  trace.mark("rest");
   return stats;
 }
 

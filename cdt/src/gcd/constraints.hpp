@@ -59,14 +59,16 @@ ConstraintStats insert_constraints(Mesh& mesh, std::span<const ConstraintPiece2>
                                    std::uint64_t max_inner_iterations, std::uint8_t* flipped = nullptr);
 
 /// The same result scheduled for CPU threads: one parallel pass walks every piece (setting seg for
-/// the pieces that are edges already, most of them after Phase 5), then one thread inserts the others
-/// in order by Sloan's edge flipping: the edges a piece crosses wait in a queue; one whose
-/// quadrilateral is strictly convex is flipped, and the new diagonal goes back into the queue while it
-/// still crosses the piece, so that each flip removes a crossing or makes the channel more convex.
-/// Algorithm 5's parallel passes spend most of their time re-reading the marked triangles of every
-/// pending piece (passes over all slots per marking pass); this flips each crossing once or a few
-/// times. Same preconditions, errors and `flipped` flags as insert_constraints; outer_iterations counts
-/// the walking pass (1, or 2 when any piece needed flips), inner_iterations the queue's pops.
+/// the pieces that are edges already, most of them after Phase 5), then the others go in one by one by
+/// Sloan's edge flipping: the edges a piece crosses wait in a queue; one whose quadrilateral is
+/// strictly convex is flipped, and the new diagonal goes back into the queue while it still crosses
+/// the piece. Pieces go to the fixed parts of the slots (part_lawson.hpp) by their first end; each
+/// part's thread inserts its pieces in order as long as their walks and flips stay within its slots,
+/// and one thread that owns every slot then inserts what the parts left, in order. The result does
+/// not depend on the thread count. Algorithm 5's parallel passes spend most of their time re-reading
+/// the marked triangles of every pending piece; this flips each crossing once or a few times. Same
+/// preconditions, errors and `flipped` flags as insert_constraints; outer_iterations counts the
+/// walking pass (1, or 2 when any piece needed flips), inner_iterations the queue's pops.
 ConstraintStats insert_constraints_one_by_one(Mesh& mesh, std::span<const ConstraintPiece2> pieces,
                                               CpuExecutor& executor, std::uint8_t* flipped = nullptr);
 
