@@ -390,10 +390,9 @@ TEST(ConstraintCases, Figure7ConcaveRunThenDoubleRun) {
   }
 }
 
-TEST(ConstraintInsert, LongPieceThroughAFan) {
-  // A vertex below with a fan of k slivers to collinear points above: every inner pair is concave and
-  // the piece is inserted by Case 1 flips growing in from both ends, k flips, about k/2 iterations.
-  const std::uint32_t k = 200;
+// Vertices 0 = (-1, 0) and 1 = (k + 1, 0), a vertex 2 below them, and a fan of k slivers from it to the
+// collinear points (0, 1) .. (k, 1) above: the piece 0-1 crosses all k + 2 triangles.
+Mesh sliver_fan(std::uint32_t k) {
   std::vector<double> x{-1, double(k) + 1, double(k) / 2}, y{0, 0, -3};
   std::vector<trixel_test::Triangle> tris;
   for (std::uint32_t i = 0; i <= k; ++i) {
@@ -404,7 +403,14 @@ TEST(ConstraintInsert, LongPieceThroughAFan) {
   tris.push_back({0, 2, p(0)});
   for (std::uint32_t i = 0; i < k; ++i) tris.push_back({2, p(i + 1), p(i)});
   tris.push_back({2, 1, p(k)});
-  const Mesh input = trixel_test::mesh_from_triangles(x, y, tris);
+  return trixel_test::mesh_from_triangles(x, y, tris);
+}
+
+TEST(ConstraintInsert, LongPieceThroughAFan) {
+  // Every inner pair of the fan is concave and the piece is inserted by Case 1 flips growing in from
+  // both ends, k flips, about k/2 iterations.
+  const std::uint32_t k = 200;
+  const Mesh input = sliver_fan(k);
   const std::vector<ConstraintPiece2> pieces{{0, 1, 42}};
   for (const unsigned threads : {1u, 4u}) {
     ConstraintStats stats;
@@ -585,45 +591,42 @@ TEST(ConstraintInsert, LatticeWithAxisAndDiagonalConstraints) {
   EXPECT_EQ(mesh.tri, insert_and_flip(input, in.pieces, 1, 5).tri);
 }
 
-TEST(ConstraintInsert, LatticeWithPrimitiveSegments) {
-  // Segments with coprime steps (up to 8 x 8) pass through no lattice point but through many exactly
-  // collinear and co-circular configurations: flat quadrilaterals must count as concave, never flip.
-  const auto gcd = [](int a, int b) {
-    a = std::abs(a);
-    b = std::abs(b);
-    while (b != 0) a = std::exchange(b, a % b);
-    return a;
-  };
-  for (const std::uint64_t seed : {1u, 2u, 3u, 4u, 5u, 6u}) {
-    trixel_gen::Random rng(seed);
-    const int k = 16 + static_cast<int>(rng.next() % 16);
-    Input in;
-    for (int j = 0; j < k; ++j)
-      for (int i = 0; i < k; ++i) {
-        in.x.push_back(i);
-        in.y.push_back(j);
-      }
-    for (int attempt = 0; attempt < 4 * k; ++attempt) {
-      const int ax = static_cast<int>(rng.next() % k), ay = static_cast<int>(rng.next() % k);
-      const int dx = static_cast<int>(rng.range(-8, 8)), dy = static_cast<int>(rng.range(-8, 8));
-      if ((dx == 0 && dy == 0) || gcd(dx, dy) != 1 || ax + dx < 0 || ay + dy < 0 || ax + dx >= k ||
-          ay + dy >= k) {
-        continue;
-      }
-      const auto a = static_cast<std::uint32_t>(ay * k + ax),
-                 b = static_cast<std::uint32_t>((ay + dy) * k + ax + dx);
-      bool ok = true;
-      for (const ConstraintPiece2& p : in.pieces) {
-        // Pieces on one supporting line are skipped as well: that rules out overlaps and duplicates.
-        const bool collinear = orient2d(in.x[a], in.y[a], in.x[b], in.y[b], in.x[p.a], in.y[p.a]) == 0 &&
-                               orient2d(in.x[a], in.y[a], in.x[b], in.y[b], in.x[p.b], in.y[p.b]) == 0;
-        if (collinear || properly_cross(in, a, b, p.a, p.b)) {
-          ok = false;
-          break;
-        }
-      }
-      if (ok) in.pieces.push_back({a, b, static_cast<std::uint32_t>(in.pieces.size())});
+// A k x k lattice (k from 16 to 31) and segments with coprime steps (up to 8 x 8), which pass through no
+// lattice point but through many exactly collinear and co-circular configurations; segments crossing
+// or on the supporting line of a kept one are left out (no overlaps, no duplicates).
+Input lattice_with_primitive_segments(std::uint64_t seed) {
+  trixel_gen::Random rng(seed);
+  const int k = 16 + static_cast<int>(rng.next() % 16);
+  Input in;
+  for (int j = 0; j < k; ++j)
+    for (int i = 0; i < k; ++i) {
+      in.x.push_back(i);
+      in.y.push_back(j);
     }
+  for (int attempt = 0; attempt < 4 * k; ++attempt) {
+    const int ax = static_cast<int>(rng.next() % k), ay = static_cast<int>(rng.next() % k);
+    const int dx = static_cast<int>(rng.range(-8, 8)), dy = static_cast<int>(rng.range(-8, 8));
+    if (std::gcd(dx, dy) != 1 || ax + dx < 0 || ay + dy < 0 || ax + dx >= k || ay + dy >= k) continue;
+    const auto a = static_cast<std::uint32_t>(ay * k + ax),
+               b = static_cast<std::uint32_t>((ay + dy) * k + ax + dx);
+    bool ok = true;
+    for (const ConstraintPiece2& p : in.pieces) {
+      const bool collinear = orient2d(in.x[a], in.y[a], in.x[b], in.y[b], in.x[p.a], in.y[p.a]) == 0 &&
+                             orient2d(in.x[a], in.y[a], in.x[b], in.y[b], in.x[p.b], in.y[p.b]) == 0;
+      if (collinear || properly_cross(in, a, b, p.a, p.b)) {
+        ok = false;
+        break;
+      }
+    }
+    if (ok) in.pieces.push_back({a, b, static_cast<std::uint32_t>(in.pieces.size())});
+  }
+  return in;
+}
+
+TEST(ConstraintInsert, LatticeWithPrimitiveSegments) {
+  // Flat quadrilaterals must count as concave, never flip.
+  for (const std::uint64_t seed : {1u, 2u, 3u, 4u, 5u, 6u}) {
+    const Input in = lattice_with_primitive_segments(seed);
     ASSERT_GT(in.pieces.size(), 5u);
     const Mesh input = trixel_test::sweep_triangulate(in.x, in.y);
     const Mesh mesh = insert_and_flip(input, in.pieces, 3, 1 + static_cast<unsigned>(seed % 7));
@@ -787,17 +790,7 @@ TEST(ConstraintOneByOne, PiecesAcrossPartsGiveTheSameTriangulationForAnyThreadCo
 // so most of the queue waits for its neighbours' flips (Sloan's worst shape).
 TEST(ConstraintOneByOne, LongPieceThroughAFan) {
   const std::uint32_t k = 200;
-  std::vector<double> x{-1, double(k) + 1, double(k) / 2}, y{0, 0, -3};
-  std::vector<trixel_test::Triangle> tris;
-  for (std::uint32_t i = 0; i <= k; ++i) {
-    x.push_back(i);
-    y.push_back(1);
-  }
-  const auto p = [](std::uint32_t i) { return 3 + i; };
-  tris.push_back({0, 2, p(0)});
-  for (std::uint32_t i = 0; i < k; ++i) tris.push_back({2, p(i + 1), p(i)});
-  tris.push_back({2, 1, p(k)});
-  Mesh mesh = trixel_test::mesh_from_triangles(x, y, tris);
+  Mesh mesh = sliver_fan(k);
   const std::vector<ConstraintPiece2> pieces{{0, 1, 42}};
   CpuExecutor executor(2);
   const ConstraintStats stats = insert_constraints_one_by_one(mesh, pieces, executor);
@@ -811,28 +804,7 @@ TEST(ConstraintOneByOne, LongPieceThroughAFan) {
 // never flip, and the queue must still empty.
 TEST(ConstraintOneByOne, LatticeWithPrimitiveSegments) {
   for (const std::uint64_t seed : {1u, 2u, 3u}) {
-    trixel_gen::Random rng(seed);
-    const int k = 24;
-    Input in;
-    for (int j = 0; j < k; ++j)
-      for (int i = 0; i < k; ++i) {
-        in.x.push_back(i);
-        in.y.push_back(j);
-      }
-    for (int attempt = 0; attempt < 4 * k; ++attempt) {
-      const int ax = static_cast<int>(rng.next() % k), ay = static_cast<int>(rng.next() % k);
-      const int dx = static_cast<int>(rng.range(-7, 7)), dy = static_cast<int>(rng.range(-7, 7));
-      if (std::gcd(dx, dy) != 1 || ax + dx < 0 || ay + dy < 0 || ax + dx >= k || ay + dy >= k) continue;
-      const auto a = static_cast<std::uint32_t>(ay * k + ax),
-                 b = static_cast<std::uint32_t>((ay + dy) * k + ax + dx);
-      bool ok = true;
-      for (const ConstraintPiece2& q : in.pieces) {
-        const bool collinear = orient2d(in.x[a], in.y[a], in.x[b], in.y[b], in.x[q.a], in.y[q.a]) == 0 &&
-                               orient2d(in.x[a], in.y[a], in.x[b], in.y[b], in.x[q.b], in.y[q.b]) == 0;
-        if (collinear || properly_cross(in, a, b, q.a, q.b)) ok = false;
-      }
-      if (ok) in.pieces.push_back({a, b, static_cast<std::uint32_t>(in.pieces.size())});
-    }
+    const Input in = lattice_with_primitive_segments(seed);
     ASSERT_GT(in.pieces.size(), 5u);
     Mesh mesh = trixel_test::sweep_triangulate(in.x, in.y);
     CpuExecutor executor(2);
