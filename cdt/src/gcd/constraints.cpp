@@ -297,21 +297,15 @@ bool straddles(const MeshView& m, std::uint32_t a, std::uint32_t b, std::uint32_
   return (op > 0 && oq < 0) || (op < 0 && oq > 0);
 }
 
-/// The edges that piece a-b crosses, as vertex pairs, walking from a to b like walk_piece but reading
-/// only slots that owns() accepts (outside otherwise). status: present (nothing crossed), ok, or an
-/// error.
+/// The edges that piece a-b crosses, as vertex pairs, walking from a to b like walk_piece (host only,
+/// as walk_piece serves the device too) but reading only slots that owns() accepts (outside
+/// otherwise). status: present (nothing crossed), ok, or an error.
 template <class Owns>
 Reach crossed_edges(const MeshView& m, std::uint32_t a, std::uint32_t b, Owns&& owns,
                     std::vector<std::pair<std::uint32_t, std::uint32_t>>& crossed, ConstraintStatus& status) {
   crossed.clear();
   status = ConstraintStatus::corrupt_mesh;
-  std::uint32_t edge = kNoId;
-  if (find_edge(m, a, b, owns, edge) == Reach::outside) return Reach::outside;
-  if (edge != kNoId) {
-    status = ConstraintStatus::present;
-    return Reach::done;
-  }
-  // The wedge of a's fan that the piece leaves through.
+  // The wedge of a's fan that the piece leaves through, unless one of the fan's edges is the piece.
   const std::uint32_t start = std::atomic_ref<std::uint32_t>(m.vert_tri[a]).load(std::memory_order_relaxed);
   if (start == kNoId) {
     status = ConstraintStatus::endpoint_not_in_mesh;
@@ -325,6 +319,10 @@ Reach crossed_edges(const MeshView& m, std::uint32_t a, std::uint32_t b, Owns&& 
     const std::uint32_t k = m.index_of(t, a);
     if (k == 3) return Reach::done;
     const std::uint32_t p = m.v(t, next3(k)), q = m.v(t, prev3(k));
+    if (p == b || q == b) {
+      status = ConstraintStatus::present;
+      return Reach::done;
+    }
     const int op = orient_vertices(m, a, p, b), oq = orient_vertices(m, a, q, b);
     if ((op == 0 && same_direction(m, a, p, b)) || (oq == 0 && same_direction(m, a, q, b))) {
       status = ConstraintStatus::vertex_on_piece;

@@ -43,8 +43,8 @@ FlipStats flip_to_delaunay(Mesh& mesh, CpuExecutor& executor, const std::uint8_t
 /// part) are then worked by one thread that owns every slot. Every flip makes the triangulation
 /// strictly more Delaunay, so the result is the Delaunay triangulation either way (unique for points in
 /// general position; with co-circular points, one of them). The parts do not depend on the thread
-/// count, and neither does the result. Counts one iteration for the parts and one for what they left,
-/// if anything.
+/// count, and neither does the result. Counts one iteration when the parts left anything to that
+/// thread.
 FlipStats flip_to_delaunay_in_parts(Mesh& mesh, CpuExecutor& executor, const std::uint8_t* only = nullptr);
 
 // --- per-element work (host and device) --------------------------------------------------------------
