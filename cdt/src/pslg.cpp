@@ -1097,6 +1097,100 @@ Box bounding_box(const std::vector<Point>& vertices, const std::vector<std::uint
       });
 }
 
+/// Splits segs (all dirty) in rounds until no two pieces cross or overlap and no site of `sites` lies
+/// in a piece's interior (see prepare_pslg); vertices added at crossings are appended to `vertices`
+/// and `sites`. Returns the pieces sorted by (a, b). box holds every site; the snap tolerance is given
+/// by the caller, so that a subset of the input is treated exactly as the whole would be.
+std::vector<ConstraintPiece> resolve(std::vector<WorkSegment> segs, std::vector<Point>& vertices,
+                                     std::vector<std::uint32_t>& sites, std::size_t num_points, const Box& box,
+                                     double snap_tolerance, CrossingSegments policy, CpuExecutor& executor) {
+  StepTrace trace("prepare");
+  SegmentGrid grid(box, segs.size());
+  VertexChooser chooser(snap_tolerance, num_points);
+  // Each round: split at the vertices on the segments (and, in repair rounds, snap new vertices into
+  // segments passing within the tolerance), then bend crossing pieces through their rounded crossing
+  // points. Pairs settled in an earlier round are not tested again (see WorkSegment::dirty).
+  std::uint32_t first_new = 0;
+  std::size_t first_round_vertices = 0;
+  bool spatial_order = false; // segs in order_spatially's order already
+  SiteCells site_cells;       // sites[0, bucketed) by cell
+  std::size_t bucketed = 0;
+  for (int round = 0; round < kMaxRounds; ++round) {
+    if (!spatial_order) order_spatially(segs, vertices, grid, executor);
+    trace.mark("segments ordered");
+    Ends ends = endpoints(segs, vertices, executor);
+    grid.build(ends, executor);
+    trace.mark("segment grid");
+    if (round == 0) {
+      site_cells = bucket_sites(grid, vertices, sites, executor);
+    } else {
+      add_sites(site_cells, grid, vertices, std::span(sites).subspan(bucketed), executor);
+    }
+    bucketed = sites.size();
+    trace.mark("sites bucketed");
+    // The first round is exact: snapping is only for repairing what rounding did.
+    const PointSplits on_segment = find_points_on_segments(
+        grid, site_cells, ends, segs, vertices, first_new, round == 0 ? 0.0 : snap_tolerance, executor);
+    trace.mark("points on segments");
+    if (!on_segment.lists.vertex.empty()) {
+      segs = cut_segments(segs, on_segment.lists, on_segment.snapped, CutAt::sites, executor);
+      order_spatially(segs, vertices, grid, executor);
+      ends = endpoints(segs, vertices, executor);
+      grid.build(ends, executor);
+    }
+    const auto crossings = find_crossings(grid, ends, segs, round == 0, executor);
+    trace.mark("crossings");
+    if (crossings.empty() && !on_segment.any_snapped) {
+      const std::vector<std::uint32_t> order = order_by_ends(segs, vertices.size(), executor);
+      std::vector<ConstraintPiece> pieces(segs.size());
+      executor.for_each(segs.size(), [&](std::size_t k) {
+        const WorkSegment& p = segs[order[k]];
+        pieces[k] = {p.a, p.b, p.label};
+      });
+      trace.mark("pieces");
+      return pieces;
+    }
+    if (policy == CrossingSegments::reject && !crossings.empty()) reject_crossing(crossings, segs);
+
+    first_new = static_cast<std::uint32_t>(vertices.size());
+    std::vector<std::pair<std::uint32_t, std::uint32_t>> cuts;
+    cuts.reserve(2 * crossings.size());
+    for (const auto& [i, j] : crossings) {
+      const Point x = crossing_point(vertices[segs[i].a], vertices[segs[i].b], vertices[segs[j].a],
+                                     vertices[segs[j].b]);
+      const std::uint32_t v = chooser.choose(x, grid, site_cells, vertices, sites);
+      cuts.emplace_back(i, v);
+      cuts.emplace_back(j, v);
+    }
+    if (round == 0) first_round_vertices = vertices.size() - num_points;
+    const std::size_t repair_vertices = vertices.size() - num_points - first_round_vertices;
+    if (repair_vertices > kRepairVerticesPerFirstVertex * first_round_vertices + kRepairVerticesSlack ||
+        round + 1 == kMaxRounds) {
+      std::string where;
+      if (!crossings.empty()) {
+        where.append(" (segments ").append(std::to_string(segs[crossings.front().first].label));
+        where.append(" and ").append(std::to_string(segs[crossings.front().second].label));
+        where.append(" near ").append(format_point(vertices[cuts.front().second])).append(")");
+      }
+      throw_not_converging(where, round + 1);
+    }
+    // Without crossings this only turns this round's snapped pieces from "snapped" into "dirty".
+    std::vector<std::uint8_t> bent(segs.size(), 0);
+    for (const auto& [i, j] : crossings) bent[i] = bent[j] = 1;
+    const SplitLists crossing_cuts = group_splits(cuts, segs, vertices, executor);
+    // Crossings are rare in most inputs: when few segments are cut, their pieces are put in their
+    // places apart, and the rest keep their order (so the next round need not order them again).
+    spatial_order = 8 * cuts.size() < segs.size();
+    segs = spatial_order ? cut_few_segments(segs, crossing_cuts, bent, grid, vertices, executor)
+                         : cut_segments(segs, crossing_cuts, bent, CutAt::crossings, executor);
+  }
+  throw Error("crossing segments: resolution did not converge"); // not reached: the loop throws first
+}
+
+/// Rounding a crossing point moves it by an ulp or two of the largest coordinate; snapping works at a
+/// few times that.
+double snap_tolerance_of(const Box& box) { return 16.0 * kEpsilon * magnitude(box); }
+
 } // namespace
 
 PreparedPslg prepare_pslg(std::span<const Point> points, std::span<const Segment> segments,
@@ -1107,6 +1201,13 @@ PreparedPslg prepare_pslg(std::span<const Point> points, std::span<const Segment
 
 PreparedPslg prepare_pslg(std::span<const Point> points, std::span<const Segment> segments,
                           CrossingSegments policy, CpuExecutor& executor) {
+  PreparedPslg out = merge_input(points, segments, policy, executor);
+  split_pieces(out, policy, executor);
+  return out;
+}
+
+PreparedPslg merge_input(std::span<const Point> points, std::span<const Segment> segments,
+                         CrossingSegments policy, CpuExecutor& executor) {
   if (points.size() >= std::numeric_limits<std::uint32_t>::max() ||
       segments.size() >= std::numeric_limits<std::uint32_t>::max()) {
     throw Error("more than 2^32 - 2 points or segments");
@@ -1123,95 +1224,69 @@ PreparedPslg prepare_pslg(std::span<const Point> points, std::span<const Segment
   check_dimension(points, out.sites);
   out.vertices.assign(points.begin(), points.end());
   trace.mark("sites");
-  std::vector<WorkSegment> segs = initial_segments(segments, out.duplicate_of, executor);
+  const std::vector<WorkSegment> segs = initial_segments(segments, out.duplicate_of, executor);
+  out.pieces.resize(segs.size());
+  executor.for_each(segs.size(), [&](std::size_t k) { out.pieces[k] = {segs[k].a, segs[k].b, segs[k].label}; });
   trace.mark("initial segments");
-  if (segs.empty()) return out;
+  return out;
+}
 
+void split_pieces(PreparedPslg& pslg, CrossingSegments policy, CpuExecutor& executor) {
+  if (pslg.pieces.empty()) return;
+  std::vector<WorkSegment> segs(pslg.pieces.size());
+  executor.for_each(segs.size(), [&](std::size_t k) {
+    segs[k] = {pslg.pieces[k].a, pslg.pieces[k].b, pslg.pieces[k].segment, true, false};
+  });
   // Crossing points are clamped into their segments' boxes, so this box holds every vertex to come.
-  const Box box = bounding_box(out.vertices, out.sites, executor);
-  SegmentGrid grid(box, segs.size());
-  // Rounding a crossing point moves it by an ulp or two of the largest coordinate; snapping works at
-  // a few times that.
-  const double snap_tolerance = 16.0 * kEpsilon * magnitude(box);
-  VertexChooser chooser(snap_tolerance, points.size());
-  // Each round: split at the vertices on the segments (and, in repair rounds, snap new vertices into
-  // segments passing within the tolerance), then bend crossing pieces through their rounded crossing
-  // points. Pairs settled in an earlier round are not tested again (see WorkSegment::dirty).
-  std::uint32_t first_new = 0;
-  std::size_t first_round_vertices = 0;
-  bool spatial_order = false; // segs in order_spatially's order already
-  SiteCells site_cells;       // out.sites[0, bucketed) by cell
-  std::size_t bucketed = 0;
-  for (int round = 0; round < kMaxRounds; ++round) {
-    if (!spatial_order) order_spatially(segs, out.vertices, grid, executor);
-    trace.mark("segments ordered");
-    Ends ends = endpoints(segs, out.vertices, executor);
-    grid.build(ends, executor);
-    trace.mark("segment grid");
-    if (round == 0) {
-      site_cells = bucket_sites(grid, out.vertices, out.sites, executor);
-    } else {
-      add_sites(site_cells, grid, out.vertices, std::span(out.sites).subspan(bucketed), executor);
-    }
-    bucketed = out.sites.size();
-    trace.mark("sites bucketed");
-    // The first round is exact: snapping is only for repairing what rounding did.
-    const PointSplits on_segment = find_points_on_segments(
-        grid, site_cells, ends, segs, out.vertices, first_new, round == 0 ? 0.0 : snap_tolerance, executor);
-    trace.mark("points on segments");
-    if (!on_segment.lists.vertex.empty()) {
-      segs = cut_segments(segs, on_segment.lists, on_segment.snapped, CutAt::sites, executor);
-      order_spatially(segs, out.vertices, grid, executor);
-      ends = endpoints(segs, out.vertices, executor);
-      grid.build(ends, executor);
-    }
-    const auto crossings = find_crossings(grid, ends, segs, round == 0, executor);
-    trace.mark("crossings");
-    if (crossings.empty() && !on_segment.any_snapped) {
-      const std::vector<std::uint32_t> order = order_by_ends(segs, out.vertices.size(), executor);
-      out.pieces.resize(segs.size());
-      executor.for_each(segs.size(), [&](std::size_t k) {
-        const WorkSegment& p = segs[order[k]];
-        out.pieces[k] = {p.a, p.b, p.label};
-      });
-      trace.mark("pieces");
-      return out;
-    }
-    if (policy == CrossingSegments::reject && !crossings.empty()) reject_crossing(crossings, segs);
+  const Box box = bounding_box(pslg.vertices, pslg.sites, executor);
+  pslg.pieces = resolve(std::move(segs), pslg.vertices, pslg.sites, pslg.duplicate_of.size(), box,
+                        snap_tolerance_of(box), policy, executor);
+}
 
-    first_new = static_cast<std::uint32_t>(out.vertices.size());
-    std::vector<std::pair<std::uint32_t, std::uint32_t>> cuts;
-    cuts.reserve(2 * crossings.size());
-    for (const auto& [i, j] : crossings) {
-      const Point x = crossing_point(out.vertices[segs[i].a], out.vertices[segs[i].b],
-                                     out.vertices[segs[j].a], out.vertices[segs[j].b]);
-      const std::uint32_t v = chooser.choose(x, grid, site_cells, out.vertices, out.sites);
-      cuts.emplace_back(i, v);
-      cuts.emplace_back(j, v);
+void split_pieces(PreparedPslg& pslg, std::span<const std::uint32_t> suspect_pieces,
+                  std::span<const std::uint32_t> suspect_sites, CrossingSegments policy,
+                  CpuExecutor& executor) {
+  if (suspect_pieces.empty()) return;
+  StepTrace trace("split");
+  // The tolerance of the whole input, so that the suspects are treated as they would be with it.
+  const double tolerance = snap_tolerance_of(bounding_box(pslg.vertices, pslg.sites, executor));
+  std::vector<WorkSegment> segs(suspect_pieces.size());
+  std::vector<std::uint8_t> suspect(pslg.pieces.size(), 0);
+  executor.for_each(segs.size(), [&](std::size_t k) {
+    const ConstraintPiece& p = pslg.pieces[suspect_pieces[k]];
+    segs[k] = {p.a, p.b, p.segment, true, false};
+    suspect[suspect_pieces[k]] = 1;
+  });
+  std::vector<std::uint32_t> sites(suspect_sites.begin(), suspect_sites.end());
+  const std::size_t first_added = pslg.vertices.size();
+  const std::vector<ConstraintPiece> resolved =
+      resolve(std::move(segs), pslg.vertices, sites, pslg.duplicate_of.size(),
+              bounding_box(pslg.vertices, sites, executor), tolerance, policy, executor);
+  for (std::size_t v = first_added; v < pslg.vertices.size(); ++v) pslg.sites.push_back(static_cast<std::uint32_t>(v));
+  trace.mark("suspects resolved");
+  // The others are unchanged; both lists are sorted by (a, b), and a resolved piece identical to
+  // another piece merges into it (the lowest segment id).
+  std::vector<ConstraintPiece> merged;
+  merged.reserve(pslg.pieces.size() + resolved.size());
+  const auto before = [](const ConstraintPiece& p, const ConstraintPiece& q) {
+    return p.a != q.a ? p.a < q.a : p.b < q.b;
+  };
+  std::size_t r = 0;
+  const auto push = [&](const ConstraintPiece& p) {
+    if (!merged.empty() && merged.back().a == p.a && merged.back().b == p.b) {
+      merged.back().segment = std::min(merged.back().segment, p.segment);
+    } else {
+      merged.push_back(p);
     }
-    if (round == 0) first_round_vertices = out.vertices.size() - points.size();
-    const std::size_t repair_vertices = out.vertices.size() - points.size() - first_round_vertices;
-    if (repair_vertices > kRepairVerticesPerFirstVertex * first_round_vertices + kRepairVerticesSlack ||
-        round + 1 == kMaxRounds) {
-      std::string where;
-      if (!crossings.empty()) {
-        where.append(" (segments ").append(std::to_string(segs[crossings.front().first].label));
-        where.append(" and ").append(std::to_string(segs[crossings.front().second].label));
-        where.append(" near ").append(format_point(out.vertices[cuts.front().second])).append(")");
-      }
-      throw_not_converging(where, round + 1);
-    }
-    // Without crossings this only turns this round's snapped pieces from "snapped" into "dirty".
-    std::vector<std::uint8_t> bent(segs.size(), 0);
-    for (const auto& [i, j] : crossings) bent[i] = bent[j] = 1;
-    const SplitLists crossing_cuts = group_splits(cuts, segs, out.vertices, executor);
-    // Crossings are rare in most inputs: when few segments are cut, their pieces are put in their
-    // places apart, and the rest keep their order (so the next round need not order them again).
-    spatial_order = 8 * cuts.size() < segs.size();
-    segs = spatial_order ? cut_few_segments(segs, crossing_cuts, bent, grid, out.vertices, executor)
-                         : cut_segments(segs, crossing_cuts, bent, CutAt::crossings, executor);
+  };
+  for (std::size_t k = 0; k < pslg.pieces.size(); ++k) {
+    if (suspect[k] != 0) continue;
+    while (r < resolved.size() && !before(pslg.pieces[k], resolved[r])) push(resolved[r++]);
+    push(pslg.pieces[k]);
   }
-  throw Error("crossing segments: resolution did not converge"); // not reached: the loop throws first
+  while (r < resolved.size()) push(resolved[r++]);
+  pslg.pieces = std::move(merged);
+  trace.mark("pieces merged");
 }
 
 } // namespace cdt::detail

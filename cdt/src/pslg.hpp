@@ -62,8 +62,29 @@ PreparedPslg prepare_pslg(std::span<const Point> points, std::span<const Segment
 class CpuExecutor;
 
 /// The same, with the sort and the candidate screening run on `executor`; the result does not depend on
-/// its thread count.
+/// its thread count. merge_input followed by split_pieces.
 PreparedPslg prepare_pslg(std::span<const Point> points, std::span<const Segment> segments,
                           CrossingSegments policy, CpuExecutor& executor);
+
+/// The first half of prepare_pslg: input checks (the same errors), duplicate points merged, and as
+/// pieces the input segments between representatives, each vertex pair once (the lowest segment id),
+/// sorted by (a, b), not yet split at points on them or at crossings.
+PreparedPslg merge_input(std::span<const Point> points, std::span<const Segment> segments,
+                         CrossingSegments policy, CpuExecutor& executor);
+
+/// The second half: splits every piece at the sites on it and at crossings (the errors of prepare_pslg
+/// for crossings), adding the crossing vertices to vertices and sites.
+void split_pieces(PreparedPslg& pslg, CrossingSegments policy, CpuExecutor& executor);
+
+/// The same, testing only the suspect pieces (indices into pslg.pieces), against each other and against
+/// the suspect sites (vertex ids, increasing, holding every end of a suspect piece); the other pieces are
+/// kept as they are and merge with identical resolved ones. The caller vouches that nothing else can
+/// meet a suspect: for instance every other piece is an edge of a triangulation of the sites, and the
+/// suspects' neighbourhoods in it are suspect too (screen_pieces). Pairs met in the first round are
+/// then exactly those of split_pieces; vertices added later are snapped with the whole input's
+/// tolerance, but only into suspects.
+void split_pieces(PreparedPslg& pslg, std::span<const std::uint32_t> suspect_pieces,
+                  std::span<const std::uint32_t> suspect_sites, CrossingSegments policy,
+                  CpuExecutor& executor);
 
 } // namespace cdt::detail

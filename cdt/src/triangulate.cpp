@@ -6,12 +6,18 @@
 // rest (preparation, site assignment, hull completion and fake boundary), until those move to the
 // device too.
 //
-//   prepare   merge duplicates, split segments at points on them and at crossings (cdt/src/pslg.cpp)
+//   prepare   merge duplicates; with the GPU backend also split segments at points on them and at
+//             crossings (cdt/src/pslg.cpp)
 //   voronoi   Phase 1: grid mapping (Appendix B), digital Voronoi diagram (PBA + Appendix A)
 //   dualize   Phase 2: dual triangles, hull completion, fake boundary
 //   shift     Phase 3: points back to their true coordinates (Algorithms 1 and 2)
 //   insert    Phase 4: missing points (Algorithm 3), fake boundary removal
 //   delaunay  Phase 5: Lawson flips to the Delaunay triangulation
+//   split     CPU executor: segments split at points on them and at crossings, after the sites are
+//             triangulated. A segment that is an edge of the Delaunay mesh can neither cross another
+//             edge nor hold a vertex, so only the others and what their walks through the mesh meet
+//             are tested (gcd/screen.hpp); the vertices added at crossings are then inserted with
+//             their flips. On the coastlines this tests 8% of the segments instead of all of them.
 //
 // On CPU threads Phases 4 and 5 and Step 3 are scheduled for a few fast cores rather than thousands of
 // slow ones: the mesh's slots are cut into fixed parts, each worked by one thread with Lawson's
@@ -43,6 +49,7 @@
 #include "gcd/grid_map.hpp"
 #include "gcd/insert.hpp"
 #include "gcd/mesh.hpp"
+#include "gcd/screen.hpp"
 #include "gcd/shift.hpp"
 #include "gcd/voronoi.hpp"
 #include "pslg.hpp"
@@ -134,9 +141,16 @@ std::vector<std::uint32_t> spatial_site_order(const detail::GridMapping& mapping
   return order;
 }
 
-/// The whole pipeline on the CPU executor alone, or with the CUDA executor's phases when on_gpu.
+/// Where the segments are split at the sites on them and at crossings.
+enum class Split {
+  first,       ///< before the sites are triangulated, every segment against every other
+  screened,    ///< after: only the segments that are no edges of the Delaunay mesh and their neighbours
+};
+
+/// The whole pipeline on the CPU executor alone, or with the CUDA executor's phases when on_gpu (which
+/// splits first).
 Triangulation triangulate_on(std::span<const Point> points, std::span<const Segment> segments,
-                             const Options& options, bool on_gpu) {
+                             const Options& options, bool on_gpu, Split split) {
   using namespace detail;
   const auto t_start = Clock::now();
   Triangulation result;
@@ -145,12 +159,13 @@ Triangulation triangulate_on(std::span<const Point> points, std::span<const Segm
   PhaseTimer timer(stats);
   CpuExecutor executor(options.threads);
   StepTrace trace("triangulate");
+  if (on_gpu) split = Split::first;
 
   // Input checks and cleaning.
-  PreparedPslg pslg = prepare_pslg(points, segments, options.crossings, executor);
+  PreparedPslg pslg = split == Split::first ? prepare_pslg(points, segments, options.crossings, executor)
+                                            : merge_input(points, segments, options.crossings, executor);
   trace.mark("prepare");
   timer.end("prepare");
-  stats.added_vertices = pslg.vertices.size() - points.size();
   stats.zero_length_segments = pslg.zero_length_segments;
 
   // Sites: the distinct vertices, numbered 0..n-1 in the mesh in the order of their grid cells along a
@@ -169,7 +184,7 @@ Triangulation triangulate_on(std::span<const Point> points, std::span<const Segm
   trace.mark("sites' coordinates");
   const GridMapping mapping = make_grid_mapping(true_x, true_y, m, executor);
   trace.mark("grid mapping");
-  const std::vector<std::uint32_t> site_vertex =
+  std::vector<std::uint32_t> site_vertex =
       spatial_site_order(mapping, true_x, true_y, pslg.sites, executor);
   std::vector<std::uint32_t> site_of_vertex(pslg.vertices.size(), kNoId);
   trace.mark("spatial order");
@@ -351,6 +366,72 @@ Triangulation triangulate_on(std::span<const Point> points, std::span<const Segm
   if (!on_gpu) delaunay = flip_to_delaunay_in_parts(mesh, executor, dirty.data());
   end_phase("delaunay", delaunay.rounds, delaunay.flips);
 
+  // Step 1's splitting, when screened: the segments are tested against the Delaunay mesh, and only the
+  // suspects against each other (screen.hpp). The vertices added at crossings are then inserted with
+  // their flips, so the mesh stays Delaunay.
+  bool screened = false;
+  if (split == Split::screened && !pslg.pieces.empty()) {
+    screened = true;
+    std::vector<ConstraintPiece2> raw(pslg.pieces.size());
+    executor.for_each(raw.size(), [&](std::size_t k) {
+      raw[k] = {site_of_vertex[pslg.pieces[k].a], site_of_vertex[pslg.pieces[k].b], 0};
+    });
+    const ScreenedPieces screen = screen_pieces(mesh.view(), raw, executor);
+    trace.mark("screened");
+    const std::size_t first_added = pslg.vertices.size();
+    if (!screen.complete) {
+      split_pieces(pslg, options.crossings, executor);
+    } else if (!screen.pieces.empty()) {
+      std::vector<std::uint32_t> sites(screen.sites.size());
+      executor.for_each(sites.size(), [&](std::size_t k) { sites[k] = site_vertex[screen.sites[k]]; });
+      split_pieces(pslg, screen.pieces, sites, options.crossings, executor);
+    }
+    trace.mark("split");
+    const std::size_t added = pslg.vertices.size() - first_added;
+    InsertStats placed;
+    if (added > 0) {
+      // Added vertices follow the sites in the mesh; each starts its walk from a vertex it is joined to
+      // by a piece (through other added vertices if need be).
+      const auto first = static_cast<std::uint32_t>(mesh.num_vertices());
+      site_of_vertex.resize(pslg.vertices.size(), kNoId);
+      std::vector<MissingPoint> fresh(added);
+      for (std::size_t k = 0; k < added; ++k) {
+        const auto v = static_cast<std::uint32_t>(first_added + k);
+        site_of_vertex[v] = first + static_cast<std::uint32_t>(k);
+        site_vertex.push_back(v);
+        mesh.x.push_back(pslg.vertices[v].x);
+        mesh.y.push_back(pslg.vertices[v].y);
+        mesh.vert_tri.push_back(kNoId);
+        fresh[k] = {first + static_cast<std::uint32_t>(k), kNoId};
+      }
+      const std::vector<std::uint32_t> links = executor.compact(pslg.pieces.size(), [&](std::size_t k) {
+        return pslg.pieces[k].a >= first_added || pslg.pieces[k].b >= first_added;
+      });
+      for (bool changed = true; changed;) {
+        changed = false;
+        for (const std::uint32_t k : links) {
+          const std::uint32_t a = site_of_vertex[pslg.pieces[k].a], b = site_of_vertex[pslg.pieces[k].b];
+          const auto hint = [&](std::uint32_t v, std::uint32_t from) {
+            if (v < first || fresh[v - first].hint != kNoId) return;
+            if (from >= first && fresh[from - first].hint == kNoId) return;
+            fresh[v - first].hint = from;
+            changed = true;
+          };
+          hint(a, b);
+          hint(b, a);
+        }
+      }
+      for (MissingPoint& f : fresh)
+        if (f.hint == kNoId) f.hint = 0;
+      std::vector<std::uint8_t> again;
+      placed = insert_missing_points_in_parts(mesh, fresh, executor, again, true);
+      placed.flips += flip_to_delaunay_in_parts(mesh, executor, again.data()).flips;
+      trace.mark("added vertices");
+    }
+    end_phase("split", placed.rounds, placed.flips, added);
+  }
+  stats.added_vertices = pslg.vertices.size() - points.size();
+
   // Step 2: constraints (pieces named by their index; seg holds the piece index).
   std::vector<ConstraintPiece2> pieces(pslg.pieces.size());
   executor.for_each(pieces.size(), [&](std::size_t k) {
@@ -365,7 +446,15 @@ Triangulation triangulate_on(std::span<const Point> points, std::span<const Segm
 #endif
   if (!on_gpu) {
     flipped.assign(mesh.num_slots(), 0);
-    cons = insert_constraints_one_by_one(mesh, pieces, executor, flipped.data());
+    try {
+      cons = insert_constraints_one_by_one(mesh, pieces, executor, flipped.data());
+    } catch (const Error&) {
+      // Insertion checks what splitting promised: no site on a piece, no two pieces crossing. Should
+      // the screen have missed a pair (rounded crossing points snapping across a neighbourhood), the
+      // whole input is split first instead.
+      if (!screened) throw;
+      return triangulate_on(points, segments, options, false, Split::first);
+    }
   }
   end_phase("constraints", cons.outer_iterations, cons.flips);
 
@@ -425,14 +514,24 @@ Triangulation triangulate_on(std::span<const Point> points, std::span<const Segm
 Triangulation triangulate(std::span<const Point> points, std::span<const Segment> segments,
                           const Options& options) {
   const bool on_gpu = use_gpu(options.backend);
-  if (!on_gpu || options.backend == Backend::gpu) return triangulate_on(points, segments, options, on_gpu);
+  if (!on_gpu || options.backend == Backend::gpu)
+    return triangulate_on(points, segments, options, on_gpu, Split::screened);
   // backend auto: a device that fails (out of memory, say, when other processes hold it) leaves the
   // work to the CPU executor, which gives the same result.
   try {
-    return triangulate_on(points, segments, options, true);
+    return triangulate_on(points, segments, options, true, Split::first);
   } catch (const DeviceError&) {
-    return triangulate_on(points, segments, options, false);
+    return triangulate_on(points, segments, options, false, Split::screened);
   }
 }
+
+namespace detail {
+
+Triangulation triangulate_splitting_first(std::span<const Point> points, std::span<const Segment> segments,
+                                          const Options& options) {
+  return triangulate_on(points, segments, options, false, Split::first);
+}
+
+} // namespace detail
 
 } // namespace cdt

@@ -69,7 +69,9 @@ struct Options {
 /// Work and time of one phase of the algorithm.
 struct PhaseStats {
   /// "prepare", "voronoi", "dualize", "shift", "insert", "delaunay" (Phase 5, Lawson flips to the
-  /// Delaunay triangulation), "constraints", "flip" (Lawson flips to the CDT) or "output"
+  /// Delaunay triangulation), "split" (CPU executor, with segments: segments split at points on them
+  /// and at crossings; its missing points are the vertices added at crossings), "constraints", "flip"
+  /// (Lawson flips to the CDT) or "output"
   std::string name;
   double milliseconds = 0.0;    ///< wall time (CPU) or CUDA-event time (GPU)
   std::uint64_t flips = 0;      ///< edge flips performed

@@ -225,11 +225,12 @@ inline void relink_outer(const MeshView& m, std::uint32_t ne) {
 } // namespace
 
 InsertStats insert_missing_points_in_parts(Mesh& mesh, std::span<const MissingPoint> missing,
-                                           CpuExecutor& executor, std::vector<std::uint8_t>& dirty) {
+                                           CpuExecutor& executor, std::vector<std::uint8_t>& dirty,
+                                           bool is_delaunay) {
   InsertStats stats;
   const std::size_t num = missing.size();
   // Each insertion's flips below assume a Delaunay mesh around it.
-  stats.flips = flip_to_delaunay_in_parts(mesh, executor).flips;
+  if (!is_delaunay) stats.flips = flip_to_delaunay_in_parts(mesh, executor).flips;
   const std::uint32_t slots_before = mesh.num_slots();
   dirty.assign(slots_before, 0);
   if (num == 0) return stats;

@@ -60,9 +60,11 @@ InsertStats insert_missing_points(Mesh& mesh, std::span<const MissingPoint> miss
 /// insert_missing_points's rounds, without flips. `dirty` is resized to the mesh's slots and flags
 /// every triangle with an edge that may still fail the incircle test, for a last
 /// flip_to_delaunay_in_parts from those. rounds counts one for the parts plus the rounds; flips
-/// counts the first flips and those made while inserting.
+/// counts the first flips and those made while inserting. With is_delaunay the mesh is known to be
+/// Delaunay already, and the first flips are skipped.
 InsertStats insert_missing_points_in_parts(Mesh& mesh, std::span<const MissingPoint> missing,
-                                           CpuExecutor& executor, std::vector<std::uint8_t>& dirty);
+                                           CpuExecutor& executor, std::vector<std::uint8_t>& dirty,
+                                           bool is_delaunay = false);
 
 /// Deletes the fake boundary vertices [first_fake, num_vertices) like bad cases, except that each hole is an
 /// open polygon: the region between the fake vertex's chain of neighbours and that chain's convex hull is

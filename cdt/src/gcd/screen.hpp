@@ -1,0 +1,127 @@
+#pragma once
+// Screening the input segments against the Delaunay triangulation of the sites, before they are split
+// (host only).
+//
+// An edge of a triangulation contains no vertex in its interior and crosses no other edge. So once the
+// sites are triangulated, a segment that is an edge of the mesh (on real data nearly all of them: 98%
+// of the coastlines' segments) needs no test against the others: whatever can pass through a vertex,
+// cross or overlap involves a segment that is not an edge. Such a segment crosses, between its ends,
+// only the triangles of its corridor, and every site on it and every edge-segment it crosses belongs
+// to them. The suspects are the segments that are not edges, the edge-segments they cross, and the
+// sites on them; split_pieces then resolves the suspects alone (cdt/src/pslg.hpp), finding in its
+// first round exactly the pairs it would find among all. Where a crossing is found, the two triangles
+// at the crossed edge-segment, their sites and the segments on their edges are suspect too: the
+// crossing's rounded vertex lies there, and the repair rounds test what passes near it.
+
+#include <cstdint>
+#include <span>
+#include <vector>
+
+#include "cdt/cdt.hpp"
+
+#include "gcd/constraints.hpp"
+#include "gcd/flip.hpp"
+#include "gcd/mesh.hpp"
+
+namespace cdt::detail {
+
+class CpuExecutor;
+
+struct ScreenedPieces {
+  /// False when a corridor walk failed (an end not in the mesh, or a walk leaving it): every piece and
+  /// site is to be treated as suspect.
+  bool complete = true;
+  std::vector<std::uint32_t> pieces; ///< suspect pieces: indices into the screened list, increasing
+  std::vector<std::uint32_t> sites;  ///< suspect sites: mesh vertex ids, increasing
+};
+
+/// Screens pieces (mesh vertex ids; the id field is ignored) against a triangulation whose vertices
+/// include every end. Reads the mesh only; the result does not depend on the thread count.
+ScreenedPieces screen_pieces(const MeshView& m, std::span<const ConstraintPiece2> pieces, CpuExecutor& executor);
+
+/// triangulate() on the CPU executor with the segments split before the sites are triangulated, every
+/// one against every other, as the GPU backend does: what screening is compared with.
+Triangulation triangulate_splitting_first(std::span<const Point> points, std::span<const Segment> segments,
+                                          const Options& options);
+
+/// Follows segment a-b through the mesh: calls on_vertex(v) for a, b and every vertex on the segment
+/// between them, and crossed(e) for every edge whose interior it crosses (e encoded in the triangle it
+/// leaves). Returns
+/// false when the walk fails (an end has no triangle, the segment leaves the mesh, or the links are
+/// inconsistent).
+template <class OnVertex, class Crossed>
+bool walk_corridor(const MeshView& m, std::uint32_t a, std::uint32_t b, OnVertex&& on_vertex, Crossed&& crossed) {
+  std::uint32_t cur = a;
+  on_vertex(a);
+  for (std::uint32_t legs = 0; legs <= m.num_vertices; ++legs) {
+    // Around cur (counter-clockwise, then clockwise from the start when its fan is open): b itself, a
+    // vertex on the open segment cur-b (the nearest one, as edges hold no vertex), or the triangle
+    // that the segment leaves cur through.
+    const std::uint32_t start = m.vert_tri[cur];
+    if (start == kNoId || m.vert_tri[b] == kNoId) return false;
+    std::uint32_t next = kNoId, wedge = kNoId;
+    std::uint32_t t = start;
+    bool clockwise = false;
+    for (std::uint32_t steps = 0; next == kNoId && wedge == kNoId; ++steps) {
+      if (steps > m.num_slots) return false;
+      const std::uint32_t k = m.index_of(t, cur);
+      if (k == 3) return false;
+      const std::uint32_t p = m.v(t, next3(k)), q = m.v(t, prev3(k));
+      if (p == b || q == b) {
+        on_vertex(b);
+        return true;
+      }
+      const int op = orient_vertices(m, cur, p, b), oq = orient_vertices(m, cur, q, b);
+      if (op == 0 && same_direction(m, cur, p, b)) next = p;
+      if (oq == 0 && same_direction(m, cur, q, b)) next = q;
+      if (next != kNoId) break;
+      if (op > 0 && oq < 0) {
+        wedge = t;
+        break;
+      }
+      const std::uint32_t e = m.adj[edge_id(t, clockwise ? prev3(k) : next3(k))];
+      if (e == kNoId) {
+        if (clockwise) return false;
+        clockwise = true;
+        t = start;
+        continue;
+      }
+      t = edge_tri(e);
+      if (t == start) return false;
+    }
+    if (next != kNoId) {
+      cur = next;
+      on_vertex(cur);
+      continue;
+    }
+    // Through the triangles, keeping the crossed edge's ends on the left (l) and right (r) of cur -> b.
+    const std::uint32_t k = m.index_of(wedge, cur);
+    std::uint32_t r = m.v(wedge, next3(k)), l = m.v(wedge, prev3(k));
+    std::uint32_t edge = edge_id(wedge, k);
+    for (std::uint32_t steps = 0;; ++steps) {
+      if (steps > m.num_slots) return false;
+      crossed(edge);
+      const std::uint32_t e = m.adj[edge];
+      if (e == kNoId) return false;
+      const std::uint32_t n = edge_tri(e);
+      const std::uint32_t apex = m.v(n, edge_index(e));
+      if (apex == b) {
+        on_vertex(b);
+        return true;
+      }
+      const int side = orient_vertices(m, cur, b, apex);
+      if (side == 0) {
+        cur = apex; // a vertex on the segment: on from there
+        on_vertex(cur);
+        break;
+      }
+      const std::uint32_t opposite = m.index_of(n, side > 0 ? l : r);
+      if (opposite == 3) return false;
+      edge = edge_id(n, opposite);
+      (side > 0 ? l : r) = apex;
+    }
+  }
+  return false;
+}
+
+} // namespace cdt::detail

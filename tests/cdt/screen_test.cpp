@@ -1,0 +1,305 @@
+// Screening segments against the Delaunay mesh (gcd/screen.hpp) and splitting only the suspects: the
+// corridor walk against brute force, the suspects of a hand-made case, and triangulate() with
+// screening against triangulate() splitting every segment first.
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <array>
+#include <filesystem>
+#include <map>
+#include <set>
+#include <string>
+#include <tuple>
+#include <utility>
+#include <vector>
+
+#include "cdt/cdt.hpp"
+#include "cdt/io.hpp"
+#include "cdt/verify.hpp"
+#include "executor/cpu_executor.hpp"
+#include "gcd/screen.hpp"
+#include "mesh_test_util.hpp"
+#include "pslg_generators.hpp"
+
+namespace {
+
+using cdt::detail::kNoId;
+using cdt::detail::Mesh;
+using trixel_gen::Distribution;
+using trixel_test::orient_of;
+using trixel_test::sweep_triangulate;
+
+using Edge = std::pair<std::uint32_t, std::uint32_t>;
+
+Edge undirected(std::uint32_t a, std::uint32_t b) { return {std::min(a, b), std::max(a, b)}; }
+
+/// Every edge of the mesh, once.
+std::set<Edge> mesh_edges(const Mesh& mesh) {
+  std::set<Edge> edges;
+  for (std::uint32_t t = 0; t < mesh.num_slots(); ++t) {
+    if (!mesh.alive(t)) continue;
+    for (std::uint32_t i = 0; i < 3; ++i)
+      edges.insert(undirected(mesh.tri[3 * t + (i + 1) % 3], mesh.tri[3 * t + (i + 2) % 3]));
+  }
+  return edges;
+}
+
+/// What the walk from a to b reports, as sets.
+struct Walked {
+  bool ok = false;
+  std::set<std::uint32_t> vertices;
+  std::set<Edge> crossed;
+};
+
+Walked walk(Mesh& mesh, std::uint32_t a, std::uint32_t b) {
+  Walked w;
+  const cdt::detail::MeshView m = mesh.view();
+  w.ok = cdt::detail::walk_corridor(
+      m, a, b, [&](std::uint32_t v) { w.vertices.insert(v); },
+      [&](std::uint32_t e) {
+        const std::uint32_t t = cdt::detail::edge_tri(e), i = cdt::detail::edge_index(e);
+        w.crossed.insert(undirected(m.v(t, cdt::detail::next3(i)), m.v(t, cdt::detail::prev3(i))));
+      });
+  return w;
+}
+
+/// The same by brute force: the vertices on the closed segment, and the edges whose interiors it
+/// crosses at one point interior to both.
+Walked brute_force(const Mesh& mesh, std::uint32_t a, std::uint32_t b) {
+  Walked w;
+  w.ok = true;
+  const auto on_segment = [&](std::uint32_t v) {
+    if (orient_of(mesh, a, b, v) != 0) return false;
+    const double lo_x = std::min(mesh.x[a], mesh.x[b]), hi_x = std::max(mesh.x[a], mesh.x[b]);
+    const double lo_y = std::min(mesh.y[a], mesh.y[b]), hi_y = std::max(mesh.y[a], mesh.y[b]);
+    return mesh.x[v] >= lo_x && mesh.x[v] <= hi_x && mesh.y[v] >= lo_y && mesh.y[v] <= hi_y;
+  };
+  for (std::uint32_t v = 0; v < mesh.num_vertices(); ++v)
+    if (on_segment(v)) w.vertices.insert(v);
+  for (const auto& [p, q] : mesh_edges(mesh)) {
+    const int op = orient_of(mesh, a, b, p), oq = orient_of(mesh, a, b, q);
+    const int oa = orient_of(mesh, p, q, a), ob = orient_of(mesh, p, q, b);
+    if (op * oq < 0 && oa * ob < 0) w.crossed.insert({p, q});
+  }
+  return w;
+}
+
+TEST(WalkCorridor, MatchesBruteForceOnRandomPointsAndLattices) {
+  int with_vertices_between = 0;
+  for (std::uint64_t seed = 1; seed <= 6; ++seed) {
+    const trixel_gen::Pslg in = seed % 2 == 0 ? trixel_gen::lattice(7)
+                                              : trixel_gen::random_points(60, Distribution::uniform, seed);
+    std::vector<double> x, y;
+    for (const cdt::Point& p : in.points) {
+      x.push_back(p.x);
+      y.push_back(p.y);
+    }
+    Mesh mesh = sweep_triangulate(x, y);
+    trixel_gen::Random rng(seed);
+    const auto n = static_cast<std::uint32_t>(x.size());
+    for (int k = 0; k < 40; ++k) {
+      const auto a = static_cast<std::uint32_t>(rng.next() % n);
+      const auto b = static_cast<std::uint32_t>(rng.next() % n);
+      if (a == b) continue;
+      const Walked got = walk(mesh, a, b);
+      const Walked want = brute_force(mesh, a, b);
+      ASSERT_TRUE(got.ok) << "seed " << seed << " " << a << "-" << b;
+      EXPECT_EQ(got.vertices, want.vertices) << "seed " << seed << " " << a << "-" << b;
+      EXPECT_EQ(got.crossed, want.crossed) << "seed " << seed << " " << a << "-" << b;
+      if (want.vertices.size() > 2) ++with_vertices_between;
+    }
+  }
+  EXPECT_GT(with_vertices_between, 5); // the lattices put vertices on many segments
+}
+
+TEST(WalkCorridor, FailsForAnEndOutsideTheMesh) {
+  Mesh mesh = sweep_triangulate({0, 1, 0, 5}, {0, 0, 1, 5});
+  mesh.vert_tri[3] = kNoId; // vertex 3 taken out of the mesh
+  EXPECT_FALSE(walk(mesh, 0, 3).ok);
+}
+
+TEST(ScreenPieces, EdgesAreCleanTheOthersAndWhatTheyCrossSuspect) {
+  // A 6 x 6 lattice, each square cut by its rising diagonal; the pieces: the edges along the row y = 4
+  // (far from the rest), the edge (2, 0)-(2, 1), and a piece from (1, 0) to (3, 1) that crosses it.
+  const auto at = [](std::uint32_t i, std::uint32_t j) { return j * 6 + i; };
+  std::vector<double> x, y;
+  for (std::uint32_t j = 0; j < 6; ++j) {
+    for (std::uint32_t i = 0; i < 6; ++i) {
+      x.push_back(i);
+      y.push_back(j);
+    }
+  }
+  std::vector<trixel_test::Triangle> triangles;
+  for (std::uint32_t j = 0; j + 1 < 6; ++j) {
+    for (std::uint32_t i = 0; i + 1 < 6; ++i) {
+      triangles.push_back({at(i, j), at(i + 1, j), at(i + 1, j + 1)});
+      triangles.push_back({at(i, j), at(i + 1, j + 1), at(i, j + 1)});
+    }
+  }
+  Mesh mesh = trixel_test::mesh_from_triangles(x, y, triangles);
+  std::vector<cdt::detail::ConstraintPiece2> pieces;
+  for (std::uint32_t i = 0; i + 1 < 6; ++i) pieces.push_back({at(i, 4), at(i + 1, 4), 0});
+  pieces.push_back({at(2, 0), at(2, 1), 0});
+  pieces.push_back({at(1, 0), at(3, 1), 0});
+  const std::set<Edge> edges = mesh_edges(mesh);
+  for (std::size_t k = 0; k + 1 < pieces.size(); ++k)
+    ASSERT_TRUE(edges.count(undirected(pieces[k].a, pieces[k].b))) << k;
+  ASSERT_FALSE(edges.count(undirected(pieces.back().a, pieces.back().b)));
+  for (unsigned threads : {1u, 2u}) {
+    cdt::detail::CpuExecutor executor(threads);
+    const cdt::detail::ScreenedPieces s = cdt::detail::screen_pieces(mesh.view(), pieces, executor);
+    ASSERT_TRUE(s.complete);
+    EXPECT_EQ(s.pieces, (std::vector<std::uint32_t>{5, 6})) << threads << " threads";
+    // The ends of both: the corners of the two triangles at the crossed edge.
+    std::vector<std::uint32_t> want{at(1, 0), at(3, 1), at(2, 0), at(2, 1)};
+    std::sort(want.begin(), want.end());
+    EXPECT_EQ(s.sites, want) << threads << " threads";
+  }
+}
+
+TEST(ScreenPieces, AnEndOutsideTheMeshMakesEverythingSuspect) {
+  Mesh mesh = sweep_triangulate({0, 1, 0, 5}, {0, 0, 1, 5});
+  mesh.vert_tri[3] = kNoId;
+  cdt::detail::CpuExecutor executor(1);
+  const std::vector<cdt::detail::ConstraintPiece2> pieces{{0, 3, 0}};
+  EXPECT_FALSE(cdt::detail::screen_pieces(mesh.view(), pieces, executor).complete);
+}
+
+// --- triangulate() with screening against splitting first --------------------------------------------
+
+using Coordinates = std::pair<double, double>;
+
+/// The constraint edges by their ends' coordinates, with their segment ids.
+std::set<std::tuple<Coordinates, Coordinates, std::uint32_t>> constraint_edges(const cdt::Triangulation& t) {
+  std::set<std::tuple<Coordinates, Coordinates, std::uint32_t>> edges;
+  for (std::size_t k = 0; k < t.triangles.size(); ++k) {
+    for (std::uint32_t i = 0; i < 3; ++i) {
+      if (t.segment_of_edge[k][i] == cdt::kNone) continue;
+      const cdt::Point& p = t.vertices[t.triangles[k][(i + 1) % 3]];
+      const cdt::Point& q = t.vertices[t.triangles[k][(i + 2) % 3]];
+      const auto [lo, hi] = std::minmax(Coordinates{p.x, p.y}, Coordinates{q.x, q.y});
+      edges.insert({lo, hi, t.segment_of_edge[k][i]});
+    }
+  }
+  return edges;
+}
+
+/// The triangles by their corners' coordinates, rotated to start at the smallest.
+std::set<std::array<Coordinates, 3>> triangles_by_coordinates(const cdt::Triangulation& t) {
+  std::set<std::array<Coordinates, 3>> out;
+  for (const auto& tri : t.triangles) {
+    std::array<Coordinates, 3> c;
+    for (int i = 0; i < 3; ++i) c[i] = {t.vertices[tri[i]].x, t.vertices[tri[i]].y};
+    std::rotate(c.begin(), std::min_element(c.begin(), c.end()), c.end());
+    out.insert(c);
+  }
+  return out;
+}
+
+std::multiset<Coordinates> vertex_coordinates(const cdt::Triangulation& t) {
+  std::multiset<Coordinates> out;
+  for (const cdt::Point& p : t.vertices) out.insert({p.x, p.y});
+  return out;
+}
+
+/// Screening gives the same vertices and constraint edges as splitting first, and both verify; with
+/// points in general position also the same triangles.
+void expect_same_as_splitting_first(const std::vector<cdt::Point>& points, const std::vector<cdt::Segment>& segments,
+                                    bool general_position, const std::string& what) {
+  const cdt::Triangulation screened = cdt::triangulate(points, segments);
+  const cdt::Triangulation first = cdt::detail::triangulate_splitting_first(points, segments, {});
+  EXPECT_TRUE(cdt::verify(screened, points, segments).ok()) << what;
+  EXPECT_TRUE(cdt::verify(first, points, segments).ok()) << what;
+  EXPECT_EQ(screened.stats.added_vertices, first.stats.added_vertices) << what;
+  EXPECT_EQ(vertex_coordinates(screened), vertex_coordinates(first)) << what;
+  EXPECT_EQ(constraint_edges(screened), constraint_edges(first)) << what;
+  if (general_position) EXPECT_EQ(triangles_by_coordinates(screened), triangles_by_coordinates(first)) << what;
+  const auto split = std::find_if(screened.stats.phases.begin(), screened.stats.phases.end(),
+                                  [](const cdt::PhaseStats& p) { return p.name == "split"; });
+  EXPECT_EQ(split != screened.stats.phases.end(), !segments.empty()) << what;
+}
+
+TEST(TriangulateScreened, CrossingRandomSegmentsAsSplittingFirst) {
+  for (std::uint64_t seed = 1; seed <= 3; ++seed) {
+    trixel_gen::Pslg in = trixel_gen::random_points(3000, Distribution::uniform, seed);
+    trixel_gen::Random rng(seed + 100);
+    // Long random segments: thousands of crossings, several on most segments.
+    for (int k = 0; k < 120; ++k) {
+      const auto a = static_cast<std::uint32_t>(rng.next() % in.points.size());
+      const auto b = static_cast<std::uint32_t>(rng.next() % in.points.size());
+      if (a != b) in.segments.push_back({a, b});
+    }
+    expect_same_as_splitting_first(in.points, in.segments, true, "seed " + std::to_string(seed));
+  }
+}
+
+TEST(TriangulateScreened, SyntheticPslgWithAFewCrossersAsSplittingFirst) {
+  // Mostly edges of the Delaunay mesh (short segments), plus a few long ones crossing them.
+  trixel_gen::Pslg in = trixel_gen::synthetic_pslg(20000, 2000, Distribution::uniform, 7);
+  trixel_gen::Random rng(8);
+  for (int k = 0; k < 10; ++k) {
+    in.segments.push_back({static_cast<std::uint32_t>(rng.next() % in.points.size()),
+                           static_cast<std::uint32_t>(rng.next() % in.points.size())});
+    if (in.segments.back().a == in.segments.back().b) in.segments.pop_back();
+  }
+  expect_same_as_splitting_first(in.points, in.segments, true, "synthetic");
+}
+
+TEST(TriangulateScreened, LatticeSegmentsThroughPointsAndOverlapsAsSplittingFirst) {
+  for (std::uint64_t seed = 1; seed <= 3; ++seed) {
+    const trixel_gen::Pslg in = trixel_gen::lattice_with_segments(24, 150, seed);
+    expect_same_as_splitting_first(in.points, in.segments, false, "lattice seed " + std::to_string(seed));
+  }
+}
+
+TEST(TriangulateScreened, ArtemOgreFilesAsSplittingFirst) {
+  const std::filesystem::path dir = std::filesystem::path(TRIXEL_TEST_DATA_DIR) / "cdt" / "artem-ogre-CDT";
+  int files = 0;
+  for (const auto& entry : std::filesystem::directory_iterator(dir)) {
+    if (entry.path().extension() != ".txt") continue;
+    ++files;
+    const cdt::io::Pslg in = cdt::io::read_edge_list(entry.path());
+    try {
+      expect_same_as_splitting_first(in.points, in.segments, false, entry.path().filename().string());
+    } catch (const cdt::Error& e) {
+      ADD_FAILURE() << entry.path().filename() << ": " << e.what();
+    }
+  }
+  EXPECT_EQ(files, 36);
+}
+
+TEST(TriangulateScreened, SameResultForAnyThreadCount) {
+  const trixel_gen::Pslg in = trixel_gen::lattice_with_segments(30, 300, 5);
+  cdt::Options one;
+  one.threads = 1;
+  cdt::Options three;
+  three.threads = 3;
+  const cdt::Triangulation a = cdt::triangulate(in.points, in.segments, one);
+  const cdt::Triangulation b = cdt::triangulate(in.points, in.segments, three);
+  EXPECT_EQ(a.triangles, b.triangles);
+  EXPECT_EQ(a.segment_of_edge, b.segment_of_edge);
+  ASSERT_EQ(a.vertices.size(), b.vertices.size());
+  for (std::size_t v = 0; v < a.vertices.size(); ++v) EXPECT_EQ(a.vertices[v], b.vertices[v]) << v;
+}
+
+TEST(TriangulateScreened, RejectedCrossingsNameTheSameSegments) {
+  const trixel_gen::Pslg in = trixel_gen::lattice_with_segments(16, 80, 3);
+  cdt::Options o;
+  o.crossings = cdt::CrossingSegments::reject;
+  std::pair<std::uint32_t, std::uint32_t> screened{0, 0}, first{1, 1};
+  try {
+    cdt::triangulate(in.points, in.segments, o);
+    ADD_FAILURE() << "no error (screened)";
+  } catch (const cdt::CrossingSegmentsError& e) {
+    screened = {e.first(), e.second()};
+  }
+  try {
+    cdt::detail::triangulate_splitting_first(in.points, in.segments, o);
+    ADD_FAILURE() << "no error (splitting first)";
+  } catch (const cdt::CrossingSegmentsError& e) {
+    first = {e.first(), e.second()};
+  }
+  EXPECT_EQ(screened, first);
+}
+
+} // namespace
