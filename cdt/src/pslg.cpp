@@ -1102,8 +1102,9 @@ Box bounding_box(const std::vector<Point>& vertices, const std::vector<std::uint
 /// and `sites`. Returns the pieces sorted by (a, b). box holds every site; the snap tolerance is given
 /// by the caller, so that a subset of the input is treated exactly as the whole would be.
 std::vector<ConstraintPiece> resolve(std::vector<WorkSegment> segs, std::vector<Point>& vertices,
-                                     std::vector<std::uint32_t>& sites, std::size_t num_points, const Box& box,
-                                     double snap_tolerance, CrossingSegments policy, CpuExecutor& executor) {
+                                     std::vector<std::uint32_t>& sites, std::size_t num_points,
+                                     const Box& box, double snap_tolerance, CrossingSegments policy,
+                                     CpuExecutor& executor) {
   StepTrace trace("prepare");
   SegmentGrid grid(box, segs.size());
   VertexChooser chooser(snap_tolerance, num_points);
@@ -1129,8 +1130,8 @@ std::vector<ConstraintPiece> resolve(std::vector<WorkSegment> segs, std::vector<
     bucketed = sites.size();
     trace.mark("sites bucketed");
     // The first round is exact: snapping is only for repairing what rounding did.
-    const PointSplits on_segment = find_points_on_segments(
-        grid, site_cells, ends, segs, vertices, first_new, round == 0 ? 0.0 : snap_tolerance, executor);
+    const PointSplits on_segment = find_points_on_segments(grid, site_cells, ends, segs, vertices, first_new,
+                                                           round == 0 ? 0.0 : snap_tolerance, executor);
     trace.mark("points on segments");
     if (!on_segment.lists.vertex.empty()) {
       segs = cut_segments(segs, on_segment.lists, on_segment.snapped, CutAt::sites, executor);
@@ -1156,8 +1157,8 @@ std::vector<ConstraintPiece> resolve(std::vector<WorkSegment> segs, std::vector<
     std::vector<std::pair<std::uint32_t, std::uint32_t>> cuts;
     cuts.reserve(2 * crossings.size());
     for (const auto& [i, j] : crossings) {
-      const Point x = crossing_point(vertices[segs[i].a], vertices[segs[i].b], vertices[segs[j].a],
-                                     vertices[segs[j].b]);
+      const Point x =
+          crossing_point(vertices[segs[i].a], vertices[segs[i].b], vertices[segs[j].a], vertices[segs[j].b]);
       const std::uint32_t v = chooser.choose(x, grid, site_cells, vertices, sites);
       cuts.emplace_back(i, v);
       cuts.emplace_back(j, v);
@@ -1226,7 +1227,9 @@ PreparedPslg merge_input(std::span<const Point> points, std::span<const Segment>
   trace.mark("sites");
   const std::vector<WorkSegment> segs = initial_segments(segments, out.duplicate_of, executor);
   out.pieces.resize(segs.size());
-  executor.for_each(segs.size(), [&](std::size_t k) { out.pieces[k] = {segs[k].a, segs[k].b, segs[k].label}; });
+  executor.for_each(segs.size(), [&](std::size_t k) {
+    out.pieces[k] = {segs[k].a, segs[k].b, segs[k].label};
+  });
   trace.mark("initial segments");
   return out;
 }
@@ -1262,7 +1265,8 @@ void split_pieces(PreparedPslg& pslg, std::span<const std::uint32_t> suspect_pie
   const std::vector<ConstraintPiece> resolved =
       resolve(std::move(segs), pslg.vertices, sites, pslg.duplicate_of.size(),
               bounding_box(pslg.vertices, sites, executor), tolerance, policy, executor);
-  for (std::size_t v = first_added; v < pslg.vertices.size(); ++v) pslg.sites.push_back(static_cast<std::uint32_t>(v));
+  for (std::size_t v = first_added; v < pslg.vertices.size(); ++v)
+    pslg.sites.push_back(static_cast<std::uint32_t>(v));
   trace.mark("suspects resolved");
   // The others are unchanged; both lists are sorted by (a, b), and a resolved piece identical to
   // another piece merges into it (the lowest segment id).

@@ -143,8 +143,8 @@ std::vector<std::uint32_t> spatial_site_order(const detail::GridMapping& mapping
 
 /// Where the segments are split at the sites on them and at crossings.
 enum class Split {
-  first,       ///< before the sites are triangulated, every segment against every other
-  screened,    ///< after: only the segments that are no edges of the Delaunay mesh and their neighbours
+  first,    ///< before the sites are triangulated, every segment against every other
+  screened, ///< after: only the segments that are no edges of the Delaunay mesh and their neighbours
 };
 
 /// The whole pipeline on the CPU executor alone, or with the CUDA executor's phases when on_gpu (which
@@ -184,8 +184,7 @@ Triangulation triangulate_on(std::span<const Point> points, std::span<const Segm
   trace.mark("sites' coordinates");
   const GridMapping mapping = make_grid_mapping(true_x, true_y, m, executor);
   trace.mark("grid mapping");
-  std::vector<std::uint32_t> site_vertex =
-      spatial_site_order(mapping, true_x, true_y, pslg.sites, executor);
+  std::vector<std::uint32_t> site_vertex = spatial_site_order(mapping, true_x, true_y, pslg.sites, executor);
   std::vector<std::uint32_t> site_of_vertex(pslg.vertices.size(), kNoId);
   trace.mark("spatial order");
   executor.for_each(n, [&](std::size_t s) {

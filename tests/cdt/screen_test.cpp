@@ -87,8 +87,8 @@ Walked brute_force(const Mesh& mesh, std::uint32_t a, std::uint32_t b) {
 TEST(WalkCorridor, MatchesBruteForceOnRandomPointsAndLattices) {
   int with_vertices_between = 0;
   for (std::uint64_t seed = 1; seed <= 6; ++seed) {
-    const trixel_gen::Pslg in = seed % 2 == 0 ? trixel_gen::lattice(7)
-                                              : trixel_gen::random_points(60, Distribution::uniform, seed);
+    const trixel_gen::Pslg in =
+        seed % 2 == 0 ? trixel_gen::lattice(7) : trixel_gen::random_points(60, Distribution::uniform, seed);
     std::vector<double> x, y;
     for (const cdt::Point& p : in.points) {
       x.push_back(p.x);
@@ -204,8 +204,9 @@ std::multiset<Coordinates> vertex_coordinates(const cdt::Triangulation& t) {
 
 /// Screening gives the same vertices and constraint edges as splitting first, and both verify; with
 /// points in general position also the same triangles.
-void expect_same_as_splitting_first(const std::vector<cdt::Point>& points, const std::vector<cdt::Segment>& segments,
-                                    bool general_position, const std::string& what) {
+void expect_same_as_splitting_first(const std::vector<cdt::Point>& points,
+                                    const std::vector<cdt::Segment>& segments, bool general_position,
+                                    const std::string& what) {
   const cdt::Triangulation screened = cdt::triangulate(points, segments);
   const cdt::Triangulation first = cdt::detail::triangulate_splitting_first(points, segments, {});
   EXPECT_TRUE(cdt::verify(screened, points, segments).ok()) << what;
@@ -213,7 +214,8 @@ void expect_same_as_splitting_first(const std::vector<cdt::Point>& points, const
   EXPECT_EQ(screened.stats.added_vertices, first.stats.added_vertices) << what;
   EXPECT_EQ(vertex_coordinates(screened), vertex_coordinates(first)) << what;
   EXPECT_EQ(constraint_edges(screened), constraint_edges(first)) << what;
-  if (general_position) EXPECT_EQ(triangles_by_coordinates(screened), triangles_by_coordinates(first)) << what;
+  if (general_position)
+    EXPECT_EQ(triangles_by_coordinates(screened), triangles_by_coordinates(first)) << what;
   const auto split = std::find_if(screened.stats.phases.begin(), screened.stats.phases.end(),
                                   [](const cdt::PhaseStats& p) { return p.name == "split"; });
   EXPECT_EQ(split != screened.stats.phases.end(), !segments.empty()) << what;

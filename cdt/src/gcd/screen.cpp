@@ -8,7 +8,8 @@
 
 namespace cdt::detail {
 
-ScreenedPieces screen_pieces(const MeshView& m, std::span<const ConstraintPiece2> pieces, CpuExecutor& executor) {
+ScreenedPieces screen_pieces(const MeshView& m, std::span<const ConstraintPiece2> pieces,
+                             CpuExecutor& executor) {
   ScreenedPieces out;
   // Per edge side, the piece lying on it. Pieces are distinct vertex pairs, so every entry has one
   // writer.
@@ -45,14 +46,17 @@ ScreenedPieces screen_pieces(const MeshView& m, std::span<const ConstraintPiece2
     piece_on[edge] = static_cast<std::uint32_t>(k);
     if (m.adj[edge] != kNoId) piece_on[m.adj[edge]] = static_cast<std::uint32_t>(k);
   });
-  const std::vector<std::uint32_t> walkers = executor.compact(pieces.size(), [&](std::size_t k) { return suspect[k] != 0; });
+  const std::vector<std::uint32_t> walkers =
+      executor.compact(pieces.size(), [&](std::size_t k) { return suspect[k] != 0; });
   if (walkers.empty()) return out;
 
   // The pieces that are no edges: the sites on them and the pieces they cross become suspect, and
   // around each such crossing the two triangles at the crossed edge.
   std::vector<std::uint8_t> site(m.num_vertices, 0);
   std::atomic<bool> failed{false};
-  const auto flag = [](std::uint8_t& f) { std::atomic_ref<std::uint8_t>(f).store(1, std::memory_order_relaxed); };
+  const auto flag = [](std::uint8_t& f) {
+    std::atomic_ref<std::uint8_t>(f).store(1, std::memory_order_relaxed);
+  };
   const auto mark_triangle = [&](std::uint32_t t) {
     for (std::uint32_t i = 0; i < 3; ++i) {
       flag(site[m.v(t, i)]);

@@ -37,7 +37,8 @@ struct ScreenedPieces {
 
 /// Screens pieces (mesh vertex ids; the id field is ignored) against a triangulation whose vertices
 /// include every end. Reads the mesh only; the result does not depend on the thread count.
-ScreenedPieces screen_pieces(const MeshView& m, std::span<const ConstraintPiece2> pieces, CpuExecutor& executor);
+ScreenedPieces screen_pieces(const MeshView& m, std::span<const ConstraintPiece2> pieces,
+                             CpuExecutor& executor);
 
 /// triangulate() on the CPU executor with the segments split before the sites are triangulated, every
 /// one against every other, as the GPU backend does: what screening is compared with.
@@ -50,7 +51,8 @@ Triangulation triangulate_splitting_first(std::span<const Point> points, std::sp
 /// false when the walk fails (an end has no triangle, the segment leaves the mesh, or the links are
 /// inconsistent).
 template <class OnVertex, class Crossed>
-bool walk_corridor(const MeshView& m, std::uint32_t a, std::uint32_t b, OnVertex&& on_vertex, Crossed&& crossed) {
+bool walk_corridor(const MeshView& m, std::uint32_t a, std::uint32_t b, OnVertex&& on_vertex,
+                   Crossed&& crossed) {
   std::uint32_t cur = a;
   on_vertex(a);
   for (std::uint32_t legs = 0; legs <= m.num_vertices; ++legs) {
