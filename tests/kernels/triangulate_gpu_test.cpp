@@ -55,7 +55,15 @@ void expect_same_as_cpu(const std::vector<cdt::Point>& points, const std::vector
     EXPECT_EQ(canonical(on_gpu), canonical(on_cpu)) << what;
   }
   EXPECT_EQ(on_gpu.triangles.size(), on_cpu.triangles.size()) << what;
-  ASSERT_EQ(on_gpu.stats.phases.size(), on_cpu.stats.phases.size()) << what;
+  // The same phases, but for the CPU executor's "split" (the device splits the segments first, in
+  // "prepare").
+  const auto names = [](const cdt::Triangulation& t) {
+    std::vector<std::string> out;
+    for (const cdt::PhaseStats& p : t.stats.phases)
+      if (p.name != "split") out.push_back(p.name);
+    return out;
+  };
+  ASSERT_EQ(names(on_gpu), names(on_cpu)) << what;
   for (std::size_t k = 0; k < on_cpu.stats.phases.size(); ++k) {
     const cdt::PhaseStats& g = on_gpu.stats.phases[k];
     const cdt::PhaseStats& c = on_cpu.stats.phases[k];
