@@ -214,8 +214,9 @@ void expect_same_as_splitting_first(const std::vector<cdt::Point>& points,
   EXPECT_EQ(screened.stats.added_vertices, first.stats.added_vertices) << what;
   EXPECT_EQ(vertex_coordinates(screened), vertex_coordinates(first)) << what;
   EXPECT_EQ(constraint_edges(screened), constraint_edges(first)) << what;
-  if (general_position)
+  if (general_position) {
     EXPECT_EQ(triangles_by_coordinates(screened), triangles_by_coordinates(first)) << what;
+  }
   const auto split = std::find_if(screened.stats.phases.begin(), screened.stats.phases.end(),
                                   [](const cdt::PhaseStats& p) { return p.name == "split"; });
   EXPECT_EQ(split != screened.stats.phases.end(), !segments.empty()) << what;
