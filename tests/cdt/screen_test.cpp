@@ -177,8 +177,8 @@ std::set<std::tuple<Coordinates, Coordinates, std::uint32_t>> constraint_edges(c
       if (t.segment_of_edge[k][i] == cdt::kNone) continue;
       const cdt::Point& p = t.vertices[t.triangles[k][(i + 1) % 3]];
       const cdt::Point& q = t.vertices[t.triangles[k][(i + 2) % 3]];
-      const auto [lo, hi] = std::minmax(Coordinates{p.x, p.y}, Coordinates{q.x, q.y});
-      edges.insert({lo, hi, t.segment_of_edge[k][i]});
+      const Coordinates u{p.x, p.y}, w{q.x, q.y};
+      edges.insert({std::min(u, w), std::max(u, w), t.segment_of_edge[k][i]});
     }
   }
   return edges;
