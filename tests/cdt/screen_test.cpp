@@ -207,8 +207,10 @@ std::multiset<Coordinates> vertex_coordinates(const cdt::Triangulation& t) {
 void expect_same_as_splitting_first(const std::vector<cdt::Point>& points,
                                     const std::vector<cdt::Segment>& segments, bool general_position,
                                     const std::string& what) {
-  const cdt::Triangulation screened = cdt::triangulate(points, segments);
-  const cdt::Triangulation first = cdt::detail::triangulate_splitting_first(points, segments, {});
+  cdt::Options cpu;
+  cpu.backend = cdt::Backend::cpu; // the GPU backend splits first
+  const cdt::Triangulation screened = cdt::triangulate(points, segments, cpu);
+  const cdt::Triangulation first = cdt::detail::triangulate_splitting_first(points, segments, cpu);
   EXPECT_TRUE(cdt::verify(screened, points, segments).ok()) << what;
   EXPECT_TRUE(cdt::verify(first, points, segments).ok()) << what;
   EXPECT_EQ(screened.stats.added_vertices, first.stats.added_vertices) << what;
@@ -275,7 +277,8 @@ TEST(TriangulateScreened, SameResultForAnyThreadCount) {
   const trixel_gen::Pslg in = trixel_gen::lattice_with_segments(30, 300, 5);
   cdt::Options one;
   one.threads = 1;
-  cdt::Options three;
+  one.backend = cdt::Backend::cpu;
+  cdt::Options three = one;
   three.threads = 3;
   const cdt::Triangulation a = cdt::triangulate(in.points, in.segments, one);
   const cdt::Triangulation b = cdt::triangulate(in.points, in.segments, three);
@@ -289,6 +292,7 @@ TEST(TriangulateScreened, RejectedCrossingsNameTheSameSegments) {
   const trixel_gen::Pslg in = trixel_gen::lattice_with_segments(16, 80, 3);
   cdt::Options o;
   o.crossings = cdt::CrossingSegments::reject;
+  o.backend = cdt::Backend::cpu;
   std::pair<std::uint32_t, std::uint32_t> screened{0, 0}, first{1, 1};
   try {
     cdt::triangulate(in.points, in.segments, o);
