@@ -173,7 +173,9 @@ Triangulation triangulate_on(std::span<const Point> points, std::span<const Segm
   const auto n = static_cast<std::uint32_t>(pslg.sites.size());
   const std::uint32_t m = options.grid_size != 0
                               ? options.grid_size
-                              : choose_grid_size(n, on_gpu ? GridFor::device : GridFor::host);
+                              : choose_grid_size(n, on_gpu                ? GridFor::device
+                                                    : pslg.pieces.empty() ? GridFor::host_points
+                                                                          : GridFor::host);
   stats.grid_size = m;
   std::vector<double> true_x(n);
   std::vector<double> true_y(n);
@@ -349,7 +351,7 @@ Triangulation triangulate_on(std::span<const Point> points, std::span<const Segm
   if (!on_gpu) {
     insert = insert_missing_points_in_parts(mesh, missing, executor, dirty);
     trace.mark("missing points");
-    remove_fake_boundary(mesh, n, executor, &dirty);
+    remove_fake_boundary(mesh, n, executor, &dirty, !pslg.pieces.empty());
     trace.mark("fake boundary");
   }
   end_phase("insert", insert.rounds, insert.flips, missing.size());

@@ -97,6 +97,22 @@ TEST(Triangulate, SingleAndManyThreadsBothVerify) {
   }
 }
 
+// Points alone keep the slots of the insertion (no compaction after the fake boundary): their order
+// must not depend on the thread count either.
+TEST(Triangulate, PointsAloneGiveTheSameTrianglesForAnyThreadCount) {
+  const auto in = trixel_gen::random_points(60000, Distribution::gaussian, 11);
+  cdt::Options one;
+  one.backend = cdt::Backend::cpu;
+  one.threads = 1;
+  cdt::Options three = one;
+  three.threads = 3;
+  const cdt::Triangulation a = cdt::triangulate(in.points, in.segments, one);
+  const cdt::Triangulation b = cdt::triangulate(in.points, in.segments, three);
+  EXPECT_EQ(a.triangles, b.triangles);
+  EXPECT_EQ(a.neighbors, b.neighbors);
+  EXPECT_TRUE(cdt::verify(a, in.points, in.segments).ok());
+}
+
 // Every input file of the peer library's test suite (crossings, overlaps, hanging edges).
 TEST(Triangulate, ArtemOgreFilesVerify) {
   const std::filesystem::path dir = std::filesystem::path(TRIXEL_TEST_DATA_DIR) / "cdt" / "artem-ogre-CDT";

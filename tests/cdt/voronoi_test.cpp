@@ -340,6 +340,11 @@ TEST(GridMap, ChooseGridSizeForTheHostIsCoarser) {
   EXPECT_EQ(choose_grid_size(1000000, GridFor::host), 512u);
   EXPECT_EQ(choose_grid_size(1949580, GridFor::host), 512u); // the GSHHG coastlines
   EXPECT_EQ(choose_grid_size(10000000, GridFor::host), 2048u);
+  // Points alone: sqrt(n / 16).
+  EXPECT_EQ(choose_grid_size(1000000, GridFor::host_points), 256u);
+  EXPECT_EQ(choose_grid_size(1048576, GridFor::host_points), 256u);
+  EXPECT_EQ(choose_grid_size(1048577, GridFor::host_points), 512u);
+  EXPECT_EQ(choose_grid_size(10000000, GridFor::host_points), 1024u);
   EXPECT_EQ(choose_grid_size(std::numeric_limits<std::size_t>::max(), GridFor::host), 8192u);
   for (std::size_t n = 1; n < 100000000; n = n * 3 + 1) {
     const std::uint32_t m = choose_grid_size(n, GridFor::host);

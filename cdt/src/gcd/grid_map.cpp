@@ -47,7 +47,7 @@ std::uint32_t choose_grid_size(std::size_t num_points, GridFor target) {
   constexpr std::uint32_t kMin = 256;
   constexpr std::uint32_t kMax = 8192;
   // Compare in floating point: sqrt(n) for n near 2^64 does not fit the clamp otherwise.
-  const double per_cell = target == GridFor::host ? 8.0 : 1.0;
+  const double per_cell = target == GridFor::host ? 8.0 : target == GridFor::host_points ? 16.0 : 1.0;
   const double wanted = std::sqrt(static_cast<double>(num_points) / per_cell);
   if (wanted >= kMax) return kMax;
   const auto side = static_cast<std::uint32_t>(std::ceil(wanted));

@@ -230,7 +230,9 @@ InsertStats insert_missing_points_in_parts(Mesh& mesh, std::span<const MissingPo
   InsertStats stats;
   const std::size_t num = missing.size();
   // Each insertion's flips below assume a Delaunay mesh around it.
+  StepTrace tr("insert");
   if (!is_delaunay) stats.flips = flip_to_delaunay_in_parts(mesh, executor).flips;
+  tr.mark("sites' mesh flipped");
   const std::uint32_t slots_before = mesh.num_slots();
   dirty.assign(slots_before, 0);
   if (num == 0) return stats;
@@ -350,7 +352,7 @@ InsertStats insert_missing_points_in_parts(Mesh& mesh, std::span<const MissingPo
     return flips;
   };
 
-  StepTrace tr("insert");
+  tr.mark("points by part");
   std::vector<std::uint64_t> part_flips(parts, 0);
   executor.for_each_part(parts, [&](std::size_t pp) {
     const auto p = static_cast<std::uint32_t>(pp);
@@ -399,7 +401,7 @@ InsertStats insert_missing_points_in_parts(Mesh& mesh, std::span<const MissingPo
 }
 
 void remove_fake_boundary(Mesh& mesh, std::uint32_t first_fake, CpuExecutor& executor,
-                          std::vector<std::uint8_t>* changed) {
+                          std::vector<std::uint8_t>* changed, bool compact) {
   const std::uint32_t nv = mesh.num_vertices();
   if (first_fake > nv) throw Error("internal error: remove_fake_boundary: first_fake beyond the vertices");
   {
@@ -425,6 +427,12 @@ void remove_fake_boundary(Mesh& mesh, std::uint32_t first_fake, CpuExecutor& exe
         [](std::span<const std::uint32_t>, std::span<const std::uint32_t>) {}, executor);
   }
 
+  if (!compact) {
+    mesh.x.resize(first_fake);
+    mesh.y.resize(first_fake);
+    mesh.vert_tri.resize(first_fake);
+    return;
+  }
   // Compaction, ordered by each triangle's lowest vertex; links and vert_tri are renumbered. Sites are
   // numbered along a space-filling curve (triangulate.cpp), so this puts neighbouring triangles next to
   // each other in memory, also the ones Algorithm 3 created at the end of the slot array, and the

@@ -76,8 +76,11 @@ InsertStats insert_missing_points_in_parts(Mesh& mesh, std::span<const MissingPo
 ///
 /// With `changed` (one flag per slot on entry), the flags follow their triangles into the compacted
 /// numbering, and every triangle that fills a hole is flagged too (its edges may fail the incircle test).
+///
+/// Without `compact` the slots stay as they are (free ones included): the compaction pays off only
+/// for steps that walk the mesh afterwards (the constraints), not for points alone.
 void remove_fake_boundary(Mesh& mesh, std::uint32_t first_fake, CpuExecutor& executor,
-                          std::vector<std::uint8_t>* changed = nullptr);
+                          std::vector<std::uint8_t>* changed = nullptr, bool compact = true);
 
 // ------------------------------------------------------------------------------------------------------------
 // Per-element work (host and device).
