@@ -5,7 +5,6 @@
 
 #include <algorithm>
 #include <array>
-#include <filesystem>
 #include <map>
 #include <set>
 #include <string>
@@ -13,6 +12,7 @@
 #include <utility>
 #include <vector>
 
+#include "artem_ogre.hpp"
 #include "cdt/cdt.hpp"
 #include "cdt/io.hpp"
 #include "cdt/verify.hpp"
@@ -258,19 +258,15 @@ TEST(TriangulateScreened, LatticeSegmentsThroughPointsAndOverlapsAsSplittingFirs
 }
 
 TEST(TriangulateScreened, ArtemOgreFilesAsSplittingFirst) {
-  const std::filesystem::path dir = std::filesystem::path(TRIXEL_TEST_DATA_DIR) / "cdt" / "artem-ogre-CDT";
-  int files = 0;
-  for (const auto& entry : std::filesystem::directory_iterator(dir)) {
-    if (entry.path().extension() != ".txt") continue;
-    ++files;
-    const cdt::io::Pslg in = cdt::io::read_edge_list(entry.path());
-    try {
-      expect_same_as_splitting_first(in.points, in.segments, false, entry.path().filename().string());
-    } catch (const cdt::Error& e) {
-      ADD_FAILURE() << entry.path().filename() << ": " << e.what();
-    }
-  }
-  EXPECT_EQ(files, 36);
+  const int files =
+      trixel_test::for_each_artem_ogre_file([](const std::string& name, const cdt::io::Pslg& in) {
+        try {
+          expect_same_as_splitting_first(in.points, in.segments, false, name);
+        } catch (const cdt::Error& e) {
+          ADD_FAILURE() << name << ": " << e.what();
+        }
+      });
+  EXPECT_EQ(files, trixel_test::kArtemOgreFiles);
 }
 
 TEST(TriangulateScreened, SameResultForAnyThreadCount) {

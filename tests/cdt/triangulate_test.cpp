@@ -2,11 +2,11 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
-#include <filesystem>
 #include <limits>
 #include <string>
 #include <vector>
 
+#include "artem_ogre.hpp"
 #include "cdt/cdt.hpp"
 #include "cdt/io.hpp"
 #include "cdt/verify.hpp"
@@ -115,22 +115,18 @@ TEST(Triangulate, PointsAloneGiveTheSameTrianglesForAnyThreadCount) {
 
 // Every input file of the peer library's test suite (crossings, overlaps, hanging edges).
 TEST(Triangulate, ArtemOgreFilesVerify) {
-  const std::filesystem::path dir = std::filesystem::path(TRIXEL_TEST_DATA_DIR) / "cdt" / "artem-ogre-CDT";
-  int files = 0;
-  for (const auto& entry : std::filesystem::directory_iterator(dir)) {
-    if (entry.path().extension() != ".txt") continue;
-    ++files;
-    const cdt::io::Pslg in = cdt::io::read_edge_list(entry.path());
-    try {
-      const cdt::Triangulation t = cdt::triangulate(in.points, in.segments);
-      const cdt::VerifyReport report = cdt::verify(t, in.points, in.segments);
-      EXPECT_TRUE(report.ok()) << entry.path().filename() << ": "
-                               << (report.problems.empty() ? "" : report.problems.front());
-    } catch (const cdt::Error& e) {
-      ADD_FAILURE() << entry.path().filename() << ": " << e.what();
-    }
-  }
-  EXPECT_EQ(files, 36);
+  const int files =
+      trixel_test::for_each_artem_ogre_file([](const std::string& name, const cdt::io::Pslg& in) {
+        try {
+          const cdt::Triangulation t = cdt::triangulate(in.points, in.segments);
+          const cdt::VerifyReport report = cdt::verify(t, in.points, in.segments);
+          EXPECT_TRUE(report.ok()) << name << ": "
+                                   << (report.problems.empty() ? "" : report.problems.front());
+        } catch (const cdt::Error& e) {
+          ADD_FAILURE() << name << ": " << e.what();
+        }
+      });
+  EXPECT_EQ(files, trixel_test::kArtemOgreFiles);
 }
 
 TEST(Triangulate, BadInputGivesTypedErrors) {

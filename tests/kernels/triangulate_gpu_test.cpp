@@ -9,10 +9,10 @@
 #include <algorithm>
 #include <array>
 #include <cstdint>
-#include <filesystem>
 #include <string>
 #include <vector>
 
+#include "artem_ogre.hpp"
 #include "cdt/cdt.hpp"
 #include "cdt/io.hpp"
 #include "cdt/verify.hpp"
@@ -107,15 +107,11 @@ TEST_F(TriangulateGpu, LatticesVerify) {
 }
 
 TEST_F(TriangulateGpu, ArtemOgreFilesVerify) {
-  const std::filesystem::path dir = std::filesystem::path(TRIXEL_TEST_DATA_DIR) / "cdt" / "artem-ogre-CDT";
-  int files = 0;
-  for (const auto& entry : std::filesystem::directory_iterator(dir)) {
-    if (entry.path().extension() != ".txt") continue;
-    ++files;
-    const cdt::io::Pslg in = cdt::io::read_edge_list(entry.path());
-    expect_same_as_cpu(in.points, in.segments, entry.path().filename().string(), Cdt::any);
-  }
-  EXPECT_EQ(files, 36);
+  const int files =
+      trixel_test::for_each_artem_ogre_file([](const std::string& name, const cdt::io::Pslg& in) {
+        expect_same_as_cpu(in.points, in.segments, name, Cdt::any);
+      });
+  EXPECT_EQ(files, trixel_test::kArtemOgreFiles);
 }
 
 } // namespace
