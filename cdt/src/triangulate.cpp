@@ -425,7 +425,13 @@ Triangulation triangulate_on(std::span<const Point> points, std::span<const Segm
       for (MissingPoint& f : fresh)
         if (f.hint == kNoId) f.hint = 0;
       std::vector<std::uint8_t> again;
-      placed = insert_missing_points_in_parts(mesh, fresh, executor, again, true);
+      try {
+        placed = insert_missing_points_in_parts(mesh, fresh, executor, again, true);
+      } catch (const Error&) {
+        // A crossing vertex rounded out of the sites' hull (the exact crossing is inside it, but may be
+        // within rounding of its boundary) cannot be inserted: split first, where it is a site.
+        return triangulate_on(points, segments, options, false, Split::first);
+      }
       placed.flips += flip_to_delaunay_in_parts(mesh, executor, again.data()).flips;
       trace.mark("added vertices");
     }
