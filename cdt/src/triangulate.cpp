@@ -141,6 +141,76 @@ std::vector<std::uint32_t> spatial_site_order(const detail::GridMapping& mapping
   return order;
 }
 
+/// Splits the pieces after the sites are triangulated: each is screened against the Delaunay mesh, and
+/// only the suspects are split (all of them, should the screen fail). site_vertex and site_of_vertex
+/// map mesh vertices to the PSLG's and back.
+void split_screened(detail::PreparedPslg& pslg, const detail::MeshView& mesh,
+                    const std::vector<std::uint32_t>& site_vertex,
+                    const std::vector<std::uint32_t>& site_of_vertex, CrossingSegments policy,
+                    detail::CpuExecutor& executor, detail::StepTrace& trace) {
+  using namespace detail;
+  std::vector<ConstraintPiece2> raw(pslg.pieces.size());
+  executor.for_each(raw.size(), [&](std::size_t k) {
+    raw[k] = {site_of_vertex[pslg.pieces[k].a], site_of_vertex[pslg.pieces[k].b], 0};
+  });
+  const ScreenedPieces screen = screen_pieces(mesh, raw, executor);
+  trace.mark("screened");
+  if (!screen.complete) {
+    split_pieces(pslg, policy, executor);
+  } else if (!screen.pieces.empty()) {
+    std::vector<std::uint32_t> sites(screen.sites.size());
+    executor.for_each(sites.size(), [&](std::size_t k) { sites[k] = site_vertex[screen.sites[k]]; });
+    split_pieces(pslg, screen.pieces, sites, policy, executor);
+  }
+}
+
+/// Appends the vertices the PSLG gained from first_added on to the mesh (after its sites) and to the
+/// vertex maps, and inserts them with their flips into the Delaunay mesh, which stays Delaunay. Each
+/// starts its walk from a vertex it is joined to by a piece (through other added vertices if need be).
+/// Throws Error when one cannot be inserted.
+detail::InsertStats insert_added_vertices(detail::Mesh& mesh, const detail::PreparedPslg& pslg,
+                                          std::size_t first_added, std::vector<std::uint32_t>& site_vertex,
+                                          std::vector<std::uint32_t>& site_of_vertex,
+                                          detail::CpuExecutor& executor) {
+  using namespace detail;
+  const std::size_t added = pslg.vertices.size() - first_added;
+  const auto first = static_cast<std::uint32_t>(mesh.num_vertices());
+  site_of_vertex.resize(pslg.vertices.size(), kNoId);
+  std::vector<MissingPoint> fresh(added);
+  for (std::size_t k = 0; k < added; ++k) {
+    const auto v = static_cast<std::uint32_t>(first_added + k);
+    site_of_vertex[v] = first + static_cast<std::uint32_t>(k);
+    site_vertex.push_back(v);
+    mesh.x.push_back(pslg.vertices[v].x);
+    mesh.y.push_back(pslg.vertices[v].y);
+    mesh.vert_tri.push_back(kNoId);
+    fresh[k] = {first + static_cast<std::uint32_t>(k), kNoId};
+  }
+  const std::vector<std::uint32_t> links = executor.compact(pslg.pieces.size(), [&](std::size_t k) {
+    return pslg.pieces[k].a >= first_added || pslg.pieces[k].b >= first_added;
+  });
+  for (bool changed = true; changed;) {
+    changed = false;
+    for (const std::uint32_t k : links) {
+      const std::uint32_t a = site_of_vertex[pslg.pieces[k].a], b = site_of_vertex[pslg.pieces[k].b];
+      const auto hint = [&](std::uint32_t v, std::uint32_t from) {
+        if (v < first || fresh[v - first].hint != kNoId) return;
+        if (from >= first && fresh[from - first].hint == kNoId) return;
+        fresh[v - first].hint = from;
+        changed = true;
+      };
+      hint(a, b);
+      hint(b, a);
+    }
+  }
+  for (MissingPoint& f : fresh)
+    if (f.hint == kNoId) f.hint = 0; // not reached: every added vertex lies on a piece
+  std::vector<std::uint8_t> again;
+  InsertStats placed = insert_missing_points_in_parts(mesh, fresh, executor, again, true);
+  placed.flips += flip_to_delaunay_in_parts(mesh, executor, again.data()).flips;
+  return placed;
+}
+
 /// Where the segments are split at the sites on them and at crossings.
 enum class Split {
   first,    ///< before the sites are triangulated, every segment against every other
@@ -373,69 +443,21 @@ Triangulation triangulate_on(std::span<const Point> points, std::span<const Segm
   bool screened = false;
   if (split == Split::screened && !pslg.pieces.empty()) {
     screened = true;
-    std::vector<ConstraintPiece2> raw(pslg.pieces.size());
-    executor.for_each(raw.size(), [&](std::size_t k) {
-      raw[k] = {site_of_vertex[pslg.pieces[k].a], site_of_vertex[pslg.pieces[k].b], 0};
-    });
-    const ScreenedPieces screen = screen_pieces(mesh.view(), raw, executor);
-    trace.mark("screened");
     const std::size_t first_added = pslg.vertices.size();
-    if (!screen.complete) {
-      split_pieces(pslg, options.crossings, executor);
-    } else if (!screen.pieces.empty()) {
-      std::vector<std::uint32_t> sites(screen.sites.size());
-      executor.for_each(sites.size(), [&](std::size_t k) { sites[k] = site_vertex[screen.sites[k]]; });
-      split_pieces(pslg, screen.pieces, sites, options.crossings, executor);
-    }
+    split_screened(pslg, mesh.view(), site_vertex, site_of_vertex, options.crossings, executor, trace);
     trace.mark("split");
-    const std::size_t added = pslg.vertices.size() - first_added;
     InsertStats placed;
-    if (added > 0) {
-      // Added vertices follow the sites in the mesh; each starts its walk from a vertex it is joined to
-      // by a piece (through other added vertices if need be).
-      const auto first = static_cast<std::uint32_t>(mesh.num_vertices());
-      site_of_vertex.resize(pslg.vertices.size(), kNoId);
-      std::vector<MissingPoint> fresh(added);
-      for (std::size_t k = 0; k < added; ++k) {
-        const auto v = static_cast<std::uint32_t>(first_added + k);
-        site_of_vertex[v] = first + static_cast<std::uint32_t>(k);
-        site_vertex.push_back(v);
-        mesh.x.push_back(pslg.vertices[v].x);
-        mesh.y.push_back(pslg.vertices[v].y);
-        mesh.vert_tri.push_back(kNoId);
-        fresh[k] = {first + static_cast<std::uint32_t>(k), kNoId};
-      }
-      const std::vector<std::uint32_t> links = executor.compact(pslg.pieces.size(), [&](std::size_t k) {
-        return pslg.pieces[k].a >= first_added || pslg.pieces[k].b >= first_added;
-      });
-      for (bool changed = true; changed;) {
-        changed = false;
-        for (const std::uint32_t k : links) {
-          const std::uint32_t a = site_of_vertex[pslg.pieces[k].a], b = site_of_vertex[pslg.pieces[k].b];
-          const auto hint = [&](std::uint32_t v, std::uint32_t from) {
-            if (v < first || fresh[v - first].hint != kNoId) return;
-            if (from >= first && fresh[from - first].hint == kNoId) return;
-            fresh[v - first].hint = from;
-            changed = true;
-          };
-          hint(a, b);
-          hint(b, a);
-        }
-      }
-      for (MissingPoint& f : fresh)
-        if (f.hint == kNoId) f.hint = 0;
-      std::vector<std::uint8_t> again;
+    if (pslg.vertices.size() > first_added) {
       try {
-        placed = insert_missing_points_in_parts(mesh, fresh, executor, again, true);
+        placed = insert_added_vertices(mesh, pslg, first_added, site_vertex, site_of_vertex, executor);
       } catch (const Error&) {
         // A crossing vertex rounded out of the sites' hull (the exact crossing is inside it, but may be
         // within rounding of its boundary) cannot be inserted: split first, where it is a site.
         return triangulate_on(points, segments, options, false, Split::first);
       }
-      placed.flips += flip_to_delaunay_in_parts(mesh, executor, again.data()).flips;
       trace.mark("added vertices");
     }
-    end_phase("split", placed.rounds, placed.flips, added);
+    end_phase("split", placed.rounds, placed.flips, pslg.vertices.size() - first_added);
   }
   stats.added_vertices = pslg.vertices.size() - points.size();
 
