@@ -663,13 +663,25 @@ TEST(ConstraintInsert, HullEdgesAndChords) {
   EXPECT_TRUE(trixel_test::is_locally_delaunay(mesh));
 }
 
-TEST(ConstraintInsert, PresentAndDuplicatePieces) {
+/// A mesh of random points and one of its edges (e, edge 1 of slot 5) as three pieces, in both
+/// directions, with ids 9, 3 and 5: the smallest id must win on both sides.
+struct DuplicateEdgeCase {
+  Mesh mesh;
+  std::uint32_t e = 3 * 5 + 1;
+  std::vector<ConstraintPiece2> pieces;
+};
+
+DuplicateEdgeCase duplicate_edge_case() {
   const Input in = random_input(200, 0, 4);
-  Mesh mesh = trixel_test::sweep_triangulate(in.x, in.y);
-  const std::uint32_t e = 3 * 5 + 1;
-  const std::uint32_t a = mesh.tri[3 * 5 + 2], b = mesh.tri[3 * 5 + 0];
-  // The same edge three times, both directions: the smallest id wins on both sides.
-  const std::vector<ConstraintPiece2> pieces{{a, b, 9}, {b, a, 3}, {a, b, 5}};
+  DuplicateEdgeCase c;
+  c.mesh = trixel_test::sweep_triangulate(in.x, in.y);
+  const std::uint32_t a = c.mesh.tri[3 * 5 + 2], b = c.mesh.tri[3 * 5 + 0];
+  c.pieces = {{a, b, 9}, {b, a, 3}, {a, b, 5}};
+  return c;
+}
+
+TEST(ConstraintInsert, PresentAndDuplicatePieces) {
+  auto [mesh, e, pieces] = duplicate_edge_case();
   CpuExecutor executor(2);
   const ConstraintStats stats = insert_constraints(mesh, pieces, 5, executor);
   EXPECT_EQ(stats.flips, 0u);
@@ -818,11 +830,7 @@ TEST(ConstraintOneByOne, LatticeWithPrimitiveSegments) {
 }
 
 TEST(ConstraintOneByOne, PresentAndDuplicatePieces) {
-  const Input in = random_input(200, 0, 4);
-  Mesh mesh = trixel_test::sweep_triangulate(in.x, in.y);
-  const std::uint32_t e = 3 * 5 + 1;
-  const std::uint32_t a = mesh.tri[3 * 5 + 2], b = mesh.tri[3 * 5 + 0];
-  const std::vector<ConstraintPiece2> pieces{{a, b, 9}, {b, a, 3}, {a, b, 5}};
+  auto [mesh, e, pieces] = duplicate_edge_case();
   CpuExecutor executor(2);
   const ConstraintStats stats = insert_constraints_one_by_one(mesh, pieces, executor);
   EXPECT_EQ(stats.flips, 0u);

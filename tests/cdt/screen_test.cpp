@@ -269,21 +269,6 @@ TEST(TriangulateScreened, ArtemOgreFilesAsSplittingFirst) {
   EXPECT_EQ(files, trixel_test::kArtemOgreFiles);
 }
 
-TEST(TriangulateScreened, SameResultForAnyThreadCount) {
-  const trixel_gen::Pslg in = trixel_gen::lattice_with_segments(30, 300, 5);
-  cdt::Options one;
-  one.threads = 1;
-  one.backend = cdt::Backend::cpu;
-  cdt::Options three = one;
-  three.threads = 3;
-  const cdt::Triangulation a = cdt::triangulate(in.points, in.segments, one);
-  const cdt::Triangulation b = cdt::triangulate(in.points, in.segments, three);
-  EXPECT_EQ(a.triangles, b.triangles);
-  EXPECT_EQ(a.segment_of_edge, b.segment_of_edge);
-  ASSERT_EQ(a.vertices.size(), b.vertices.size());
-  for (std::size_t v = 0; v < a.vertices.size(); ++v) EXPECT_EQ(a.vertices[v], b.vertices[v]) << v;
-}
-
 TEST(TriangulateScreened, RejectedCrossingsNameTheSameSegments) {
   const trixel_gen::Pslg in = trixel_gen::lattice_with_segments(16, 80, 3);
   cdt::Options o;

@@ -97,10 +97,9 @@ TEST(Triangulate, SingleAndManyThreadsBothVerify) {
   }
 }
 
-// Points alone keep the slots of the insertion (no compaction after the fake boundary): their order
-// must not depend on the thread count either.
-TEST(Triangulate, PointsAloneGiveTheSameTrianglesForAnyThreadCount) {
-  const auto in = trixel_gen::random_points(60000, Distribution::gaussian, 11);
+/// The CPU backend with 1 and with 3 threads: the same vertices, triangles, links and constraint
+/// edges, verified.
+void expect_same_for_any_thread_count(const trixel_gen::Pslg& in) {
   cdt::Options one;
   one.backend = cdt::Backend::cpu;
   one.threads = 1;
@@ -108,9 +107,22 @@ TEST(Triangulate, PointsAloneGiveTheSameTrianglesForAnyThreadCount) {
   three.threads = 3;
   const cdt::Triangulation a = cdt::triangulate(in.points, in.segments, one);
   const cdt::Triangulation b = cdt::triangulate(in.points, in.segments, three);
+  EXPECT_EQ(a.vertices, b.vertices);
   EXPECT_EQ(a.triangles, b.triangles);
   EXPECT_EQ(a.neighbors, b.neighbors);
+  EXPECT_EQ(a.segment_of_edge, b.segment_of_edge);
   EXPECT_TRUE(cdt::verify(a, in.points, in.segments).ok());
+}
+
+// Points alone keep the slots of the insertion (no compaction after the fake boundary): their order
+// must not depend on the thread count either.
+TEST(Triangulate, PointsAloneGiveTheSameTrianglesForAnyThreadCount) {
+  expect_same_for_any_thread_count(trixel_gen::random_points(60000, Distribution::gaussian, 11));
+}
+
+// Segments through points, overlapping and crossing: the screened split and the added vertices too.
+TEST(Triangulate, SegmentsGiveTheSameTrianglesForAnyThreadCount) {
+  expect_same_for_any_thread_count(trixel_gen::lattice_with_segments(30, 300, 5));
 }
 
 // Every input file of the peer library's test suite (crossings, overlaps, hanging edges).

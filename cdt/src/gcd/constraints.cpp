@@ -436,6 +436,13 @@ Reach insert_piece(const MeshView& m, const ConstraintPiece2& p, std::uint32_t k
 
 } // namespace
 
+std::uint32_t find_mesh_edge(const MeshView& m, std::uint32_t u, std::uint32_t v) {
+  std::uint32_t edge = kNoId;
+  find_edge(
+      m, u, v, [](std::uint32_t) { return true; }, edge);
+  return edge;
+}
+
 ConstraintStats insert_constraints_one_by_one(Mesh& mesh, std::span<const ConstraintPiece2> pieces,
                                               CpuExecutor& executor, std::uint8_t* flipped) {
   ConstraintStats stats;

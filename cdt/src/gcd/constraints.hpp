@@ -72,6 +72,10 @@ ConstraintStats insert_constraints(Mesh& mesh, std::span<const ConstraintPiece2>
 ConstraintStats insert_constraints_one_by_one(Mesh& mesh, std::span<const ConstraintPiece2> pieces,
                                               CpuExecutor& executor, std::uint8_t* flipped = nullptr);
 
+/// The encoded edge of the mesh from u to v (in one of its two triangles), kNoId when there is none: a
+/// rotation around u (host only).
+std::uint32_t find_mesh_edge(const MeshView& m, std::uint32_t u, std::uint32_t v);
+
 /// The hang guard of the 4-argument insert_constraints for n vertices: 16 n^2 + 10^7 inner iterations.
 std::uint64_t constraint_iteration_bound(std::uint64_t n);
 

@@ -17,28 +17,7 @@ ScreenedPieces screen_pieces(const MeshView& m, std::span<const ConstraintPiece2
   std::vector<std::uint8_t> suspect(pieces.size(), 0);
   executor.for_each(pieces.size(), [&](std::size_t k) {
     const ConstraintPiece2& p = pieces[k];
-    std::uint32_t edge = kNoId;
-    // An edge of the mesh from a to b.
-    const std::uint32_t start = m.vert_tri[p.a];
-    if (start != kNoId) {
-      std::uint32_t t = start;
-      bool clockwise = false;
-      for (std::uint32_t steps = 0; steps <= m.num_slots && edge == kNoId; ++steps) {
-        const std::uint32_t i = m.index_of(t, p.a);
-        if (i == 3) break;
-        if (m.v(t, next3(i)) == p.b) edge = edge_id(t, prev3(i));
-        if (m.v(t, prev3(i)) == p.b) edge = edge_id(t, next3(i));
-        const std::uint32_t e = m.adj[edge_id(t, clockwise ? prev3(i) : next3(i))];
-        if (e == kNoId) {
-          if (clockwise) break;
-          clockwise = true;
-          t = start;
-          continue;
-        }
-        t = edge_tri(e);
-        if (t == start) break;
-      }
-    }
+    const std::uint32_t edge = find_mesh_edge(m, p.a, p.b);
     if (edge == kNoId) {
       suspect[k] = 1;
       return;
