@@ -22,6 +22,7 @@ struct ShiftStats;       // cdt/src/gcd/shift.hpp
 struct InsertStats;      // cdt/src/gcd/insert.hpp
 struct ConstraintPiece2; // cdt/src/gcd/constraints.hpp
 struct ConstraintStats;  // cdt/src/gcd/constraints.hpp
+struct ScreenedPieces;   // cdt/src/gcd/screen.hpp
 } // namespace cdt::detail
 
 namespace cdt::gpu {
@@ -202,12 +203,21 @@ public:
                                   std::span<const double> true_y,
                                   std::vector<::cdt::detail::MissingPoint>& missing);
 
+  /// Appends vertices at (x[k], y[k]) after the mesh's own, in no triangle yet (vert_tri kNoId), for
+  /// insert() to place.
+  void add_vertices(std::span<const double> x, std::span<const double> y);
+
   /// cdt::detail::insert_missing_points (the mesh grows on the device when free slots are short).
   ::cdt::detail::InsertStats insert(std::span<const ::cdt::detail::MissingPoint> missing);
 
   /// cdt::detail::remove_fake_boundary: the fake vertices leave, the slots are compacted in the order
   /// of their lowest vertex.
   void remove_fake_boundary(std::uint32_t first_fake);
+
+  /// cdt::detail::screen_pieces on the device, the same result: the pieces (mesh vertex ids; the id
+  /// field is ignored) that are no edges of the mesh, the edge-pieces they cross and the sites near
+  /// them. Reads the mesh only; only the suspects' indices come back to the host.
+  ::cdt::detail::ScreenedPieces screen(std::span<const ::cdt::detail::ConstraintPiece2> pieces);
 
   /// cdt::detail::insert_constraints (Step 2, Algorithms 4 and 5), with the same hang guard. Keeps on
   /// the device which slots its flips rewrote, for flip_after_constraints().

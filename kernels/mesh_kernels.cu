@@ -735,6 +735,22 @@ void DeviceMesh::State::grow_slots(std::uint32_t n) {
   num_slots += n;
 }
 
+void DeviceMesh::add_vertices(std::span<const double> x, std::span<const double> y) {
+  if (x.size() != y.size()) throw Error("internal error: add_vertices: x and y differ in length");
+  if (x.empty()) return;
+  State& s = *state_;
+  const std::size_t used = s.num_vertices;
+  const std::size_t count = used + x.size();
+  if (count >= kNoId) throw Error("internal error: add_vertices: too many vertices");
+  detail::require_device_memory(20 * count, 0, "growing the mesh to " + std::to_string(count) + " vertices");
+  detail::grow_buffer(s.executor, s.x, used, count, 0);
+  detail::grow_buffer(s.executor, s.y, used, count, 0);
+  detail::grow_buffer(s.executor, s.vert_tri, used, count, 0xFF);
+  s.executor.upload(s.x.data() + used, x.data(), x.size());
+  s.executor.upload(s.y.data() + used, y.data(), y.size());
+  s.num_vertices = static_cast<std::uint32_t>(count);
+}
+
 DeviceMesh::DeviceMesh(const ::cdt::detail::Mesh& mesh) : state_(std::make_unique<State>()) {
   State& s = *state_;
   s.allocate(mesh.num_slots(), mesh.num_vertices());

@@ -1,23 +1,23 @@
 // triangulate(): the gCD pipeline (paper sections 3 and 4). The CPU executor runs every phase; with
 // the GPU backend the CUDA executor runs the digital Voronoi diagram, the dual triangles with their
 // links (Phase 2 but for hull completion and the fake boundary), shifting, missing points, the fake
-// boundary's removal, the constraints and the Lawson flips before and after them, each the same
-// computation as the CPU executor's step for step, so the result is the same; the CPU executor runs the
-// rest (preparation, site assignment, hull completion and fake boundary), until those move to the
-// device too.
+// boundary's removal, the segments' screen, the constraints and the Lawson flips before and after
+// them, each the same computation as the CPU executor's step for step, so the result is the same; the
+// CPU executor runs the rest (preparation, site assignment, hull completion and fake boundary, the
+// suspects' split), until those move to the device too.
 //
-//   prepare   merge duplicates; with the GPU backend also split segments at points on them and at
-//             crossings (cdt/src/pslg.cpp)
+//   prepare   merge duplicates (cdt/src/pslg.cpp)
 //   voronoi   Phase 1: grid mapping (Appendix B), digital Voronoi diagram (PBA + Appendix A)
 //   dualize   Phase 2: dual triangles, hull completion, fake boundary
 //   shift     Phase 3: points back to their true coordinates (Algorithms 1 and 2)
 //   insert    Phase 4: missing points (Algorithm 3), fake boundary removal
 //   delaunay  Phase 5: Lawson flips to the Delaunay triangulation
-//   split     CPU executor: segments split at points on them and at crossings, after the sites are
-//             triangulated. A segment that is an edge of the Delaunay mesh can neither cross another
-//             edge nor hold a vertex, so only the others and what their walks through the mesh meet
-//             are tested (gcd/screen.hpp); the vertices added at crossings are then inserted with
-//             their flips. On the coastlines this tests 8% of the segments instead of all of them.
+//   split     Step 1, after the sites are triangulated: segments split at points on them and at
+//             crossings. A segment that is an edge of the Delaunay mesh can neither cross another edge
+//             nor hold a vertex, so only the others and what their walks through the mesh meet are
+//             tested (gcd/screen.hpp; the screen runs where the mesh is); the vertices added at
+//             crossings are then inserted with their flips where the mesh is. On the coastlines this
+//             tests 8% of the segments instead of all of them.
 //
 // On CPU threads Phases 4 and 5 and Step 3 are scheduled for a few fast cores rather than thousands of
 // slow ones: the mesh's slots are cut into fixed parts, each worked by one thread with Lawson's
@@ -65,7 +65,7 @@ using Clock = std::chrono::steady_clock;
 
 /// Statistics::backend with the GPU backend: which phases the CUDA executor runs.
 constexpr const char* kGpuBackendName =
-    "gpu (voronoi, dualize, shift, insert, delaunay, constraints, flip) + cpu";
+    "gpu (voronoi, dualize, shift, insert, delaunay, screen, constraints, flip) + cpu";
 
 class PhaseTimer {
 public:
@@ -141,20 +141,25 @@ std::vector<std::uint32_t> spatial_site_order(const detail::GridMapping& mapping
   return order;
 }
 
-/// Splits the pieces after the sites are triangulated: each is screened against the Delaunay mesh, and
-/// only the suspects are split (all of them, should the screen fail). site_vertex and site_of_vertex
-/// map mesh vertices to the PSLG's and back.
-void split_screened(detail::PreparedPslg& pslg, const detail::MeshView& mesh,
-                    const std::vector<std::uint32_t>& site_vertex,
-                    const std::vector<std::uint32_t>& site_of_vertex, CrossingSegments policy,
-                    detail::CpuExecutor& executor, detail::StepTrace& trace) {
-  using namespace detail;
-  std::vector<ConstraintPiece2> raw(pslg.pieces.size());
-  executor.for_each(raw.size(), [&](std::size_t k) {
-    raw[k] = {site_of_vertex[pslg.pieces[k].a], site_of_vertex[pslg.pieces[k].b], 0};
+/// The PSLG's pieces in mesh vertex ids (id: the piece's index).
+std::vector<detail::ConstraintPiece2> mesh_pieces(const detail::PreparedPslg& pslg,
+                                                  const std::vector<std::uint32_t>& site_of_vertex,
+                                                  detail::CpuExecutor& executor) {
+  std::vector<detail::ConstraintPiece2> pieces(pslg.pieces.size());
+  executor.for_each(pieces.size(), [&](std::size_t k) {
+    pieces[k] = {site_of_vertex[pslg.pieces[k].a], site_of_vertex[pslg.pieces[k].b],
+                 static_cast<std::uint32_t>(k)};
   });
-  const ScreenedPieces screen = screen_pieces(mesh, raw, executor);
-  trace.mark("screened");
+  return pieces;
+}
+
+/// Splits the pieces after the sites are triangulated, given their screen against the Delaunay mesh
+/// (host or device): only the suspects are split (all of them, should the screen have failed).
+/// site_vertex maps mesh vertices to the PSLG's.
+void split_screened(detail::PreparedPslg& pslg, const detail::ScreenedPieces& screen,
+                    const std::vector<std::uint32_t>& site_vertex, CrossingSegments policy,
+                    detail::CpuExecutor& executor) {
+  using namespace detail;
   if (!screen.complete) {
     split_pieces(pslg, policy, executor);
   } else if (!screen.pieces.empty()) {
@@ -164,26 +169,22 @@ void split_screened(detail::PreparedPslg& pslg, const detail::MeshView& mesh,
   }
 }
 
-/// Appends the vertices the PSLG gained from first_added on to the mesh (after its sites) and to the
-/// vertex maps, and inserts them with their flips into the Delaunay mesh, which stays Delaunay. Each
-/// starts its walk from a vertex it is joined to by a piece (through other added vertices if need be).
-/// Throws Error when one cannot be inserted.
-detail::InsertStats insert_added_vertices(detail::Mesh& mesh, const detail::PreparedPslg& pslg,
-                                          std::size_t first_added, std::vector<std::uint32_t>& site_vertex,
-                                          std::vector<std::uint32_t>& site_of_vertex,
-                                          detail::CpuExecutor& executor) {
+/// The vertices the PSLG gained from first_added on, numbered after the mesh's vertices (as many as
+/// site_vertex holds) and appended to the vertex maps, as missing points: each starts its walk from a
+/// vertex it is joined to by a piece (through other added vertices, inserted before it, if need be).
+std::vector<detail::MissingPoint> added_vertices(const detail::PreparedPslg& pslg, std::size_t first_added,
+                                                 std::vector<std::uint32_t>& site_vertex,
+                                                 std::vector<std::uint32_t>& site_of_vertex,
+                                                 detail::CpuExecutor& executor) {
   using namespace detail;
   const std::size_t added = pslg.vertices.size() - first_added;
-  const auto first = static_cast<std::uint32_t>(mesh.num_vertices());
+  const auto first = static_cast<std::uint32_t>(site_vertex.size());
   site_of_vertex.resize(pslg.vertices.size(), kNoId);
   std::vector<MissingPoint> fresh(added);
   for (std::size_t k = 0; k < added; ++k) {
     const auto v = static_cast<std::uint32_t>(first_added + k);
     site_of_vertex[v] = first + static_cast<std::uint32_t>(k);
     site_vertex.push_back(v);
-    mesh.x.push_back(pslg.vertices[v].x);
-    mesh.y.push_back(pslg.vertices[v].y);
-    mesh.vert_tri.push_back(kNoId);
     fresh[k] = {first + static_cast<std::uint32_t>(k), kNoId};
   }
   const std::vector<std::uint32_t> links = executor.compact(pslg.pieces.size(), [&](std::size_t k) {
@@ -205,11 +206,49 @@ detail::InsertStats insert_added_vertices(detail::Mesh& mesh, const detail::Prep
   }
   for (MissingPoint& f : fresh)
     if (f.hint == kNoId) f.hint = 0; // not reached: every added vertex lies on a piece
+  return fresh;
+}
+
+/// Inserts the added vertices (added_vertices) with their flips into the Delaunay mesh, which stays
+/// Delaunay. Throws Error when one cannot be inserted.
+detail::InsertStats insert_added_vertices(detail::Mesh& mesh, const detail::PreparedPslg& pslg,
+                                          std::span<const detail::MissingPoint> fresh,
+                                          const std::vector<std::uint32_t>& site_vertex,
+                                          detail::CpuExecutor& executor) {
+  using namespace detail;
+  for (const MissingPoint& f : fresh) {
+    const Point& p = pslg.vertices[site_vertex[f.vertex]];
+    mesh.x.push_back(p.x);
+    mesh.y.push_back(p.y);
+    mesh.vert_tri.push_back(kNoId);
+  }
   std::vector<std::uint8_t> again;
   InsertStats placed = insert_missing_points_in_parts(mesh, fresh, executor, again, true);
   placed.flips += flip_to_delaunay_in_parts(mesh, executor, again.data()).flips;
   return placed;
 }
+
+#if defined(TRIXEL_HAVE_CUDA)
+/// The same on the device: the vertices are appended to the device's mesh, inserted by Algorithm 3
+/// and flipped to Delaunay there.
+detail::InsertStats insert_added_vertices(gpu::DeviceMesh& mesh, const detail::PreparedPslg& pslg,
+                                          std::span<const detail::MissingPoint> fresh,
+                                          const std::vector<std::uint32_t>& site_vertex) {
+  using namespace detail;
+  std::vector<double> x(fresh.size()), y(fresh.size());
+  for (std::size_t k = 0; k < fresh.size(); ++k) {
+    const Point& p = pslg.vertices[site_vertex[fresh[k].vertex]];
+    x[k] = p.x;
+    y[k] = p.y;
+  }
+  mesh.add_vertices(x, y);
+  InsertStats placed = mesh.insert(fresh);
+  const gpu::FlipResult flips = mesh.flip();
+  placed.flips += flips.flips;
+  placed.rounds += flips.rounds;
+  return placed;
+}
+#endif
 
 /// Where the segments are split at the sites on them and at crossings.
 enum class Split {
@@ -217,8 +256,7 @@ enum class Split {
   screened, ///< after: only the segments that are no edges of the Delaunay mesh and their neighbours
 };
 
-/// The whole pipeline on the CPU executor alone, or with the CUDA executor's phases when on_gpu (which
-/// splits first).
+/// The whole pipeline on the CPU executor alone, or with the CUDA executor's phases when on_gpu.
 Triangulation triangulate_on(std::span<const Point> points, std::span<const Segment> segments,
                              const Options& options, bool on_gpu, Split split) {
   using namespace detail;
@@ -229,7 +267,6 @@ Triangulation triangulate_on(std::span<const Point> points, std::span<const Segm
   PhaseTimer timer(stats);
   CpuExecutor executor(options.threads);
   StepTrace trace("triangulate");
-  if (on_gpu) split = Split::first;
 
   // Input checks and cleaning.
   PreparedPslg pslg = split == Split::first ? prepare_pslg(points, segments, options.crossings, executor)
@@ -444,16 +481,30 @@ Triangulation triangulate_on(std::span<const Point> points, std::span<const Segm
   if (split == Split::screened && !pslg.pieces.empty()) {
     screened = true;
     const std::size_t first_added = pslg.vertices.size();
-    split_screened(pslg, mesh.view(), site_vertex, site_of_vertex, options.crossings, executor, trace);
+    const std::vector<ConstraintPiece2> raw = mesh_pieces(pslg, site_of_vertex, executor);
+    ScreenedPieces screen;
+#if defined(TRIXEL_HAVE_CUDA)
+    if (on_gpu) screen = device_mesh->screen(raw);
+#endif
+    if (!on_gpu) screen = screen_pieces(mesh.view(), raw, executor);
+    trace.mark("screened");
+    split_screened(pslg, screen, site_vertex, options.crossings, executor);
     trace.mark("split");
     InsertStats placed;
     if (pslg.vertices.size() > first_added) {
+      const std::vector<MissingPoint> fresh =
+          added_vertices(pslg, first_added, site_vertex, site_of_vertex, executor);
       try {
-        placed = insert_added_vertices(mesh, pslg, first_added, site_vertex, site_of_vertex, executor);
+#if defined(TRIXEL_HAVE_CUDA)
+        if (on_gpu) placed = insert_added_vertices(*device_mesh, pslg, fresh, site_vertex);
+#endif
+        if (!on_gpu) placed = insert_added_vertices(mesh, pslg, fresh, site_vertex, executor);
+      } catch (const DeviceError&) {
+        throw;
       } catch (const Error&) {
         // A crossing vertex rounded out of the sites' hull (the exact crossing is inside it, but may be
         // within rounding of its boundary) cannot be inserted: split first, where it is a site.
-        return triangulate_on(points, segments, options, false, Split::first);
+        return triangulate_on(points, segments, options, on_gpu, Split::first);
       }
       trace.mark("added vertices");
     }
@@ -462,28 +513,26 @@ Triangulation triangulate_on(std::span<const Point> points, std::span<const Segm
   stats.added_vertices = pslg.vertices.size() - points.size();
 
   // Step 2: constraints (pieces named by their index; seg holds the piece index).
-  std::vector<ConstraintPiece2> pieces(pslg.pieces.size());
-  executor.for_each(pieces.size(), [&](std::size_t k) {
-    pieces[k] = {site_of_vertex[pslg.pieces[k].a], site_of_vertex[pslg.pieces[k].b],
-                 static_cast<std::uint32_t>(k)};
-  });
+  const std::vector<ConstraintPiece2> pieces = mesh_pieces(pslg, site_of_vertex, executor);
   ConstraintStats cons;
   // The slots the constraints' flips rewrote: after Phase 5, only their edges can fail the incircle test.
   std::vector<std::uint8_t> flipped;
+  try {
 #if defined(TRIXEL_HAVE_CUDA)
-  if (on_gpu) cons = device_mesh->insert_constraints(pieces, std::max(1u, options.inner_iterations));
+    if (on_gpu) cons = device_mesh->insert_constraints(pieces, std::max(1u, options.inner_iterations));
 #endif
-  if (!on_gpu) {
-    flipped.assign(mesh.num_slots(), 0);
-    try {
+    if (!on_gpu) {
+      flipped.assign(mesh.num_slots(), 0);
       cons = insert_constraints_one_by_one(mesh, pieces, executor, flipped.data());
-    } catch (const Error&) {
-      // Insertion checks what splitting promised: no site on a piece, no two pieces crossing. Should
-      // the screen have missed a pair (rounded crossing points snapping across a neighbourhood), the
-      // whole input is split first instead.
-      if (!screened) throw;
-      return triangulate_on(points, segments, options, false, Split::first);
     }
+  } catch (const DeviceError&) {
+    throw;
+  } catch (const Error&) {
+    // Insertion checks what splitting promised: no site on a piece, no two pieces crossing. Should
+    // the screen have missed a pair (rounded crossing points snapping across a neighbourhood), the
+    // whole input is split first instead.
+    if (!screened) throw;
+    return triangulate_on(points, segments, options, on_gpu, Split::first);
   }
   end_phase("constraints", cons.outer_iterations, cons.flips);
 
@@ -548,7 +597,7 @@ Triangulation triangulate(std::span<const Point> points, std::span<const Segment
   // backend auto: a device that fails (out of memory, say, when other processes hold it) leaves the
   // work to the CPU executor, which gives the same result.
   try {
-    return triangulate_on(points, segments, options, true, Split::first);
+    return triangulate_on(points, segments, options, true, Split::screened);
   } catch (const DeviceError&) {
     return triangulate_on(points, segments, options, false, Split::screened);
   }

@@ -208,7 +208,7 @@ void expect_same_as_splitting_first(const std::vector<cdt::Point>& points,
                                     const std::vector<cdt::Segment>& segments, bool general_position,
                                     const std::string& what) {
   cdt::Options cpu;
-  cpu.backend = cdt::Backend::cpu; // the GPU backend splits first
+  cpu.backend = cdt::Backend::cpu; // splitting first runs on the CPU executor
   const cdt::Triangulation screened = cdt::triangulate(points, segments, cpu);
   const cdt::Triangulation first = cdt::detail::triangulate_splitting_first(points, segments, cpu);
   EXPECT_TRUE(cdt::verify(screened, points, segments).ok()) << what;

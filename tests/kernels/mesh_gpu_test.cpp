@@ -1,6 +1,6 @@
 // Phases 2 to 6 of gCD on the device against the CPU executor: the dual triangulation built from the
 // colouring left on the device (DeviceVoronoi::dual, completed on the host), shifting, missing points,
-// the fake boundary's removal and constraints on a DeviceMesh, and Lawson flipping must
+// the fake boundary's removal, the segments' screen and constraints on a DeviceMesh, and Lawson flipping must
 // leave the very same mesh, slot for slot and link for link, because later phases walk it in slot order
 // and both executors must agree on every result.
 #include <gtest/gtest.h>
@@ -8,7 +8,9 @@
 #include <algorithm>
 #include <cstdint>
 #include <optional>
+#include <set>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "cdt/errors.hpp"
@@ -20,6 +22,7 @@
 #include "gcd/grid_map.hpp"
 #include "gcd/insert.hpp"
 #include "gcd/mesh.hpp"
+#include "gcd/screen.hpp"
 #include "gcd/shift.hpp"
 #include "gcd/voronoi.hpp"
 #include "mesh_test_util.hpp"
@@ -370,6 +373,61 @@ TEST_F(MeshGpu, ConstraintsMatchTheCpuExecutor) {
     expect_same_mesh(copy, host, c.name);
     trixel_test::expect_valid_mesh(copy);
   }
+}
+
+// The segments' screen (gcd/screen.hpp) on the device: the same suspect pieces and sites as the CPU
+// executor's, on Delaunay meshes with non-crossing segments plus long ones that cross them and pass
+// through vertices, and on a lattice where segments overlap and run through points.
+TEST_F(MeshGpu, ScreenMatchesTheCpuExecutor) {
+  struct Case {
+    trixel_gen::Pslg pslg;
+    std::size_t crossers; ///< random long pieces added between random vertices
+    const char* name;
+  };
+  const std::vector<Case> cases = {
+      {trixel_gen::synthetic_pslg(3000, 300, trixel_gen::Distribution::uniform, 41), 10, "uniform 3000"},
+      {trixel_gen::synthetic_pslg(60000, 6000, trixel_gen::Distribution::gaussian, 42), 40, "gaussian 60000"},
+      {trixel_gen::lattice_with_segments(64, 300, 43), 0, "lattice 64"},
+  };
+  CpuExecutor executor(4);
+  for (const Case& c : cases) {
+    std::vector<double> x, y;
+    for (const auto& q : c.pslg.points) {
+      x.push_back(q.x);
+      y.push_back(q.y);
+    }
+    Mesh mesh = trixel_test::sweep_triangulate(x, y);
+    flip_to_delaunay(mesh, executor);
+    // Distinct vertex pairs, as the screen's input is.
+    std::set<std::pair<std::uint32_t, std::uint32_t>> pairs;
+    for (const cdt::Segment& sg : c.pslg.segments)
+      if (sg.a != sg.b) pairs.insert({std::min(sg.a, sg.b), std::max(sg.a, sg.b)});
+    trixel_gen::Random rng(c.crossers + 1);
+    const auto n = static_cast<std::uint32_t>(x.size());
+    for (std::size_t k = 0; k < c.crossers; ++k) {
+      const auto a = static_cast<std::uint32_t>(rng.next() % n),
+                 b = static_cast<std::uint32_t>(rng.next() % n);
+      if (a != b) pairs.insert({std::min(a, b), std::max(a, b)});
+    }
+    std::vector<ConstraintPiece2> pieces;
+    for (const auto& [a, b] : pairs) pieces.push_back({a, b, 0});
+    const ScreenedPieces host = screen_pieces(mesh.view(), pieces, executor);
+    cdt::gpu::DeviceMesh device(mesh);
+    const ScreenedPieces on_device = device.screen(pieces);
+    ASSERT_TRUE(host.complete) << c.name;
+    EXPECT_TRUE(on_device.complete) << c.name;
+    EXPECT_FALSE(host.pieces.empty()) << c.name;
+    EXPECT_LT(host.pieces.size(), pieces.size()) << c.name;
+    EXPECT_EQ(on_device.pieces, host.pieces) << c.name;
+    EXPECT_EQ(on_device.sites, host.sites) << c.name;
+  }
+  // An end outside the mesh: the walk fails on both.
+  Mesh mesh = trixel_test::sweep_triangulate({0, 1, 0, 5}, {0, 0, 1, 5});
+  mesh.vert_tri[3] = kNoId;
+  const std::vector<ConstraintPiece2> pieces{{0, 3, 0}};
+  EXPECT_FALSE(screen_pieces(mesh.view(), pieces, executor).complete);
+  cdt::gpu::DeviceMesh device(mesh);
+  EXPECT_FALSE(device.screen(pieces).complete);
 }
 
 // A piece through a vertex breaks the precondition: the device reports it as the CPU executor does.

@@ -1,9 +1,9 @@
 // triangulate() with Backend::gpu: the digital Voronoi diagram, the dual, shifting, missing points,
-// constraints and flips run on the device. Up to shifting each phase is the CPU executor's step for
-// step, so those phases must count the same, and both insert the same missing points; from there the
-// schedules differ (parallel rounds on the device, parts of the mesh with Lawson's flips on CPU
-// threads), so the result must be the CPU backend's triangle for triangle where the CDT is unique
-// (points in general position), and verify everywhere.
+// the segments' screen, constraints and flips run on the device. Up to shifting each phase is the CPU
+// executor's step for step, so those phases must count the same, and both insert the same missing points;
+// from there the schedules differ (parallel rounds on the device, parts of the mesh with Lawson's flips on
+// CPU threads), so the result must be the CPU backend's triangle for triangle where the CDT is unique (points
+// in general position), and verify everywhere.
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -16,7 +16,6 @@
 #include "cdt/cdt.hpp"
 #include "cdt/io.hpp"
 #include "cdt/verify.hpp"
-#include "gcd/screen.hpp"
 #include "pslg_generators.hpp"
 
 namespace {
@@ -50,9 +49,7 @@ void expect_same_as_cpu(const std::vector<cdt::Point>& points, const std::vector
   // The CPU executor picks a coarser grid of its own; on the device's grid the phases up to the missing
   // points must do the same work.
   cpu.grid_size = on_gpu.stats.grid_size;
-  // The CPU executor as the device works: segments split before the sites are triangulated (by default
-  // it splits after, screening; tests/cdt/screen_test.cpp compares the two).
-  const cdt::Triangulation on_cpu = cdt::detail::triangulate_splitting_first(points, segments, cpu);
+  const cdt::Triangulation on_cpu = cdt::triangulate(points, segments, cpu);
   EXPECT_EQ(on_gpu.stats.backend.rfind("gpu", 0), 0u) << what << ": backend " << on_gpu.stats.backend;
   if (cdt_kind == Cdt::unique) {
     EXPECT_EQ(canonical(on_gpu), canonical(on_cpu)) << what;
@@ -95,6 +92,35 @@ TEST_F(TriangulateGpu, SegmentsMatchTheCpuBackend) {
   for (std::size_t n : {1000u, 100000u}) {
     const auto in = trixel_gen::synthetic_pslg(n, n / 10, Distribution::uniform, n + 1);
     expect_same_as_cpu(in.points, in.segments, "synthetic " + std::to_string(n));
+  }
+}
+
+// Crossing segments: the device screens them, the host splits the suspects, and the mesh comes back
+// to the host for the crossing vertices and goes up again.
+TEST_F(TriangulateGpu, CrossingSegmentsMatchTheCpuBackend) {
+  trixel_gen::Pslg crossing = trixel_gen::random_points(3000, Distribution::uniform, 51);
+  trixel_gen::Pslg synthetic = trixel_gen::synthetic_pslg(20000, 2000, Distribution::uniform, 52);
+  trixel_gen::Random rng(53);
+  const auto add_crossers = [&](trixel_gen::Pslg& in, int count) {
+    for (int k = 0; k < count; ++k) {
+      const auto a = static_cast<std::uint32_t>(rng.next() % in.points.size());
+      const auto b = static_cast<std::uint32_t>(rng.next() % in.points.size());
+      if (a != b) in.segments.push_back({a, b});
+    }
+  };
+  add_crossers(crossing, 120); // thousands of crossings
+  add_crossers(synthetic, 10); // mostly Delaunay edges, a few long segments across them
+  for (const auto* in : {&crossing, &synthetic}) {
+    const std::string what = in == &crossing ? "random crossing segments" : "synthetic with crossers";
+    expect_same_as_cpu(in->points, in->segments, what);
+    cdt::Options gpu;
+    gpu.backend = cdt::Backend::gpu;
+    const cdt::Triangulation t = cdt::triangulate(in->points, in->segments, gpu);
+    EXPECT_GT(t.stats.added_vertices, 0u) << what;
+    const auto split = std::find_if(t.stats.phases.begin(), t.stats.phases.end(),
+                                    [](const cdt::PhaseStats& p) { return p.name == "split"; });
+    ASSERT_NE(split, t.stats.phases.end()) << what << ": screened, not split first";
+    EXPECT_EQ(split->missing, t.stats.added_vertices) << what;
   }
 }
 

@@ -253,44 +253,6 @@ ConstraintStats insert_constraints(Mesh& mesh, std::span<const ConstraintPiece2>
 
 namespace {
 
-/// Whether a step of a piece's insertion stayed within the slots it may touch.
-enum class Reach { done, outside };
-
-/// The encoded edge of the mesh from u to v (in one of its two triangles), kNoId when there is none: a
-/// rotation around u, counter-clockwise and then clockwise when its fan is open. outside when it meets a
-/// slot that owns() refuses before finding the edge.
-template <class Owns>
-Reach find_edge(const MeshView& m, std::uint32_t u, std::uint32_t v, Owns&& owns, std::uint32_t& edge) {
-  edge = kNoId;
-  const std::uint32_t start = std::atomic_ref<std::uint32_t>(m.vert_tri[u]).load(std::memory_order_relaxed);
-  if (start == kNoId) return Reach::done;
-  std::uint32_t t = start;
-  bool clockwise = false;
-  for (std::uint32_t steps = 0; steps <= m.num_slots; ++steps) {
-    if (!owns(t)) return Reach::outside;
-    const std::uint32_t k = m.index_of(t, u);
-    if (k == 3) return Reach::done;
-    if (m.v(t, next3(k)) == v) {
-      edge = edge_id(t, prev3(k));
-      return Reach::done;
-    }
-    if (m.v(t, prev3(k)) == v) {
-      edge = edge_id(t, next3(k));
-      return Reach::done;
-    }
-    const std::uint32_t e = m.adj[edge_id(t, clockwise ? prev3(k) : next3(k))];
-    if (e == kNoId) {
-      if (clockwise) return Reach::done;
-      clockwise = true;
-      t = start;
-      continue;
-    }
-    t = edge_tri(e);
-    if (t == start) return Reach::done;
-  }
-  return Reach::done;
-}
-
 /// Strictly on opposite sides of the line through a and b.
 bool straddles(const MeshView& m, std::uint32_t a, std::uint32_t b, std::uint32_t p, std::uint32_t q) {
   const int op = orient_vertices(m, a, b, p), oq = orient_vertices(m, a, b, q);
@@ -435,13 +397,6 @@ Reach insert_piece(const MeshView& m, const ConstraintPiece2& p, std::uint32_t k
 }
 
 } // namespace
-
-std::uint32_t find_mesh_edge(const MeshView& m, std::uint32_t u, std::uint32_t v) {
-  std::uint32_t edge = kNoId;
-  find_edge(
-      m, u, v, [](std::uint32_t) { return true; }, edge);
-  return edge;
-}
 
 ConstraintStats insert_constraints_one_by_one(Mesh& mesh, std::span<const ConstraintPiece2> pieces,
                                               CpuExecutor& executor, std::uint8_t* flipped) {

@@ -13,6 +13,7 @@
 // "Intersects" always means the open piece meets the interior of the triangle; by precondition no vertex
 // lies on an open piece, so a piece enters and leaves a triangle through the interiors of its edges.
 
+#include <atomic>
 #include <cstdint>
 #include <span>
 
@@ -71,10 +72,6 @@ ConstraintStats insert_constraints(Mesh& mesh, std::span<const ConstraintPiece2>
 /// walking pass (1, or 2 when any piece needed flips), inner_iterations the queue's pops.
 ConstraintStats insert_constraints_one_by_one(Mesh& mesh, std::span<const ConstraintPiece2> pieces,
                                               CpuExecutor& executor, std::uint8_t* flipped = nullptr);
-
-/// The encoded edge of the mesh from u to v (in one of its two triangles), kNoId when there is none: a
-/// rotation around u (host only).
-std::uint32_t find_mesh_edge(const MeshView& m, std::uint32_t u, std::uint32_t v);
 
 /// The hang guard of the 4-argument insert_constraints for n vertices: 16 n^2 + 10^7 inner iterations.
 std::uint64_t constraint_iteration_bound(std::uint64_t n);
@@ -331,6 +328,58 @@ CDT_HD_INLINE bool same_direction(const MeshView& m, std::uint32_t a, std::uint3
   const int px = (m.x[p] > m.x[a]) - (m.x[p] < m.x[a]), qx = (m.x[q] > m.x[a]) - (m.x[q] < m.x[a]);
   if (px != 0 || qx != 0) return px == qx;
   return (m.y[p] > m.y[a]) == (m.y[q] > m.y[a]);
+}
+
+/// Whether a step of a piece's insertion stayed within the slots it may touch.
+enum class Reach { done, outside };
+
+/// The encoded edge of the mesh from u to v (in one of its two triangles), kNoId when there is none: a
+/// rotation around u, counter-clockwise and then clockwise when its fan is open. outside when it meets a
+/// slot that owns() refuses before finding the edge. On the host vert_tri[u] is read atomically, as
+/// other threads may be moving it.
+template <class Owns>
+CDT_HD Reach find_edge(const MeshView& m, std::uint32_t u, std::uint32_t v, Owns&& owns,
+                       std::uint32_t& edge) {
+  edge = kNoId;
+#if defined(__CUDA_ARCH__)
+  const std::uint32_t start = m.vert_tri[u];
+#else
+  const std::uint32_t start = std::atomic_ref<std::uint32_t>(m.vert_tri[u]).load(std::memory_order_relaxed);
+#endif
+  if (start == kNoId) return Reach::done;
+  std::uint32_t t = start;
+  bool clockwise = false;
+  for (std::uint32_t steps = 0; steps <= m.num_slots; ++steps) {
+    if (!owns(t)) return Reach::outside;
+    const std::uint32_t k = m.index_of(t, u);
+    if (k == 3) return Reach::done;
+    if (m.v(t, next3(k)) == v) {
+      edge = edge_id(t, prev3(k));
+      return Reach::done;
+    }
+    if (m.v(t, prev3(k)) == v) {
+      edge = edge_id(t, next3(k));
+      return Reach::done;
+    }
+    const std::uint32_t e = m.adj[edge_id(t, clockwise ? prev3(k) : next3(k))];
+    if (e == kNoId) {
+      if (clockwise) return Reach::done;
+      clockwise = true;
+      t = start;
+      continue;
+    }
+    t = edge_tri(e);
+    if (t == start) return Reach::done;
+  }
+  return Reach::done;
+}
+
+/// The encoded edge of the mesh from u to v, kNoId when there is none (find_edge over the whole mesh).
+CDT_HD_INLINE std::uint32_t find_mesh_edge(const MeshView& m, std::uint32_t u, std::uint32_t v) {
+  std::uint32_t edge = kNoId;
+  find_edge(
+      m, u, v, [](std::uint32_t) { return true; }, edge);
+  return edge;
 }
 
 /// Section 4.1 for one piece a -> b: finds the triangle of a's fan that the piece leaves a through and

@@ -11,19 +11,11 @@ namespace cdt::detail {
 ScreenedPieces screen_pieces(const MeshView& m, std::span<const ConstraintPiece2> pieces,
                              CpuExecutor& executor) {
   ScreenedPieces out;
-  // Per edge side, the piece lying on it. Pieces are distinct vertex pairs, so every entry has one
-  // writer.
+  // Per edge side, the piece lying on it.
   std::vector<std::uint32_t> piece_on(3 * static_cast<std::size_t>(m.num_slots), kNoId);
   std::vector<std::uint8_t> suspect(pieces.size(), 0);
   executor.for_each(pieces.size(), [&](std::size_t k) {
-    const ConstraintPiece2& p = pieces[k];
-    const std::uint32_t edge = find_mesh_edge(m, p.a, p.b);
-    if (edge == kNoId) {
-      suspect[k] = 1;
-      return;
-    }
-    piece_on[edge] = static_cast<std::uint32_t>(k);
-    if (m.adj[edge] != kNoId) piece_on[m.adj[edge]] = static_cast<std::uint32_t>(k);
+    if (!screen_edge(m, pieces[k], static_cast<std::uint32_t>(k), piece_on.data())) suspect[k] = 1;
   });
   const std::vector<std::uint32_t> walkers =
       executor.compact(pieces.size(), [&](std::size_t k) { return suspect[k] != 0; });
@@ -36,23 +28,9 @@ ScreenedPieces screen_pieces(const MeshView& m, std::span<const ConstraintPiece2
   const auto flag = [](std::uint8_t& f) {
     std::atomic_ref<std::uint8_t>(f).store(1, std::memory_order_relaxed);
   };
-  const auto mark_triangle = [&](std::uint32_t t) {
-    for (std::uint32_t i = 0; i < 3; ++i) {
-      flag(site[m.v(t, i)]);
-      const std::uint32_t q = piece_on[edge_id(t, i)];
-      if (q != kNoId) flag(suspect[q]);
-    }
-  };
   executor.for_each(walkers.size(), [&](std::size_t w) {
-    const ConstraintPiece2& p = pieces[walkers[w]];
-    const bool walked = walk_corridor(
-        m, p.a, p.b, [&](std::uint32_t v) { flag(site[v]); },
-        [&](std::uint32_t e) {
-          if (piece_on[e] == kNoId) return;
-          mark_triangle(edge_tri(e));
-          if (m.adj[e] != kNoId) mark_triangle(edge_tri(m.adj[e]));
-        });
-    if (!walked) failed.store(true, std::memory_order_relaxed);
+    if (!screen_corridor(m, pieces[walkers[w]], piece_on.data(), suspect.data(), site.data(), flag))
+      failed.store(true, std::memory_order_relaxed);
   });
   if (failed.load()) {
     out.complete = false;

@@ -1,6 +1,7 @@
 #pragma once
-// Screening the input segments against the Delaunay triangulation of the sites, before they are split
-// (host only).
+// Screening the input segments against the Delaunay triangulation of the sites, before they are split.
+// The per-piece work (screen_edge, screen_corridor) runs on the host and on the device
+// (gpu::DeviceMesh::screen).
 //
 // An edge of a triangulation contains no vertex in its interior and crosses no other edge. So once the
 // sites are triangulated, a segment that is an edge of the mesh (on real data nearly all of them: 98%
@@ -51,8 +52,8 @@ Triangulation triangulate_splitting_first(std::span<const Point> points, std::sp
 /// false when the walk fails (an end has no triangle, the segment leaves the mesh, or the links are
 /// inconsistent).
 template <class OnVertex, class Crossed>
-bool walk_corridor(const MeshView& m, std::uint32_t a, std::uint32_t b, OnVertex&& on_vertex,
-                   Crossed&& crossed) {
+CDT_HD bool walk_corridor(const MeshView& m, std::uint32_t a, std::uint32_t b, OnVertex&& on_vertex,
+                          Crossed&& crossed) {
   std::uint32_t cur = a;
   on_vertex(a);
   for (std::uint32_t legs = 0; legs <= m.num_vertices; ++legs) {
@@ -124,6 +125,41 @@ bool walk_corridor(const MeshView& m, std::uint32_t a, std::uint32_t b, OnVertex
     }
   }
   return false;
+}
+
+/// The screen's first pass for piece k (mesh vertex ids a, b): when the piece is an edge of the mesh,
+/// records it in piece_on (3 per slot, one entry per side of every edge) and returns true; false when
+/// it is to be walked. Pieces are distinct vertex pairs, so every entry has one writer.
+CDT_HD_INLINE bool screen_edge(const MeshView& m, const ConstraintPiece2& p, std::uint32_t k,
+                               std::uint32_t* piece_on) {
+  const std::uint32_t edge = find_mesh_edge(m, p.a, p.b);
+  if (edge == kNoId) return false;
+  piece_on[edge] = k;
+  if (m.adj[edge] != kNoId) piece_on[m.adj[edge]] = k;
+  return true;
+}
+
+/// The screen's second pass for a piece that is no edge: flag(site[v]) for the sites on it, and at
+/// every edge-piece it crosses, flag(suspect[q]) for the pieces on the edges of the two triangles
+/// there and flag(site[v]) for their corners. flag sets a byte to 1 (atomically on host threads).
+/// Returns false when the walk fails.
+template <class Flag>
+CDT_HD bool screen_corridor(const MeshView& m, const ConstraintPiece2& p, const std::uint32_t* piece_on,
+                            std::uint8_t* suspect, std::uint8_t* site, Flag&& flag) {
+  const auto mark_triangle = [&](std::uint32_t t) {
+    for (std::uint32_t i = 0; i < 3; ++i) {
+      flag(site[m.v(t, i)]);
+      const std::uint32_t q = piece_on[edge_id(t, i)];
+      if (q != kNoId) flag(suspect[q]);
+    }
+  };
+  return walk_corridor(
+      m, p.a, p.b, [&](std::uint32_t v) { flag(site[v]); },
+      [&](std::uint32_t e) {
+        if (piece_on[e] == kNoId) return;
+        mark_triangle(edge_tri(e));
+        if (m.adj[e] != kNoId) mark_triangle(edge_tri(m.adj[e]));
+      });
 }
 
 } // namespace cdt::detail

@@ -1,0 +1,94 @@
+// The screen of the segments against the Delaunay mesh (cdt/src/gcd/screen.hpp) on a mesh that stays on
+// the device: the same two passes as the CPU executor's screen_pieces, from the same per-piece code
+// (screen_edge, screen_corridor), then the suspects compacted there. Only their indices come back.
+
+#include <cstddef>
+#include <cstdint>
+#include <vector>
+
+#include "cdt_kernels.hpp"
+#include "cuda_check.cuh"
+#include "cuda_executor.cuh"
+#include "device_mesh.cuh"
+#include "gcd/constraints.hpp"
+#include "gcd/screen.hpp"
+
+namespace cdt::gpu {
+
+using ::cdt::detail::ConstraintPiece2;
+using ::cdt::detail::kNoId;
+using ::cdt::detail::MeshView;
+using ::cdt::detail::ScreenedPieces;
+
+namespace detail {
+namespace {
+
+/// The indices i in [0, n) with flags[i] != 0, increasing, copied to the host.
+std::vector<std::uint32_t> flagged(CudaExecutor& executor, const std::uint8_t* flags, std::size_t n) {
+  DeviceBuffer<std::uint32_t> d_out(n);
+  const std::uint32_t count = executor.compact(
+      n, [=] __device__(std::size_t i) { return flags[i] != 0; }, d_out.data());
+  std::vector<std::uint32_t> out(count);
+  executor.download(out.data(), d_out.data(), count);
+  return out;
+}
+
+} // namespace
+} // namespace detail
+
+ScreenedPieces DeviceMesh::screen(std::span<const ConstraintPiece2> host_pieces) {
+  using detail::DeviceBuffer;
+  ScreenedPieces out;
+  State& s = *state_;
+  ::cdt::detail::check_constraint_pieces(s.num_slots, s.num_vertices, host_pieces);
+  const std::size_t np = host_pieces.size();
+  if (np == 0) return out;
+  detail::CudaExecutor& executor = s.executor;
+  const MeshView m = s.view();
+
+  DeviceBuffer<ConstraintPiece2> d_pieces(np);
+  executor.upload(d_pieces.data(), host_pieces.data(), np);
+  const ConstraintPiece2* pieces = d_pieces.data();
+  // Per edge side, the piece lying on it; per piece, whether it is walked, and whether it is suspect.
+  DeviceBuffer<std::uint32_t> d_piece_on(3 * static_cast<std::size_t>(s.num_slots));
+  DeviceBuffer<std::uint8_t> d_walker(np), d_suspect(np), d_site(s.num_vertices);
+  DeviceBuffer<std::uint32_t> d_failed(1);
+  std::uint32_t* piece_on = d_piece_on.data();
+  std::uint8_t* walker = d_walker.data();
+  std::uint8_t* suspect = d_suspect.data();
+  std::uint8_t* site = d_site.data();
+  std::uint32_t* failed = d_failed.data();
+  executor.fill_bytes(piece_on, 0xFF, d_piece_on.size());
+  executor.fill_bytes(site, 0, s.num_vertices);
+  executor.fill_bytes(failed, 0, 1);
+  executor.for_each(
+      np,
+      [=] __device__(std::size_t k) {
+        const bool edge = ::cdt::detail::screen_edge(m, pieces[k], static_cast<std::uint32_t>(k), piece_on);
+        walker[k] = suspect[k] = edge ? 0 : 1;
+      },
+      "screen_edges");
+  // The walks read walker (fixed) and set suspect bytes of other pieces: several threads may store 1 to
+  // the same byte, which is the only value stored.
+  executor.for_each(
+      np,
+      [=] __device__(std::size_t k) {
+        if (walker[k] == 0) return;
+        const auto flag = [](std::uint8_t& f) { f = 1; };
+        if (!::cdt::detail::screen_corridor(m, pieces[k], piece_on, suspect, site, flag))
+          atomicExch(failed, 1u);
+      },
+      "screen_corridors");
+  std::uint32_t walk_failed = 0;
+  executor.download(&walk_failed, failed, 1);
+  if (walk_failed != 0) {
+    out.complete = false;
+    return out;
+  }
+  out.pieces = detail::flagged(executor, suspect, np);
+  if (out.pieces.empty()) return out;
+  out.sites = detail::flagged(executor, site, s.num_vertices);
+  return out;
+}
+
+} // namespace cdt::gpu
