@@ -1,5 +1,5 @@
 // The screen of the segments against the Delaunay mesh (cdt/src/gcd/screen.hpp) on a mesh that stays on
-// the device: the same two passes as the CPU executor's screen_pieces, from the same per-piece code
+// the device: the same passes as the CPU executor's screen_pieces, from the same per-piece code
 // (screen_edge, screen_corridor), then the suspects compacted there. Only their indices come back.
 
 #include <cstddef>
@@ -49,33 +49,39 @@ ScreenedPieces DeviceMesh::screen(std::span<const ConstraintPiece2> host_pieces)
   DeviceBuffer<ConstraintPiece2> d_pieces(np);
   executor.upload(d_pieces.data(), host_pieces.data(), np);
   const ConstraintPiece2* pieces = d_pieces.data();
-  // Per edge side, the piece lying on it; per piece, whether it is walked, and whether it is suspect.
-  DeviceBuffer<std::uint32_t> d_piece_on(3 * static_cast<std::size_t>(s.num_slots));
+  // Per edge side, the piece lying on it; per piece, whether it is walked, and whether it is suspect;
+  // per slot, the lowest walker through it.
+  DeviceBuffer<std::uint32_t> d_piece_on(3 * static_cast<std::size_t>(s.num_slots)), d_owner(s.num_slots);
   DeviceBuffer<std::uint8_t> d_walker(np), d_suspect(np), d_site(s.num_vertices);
   DeviceBuffer<std::uint32_t> d_failed(1);
   std::uint32_t* piece_on = d_piece_on.data();
+  std::uint32_t* owner = d_owner.data();
   std::uint8_t* walker = d_walker.data();
   std::uint8_t* suspect = d_suspect.data();
   std::uint8_t* site = d_site.data();
   std::uint32_t* failed = d_failed.data();
   executor.fill_bytes(piece_on, 0xFF, d_piece_on.size());
+  executor.fill_bytes(owner, 0xFF, s.num_slots);
+  executor.fill_bytes(suspect, 0, np);
   executor.fill_bytes(site, 0, s.num_vertices);
   executor.fill_bytes(failed, 0, 1);
   executor.for_each(
       np,
       [=] __device__(std::size_t k) {
         const bool edge = ::cdt::detail::screen_edge(m, pieces[k], static_cast<std::uint32_t>(k), piece_on);
-        walker[k] = suspect[k] = edge ? 0 : 1;
+        walker[k] = edge ? 0 : 1;
       },
       "screen_edges");
-  // The walks read walker (fixed) and set suspect bytes of other pieces: several threads may store 1 to
-  // the same byte, which is the only value stored.
+  // The walks set bytes of other pieces and sites: several threads may store 1 to the same byte, which
+  // is the only value stored.
   executor.for_each(
       np,
       [=] __device__(std::size_t k) {
         if (walker[k] == 0) return;
         const auto flag = [](std::uint8_t& f) { f = 1; };
-        if (!::cdt::detail::screen_corridor(m, pieces[k], piece_on, suspect, site, flag))
+        const auto lower = [](std::uint32_t* word, std::uint32_t v) { return detail::atomic_min(word, v); };
+        if (!::cdt::detail::screen_corridor(m, pieces[k], static_cast<std::uint32_t>(k), piece_on, owner,
+                                            suspect, site, flag, lower))
           atomicExch(failed, 1u);
       },
       "screen_corridors");
@@ -85,6 +91,14 @@ ScreenedPieces DeviceMesh::screen(std::span<const ConstraintPiece2> host_pieces)
     out.complete = false;
     return out;
   }
+  executor.for_each(
+      np,
+      [=] __device__(std::size_t k) {
+        if (suspect[k] == 0) return;
+        site[pieces[k].a] = 1;
+        site[pieces[k].b] = 1;
+      },
+      "screen_ends");
   out.pieces = detail::flagged(executor, suspect, np);
   if (out.pieces.empty()) return out;
   out.sites = detail::flagged(executor, site, s.num_vertices);

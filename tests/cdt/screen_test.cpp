@@ -49,22 +49,27 @@ struct Walked {
   bool ok = false;
   std::set<std::uint32_t> vertices;
   std::set<Edge> crossed;
+  std::set<Edge> along;
 };
+
+/// The ends of encoded edge e, lower first.
+Edge edge_ends(const cdt::detail::MeshView& m, std::uint32_t e) {
+  const std::uint32_t t = cdt::detail::edge_tri(e), i = cdt::detail::edge_index(e);
+  return undirected(m.v(t, cdt::detail::next3(i)), m.v(t, cdt::detail::prev3(i)));
+}
 
 Walked walk(Mesh& mesh, std::uint32_t a, std::uint32_t b) {
   Walked w;
   const cdt::detail::MeshView m = mesh.view();
   w.ok = cdt::detail::walk_corridor(
       m, a, b, [&](std::uint32_t v) { w.vertices.insert(v); },
-      [&](std::uint32_t e) {
-        const std::uint32_t t = cdt::detail::edge_tri(e), i = cdt::detail::edge_index(e);
-        w.crossed.insert(undirected(m.v(t, cdt::detail::next3(i)), m.v(t, cdt::detail::prev3(i))));
-      });
+      [&](std::uint32_t e) { w.crossed.insert(edge_ends(m, e)); },
+      [&](std::uint32_t e) { w.along.insert(edge_ends(m, e)); });
   return w;
 }
 
-/// The same by brute force: the vertices on the closed segment, and the edges whose interiors it
-/// crosses at one point interior to both.
+/// The same by brute force: the vertices on the closed segment, the edges between two of them, and the edges
+/// whose interiors it crosses at one point interior to both.
 Walked brute_force(const Mesh& mesh, std::uint32_t a, std::uint32_t b) {
   Walked w;
   w.ok = true;
@@ -80,6 +85,7 @@ Walked brute_force(const Mesh& mesh, std::uint32_t a, std::uint32_t b) {
     const int op = orient_of(mesh, a, b, p), oq = orient_of(mesh, a, b, q);
     const int oa = orient_of(mesh, p, q, a), ob = orient_of(mesh, p, q, b);
     if (op * oq < 0 && oa * ob < 0) w.crossed.insert({p, q});
+    if (w.vertices.count(p) != 0 && w.vertices.count(q) != 0) w.along.insert({p, q});
   }
   return w;
 }
@@ -106,6 +112,7 @@ TEST(WalkCorridor, MatchesBruteForceOnRandomPointsAndLattices) {
       ASSERT_TRUE(got.ok) << "seed " << seed << " " << a << "-" << b;
       EXPECT_EQ(got.vertices, want.vertices) << "seed " << seed << " " << a << "-" << b;
       EXPECT_EQ(got.crossed, want.crossed) << "seed " << seed << " " << a << "-" << b;
+      EXPECT_EQ(got.along, want.along) << "seed " << seed << " " << a << "-" << b;
       if (want.vertices.size() > 2) ++with_vertices_between;
     }
   }
@@ -118,10 +125,11 @@ TEST(WalkCorridor, FailsForAnEndOutsideTheMesh) {
   EXPECT_FALSE(walk(mesh, 0, 3).ok);
 }
 
-TEST(ScreenPieces, EdgesAreCleanTheOthersAndWhatTheyCrossSuspect) {
-  // A 6 x 6 lattice, each square cut by its rising diagonal; the pieces: the edges along the row y = 4
-  // (far from the rest), the edge (2, 0)-(2, 1), and a piece from (1, 0) to (3, 1) that crosses it.
-  const auto at = [](std::uint32_t i, std::uint32_t j) { return j * 6 + i; };
+/// Vertex (i, j) of the 6 x 6 lattice of lattice_mesh().
+std::uint32_t at(std::uint32_t i, std::uint32_t j) { return j * 6 + i; }
+
+/// A 6 x 6 lattice, each square cut by its rising diagonal.
+Mesh lattice_mesh() {
   std::vector<double> x, y;
   for (std::uint32_t j = 0; j < 6; ++j) {
     for (std::uint32_t i = 0; i < 6; ++i) {
@@ -136,7 +144,13 @@ TEST(ScreenPieces, EdgesAreCleanTheOthersAndWhatTheyCrossSuspect) {
       triangles.push_back({at(i, j), at(i + 1, j + 1), at(i, j + 1)});
     }
   }
-  Mesh mesh = trixel_test::mesh_from_triangles(x, y, triangles);
+  return trixel_test::mesh_from_triangles(x, y, triangles);
+}
+
+TEST(ScreenPieces, EdgesAreCleanTheOthersAndWhatTheyCrossSuspect) {
+  // The pieces: the edges along the row y = 4 (far from the rest), the edge (2, 0)-(2, 1), and a piece
+  // from (1, 0) to (3, 1) that crosses it.
+  Mesh mesh = lattice_mesh();
   std::vector<cdt::detail::ConstraintPiece2> pieces;
   for (std::uint32_t i = 0; i + 1 < 6; ++i) pieces.push_back({at(i, 4), at(i + 1, 4), 0});
   pieces.push_back({at(2, 0), at(2, 1), 0});
@@ -155,6 +169,31 @@ TEST(ScreenPieces, EdgesAreCleanTheOthersAndWhatTheyCrossSuspect) {
     std::sort(want.begin(), want.end());
     EXPECT_EQ(s.sites, want) << threads << " threads";
   }
+}
+
+// Pieces that are no edges: suspect when they meet, clean when their corridors share no triangle.
+TEST(ScreenPieces, PiecesThatAreNoEdgesAreSuspectOnlyWhereTheyMeet) {
+  Mesh mesh = lattice_mesh();
+  cdt::detail::CpuExecutor executor(2);
+  const auto screen = [&](const std::vector<cdt::detail::ConstraintPiece2>& pieces) {
+    const cdt::detail::ScreenedPieces s = cdt::detail::screen_pieces(mesh.view(), pieces, executor);
+    EXPECT_TRUE(s.complete);
+    return s;
+  };
+  // Far apart, through no vertex: nothing to split.
+  const cdt::detail::ScreenedPieces apart = screen({{at(0, 0), at(2, 1), 0}, {at(3, 3), at(5, 4), 0}});
+  EXPECT_TRUE(apart.pieces.empty());
+  EXPECT_TRUE(apart.sites.empty());
+  // Crossing at (1, 0.5), inside the edge (1, 0)-(1, 1): both suspect, with the corners around.
+  const cdt::detail::ScreenedPieces crossing = screen({{at(0, 0), at(2, 1), 0}, {at(0, 1), at(2, 0), 0}});
+  EXPECT_EQ(crossing.pieces, (std::vector<std::uint32_t>{0, 1}));
+  for (const std::uint32_t v : {at(0, 0), at(2, 1), at(0, 1), at(2, 0), at(1, 0), at(1, 1)})
+    EXPECT_TRUE(std::binary_search(crossing.sites.begin(), crossing.sites.end(), v)) << v;
+  // One runs along the edges of the row y = 2 through (1, 2); the other crosses it at (0.5, 2), inside
+  // the edge (0, 2)-(1, 2) that the first runs along. Both orders: the lower piece owns the triangles.
+  const cdt::detail::ConstraintPiece2 along{at(0, 2), at(2, 2), 0}, across{at(0, 1), at(1, 3), 0};
+  EXPECT_EQ(screen({along, across}).pieces, (std::vector<std::uint32_t>{0, 1}));
+  EXPECT_EQ(screen({across, along}).pieces, (std::vector<std::uint32_t>{0, 1}));
 }
 
 TEST(ScreenPieces, AnEndOutsideTheMeshMakesEverythingSuspect) {

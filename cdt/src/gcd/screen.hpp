@@ -8,11 +8,15 @@
 // of the coastlines' segments) needs no test against the others: whatever can pass through a vertex,
 // cross or overlap involves a segment that is not an edge. Such a segment crosses, between its ends,
 // only the triangles of its corridor, and every site on it and every edge-segment it crosses belongs
-// to them. The suspects are the segments that are not edges, the edge-segments they cross, and the
-// sites on them; split_pieces then resolves the suspects alone (cdt/src/pslg.hpp), finding in its
-// first round exactly the pairs it would find among all. Where a crossing is found, the two triangles
-// at the crossed edge-segment, their sites and the segments on their edges are suspect too: the
-// crossing's rounded vertex lies there, and the repair rounds test what passes near it.
+// to them; and where two segments that are no edges cross, the crossing lies in a triangle (or on an
+// edge, between two) that both corridors hold. So a segment that is no edge is suspect only when a
+// site lies on it, when it crosses an edge-segment, or when its corridor shares a triangle with
+// another's; the rest (most long segments of an input without crossings) meet nothing. The suspects
+// are those, the edge-segments they cross, and the sites on them; split_pieces then resolves the
+// suspects alone (cdt/src/pslg.hpp), finding in its first round exactly the pairs it would find among
+// all. Where a crossing may be (a crossed edge-segment, a shared triangle), the triangles there, their
+// sites and the segments on their edges are suspect too: a crossing's rounded vertex lies there, and
+// the repair rounds test what passes near it.
 
 #include <cstdint>
 #include <span>
@@ -47,13 +51,13 @@ Triangulation triangulate_splitting_first(std::span<const Point> points, std::sp
                                           const Options& options);
 
 /// Follows segment a-b through the mesh: calls on_vertex(v) for a, b and every vertex on the segment
-/// between them, and crossed(e) for every edge whose interior it crosses (e encoded in the triangle it
-/// leaves). Returns
-/// false when the walk fails (an end has no triangle, the segment leaves the mesh, or the links are
-/// inconsistent).
-template <class OnVertex, class Crossed>
+/// between them, crossed(e) for every edge whose interior it crosses (e encoded in the triangle it
+/// leaves), and along(e) for every edge it runs along, from one vertex on it to the next (e encoded in
+/// either triangle at it). Returns false when the walk fails (an end has no triangle, the segment leaves the
+/// mesh, or the links are inconsistent).
+template <class OnVertex, class Crossed, class Along>
 CDT_HD bool walk_corridor(const MeshView& m, std::uint32_t a, std::uint32_t b, OnVertex&& on_vertex,
-                          Crossed&& crossed) {
+                          Crossed&& crossed, Along&& along) {
   std::uint32_t cur = a;
   on_vertex(a);
   for (std::uint32_t legs = 0; legs <= m.num_vertices; ++legs) {
@@ -70,14 +74,19 @@ CDT_HD bool walk_corridor(const MeshView& m, std::uint32_t a, std::uint32_t b, O
       const std::uint32_t k = m.index_of(t, cur);
       if (k == 3) return false;
       const std::uint32_t p = m.v(t, next3(k)), q = m.v(t, prev3(k));
+      // The edge cur-p is edge prev3(k) of t, the edge cur-q edge next3(k).
       if (p == b || q == b) {
+        along(edge_id(t, p == b ? prev3(k) : next3(k)));
         on_vertex(b);
         return true;
       }
       const int op = orient_vertices(m, cur, p, b), oq = orient_vertices(m, cur, q, b);
       if (op == 0 && same_direction(m, cur, p, b)) next = p;
       if (oq == 0 && same_direction(m, cur, q, b)) next = q;
-      if (next != kNoId) break;
+      if (next != kNoId) {
+        along(edge_id(t, next == p ? prev3(k) : next3(k)));
+        break;
+      }
       if (op > 0 && oq < 0) {
         wedge = t;
         break;
@@ -139,27 +148,57 @@ CDT_HD_INLINE bool screen_edge(const MeshView& m, const ConstraintPiece2& p, std
   return true;
 }
 
-/// The screen's second pass for a piece that is no edge: flag(site[v]) for the sites on it, and at
-/// every edge-piece it crosses, flag(suspect[q]) for the pieces on the edges of the two triangles
-/// there and flag(site[v]) for their corners. flag sets a byte to 1 (atomically on host threads).
-/// Returns false when the walk fails.
+/// The screen's marks around triangle t: flag(site[v]) for its corners, flag(suspect[q]) for the pieces
+/// on its edges.
 template <class Flag>
-CDT_HD bool screen_corridor(const MeshView& m, const ConstraintPiece2& p, const std::uint32_t* piece_on,
-                            std::uint8_t* suspect, std::uint8_t* site, Flag&& flag) {
-  const auto mark_triangle = [&](std::uint32_t t) {
-    for (std::uint32_t i = 0; i < 3; ++i) {
-      flag(site[m.v(t, i)]);
-      const std::uint32_t q = piece_on[edge_id(t, i)];
-      if (q != kNoId) flag(suspect[q]);
-    }
+CDT_HD void screen_mark_triangle(const MeshView& m, std::uint32_t t, const std::uint32_t* piece_on,
+                                 std::uint8_t* suspect, std::uint8_t* site, Flag&& flag) {
+  for (std::uint32_t i = 0; i < 3; ++i) {
+    flag(site[m.v(t, i)]);
+    const std::uint32_t q = piece_on[edge_id(t, i)];
+    if (q != kNoId) flag(suspect[q]);
+  }
+}
+
+/// The screen's second pass for piece k, which is no edge. Its corridor's triangles are both sides of
+/// every edge it crosses or runs along (two segments that cross do so inside a triangle or inside an
+/// edge, and then both pass the triangles there): lower(&owner[t], k) claims each, and where it finds
+/// another piece j's claim, both are suspect, with the marks around t. For every site strictly between
+/// its ends, flag(site[v]) and flag(suspect[k]); at every edge-piece it crosses, flag(suspect[k]) and the
+/// marks around the two triangles there. flag sets a byte to 1; lower is an atomic minimum returning the
+/// previous value (both atomic on host threads), so of the pieces through a triangle every one but the
+/// first to claim it sees another's claim, and the first is flagged by the second: the result does not
+/// depend on the order. Returns false when the walk fails.
+template <class Flag, class Lower>
+CDT_HD bool screen_corridor(const MeshView& m, const ConstraintPiece2& p, std::uint32_t k,
+                            const std::uint32_t* piece_on, std::uint32_t* owner, std::uint8_t* suspect,
+                            std::uint8_t* site, Flag&& flag, Lower&& lower) {
+  const auto claim = [&](std::uint32_t t) {
+    const std::uint32_t j = lower(&owner[t], k);
+    if (j == kNoId || j == k) return;
+    flag(suspect[k]);
+    flag(suspect[j]);
+    screen_mark_triangle(m, t, piece_on, suspect, site, flag);
+  };
+  const auto both_sides = [&](std::uint32_t e) {
+    claim(edge_tri(e));
+    if (m.adj[e] != kNoId) claim(edge_tri(m.adj[e]));
   };
   return walk_corridor(
-      m, p.a, p.b, [&](std::uint32_t v) { flag(site[v]); },
+      m, p.a, p.b,
+      [&](std::uint32_t v) {
+        if (v == p.a || v == p.b) return;
+        flag(site[v]);
+        flag(suspect[k]);
+      },
       [&](std::uint32_t e) {
+        both_sides(e);
         if (piece_on[e] == kNoId) return;
-        mark_triangle(edge_tri(e));
-        if (m.adj[e] != kNoId) mark_triangle(edge_tri(m.adj[e]));
-      });
+        flag(suspect[k]);
+        screen_mark_triangle(m, edge_tri(e), piece_on, suspect, site, flag);
+        if (m.adj[e] != kNoId) screen_mark_triangle(m, edge_tri(m.adj[e]), piece_on, suspect, site, flag);
+      },
+      both_sides);
 }
 
 } // namespace cdt::detail
