@@ -329,12 +329,15 @@ TEST(GridMap, ChooseGridSizeIsABoundedPowerOfTwo) {
   }
 }
 
-// The CPU executor's coarser rule: sqrt(n / 8), the same clamps; small inputs keep the smallest grid.
+// The CPU executor's coarser rule: sqrt(n / 8), clamped to [32, 8192].
 TEST(GridMap, ChooseGridSizeForTheHostIsCoarser) {
   using cdt::detail::choose_grid_size;
   using cdt::detail::GridFor;
-  EXPECT_EQ(choose_grid_size(0, GridFor::host), 256u);
-  EXPECT_EQ(choose_grid_size(65536, GridFor::host), 256u);
+  EXPECT_EQ(choose_grid_size(0, GridFor::host), 32u);
+  EXPECT_EQ(choose_grid_size(8192, GridFor::host), 32u); // sqrt(n / 8) = 32 exactly
+  EXPECT_EQ(choose_grid_size(8193, GridFor::host), 64u);
+  EXPECT_EQ(choose_grid_size(23746, GridFor::host), 64u); // vectorize's PSLG of kodim05
+  EXPECT_EQ(choose_grid_size(65536, GridFor::host), 128u);
   EXPECT_EQ(choose_grid_size(524288, GridFor::host), 256u); // sqrt(n / 8) = 256 exactly
   EXPECT_EQ(choose_grid_size(524289, GridFor::host), 512u);
   EXPECT_EQ(choose_grid_size(1000000, GridFor::host), 512u);
@@ -350,7 +353,7 @@ TEST(GridMap, ChooseGridSizeForTheHostIsCoarser) {
     const std::uint32_t m = choose_grid_size(n, GridFor::host);
     EXPECT_TRUE(std::has_single_bit(m));
     EXPECT_LE(m, choose_grid_size(n, GridFor::device));
-    if (m > 256 && m < 8192) {
+    if (m > 32 && m < 8192) {
       EXPECT_GE(static_cast<double>(m), std::sqrt(static_cast<double>(n) / 8));
       EXPECT_LT(static_cast<double>(m), 2 * std::sqrt(static_cast<double>(n) / 8));
     }

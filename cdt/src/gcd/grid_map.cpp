@@ -44,14 +44,16 @@ CDT_HD inline std::uint32_t site_cell(const GridMapping& mapping, double x, doub
 } // namespace
 
 std::uint32_t choose_grid_size(std::size_t num_points, GridFor target) {
-  constexpr std::uint32_t kMin = 256;
+  // The host's parts insert the missing points of small inputs cheaply too, so its grid may go
+  // coarser than the device's.
+  const std::uint32_t min_side = target == GridFor::device ? 256 : 32;
   constexpr std::uint32_t kMax = 8192;
   // Compare in floating point: sqrt(n) for n near 2^64 does not fit the clamp otherwise.
   const double per_cell = target == GridFor::host ? 8.0 : target == GridFor::host_points ? 16.0 : 1.0;
   const double wanted = std::sqrt(static_cast<double>(num_points) / per_cell);
   if (wanted >= kMax) return kMax;
   const auto side = static_cast<std::uint32_t>(std::ceil(wanted));
-  return std::clamp(std::bit_ceil(std::max(side, 1u)), kMin, kMax);
+  return std::clamp(std::bit_ceil(std::max(side, 1u)), min_side, kMax);
 }
 
 GridMapping make_grid_mapping(std::span<const double> x, std::span<const double> y, std::uint32_t m) {
