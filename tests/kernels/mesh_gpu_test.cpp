@@ -333,6 +333,18 @@ TEST_F(MeshGpu, ShiftAndInsertMatchTheCpuExecutor) {
 
 // Step 2 (Algorithms 4 and 5) on a DeviceMesh: the paper's synthetic segments inserted into a
 // triangulation of their endpoints and the free points, by the same flips as the CPU executor.
+/// A sweep triangulation of the PSLG's points, flipped to Delaunay when asked.
+Mesh sweep_mesh(const trixel_gen::Pslg& p, bool delaunay, CpuExecutor& executor) {
+  std::vector<double> x, y;
+  for (const auto& q : p.points) {
+    x.push_back(q.x);
+    y.push_back(q.y);
+  }
+  Mesh mesh = trixel_test::sweep_triangulate(x, y);
+  if (delaunay) flip_to_delaunay(mesh, executor);
+  return mesh;
+}
+
 TEST_F(MeshGpu, ConstraintsMatchTheCpuExecutor) {
   struct Case {
     trixel_gen::Pslg pslg;
@@ -349,13 +361,7 @@ TEST_F(MeshGpu, ConstraintsMatchTheCpuExecutor) {
   };
   CpuExecutor executor(4);
   for (const Case& c : cases) {
-    std::vector<double> x, y;
-    for (const auto& q : c.pslg.points) {
-      x.push_back(q.x);
-      y.push_back(q.y);
-    }
-    Mesh start = trixel_test::sweep_triangulate(x, y);
-    if (c.delaunay) flip_to_delaunay(start, executor);
+    const Mesh start = sweep_mesh(c.pslg, c.delaunay, executor);
     std::vector<ConstraintPiece2> pieces;
     for (std::size_t k = 0; k < c.pslg.segments.size(); ++k)
       pieces.push_back({c.pslg.segments[k].a, c.pslg.segments[k].b, static_cast<std::uint32_t>(k)});
@@ -391,19 +397,13 @@ TEST_F(MeshGpu, ScreenMatchesTheCpuExecutor) {
   };
   CpuExecutor executor(4);
   for (const Case& c : cases) {
-    std::vector<double> x, y;
-    for (const auto& q : c.pslg.points) {
-      x.push_back(q.x);
-      y.push_back(q.y);
-    }
-    Mesh mesh = trixel_test::sweep_triangulate(x, y);
-    flip_to_delaunay(mesh, executor);
+    Mesh mesh = sweep_mesh(c.pslg, true, executor);
+    const auto n = static_cast<std::uint32_t>(mesh.num_vertices());
     // Distinct vertex pairs, as the screen's input is.
     std::set<std::pair<std::uint32_t, std::uint32_t>> pairs;
     for (const cdt::Segment& sg : c.pslg.segments)
       if (sg.a != sg.b) pairs.insert({std::min(sg.a, sg.b), std::max(sg.a, sg.b)});
     trixel_gen::Random rng(c.crossers + 1);
-    const auto n = static_cast<std::uint32_t>(x.size());
     for (std::size_t k = 0; k < c.crossers; ++k) {
       const auto a = static_cast<std::uint32_t>(rng.next() % n),
                  b = static_cast<std::uint32_t>(rng.next() % n);
