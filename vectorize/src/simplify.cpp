@@ -341,12 +341,19 @@ public:
 
   void run() {
     // Removing a point can unblock another (a point that stood in a triangle is gone), so passes repeat
-    // while they make progress; each pass is near-linear.
+    // while they make progress; each pass is near-linear. At the end of a pass every live point's last
+    // evaluation saw its current neighbours, so the candidates of the next pass are exactly the points
+    // that were blocked: only they are evaluated again.
+    std::vector<Candidate> blocked;
     for (int pass = 0; pass < 8; ++pass) {
       std::priority_queue<Candidate> queue;
-      for (const std::uint32_t c : own_)
-        for (int v = 0; v < static_cast<int>(states_[c].points.size()); ++v) push(queue, c, v);
-      bool blocked = false;
+      if (pass == 0) {
+        for (const std::uint32_t c : own_)
+          for (int v = 0; v < static_cast<int>(states_[c].points.size()); ++v) push(queue, c, v);
+      } else {
+        for (const Candidate& b : blocked) push(queue, b.chain, static_cast<int>(b.vertex));
+      }
+      blocked.clear();
       std::size_t removed = 0;
       while (!queue.empty()) {
         const Candidate cand = queue.top();
@@ -355,7 +362,7 @@ public:
         const int v = static_cast<int>(cand.vertex);
         if (!s.alive[v] || s.version[v] != cand.version || s.num_alive <= s.min_alive) continue;
         if (!removable(s, v)) {
-          blocked = true;
+          blocked.push_back(cand);
           continue;
         }
         remove(s, v);
@@ -363,7 +370,7 @@ public:
         push(queue, cand.chain, s.prev[v]);
         push(queue, cand.chain, s.next[v]);
       }
-      if (!blocked || removed == 0) break;
+      if (blocked.empty() || removed == 0) break;
     }
   }
 
