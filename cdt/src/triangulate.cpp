@@ -16,8 +16,8 @@
 //             crossings. A segment that is an edge of the Delaunay mesh can neither cross another edge
 //             nor hold a vertex, so only the others and what their walks through the mesh meet are
 //             tested (gcd/screen.hpp; the screen runs where the mesh is); the vertices added at
-//             crossings are then inserted with their flips where the mesh is. On the coastlines this
-//             tests 8% of the segments instead of all of them.
+//             crossings are then inserted with their flips where the mesh is. On the coastlines 98%
+//             of the segments are edges of the Delaunay mesh and need no test.
 //
 // On CPU threads Phases 4 and 5 and Step 3 are scheduled for a few fast cores rather than thousands of
 // slow ones: the mesh's slots are cut into fixed parts, each worked by one thread with Lawson's
@@ -253,7 +253,7 @@ detail::InsertStats insert_added_vertices(gpu::DeviceMesh& mesh, const detail::P
 /// Where the segments are split at the sites on them and at crossings.
 enum class Split {
   first,    ///< before the sites are triangulated, every segment against every other
-  screened, ///< after: only the segments that are no edges of the Delaunay mesh and their neighbours
+  screened, ///< after: only the segments the Delaunay mesh leaves suspect (gcd/screen.hpp)
 };
 
 /// The whole pipeline on the CPU executor alone, or with the CUDA executor's phases when on_gpu.
@@ -478,16 +478,20 @@ Triangulation triangulate_on(std::span<const Point> points, std::span<const Segm
   // suspects against each other (screen.hpp). The vertices added at crossings are then inserted with
   // their flips, so the mesh stays Delaunay.
   bool screened = false;
+  // The pieces in mesh vertex ids, for the screen and then the constraints; made again only when the
+  // split changed them.
+  std::vector<ConstraintPiece2> pieces;
   if (split == Split::screened && !pslg.pieces.empty()) {
     screened = true;
     const std::size_t first_added = pslg.vertices.size();
-    const std::vector<ConstraintPiece2> raw = mesh_pieces(pslg, site_of_vertex, executor);
+    pieces = mesh_pieces(pslg, site_of_vertex, executor);
     ScreenedPieces screen;
 #if defined(TRIXEL_HAVE_CUDA)
-    if (on_gpu) screen = device_mesh->screen(raw);
+    if (on_gpu) screen = device_mesh->screen(pieces);
 #endif
-    if (!on_gpu) screen = screen_pieces(mesh.view(), raw, executor);
+    if (!on_gpu) screen = screen_pieces(mesh.view(), pieces, executor);
     trace.mark("screened");
+    if (!screen.complete || !screen.pieces.empty()) pieces.clear();
     split_screened(pslg, screen, site_vertex, options.crossings, executor);
     trace.mark("split");
     InsertStats placed;
@@ -513,7 +517,7 @@ Triangulation triangulate_on(std::span<const Point> points, std::span<const Segm
   stats.added_vertices = pslg.vertices.size() - points.size();
 
   // Step 2: constraints (pieces named by their index; seg holds the piece index).
-  const std::vector<ConstraintPiece2> pieces = mesh_pieces(pslg, site_of_vertex, executor);
+  if (pieces.empty()) pieces = mesh_pieces(pslg, site_of_vertex, executor);
   ConstraintStats cons;
   // The slots the constraints' flips rewrote: after Phase 5, only their edges can fail the incircle test.
   std::vector<std::uint8_t> flipped;
