@@ -17,6 +17,7 @@
 namespace cdt::detail {
 struct Mesh;             // cdt/src/gcd/mesh.hpp
 struct Box;              // cdt/src/gcd/dualize.hpp
+struct GridMapping;      // cdt/src/gcd/grid_map.hpp
 struct MissingPoint;     // cdt/src/gcd/shift.hpp
 struct ShiftStats;       // cdt/src/gcd/shift.hpp
 struct InsertStats;      // cdt/src/gcd/insert.hpp
@@ -50,6 +51,48 @@ void orient2d_signs(const double* coords, int* signs, std::size_t num);
 /// Signs of incircle for num queries on the device; coords holds ax ay bx by cx cy dx dy per query
 /// (8 * num doubles). Throws DeviceError on any CUDA failure.
 void incircle_signs(const double* coords, int* signs, std::size_t num);
+
+// --- Phase 1 of gCD on the device, first half: the sites, their order and grid cells ------------------
+
+/// The sites of Phase 1 prepared on the device: what cdt::triangulate does on the host before the
+/// digital Voronoi diagram, step for step, so with the same result. The distinct vertices are
+/// renumbered 0..n-1 in the Z order of their grid cells (ties in vertex order), each is given its grid
+/// cell, the lowest-numbered site of a cell is kept there (at its grid point) and the others are
+/// missing points. The positions and grid cells stay on the device for the diagram (DeviceVoronoi),
+/// the dual and shifting; the host gets only the numbering, the kept flags and the missing points.
+class DeviceSites {
+public:
+  /// vertices: the PSLG's vertices (finite coordinates); sites: the distinct ones (vertex ids,
+  /// increasing, at least one); m: the grid side, in [1, 32768]. Fills the host's results: the
+  /// grid mapping of the sites (cdt::detail::make_grid_mapping); the box of every site's positions,
+  /// true and in the diagram; site_vertex (per site, its vertex), site_of_vertex (per vertex, its site
+  /// or kNoId), kept (per site, 1 when it is kept) and the missing points (increasing, each with its
+  /// cell's kept site as hint). The copies' host side runs on `parallel` when given. Throws
+  /// DeviceError when the device lacks the memory or CUDA fails.
+  DeviceSites(std::span<const Point> vertices, std::span<const std::uint32_t> sites, std::uint32_t m,
+              ::cdt::detail::GridMapping& mapping, ::cdt::detail::Box& bounds,
+              std::vector<std::uint32_t>& site_vertex, std::vector<std::uint32_t>& site_of_vertex,
+              std::vector<std::uint8_t>& kept, std::vector<::cdt::detail::MissingPoint>& missing,
+              const HostParallelFor& parallel = {});
+  ~DeviceSites();
+  DeviceSites(DeviceSites&&) noexcept;
+  DeviceSites& operator=(DeviceSites&&) noexcept;
+
+  /// Copies the sites' positions in the diagram to the host (kept sites at their grid points, the
+  /// others at their true positions), and their true positions when asked for (vectors replaced).
+  void positions(std::vector<double>& x, std::vector<double>& y, std::vector<double>* true_x = nullptr,
+                 std::vector<double>* true_y = nullptr, const HostParallelFor& parallel = {}) const;
+
+  struct State; ///< device buffers (defined by the CUDA code)
+  State& state() { return *state_; }
+  const State& state() const { return *state_; }
+
+private:
+  std::unique_ptr<State> state_;
+};
+
+/// Device memory that DeviceSites needs for num_vertices vertices, num_sites sites and an m x m grid.
+std::size_t sites_device_bytes(std::size_t num_vertices, std::size_t num_sites, std::uint32_t m);
 
 // --- Phase 1 of gCD on the device: the digital Voronoi diagram (paper section 3.1, Appendix A) ---------
 
@@ -117,6 +160,10 @@ public:
   DeviceVoronoi(std::span<const std::uint32_t> cell_owner, std::span<const std::uint32_t> site_x,
                 std::span<const std::uint32_t> site_y, std::uint32_t m, const VoronoiOptions& options = {},
                 VoronoiStats* stats = nullptr);
+  /// The same from sites prepared on the device, whose grid cells it takes over (`sites` keeps its
+  /// positions, for complete_dual and DeviceMesh::shift).
+  explicit DeviceVoronoi(DeviceSites& sites, const VoronoiOptions& options = {},
+                         VoronoiStats* stats = nullptr);
   ~DeviceVoronoi();
   DeviceVoronoi(DeviceVoronoi&&) noexcept;
   DeviceVoronoi& operator=(DeviceVoronoi&&) noexcept;
@@ -152,6 +199,16 @@ public:
   DualOutcome complete_dual(::cdt::detail::Mesh& mesh, const ::cdt::detail::Box& bounds,
                             std::optional<DeviceMesh>& out, std::vector<std::uint32_t>& site_vert_tri,
                             std::vector<std::uint32_t>* degenerate = nullptr);
+
+  /// complete_dual with the n sites' positions read from `sites` on the device (no list of degenerate
+  /// corners: they make it decline, and the caller goes on from host copies of the positions).
+  DualOutcome complete_dual(const DeviceSites& sites, const ::cdt::detail::Box& bounds,
+                            std::optional<DeviceMesh>& out, std::vector<std::uint32_t>& site_vert_tri);
+
+  /// The sites' grid cells it was made from (site_x, site_y, or those taken from DeviceSites), copied
+  /// to the host (vectors replaced).
+  void site_cells(std::vector<std::uint32_t>& gx, std::vector<std::uint32_t>& gy,
+                  const HostParallelFor& parallel = {}) const;
 
   /// Replaces the colouring on the device (after cdt::detail::remove_sites_from_colouring on a copy).
   void set_colour(std::span<const std::uint32_t> colour);
@@ -201,6 +258,10 @@ public:
   /// cdt::detail::shift_to_true_positions: the bad cases are appended to `missing` in the same order.
   ::cdt::detail::ShiftStats shift(std::uint32_t num_sites, std::span<const double> true_x,
                                   std::span<const double> true_y,
+                                  std::vector<::cdt::detail::MissingPoint>& missing);
+
+  /// The same with the sites' true positions read from `sites` on the device.
+  ::cdt::detail::ShiftStats shift(std::uint32_t num_sites, const DeviceSites& sites,
                                   std::vector<::cdt::detail::MissingPoint>& missing);
 
   /// Appends vertices at (x[k], y[k]) after the mesh's own, in no triangle yet (vert_tri kNoId), for

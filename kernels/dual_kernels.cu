@@ -26,6 +26,7 @@
 #include "cuda_check.cuh"
 #include "cuda_executor.cuh"
 #include "device_mesh.cuh"
+#include "device_sites.cuh"
 #include "device_voronoi.cuh"
 #include "gcd/dualize.hpp"
 
@@ -179,13 +180,15 @@ namespace detail {
 /// b.vert_tri) with num_dual slots when built. Times the steps into st.
 DeviceVoronoi::DualOutcome build_dual(DeviceVoronoi::State& state, ::cdt::detail::Mesh& mesh, DualStats& st,
                                       std::vector<std::uint32_t>* degenerate, DualBuffers& b,
-                                      std::uint32_t& num_dual, DeviceEvent& started, DeviceEvent& linked) {
+                                      std::uint32_t& num_dual, DeviceEvent& started, DeviceEvent& linked,
+                                      const DeviceSites::State* sites = nullptr) {
   using DualOutcome = DeviceVoronoi::DualOutcome;
   DeviceVoronoi::State* state_ = &state;
   detail::CudaExecutor& executor = state_->executor;
   const std::uint32_t m = state_->m;
-  const std::uint32_t n = mesh.num_vertices();
-  if (mesh.y.size() != n) throw Error("DeviceVoronoi::dual: x and y have different lengths");
+  const std::uint32_t n = sites != nullptr ? sites->n : mesh.num_vertices();
+  if (sites == nullptr && mesh.y.size() != n)
+    throw Error("DeviceVoronoi::dual: x and y have different lengths");
   mesh.tri.clear();
   mesh.adj.clear();
   mesh.seg.clear();
@@ -199,8 +202,13 @@ DeviceVoronoi::DualOutcome build_dual(DeviceVoronoi::State& state, ::cdt::detail
   started.record(executor.stream());
   state_->site_x.resize(n);
   state_->site_y.resize(n);
-  executor.upload(state_->site_x.data(), mesh.x.data(), n);
-  executor.upload(state_->site_y.data(), mesh.y.data(), n);
+  if (sites != nullptr) {
+    copy_on_device(executor, state_->site_x.data(), sites->x.data(), n, "copy_site_x");
+    copy_on_device(executor, state_->site_y.data(), sites->y.data(), n, "copy_site_y");
+  } else {
+    executor.upload(state_->site_x.data(), mesh.x.data(), n);
+    executor.upload(state_->site_y.data(), mesh.y.data(), n);
+  }
   const double* x = state_->site_x.data();
   const double* y = state_->site_y.data();
   const std::uint32_t* colour = state_->buffers.colour.data();
@@ -227,7 +235,7 @@ DeviceVoronoi::DualOutcome build_dual(DeviceVoronoi::State& state, ::cdt::detail
   std::uint32_t bad = 0;
   executor.download(&bad, d_bad, 1);
   if (bad != 0) {
-    if (degenerate == nullptr) return DualOutcome::declined;
+    if (degenerate == nullptr || sites != nullptr) return DualOutcome::declined;
     detail::list_culprits(*state_, bad_list, bad, mesh, *degenerate);
     return DualOutcome::degenerate;
   }
@@ -280,6 +288,14 @@ DeviceVoronoi::DualOutcome build_dual(DeviceVoronoi::State& state, ::cdt::detail
 
 } // namespace detail
 
+namespace detail {
+DeviceVoronoi::DualOutcome complete_dual(DeviceVoronoi::State& voronoi, ::cdt::detail::Mesh& mesh,
+                                         const DeviceSites::State* sites, const ::cdt::detail::Box& bounds,
+                                         std::optional<DeviceMesh>& out,
+                                         std::vector<std::uint32_t>& site_vert_tri,
+                                         std::vector<std::uint32_t>* degenerate);
+} // namespace detail
+
 DeviceVoronoi::DualOutcome DeviceVoronoi::dual(::cdt::detail::Mesh& mesh, DualStats* stats,
                                                std::vector<std::uint32_t>* degenerate) {
   DualStats local;
@@ -311,16 +327,38 @@ DeviceVoronoi::DualOutcome DeviceVoronoi::complete_dual(::cdt::detail::Mesh& mes
                                                         std::optional<DeviceMesh>& out,
                                                         std::vector<std::uint32_t>& site_vert_tri,
                                                         std::vector<std::uint32_t>* degenerate) {
+  return detail::complete_dual(*state_, mesh, nullptr, bounds, out, site_vert_tri, degenerate);
+}
+
+DeviceVoronoi::DualOutcome DeviceVoronoi::complete_dual(const DeviceSites& sites,
+                                                        const ::cdt::detail::Box& bounds,
+                                                        std::optional<DeviceMesh>& out,
+                                                        std::vector<std::uint32_t>& site_vert_tri) {
+  ::cdt::detail::Mesh none;
+  return detail::complete_dual(*state_, none, &sites.state(), bounds, out, site_vert_tri, nullptr);
+}
+
+namespace detail {
+
+/// DeviceVoronoi::complete_dual, the sites' positions from the host's mesh.x, mesh.y or from `sites`.
+DeviceVoronoi::DualOutcome complete_dual(DeviceVoronoi::State& voronoi, ::cdt::detail::Mesh& mesh,
+                                         const DeviceSites::State* sites, const ::cdt::detail::Box& bounds,
+                                         std::optional<DeviceMesh>& out,
+                                         std::vector<std::uint32_t>& site_vert_tri,
+                                         std::vector<std::uint32_t>* degenerate) {
+  using DualOutcome = DeviceVoronoi::DualOutcome;
+  DeviceVoronoi::State* state_ = &voronoi;
   DualStats st;
   detail::DualBuffers b;
   std::uint32_t num_dual = 0;
   detail::DeviceEvent started, linked;
   ::cdt::detail::StepTrace trace("device dual");
-  const DualOutcome outcome = detail::build_dual(*state_, mesh, st, degenerate, b, num_dual, started, linked);
+  const DualOutcome outcome =
+      detail::build_dual(*state_, mesh, st, degenerate, b, num_dual, started, linked, sites);
   if (outcome != DualOutcome::built) return outcome;
   detail::CudaExecutor& executor = state_->executor;
   trace.mark("built and linked");
-  const std::uint32_t n = mesh.num_vertices();
+  const std::uint32_t n = sites != nullptr ? sites->n : mesh.num_vertices();
   const std::size_t words = 3 * static_cast<std::size_t>(num_dual);
 
   // The open edges (every dual slot is live) and their ends, in increasing edge order.
@@ -331,23 +369,34 @@ DeviceVoronoi::DualOutcome DeviceVoronoi::complete_dual(::cdt::detail::Mesh& mes
       words, [=] __device__(std::size_t e) { return adj[e] == ::cdt::detail::kNoId; }, open_ids);
   detail::DeviceBuffer<std::uint32_t> d_open(3 * static_cast<std::size_t>(num_open) + 1);
   std::uint32_t* open = d_open.data();
+  // With each open edge, the position of its first vertex (the boundary's positions).
+  detail::DeviceBuffer<double> d_open_xy(2 * static_cast<std::size_t>(num_open) + 1);
+  double* open_xy = d_open_xy.data();
+  const double* site_x = state_->site_x.data();
+  const double* site_y = state_->site_y.data();
   executor.for_each(
       num_open,
       [=] __device__(std::size_t k) {
         const std::uint32_t e = open_ids[k];
         const std::uint32_t t = ::cdt::detail::edge_tri(e), i = ::cdt::detail::edge_index(e);
+        const std::uint32_t from = tri[3 * t + ::cdt::detail::next3(i)];
         open[3 * k] = e;
-        open[3 * k + 1] = tri[3 * t + ::cdt::detail::next3(i)];
+        open[3 * k + 1] = from;
         open[3 * k + 2] = tri[3 * t + ::cdt::detail::prev3(i)];
+        open_xy[k] = site_x[from];
+        open_xy[num_open + k] = site_y[from];
       },
       "open_edges");
   std::vector<::cdt::detail::OpenEdge> h_open(num_open);
+  std::vector<double> h_open_xy(2 * static_cast<std::size_t>(num_open));
   static_assert(sizeof(::cdt::detail::OpenEdge) == 3 * sizeof(std::uint32_t));
   executor.download(reinterpret_cast<std::uint32_t*>(h_open.data()), open,
                     3 * static_cast<std::size_t>(num_open));
+  executor.download(h_open_xy.data(), open_xy, h_open_xy.size());
   trace.mark("open edges downloaded");
-  const std::optional<::cdt::detail::DualCompletion> plan =
-      ::cdt::detail::plan_dual_completion(h_open, mesh.x, mesh.y, num_dual, bounds);
+  const std::span<const double> all_xy(h_open_xy);
+  const std::optional<::cdt::detail::DualCompletion> plan = ::cdt::detail::plan_dual_completion(
+      h_open, all_xy.first(num_open), all_xy.subspan(num_open), n, num_dual, bounds);
   if (!plan) return DualOutcome::declined;
   trace.mark("completion planned");
 
@@ -389,7 +438,15 @@ DeviceVoronoi::DualOutcome DeviceVoronoi::complete_dual(::cdt::detail::Mesh& mes
   executor.synchronize();
   trace.mark("completion applied, vert_tri downloaded");
   out.emplace(std::move(state));
+  trace.mark("mesh handed over");
+  b = detail::DualBuffers{};
+  trace.mark("dual's buffers released");
+  d_open = {};
+  d_open_xy = {};
+  trace.mark("open edges' buffers released");
   return DualOutcome::built;
 }
+
+} // namespace detail
 
 } // namespace cdt::gpu

@@ -16,6 +16,7 @@
 #include "cuda_check.cuh"
 #include "cuda_executor.cuh"
 #include "device_mesh.cuh"
+#include "device_sites.cuh"
 #include "gcd/insert.hpp"
 #include "gcd/mesh.hpp"
 #include "gcd/shift.hpp"
@@ -256,21 +257,17 @@ std::uint32_t sites_in_slot_order(DeviceMesh::State& s, std::uint32_t num_sites,
   return n;
 }
 
-ShiftStats shift(DeviceMesh::State& s, std::uint32_t num_sites, std::span<const double> true_x,
-                 std::span<const double> true_y, std::vector<MissingPoint>& missing) {
+/// Shifting with the sites' true positions tx, ty on the device (num_sites each).
+ShiftStats shift(DeviceMesh::State& s, std::uint32_t num_sites, const double* tx, const double* ty,
+                 std::vector<MissingPoint>& missing) {
   using ::cdt::detail::kBad;
   using ::cdt::detail::kGood;
   using ::cdt::detail::kUnchecked;
-  if (true_x.size() < num_sites || true_y.size() < num_sites || s.num_vertices < num_sites)
-    throw Error("internal error: shift_to_true_positions: fewer coordinates than sites");
+  if (s.num_vertices < num_sites)
+    throw Error("internal error: shift_to_true_positions: fewer vertices than sites");
   ShiftStats stats;
   CudaExecutor& executor = s.executor;
   const MeshView m = s.view();
-  DeviceBuffer<double> d_tx(num_sites), d_ty(num_sites);
-  executor.upload(d_tx.data(), true_x.data(), num_sites);
-  executor.upload(d_ty.data(), true_y.data(), num_sites);
-  const double* tx = d_tx.data();
-  const double* ty = d_ty.data();
   DeviceBuffer<std::uint8_t> d_state(m.num_vertices);
   std::uint8_t* state = d_state.data();
   executor.fill_bytes(state, kGood, m.num_vertices);
@@ -785,7 +782,20 @@ DeviceMesh& DeviceMesh::operator=(DeviceMesh&&) noexcept = default;
 
 ShiftStats DeviceMesh::shift(std::uint32_t num_sites, std::span<const double> true_x,
                              std::span<const double> true_y, std::vector<MissingPoint>& missing) {
-  return detail::shift(*state_, num_sites, true_x, true_y, missing);
+  if (true_x.size() < num_sites || true_y.size() < num_sites)
+    throw Error("internal error: shift_to_true_positions: fewer coordinates than sites");
+  detail::DeviceBuffer<double> d_tx(num_sites), d_ty(num_sites);
+  state_->executor.upload(d_tx.data(), true_x.data(), num_sites);
+  state_->executor.upload(d_ty.data(), true_y.data(), num_sites);
+  return detail::shift(*state_, num_sites, d_tx.data(), d_ty.data(), missing);
+}
+
+ShiftStats DeviceMesh::shift(std::uint32_t num_sites, const DeviceSites& sites,
+                             std::vector<MissingPoint>& missing) {
+  const DeviceSites::State& from = sites.state();
+  if (from.n < num_sites)
+    throw Error("internal error: shift_to_true_positions: fewer coordinates than sites");
+  return detail::shift(*state_, num_sites, from.true_x.data(), from.true_y.data(), missing);
 }
 
 InsertStats DeviceMesh::insert(std::span<const MissingPoint> missing) {

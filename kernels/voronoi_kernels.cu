@@ -21,6 +21,7 @@
 #include "cdt_kernels.hpp"
 #include "cuda_check.cuh"
 #include "cuda_executor.cuh"
+#include "device_sites.cuh"
 #include "device_voronoi.cuh"
 #include "gcd/voronoi.hpp"
 
@@ -206,20 +207,25 @@ std::size_t voronoi_device_bytes(std::uint32_t m, std::size_t num_points, const 
 
 namespace detail {
 
-/// DeviceVoronoi's construction (a constructor cannot hold the extended lambdas of its steps).
+/// DeviceVoronoi's construction (a constructor cannot hold the extended lambdas of its steps): from
+/// the host's arrays, or when `sites` is given from its grid cells (taken over; the arrays are empty).
 void colour_on_device(DeviceVoronoi::State& state, std::span<const std::uint32_t> cell_owner,
                       std::span<const std::uint32_t> site_x, std::span<const std::uint32_t> site_y,
-                      std::uint32_t m, const VoronoiOptions& options, VoronoiStats* stats) {
+                      std::uint32_t m, const VoronoiOptions& options, VoronoiStats* stats,
+                      DeviceSites::State* sites = nullptr) {
+  if (sites != nullptr) m = sites->m;
   if (m == 0 || m > ::cdt::detail::kMaxGridSize)
     throw Error("compute_digital_voronoi: grid size " + std::to_string(m) + " is outside [1, " +
                 std::to_string(::cdt::detail::kMaxGridSize) + "]");
   const std::size_t cells = static_cast<std::size_t>(m) * m;
-  if (cell_owner.size() != cells)
+  if (sites == nullptr && cell_owner.size() != cells)
     throw Error("compute_digital_voronoi: cell_owner has " + std::to_string(cell_owner.size()) +
                 " entries, not m * m = " + std::to_string(cells));
+  if (sites != nullptr && (sites->cell_owner.size() != cells || sites->gx.size() != sites->n))
+    throw Error("internal error: the device's grid sites were taken over already");
   if (site_x.size() != site_y.size())
     throw Error("compute_digital_voronoi: site_x and site_y have different lengths");
-  const std::size_t n = site_x.size();
+  const std::size_t n = sites != nullptr ? sites->n : site_x.size();
   if (n >= kNone) throw Error("compute_digital_voronoi: too many points for 32-bit indices");
 
   VoronoiStats local;
@@ -238,17 +244,24 @@ void colour_on_device(DeviceVoronoi::State& state, std::span<const std::uint32_t
   VoronoiBuffers& b = state.buffers;
   ::cdt::detail::pba::PbaView v;
   static_cast<::cdt::detail::pba::PbaLayout&>(v) = detail::device_layout(m, options);
+  if (sites != nullptr) {
+    b.owner = std::move(sites->cell_owner);
+    b.site_x = std::move(sites->gx);
+    b.site_y = std::move(sites->gy);
+  }
   b.owner.resize(cells);
   b.colour.resize(cells);
   b.stack.resize(cells);
   b.stack_size.resize(v.stack_size_entries());
   b.above.resize(v.band_link_entries());
   b.below.resize(v.band_link_entries());
-  b.site_x.resize(n);
-  b.site_y.resize(n);
-  executor.upload(b.owner.data(), cell_owner.data(), cells);
-  executor.upload(b.site_x.data(), site_x.data(), n);
-  executor.upload(b.site_y.data(), site_y.data(), n);
+  if (sites == nullptr) {
+    b.site_x.resize(n);
+    b.site_y.resize(n);
+    executor.upload(b.owner.data(), cell_owner.data(), cells);
+    executor.upload(b.site_x.data(), site_x.data(), n);
+    executor.upload(b.site_y.data(), site_y.data(), n);
+  }
   detail::check_owners(executor, b, m, n);
   uploaded.record(executor.stream());
 
@@ -294,9 +307,23 @@ DeviceVoronoi::DeviceVoronoi(std::span<const std::uint32_t> cell_owner, std::spa
   detail::colour_on_device(*state_, cell_owner, site_x, site_y, m, options, stats);
 }
 
+DeviceVoronoi::DeviceVoronoi(DeviceSites& sites, const VoronoiOptions& options, VoronoiStats* stats)
+    : state_(std::make_unique<State>()) {
+  detail::colour_on_device(*state_, {}, {}, {}, 0, options, stats, &sites.state());
+}
+
 DeviceVoronoi::~DeviceVoronoi() = default;
 DeviceVoronoi::DeviceVoronoi(DeviceVoronoi&&) noexcept = default;
 DeviceVoronoi& DeviceVoronoi::operator=(DeviceVoronoi&&) noexcept = default;
+
+void DeviceVoronoi::site_cells(std::vector<std::uint32_t>& gx, std::vector<std::uint32_t>& gy,
+                               const HostParallelFor& parallel) const {
+  const std::size_t n = state_->num_points;
+  gx.resize(n);
+  gy.resize(n);
+  state_->executor.download(gx.data(), state_->buffers.site_x.data(), n, &parallel);
+  state_->executor.download(gy.data(), state_->buffers.site_y.data(), n, &parallel);
+}
 
 std::vector<std::uint32_t> DeviceVoronoi::colour(float* download_ms) const {
   detail::CudaExecutor& executor = state_->executor;

@@ -1,10 +1,10 @@
 // triangulate(): the gCD pipeline (paper sections 3 and 4). The CPU executor runs every phase; with
-// the GPU backend the CUDA executor runs the digital Voronoi diagram, the dual triangles with their
-// links (Phase 2 but for hull completion and the fake boundary), shifting, missing points, the fake
-// boundary's removal, the segments' screen, the constraints and the Lawson flips before and after
-// them, each the same computation as the CPU executor's step for step, so the result is the same; the
-// CPU executor runs the rest (preparation, site assignment, hull completion and fake boundary, the
-// suspects' split), until those move to the device too.
+// the GPU backend the CUDA executor runs the sites' order, grid cells and kept sites, the digital
+// Voronoi diagram, the dual triangles with their links (Phase 2 but for hull completion and the fake
+// boundary), shifting, missing points, the fake boundary's removal, the segments' screen, the
+// constraints and the Lawson flips before and after them, each the same computation as the CPU
+// executor's step for step, so the result is the same; the CPU executor runs the rest (preparation,
+// hull completion and fake boundary, the suspects' split), until those move to the device too.
 //
 //   prepare   merge duplicates (cdt/src/pslg.cpp)
 //   voronoi   Phase 1: grid mapping (Appendix B), digital Voronoi diagram (PBA + Appendix A)
@@ -110,16 +110,6 @@ detail::FlipStats flip_stats(const gpu::FlipResult& device) {
 }
 #endif
 
-/// Spreads the low 16 bits of v to the even bit positions.
-std::uint32_t spread_bits(std::uint32_t v) {
-  v &= 0xFFFFu;
-  v = (v | (v << 8)) & 0x00FF00FFu;
-  v = (v | (v << 4)) & 0x0F0F0F0Fu;
-  v = (v | (v << 2)) & 0x33333333u;
-  v = (v | (v << 1)) & 0x55555555u;
-  return v;
-}
-
 /// The sites (vertex ids, in `sites` order) reordered by the Z-order index of their grid cells, ties in
 /// their given order. Every phase walks fans and reads the coordinates of neighbours; with neighbours
 /// numbered close together those reads hit the cache instead of memory (input order is arbitrary, often
@@ -130,10 +120,9 @@ std::vector<std::uint32_t> spatial_site_order(const detail::GridMapping& mapping
                                               detail::CpuExecutor& executor) {
   const std::size_t n = sites.size();
   std::vector<std::uint32_t> key(n);
-  executor.for_each(n, [&](std::size_t s) {
-    key[s] = spread_bits(mapping.grid_x(x[s])) | (spread_bits(mapping.grid_y(y[s])) << 1);
-  });
-  // Stable: ties keep their given order. Grid coordinates have at most 15 bits each, so keys at most 30.
+  executor.for_each(
+      n, [&](std::size_t s) { key[s] = detail::z_order_key(mapping.grid_x(x[s]), mapping.grid_y(y[s])); });
+  // Stable: ties keep their given order.
   std::vector<std::uint32_t> order(n);
   executor.for_each(n, [&](std::size_t s) { order[s] = static_cast<std::uint32_t>(s); });
   executor.sort_pairs_by_key(key, order, 2 * std::bit_width(mapping.m - 1));
@@ -276,7 +265,10 @@ Triangulation triangulate_on(std::span<const Point> points, std::span<const Segm
   stats.zero_length_segments = pslg.zero_length_segments;
 
   // Sites: the distinct vertices, numbered 0..n-1 in the mesh in the order of their grid cells along a
-  // Z curve (see spatial_site_order).
+  // Z curve (see spatial_site_order), each given its grid cell; the lowest-numbered site of a cell is
+  // kept (at its grid point), the others are missing points. With the GPU backend the device does this
+  // (gpu::DeviceSites, the same steps) and keeps the positions; the host gets them only should the
+  // dual need the host's help (degenerate corners).
   const auto n = static_cast<std::uint32_t>(pslg.sites.size());
   const std::uint32_t m = options.grid_size != 0
                               ? options.grid_size
@@ -284,72 +276,94 @@ Triangulation triangulate_on(std::span<const Point> points, std::span<const Segm
                                                     : pslg.pieces.empty() ? GridFor::host_points
                                                                           : GridFor::host);
   stats.grid_size = m;
-  std::vector<double> true_x(n);
-  std::vector<double> true_y(n);
-  executor.for_each(n, [&](std::size_t s) {
-    true_x[s] = pslg.vertices[pslg.sites[s]].x;
-    true_y[s] = pslg.vertices[pslg.sites[s]].y;
-  });
-  trace.mark("sites' coordinates");
-  const GridMapping mapping = make_grid_mapping(true_x, true_y, m, executor);
-  trace.mark("grid mapping");
-  std::vector<std::uint32_t> site_vertex = spatial_site_order(mapping, true_x, true_y, pslg.sites, executor);
-  std::vector<std::uint32_t> site_of_vertex(pslg.vertices.size(), kNoId);
-  trace.mark("spatial order");
-  executor.for_each(n, [&](std::size_t s) {
-    true_x[s] = pslg.vertices[site_vertex[s]].x;
-    true_y[s] = pslg.vertices[site_vertex[s]].y;
-    site_of_vertex[site_vertex[s]] = static_cast<std::uint32_t>(s);
-  });
-
-  // Phase 1. On the device the colouring stays there for Phase 2.
-  trace.mark("renumbering");
-  const GridSites grid = assign_sites(mapping, true_x, true_y, executor);
-  trace.mark("site assignment");
+  GridMapping mapping;
+  std::vector<std::uint32_t> site_vertex;    // per site, its vertex
+  std::vector<std::uint32_t> site_of_vertex; // per vertex, its site (kNoId for duplicates)
+  std::vector<double> true_x, true_y;        // per site, its true position (CPU executor)
+  std::vector<double> x, y;                  // per site, its position in the diagram
+  std::vector<std::uint8_t> kept;            // per site, 1 when it owns its grid cell
+  std::vector<MissingPoint> missing;
+  GridSites grid;
+  Box bounds; // the box of both positions of every site
   std::vector<std::uint32_t> colour;
 #if defined(TRIXEL_HAVE_CUDA)
-  std::optional<gpu::DeviceVoronoi> device_diagram;
-  if (on_gpu) device_diagram.emplace(grid.cell_owner, grid.gx, grid.gy, m);
-#endif
-  if (!on_gpu) colour = compute_digital_voronoi(grid, m, executor);
-  trace.mark("digital voronoi");
-  timer.end("voronoi").missing = grid.missing.size();
-
-  // Phase 2: kept sites at their exact grid positions.
-  std::vector<double> x = true_x;
-  std::vector<double> y = true_y;
-  std::vector<std::uint8_t> kept(n, 0);
-  executor.for_each(n, [&](std::size_t s) {
-    const std::size_t cell = static_cast<std::size_t>(grid.gy[s]) * m + grid.gx[s];
-    if (grid.cell_owner[cell] == s) {
-      kept[s] = 1;
-      x[s] = mapping.to_x(grid.gx[s]);
-      y[s] = mapping.to_y(grid.gy[s]);
-    }
-  });
-  trace.mark("kept sites");
-  // The box of both positions of every site.
-  const auto extend = [](Box& b, double px, double py) {
-    b.min_x = std::min(b.min_x, px);
-    b.min_y = std::min(b.min_y, py);
-    b.max_x = std::max(b.max_x, px);
-    b.max_y = std::max(b.max_y, py);
+  bool host_positions = !on_gpu; // x, y and the grid cells are on the host
+  std::optional<gpu::DeviceSites> device_sites;
+  std::optional<gpu::DeviceVoronoi> device_diagram; // Phase 1's colouring stays on the device for Phase 2
+  const gpu::HostParallelFor parallel = [&](std::size_t parts, const std::function<void(std::size_t)>& body) {
+    executor.for_each_part(parts, body);
   };
-  const Box bounds = executor.reduce(
-      n, Box{true_x[0], true_y[0], true_x[0], true_y[0]},
-      [&](Box& b, std::size_t s) {
-        extend(b, x[s], y[s]);
-        extend(b, true_x[s], true_y[s]);
-      },
-      [&](Box& b, const Box& part) {
-        extend(b, part.min_x, part.min_y);
-        extend(b, part.max_x, part.max_y);
-      });
-  trace.mark("bounds");
-  std::vector<MissingPoint> missing(grid.missing.size());
-  executor.for_each(missing.size(), [&](std::size_t k) {
-    missing[k] = {grid.missing[k], grid.missing_owner[k]};
-  });
+  if (on_gpu) {
+    device_sites.emplace(pslg.vertices, pslg.sites, m, mapping, bounds, site_vertex, site_of_vertex, kept,
+                         missing, parallel);
+    trace.mark("device sites");
+    device_diagram.emplace(*device_sites);
+    trace.mark("digital voronoi");
+    timer.end("voronoi").missing = missing.size();
+  }
+#endif
+  if (!on_gpu) {
+    true_x.resize(n);
+    true_y.resize(n);
+    executor.for_each(n, [&](std::size_t s) {
+      true_x[s] = pslg.vertices[pslg.sites[s]].x;
+      true_y[s] = pslg.vertices[pslg.sites[s]].y;
+    });
+    trace.mark("sites' coordinates");
+    mapping = make_grid_mapping(true_x, true_y, m, executor);
+    trace.mark("grid mapping");
+    site_vertex = spatial_site_order(mapping, true_x, true_y, pslg.sites, executor);
+    site_of_vertex.assign(pslg.vertices.size(), kNoId);
+    trace.mark("spatial order");
+    executor.for_each(n, [&](std::size_t s) {
+      true_x[s] = pslg.vertices[site_vertex[s]].x;
+      true_y[s] = pslg.vertices[site_vertex[s]].y;
+      site_of_vertex[site_vertex[s]] = static_cast<std::uint32_t>(s);
+    });
+    trace.mark("renumbering");
+
+    // Phase 1.
+    grid = assign_sites(mapping, true_x, true_y, executor);
+    trace.mark("site assignment");
+    colour = compute_digital_voronoi(grid, m, executor);
+    trace.mark("digital voronoi");
+    timer.end("voronoi").missing = grid.missing.size();
+
+    // Phase 2: kept sites at their exact grid positions.
+    x = true_x;
+    y = true_y;
+    kept.assign(n, 0);
+    executor.for_each(n, [&](std::size_t s) {
+      const std::size_t cell = static_cast<std::size_t>(grid.gy[s]) * m + grid.gx[s];
+      if (grid.cell_owner[cell] == s) {
+        kept[s] = 1;
+        x[s] = mapping.to_x(grid.gx[s]);
+        y[s] = mapping.to_y(grid.gy[s]);
+      }
+    });
+    trace.mark("kept sites");
+    const auto extend = [](Box& b, double px, double py) {
+      b.min_x = std::min(b.min_x, px);
+      b.min_y = std::min(b.min_y, py);
+      b.max_x = std::max(b.max_x, px);
+      b.max_y = std::max(b.max_y, py);
+    };
+    bounds = executor.reduce(
+        n, Box{true_x[0], true_y[0], true_x[0], true_y[0]},
+        [&](Box& b, std::size_t s) {
+          extend(b, x[s], y[s]);
+          extend(b, true_x[s], true_y[s]);
+        },
+        [&](Box& b, const Box& part) {
+          extend(b, part.min_x, part.min_y);
+          extend(b, part.max_x, part.max_y);
+        });
+    trace.mark("bounds");
+    missing.resize(grid.missing.size());
+    executor.for_each(missing.size(), [&](std::size_t k) {
+      missing[k] = {grid.missing[k], grid.missing_owner[k]};
+    });
+  }
   // Degenerate corners (collinear sites meeting at a grid corner) take their middle site out of the
   // diagram; it becomes a missing point. A few passes settle every input met so far; should they not,
   // the fake polygon alone is the start and every site a missing point.
@@ -363,9 +377,25 @@ Triangulation triangulate_on(std::span<const Point> points, std::span<const Segm
   std::vector<std::uint32_t> degenerate;
   DualCorners corners; // the CPU executor's dual rows, kept from pass to pass
   int passes = 1;
+  trace.mark("dual's passes set up");
   for (;; ++passes) {
     std::vector<std::uint32_t>* list = passes <= 8 ? &degenerate : nullptr;
 #if defined(TRIXEL_HAVE_CUDA)
+    if (device_diagram && !host_positions) {
+      // The first pass from the sites' positions on the device; degenerate corners (common: kept sites
+      // sit on grid points, so three of them are often collinear) make it decline, and the passes go on
+      // from host copies of the positions and grid cells, as below.
+      const auto outcome = device_diagram->complete_dual(*device_sites, bounds, device_mesh, site_vert_tri);
+      trace.mark("device dual returned");
+      if (outcome == gpu::DeviceVoronoi::DualOutcome::built) {
+        trace.mark("device dual");
+        check_missing_sites_left_out(kept, site_vert_tri, executor);
+        break;
+      }
+      device_sites->positions(x, y, nullptr, nullptr, parallel);
+      device_diagram->site_cells(grid.gx, grid.gy, parallel);
+      host_positions = true;
+    }
     if (device_diagram) {
       using Outcome = gpu::DeviceVoronoi::DualOutcome;
       // The dual is built and completed on the device and stays there for Phase 3 (only its open
@@ -394,8 +424,8 @@ Triangulation triangulate_on(std::span<const Point> points, std::span<const Segm
     corners.mark_changed(remove_sites_from_colouring(colour, grid, m, degenerate), m);
     for (const std::uint32_t s : degenerate) {
       kept[s] = 0;
-      x[s] = true_x[s];
-      y[s] = true_y[s];
+      x[s] = pslg.vertices[site_vertex[s]].x; // its true position
+      y[s] = pslg.vertices[site_vertex[s]].y;
     }
     for (const std::uint32_t s : degenerate) {
       // The site now owning the removed site's grid point is next to it; the fake boundary, always in
@@ -439,7 +469,10 @@ Triangulation triangulate_on(std::span<const Point> points, std::span<const Segm
   // Phase 3.
   ShiftStats shift;
 #if defined(TRIXEL_HAVE_CUDA)
-  if (on_gpu) shift = device_mesh->shift(n, true_x, true_y, missing);
+  if (on_gpu) {
+    shift = device_mesh->shift(n, *device_sites, missing);
+    device_sites.reset(); // its device memory is free for the later phases
+  }
 #endif
   if (!on_gpu) shift = shift_to_true_positions(mesh, n, true_x, true_y, missing, executor);
   end_phase("shift", shift.rounds, 0, shift.bad);
@@ -559,10 +592,6 @@ Triangulation triangulate_on(std::span<const Point> points, std::span<const Segm
   if (device_mesh) {
     // Made on the device and copied straight into the result; the mesh itself stays there.
     trace.mark("segment of piece");
-    const gpu::HostParallelFor parallel = [&](std::size_t parts,
-                                              const std::function<void(std::size_t)>& body) {
-      executor.for_each_part(parts, body);
-    };
     device_mesh->output(site_vertex, segment_of_piece, result.triangles, result.neighbors,
                         result.segment_of_edge, parallel);
     trace.mark("device output");

@@ -13,7 +13,9 @@
 #include "cdt/errors.hpp"
 #include "cdt_kernels.hpp"
 #include "executor/cpu_executor.hpp"
+#include "gcd/dualize.hpp"
 #include "gcd/grid_map.hpp"
+#include "gcd/shift.hpp"
 #include "gcd/voronoi.hpp"
 
 namespace {
@@ -339,6 +341,133 @@ TEST_F(GpuVoronoi, InputBeyondTheMemoryLimitIsADeviceError) {
   EXPECT_EQ(stats.device_bytes, need);
   // The largest grid's estimate is finite and grows with the points.
   EXPECT_LT(cdt::gpu::voronoi_device_bytes(32768, 0), cdt::gpu::voronoi_device_bytes(32768, 1000000));
+}
+
+/// What cdt::triangulate computes on the host before the digital Voronoi diagram, written out here
+/// step by step: the sites in the Z order of their grid cells (ties in vertex order), their grid cells
+/// and owners, kept sites at their grid points, the box of both positions, the missing points.
+struct HostSites {
+  cdt::detail::GridMapping mapping;
+  std::vector<std::uint32_t> site_vertex, site_of_vertex;
+  std::vector<double> true_x, true_y, x, y;
+  std::vector<std::uint8_t> kept;
+  std::vector<cdt::detail::MissingPoint> missing;
+  cdt::detail::Box bounds;
+  GridSites grid;
+};
+
+HostSites host_sites(const std::vector<cdt::Point>& vertices, const std::vector<std::uint32_t>& sites,
+                     std::uint32_t m, CpuExecutor& executor) {
+  HostSites h;
+  const std::size_t n = sites.size();
+  std::vector<double> gx(n), gy(n);
+  for (std::size_t k = 0; k < n; ++k) {
+    gx[k] = vertices[sites[k]].x;
+    gy[k] = vertices[sites[k]].y;
+  }
+  h.mapping = cdt::detail::make_grid_mapping(gx, gy, m);
+  std::vector<std::uint32_t> order(n);
+  for (std::size_t k = 0; k < n; ++k) order[k] = static_cast<std::uint32_t>(k);
+  const auto key = [&](std::uint32_t k) {
+    return cdt::detail::z_order_key(h.mapping.grid_x(gx[k]), h.mapping.grid_y(gy[k]));
+  };
+  std::stable_sort(order.begin(), order.end(),
+                   [&](std::uint32_t a, std::uint32_t b) { return key(a) < key(b); });
+  h.site_of_vertex.assign(vertices.size(), cdt::detail::kNoId);
+  for (std::size_t k = 0; k < n; ++k) {
+    const std::uint32_t v = sites[order[k]];
+    h.site_vertex.push_back(v);
+    h.site_of_vertex[v] = static_cast<std::uint32_t>(k);
+    h.true_x.push_back(vertices[v].x);
+    h.true_y.push_back(vertices[v].y);
+  }
+  h.grid = cdt::detail::assign_sites(h.mapping, h.true_x, h.true_y, executor);
+  h.x = h.true_x;
+  h.y = h.true_y;
+  h.kept.assign(n, 0);
+  h.bounds = {h.true_x[0], h.true_y[0], h.true_x[0], h.true_y[0]};
+  for (std::size_t k = 0; k < n; ++k) {
+    if (h.grid.cell_owner[static_cast<std::size_t>(h.grid.gy[k]) * m + h.grid.gx[k]] == k) {
+      h.kept[k] = 1;
+      h.x[k] = h.mapping.to_x(h.grid.gx[k]);
+      h.y[k] = h.mapping.to_y(h.grid.gy[k]);
+    }
+    for (const auto& [px, py] : {std::pair{h.x[k], h.y[k]}, std::pair{h.true_x[k], h.true_y[k]}}) {
+      h.bounds.min_x = std::min(h.bounds.min_x, px);
+      h.bounds.min_y = std::min(h.bounds.min_y, py);
+      h.bounds.max_x = std::max(h.bounds.max_x, px);
+      h.bounds.max_y = std::max(h.bounds.max_y, py);
+    }
+  }
+  for (std::size_t i = 0; i < h.grid.missing.size(); ++i)
+    h.missing.push_back({h.grid.missing[i], h.grid.missing_owner[i]});
+  return h;
+}
+
+// gpu::DeviceSites gives the host's numbering, cells, kept sites, missing points and box, and the
+// diagram made from its cells on the device is the host's colouring: with every vertex a site and
+// with some left out (duplicates), on grids from 1 to 1024 a side, with many points per cell.
+TEST_F(GpuVoronoi, DeviceSitesMatchTheHostSteps) {
+  CpuExecutor executor(2);
+  Rng rng(7);
+  std::size_t missing_seen = 0;
+  for (const std::uint32_t m : {1u, 2u, 64u, 256u, 1024u}) {
+    for (const Layout layout : {Layout::uniform, Layout::gaussian, Layout::clustered, Layout::lattice}) {
+      for (const bool subset : {false, true}) {
+        const std::size_t n = std::max<std::size_t>(3, static_cast<std::size_t>(m) * m / 2);
+        const Points p = make_points(layout, n, rng);
+        std::vector<cdt::Point> vertices(n);
+        for (std::size_t i = 0; i < n; ++i) vertices[i] = {p.x[i], p.y[i]};
+        std::vector<std::uint32_t> sites;
+        for (std::uint32_t i = 0; i < n; ++i)
+          if (!subset || i % 7 != 3) sites.push_back(i);
+        const HostSites h = host_sites(vertices, sites, m, executor);
+
+        cdt::detail::GridMapping mapping;
+        cdt::detail::Box bounds;
+        std::vector<std::uint32_t> site_vertex, site_of_vertex;
+        std::vector<std::uint8_t> kept;
+        std::vector<cdt::detail::MissingPoint> missing;
+        cdt::gpu::DeviceSites device(vertices, sites, m, mapping, bounds, site_vertex, site_of_vertex, kept,
+                                     missing);
+        const std::string what =
+            std::string(name(layout)) + " m " + std::to_string(m) + (subset ? " subset" : "");
+        EXPECT_EQ(mapping.m, h.mapping.m) << what;
+        EXPECT_EQ(mapping.scale, h.mapping.scale) << what;
+        EXPECT_EQ(mapping.tx, h.mapping.tx) << what;
+        EXPECT_EQ(mapping.ty, h.mapping.ty) << what;
+        EXPECT_EQ(site_vertex, h.site_vertex) << what;
+        EXPECT_EQ(site_of_vertex, h.site_of_vertex) << what;
+        EXPECT_EQ(kept, h.kept) << what;
+        ASSERT_EQ(missing.size(), h.missing.size()) << what;
+        for (std::size_t i = 0; i < missing.size(); ++i) {
+          EXPECT_EQ(missing[i].vertex, h.missing[i].vertex) << what << " missing " << i;
+          EXPECT_EQ(missing[i].hint, h.missing[i].hint) << what << " missing " << i;
+        }
+        missing_seen += missing.size();
+        EXPECT_EQ(bounds.min_x, h.bounds.min_x) << what;
+        EXPECT_EQ(bounds.min_y, h.bounds.min_y) << what;
+        EXPECT_EQ(bounds.max_x, h.bounds.max_x) << what;
+        EXPECT_EQ(bounds.max_y, h.bounds.max_y) << what;
+        std::vector<double> true_x, true_y, x, y;
+        device.positions(x, y, &true_x, &true_y);
+        EXPECT_EQ(true_x, h.true_x) << what;
+        EXPECT_EQ(true_y, h.true_y) << what;
+        EXPECT_EQ(x, h.x) << what;
+        EXPECT_EQ(y, h.y) << what;
+        const cdt::gpu::DeviceVoronoi diagram(device);
+        std::vector<std::uint32_t> gx, gy;
+        diagram.site_cells(gx, gy);
+        EXPECT_EQ(gx, h.grid.gx) << what;
+        EXPECT_EQ(gy, h.grid.gy) << what;
+        EXPECT_EQ(differences(diagram.colour(), cdt::detail::compute_digital_voronoi(h.grid, m, executor), m),
+                  "")
+            << what;
+        if (HasFailure()) return;
+      }
+    }
+  }
+  EXPECT_GT(missing_seen, 0u) << "no cell held two sites: the owners' minimum went untested";
 }
 
 } // namespace

@@ -70,23 +70,25 @@ void add_outside_vertex(std::vector<std::uint32_t>& hull, std::uint32_t f, const
 
 /// The boundary cycle (counter-clockwise) through the open edges (in increasing edge order), or empty
 /// when they do not form one simple cycle.
+/// The open edges (indices into `open`) in the order they run around the dual's boundary, when it is
+/// one simple cycle; empty otherwise.
 std::vector<std::uint32_t> boundary_cycle(std::span<const OpenEdge> open) {
-  std::unordered_map<std::uint32_t, std::uint32_t> next;
-  next.reserve(2 * open.size());
-  std::uint32_t first = kNoId;
-  for (const OpenEdge& e : open) {
-    if (!next.emplace(e.from, e.to).second) return {}; // two boundary edges leave one vertex: a pinch
-    first = e.from;
+  std::unordered_map<std::uint32_t, std::uint32_t> leaving; // vertex -> the open edge leaving it
+  leaving.reserve(2 * open.size());
+  for (std::size_t k = 0; k < open.size(); ++k) {
+    if (!leaving.emplace(open[k].from, static_cast<std::uint32_t>(k)).second)
+      return {}; // two boundary edges leave one vertex: a pinch
   }
   std::vector<std::uint32_t> cycle;
-  if (first == kNoId) return cycle;
-  std::uint32_t v = first;
+  if (open.empty()) return cycle;
+  const std::uint32_t first = static_cast<std::uint32_t>(open.size() - 1);
+  std::uint32_t k = first;
   do {
-    cycle.push_back(v);
-    const auto it = next.find(v);
-    v = it == next.end() ? kNoId : it->second;
-  } while (v != kNoId && v != first && cycle.size() <= open.size());
-  if (v != first || cycle.size() != open.size()) return {};
+    cycle.push_back(k);
+    const auto it = leaving.find(open[k].to);
+    k = it == leaving.end() ? kNoId : it->second;
+  } while (k != kNoId && k != first && cycle.size() <= open.size());
+  if (k != first || cycle.size() != open.size()) return {};
   return cycle;
 }
 
@@ -239,18 +241,32 @@ void reserve_mesh_slots(Mesh& mesh, std::uint32_t n) {
 std::optional<DualCompletion> plan_dual_completion(std::span<const OpenEdge> open, std::span<const double> x,
                                                    std::span<const double> y, std::uint32_t num_dual,
                                                    const Box& bounds) {
-  const auto n = static_cast<std::uint32_t>(x.size());
-  const std::vector<std::uint32_t> boundary = boundary_cycle(open);
-  if (boundary.size() < 3) return std::nullopt;
+  std::vector<double> open_x(open.size());
+  std::vector<double> open_y(open.size());
+  for (std::size_t k = 0; k < open.size(); ++k) {
+    open_x[k] = x[open[k].from];
+    open_y[k] = y[open[k].from];
+  }
+  return plan_dual_completion(open, open_x, open_y, static_cast<std::uint32_t>(x.size()), num_dual, bounds);
+}
+
+std::optional<DualCompletion> plan_dual_completion(std::span<const OpenEdge> open,
+                                                   std::span<const double> open_x,
+                                                   std::span<const double> open_y, std::uint32_t n,
+                                                   std::uint32_t num_dual, const Box& bounds) {
+  const std::vector<std::uint32_t> cycle = boundary_cycle(open);
+  if (cycle.size() < 3) return std::nullopt;
 
   // The hull and the fake boundary are worked out on the boundary's vertices alone, numbered locally:
   // boundary vertex k is k, fake vertex f is boundary.size() + f.
-  const auto b = static_cast<std::uint32_t>(boundary.size());
+  const auto b = static_cast<std::uint32_t>(cycle.size());
+  std::vector<std::uint32_t> boundary(b);
   std::vector<double> lx(b);
   std::vector<double> ly(b);
   for (std::uint32_t k = 0; k < b; ++k) {
-    lx[k] = x[boundary[k]];
-    ly[k] = y[boundary[k]];
+    boundary[k] = open[cycle[k]].from;
+    lx[k] = open_x[cycle[k]];
+    ly[k] = open_y[cycle[k]];
   }
   // Hull completion (Graham-scan-like): start at the lowest-leftmost boundary vertex, which is on the
   // convex hull, and fill every reflex turn with a triangle outside the current mesh.

@@ -111,6 +111,13 @@ std::optional<DualCompletion> plan_dual_completion(std::span<const OpenEdge> ope
                                                    std::span<const double> y, std::uint32_t num_dual,
                                                    const Box& bounds);
 
+/// The same, given only the positions of the open edges' first vertices: open[k].from is at (open_x[k],
+/// open_y[k]) (each boundary vertex is the first of one open edge); n: the number of sites.
+std::optional<DualCompletion> plan_dual_completion(std::span<const OpenEdge> open,
+                                                   std::span<const double> open_x,
+                                                   std::span<const double> open_y, std::uint32_t n,
+                                                   std::uint32_t num_dual, const Box& bounds);
+
 /// Throws Error when a site that is not kept (a missing point) has a triangle in the dual: vert_tri
 /// holds at least the sites' entries.
 void check_missing_sites_left_out(std::span<const std::uint8_t> kept, std::span<const std::uint32_t> vert_tri,

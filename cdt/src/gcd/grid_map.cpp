@@ -100,8 +100,14 @@ GridMapping make_grid_mapping(std::span<const double> x, std::span<const double>
   if (bounds.bad != n)
     throw InvalidInputError(InvalidInputError::Kind::non_finite_coordinate, bounds.bad,
                             "point " + std::to_string(bounds.bad) + " has a non-finite coordinate");
-  const double x_min = bounds.x_min, x_max = bounds.x_max, y_min = bounds.y_min, y_max = bounds.y_max;
+  return grid_mapping_of_box(bounds.x_min, bounds.x_max, bounds.y_min, bounds.y_max, m);
+}
 
+GridMapping grid_mapping_of_box(double x_min, double x_max, double y_min, double y_max, std::uint32_t m) {
+  if (m == 0 || m > kMaxGridSize)
+    throw Error("grid size " + std::to_string(m) + " is outside [1, " + std::to_string(kMaxGridSize) + "]");
+  GridMapping mapping;
+  mapping.m = m;
   const int p_m = std::bit_width(m - 1);    // bits of the largest grid coordinate
   const int p_s = kPMax - p_m;              // mantissa bits left for the scale
   const double limit = std::ldexp(1.0, 53); // |g * S + T| must stay below this

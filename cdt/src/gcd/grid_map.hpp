@@ -56,6 +56,22 @@ private:
   }
 };
 
+/// The low 16 bits of v spread to the even bit positions.
+CDT_HD inline std::uint32_t spread_low_bits(std::uint32_t v) {
+  v &= 0xFFFFu;
+  v = (v | (v << 8)) & 0x00FF00FFu;
+  v = (v | (v << 4)) & 0x0F0F0F0Fu;
+  v = (v | (v << 2)) & 0x33333333u;
+  v = (v | (v << 1)) & 0x55555555u;
+  return v;
+}
+
+/// The index of grid cell (gx, gy) along a Z curve: the bits of gx and gy interleaved (gx in the even
+/// positions). Grid coordinates have at most 15 bits (kMaxGridSize), so keys have at most 30.
+CDT_HD inline std::uint32_t z_order_key(std::uint32_t gx, std::uint32_t gy) {
+  return spread_low_bits(gx) | (spread_low_bits(gy) << 1);
+}
+
 /// Which executor a grid is chosen for (choose_grid_size).
 enum class GridFor {
   device,      ///< the CUDA executor: the paper's rounds for every phase
@@ -94,6 +110,10 @@ GridMapping make_grid_mapping(std::span<const double> x, std::span<const double>
 /// The same, the points' bounding box found on the executor's threads.
 GridMapping make_grid_mapping(std::span<const double> x, std::span<const double> y, std::uint32_t m,
                               CpuExecutor& executor);
+
+/// The same mapping from the points' bounding box [x_min, x_max] x [y_min, y_max] (finite), found
+/// elsewhere (on the device, say).
+GridMapping grid_mapping_of_box(double x_min, double x_max, double y_min, double y_max, std::uint32_t m);
 
 /// The grid sites of Phase 1: each input point's grid cell and the one point kept per occupied cell.
 struct GridSites {

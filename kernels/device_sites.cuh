@@ -1,0 +1,26 @@
+#pragma once
+// The state of gpu::DeviceSites, shared by the files that read it: the sites are prepared in
+// sites_kernels.cu, their grid cells go to the digital Voronoi diagram (voronoi_kernels.cu), their
+// positions to the dual (dual_kernels.cu) and to shifting (mesh_kernels.cu).
+
+#include <cstdint>
+
+#include "cdt_kernels.hpp"
+#include "cuda_check.cuh"
+#include "cuda_executor.cuh"
+
+namespace cdt::gpu {
+
+struct DeviceSites::State {
+  /// Declared first: destroyed after the buffers queued on its stream. Mutable: copies to the host
+  /// from a const DeviceSites queue on it.
+  mutable detail::CudaExecutor executor;
+  std::uint32_t n = 0;                         ///< sites
+  std::uint32_t m = 0;                         ///< grid side
+  detail::DeviceBuffer<double> true_x, true_y; ///< per site (in the Z order), its true position
+  detail::DeviceBuffer<double> x, y;           ///< per site, its position in the diagram
+  /// Per site its grid cell, and per cell (row-major) its kept site or kNone; DeviceVoronoi takes them.
+  detail::DeviceBuffer<std::uint32_t> gx, gy, cell_owner;
+};
+
+} // namespace cdt::gpu
