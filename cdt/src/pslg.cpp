@@ -945,6 +945,26 @@ std::size_t for_each_piece(const WorkSegment& g, std::span<const std::uint32_t> 
   return count;
 }
 
+/// Pieces sorted by (a, b, label) with identical ones merged into the first of their run (the lowest
+/// label), dirty or snapped if any is.
+std::vector<WorkSegment> merge_identical(const std::vector<WorkSegment>& pieces, CpuExecutor& executor) {
+  const std::size_t total = pieces.size();
+  const std::vector<std::uint32_t> heads = executor.compact(total, [&](std::size_t k) {
+    return k == 0 || pieces[k].a != pieces[k - 1].a || pieces[k].b != pieces[k - 1].b;
+  });
+  std::vector<WorkSegment> merged(heads.size());
+  executor.for_each(heads.size(), [&](std::size_t r) {
+    const std::size_t end = r + 1 < heads.size() ? heads[r + 1] : total;
+    WorkSegment p = pieces[heads[r]];
+    for (std::size_t k = heads[r] + 1; k < end; ++k) {
+      p.dirty = p.dirty || pieces[k].dirty;
+      p.snapped = p.snapped || pieces[k].snapped;
+    }
+    merged[r] = p;
+  });
+  return merged;
+}
+
 /// Cuts every segment at its cut vertices (for_each_piece) and merges identical pieces, keeping the
 /// lowest label. bent[s] says that segment s was bent by its cuts.
 std::vector<WorkSegment> cut_segments(const std::vector<WorkSegment>& segs, const SplitLists& cuts,
@@ -965,21 +985,7 @@ std::vector<WorkSegment> cut_segments(const std::vector<WorkSegment>& segs, cons
     if (p.b != q.b) return p.b < q.b;
     return p.label < q.label;
   });
-  // Identical pieces merge into the first of their run (the lowest label), dirty or snapped if any is.
-  const std::vector<std::uint32_t> heads = executor.compact(total, [&](std::size_t k) {
-    return k == 0 || pieces[k].a != pieces[k - 1].a || pieces[k].b != pieces[k - 1].b;
-  });
-  std::vector<WorkSegment> merged(heads.size());
-  executor.for_each(heads.size(), [&](std::size_t r) {
-    const std::size_t end = r + 1 < heads.size() ? heads[r + 1] : total;
-    WorkSegment p = pieces[heads[r]];
-    for (std::size_t k = heads[r] + 1; k < end; ++k) {
-      p.dirty = p.dirty || pieces[k].dirty;
-      p.snapped = p.snapped || pieces[k].snapped;
-    }
-    merged[r] = p;
-  });
-  return merged;
+  return merge_identical(pieces, executor);
 }
 
 /// cut_segments at crossings when few segments are cut, for segments in spatial order (order_spatially:
@@ -1058,9 +1064,12 @@ std::vector<WorkSegment> initial_segments(std::span<const Segment> segments,
     const std::uint32_t b = duplicate_of[segments[kept[k]].b];
     segs[k] = {std::min(a, b), std::max(a, b), kept[k], true, false};
   });
-  SplitLists none;
-  none.start.assign(segs.size() + 1, 0);
-  return cut_segments(segs, none, std::vector<std::uint8_t>(segs.size(), 0), CutAt::sites, executor);
+  // Ordered by (a, b, label) as cut_segments orders its pieces, by radix passes rather than a
+  // comparison sort: the segments come in label order, and order_by_ends keeps ties in order.
+  const std::vector<std::uint32_t> order = order_by_ends(segs, duplicate_of.size(), executor);
+  std::vector<WorkSegment> sorted(segs.size());
+  executor.for_each(segs.size(), [&](std::size_t k) { sorted[k] = segs[order[k]]; });
+  return merge_identical(sorted, executor);
 }
 
 /// Orders segments by the grid cell of their first end, so that segments met together in the grid
