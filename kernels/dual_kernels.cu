@@ -438,12 +438,6 @@ DeviceVoronoi::DualOutcome complete_dual(DeviceVoronoi::State& voronoi, ::cdt::d
   executor.synchronize();
   trace.mark("completion applied, vert_tri downloaded");
   out.emplace(std::move(state));
-  trace.mark("mesh handed over");
-  b = detail::DualBuffers{};
-  trace.mark("dual's buffers released");
-  d_open = {};
-  d_open_xy = {};
-  trace.mark("open edges' buffers released");
   return DualOutcome::built;
 }
 

@@ -1279,38 +1279,26 @@ void split_pieces(PreparedPslg& pslg, std::span<const std::uint32_t> suspect_pie
     pslg.sites.push_back(static_cast<std::uint32_t>(v));
   trace.mark("suspects resolved");
   // The others are unchanged; both lists are sorted by (a, b), and a resolved piece identical to
-  // another piece merges into it (the lowest segment id). Resolved piece r goes in before at[r], the
-  // first other piece not below it, and takes that one's place when identical (equal[r]); every
-  // piece's place in the merged list follows from searches in `at`, so they are copied in parallel.
-  const std::vector<std::uint32_t> others =
-      executor.compact(pslg.pieces.size(), [&](std::size_t k) { return suspect[k] == 0; });
+  // another piece merges into it (the lowest segment id).
+  std::vector<ConstraintPiece> merged;
+  merged.reserve(pslg.pieces.size() + resolved.size());
   const auto before = [](const ConstraintPiece& p, const ConstraintPiece& q) {
     return p.a != q.a ? p.a < q.a : p.b < q.b;
   };
-  const std::size_t num_resolved = resolved.size();
-  std::vector<std::size_t> at(num_resolved);
-  std::vector<std::uint8_t> equal(num_resolved);
-  executor.for_each(num_resolved, [&](std::size_t r) {
-    const auto it = std::partition_point(
-        others.begin(), others.end(), [&](std::uint32_t k) { return before(pslg.pieces[k], resolved[r]); });
-    at[r] = static_cast<std::size_t>(it - others.begin());
-    equal[r] = it != others.end() && !before(resolved[r], pslg.pieces[*it]) ? 1 : 0;
-  });
-  std::vector<std::size_t> equal_before(num_resolved + 1, 0); // identical pairs among resolved [0, r)
-  for (std::size_t r = 0; r < num_resolved; ++r) equal_before[r + 1] = equal_before[r] + equal[r];
-  std::vector<ConstraintPiece> merged(others.size() + num_resolved - equal_before[num_resolved]);
-  executor.for_each(num_resolved, [&](std::size_t r) {
-    ConstraintPiece p = resolved[r];
-    if (equal[r] != 0) p.segment = std::min(p.segment, pslg.pieces[others[at[r]]].segment);
-    merged[r + at[r] - equal_before[r]] = p;
-  });
-  executor.for_each(others.size(), [&](std::size_t j) {
-    // Resolved pieces placed before j, and the other pieces before j that were merged into them.
-    const auto upper = static_cast<std::size_t>(std::upper_bound(at.begin(), at.end(), j) - at.begin());
-    if (upper > 0 && at[upper - 1] == j && equal[upper - 1] != 0) return; // merged into it
-    const auto lower = static_cast<std::size_t>(std::lower_bound(at.begin(), at.end(), j) - at.begin());
-    merged[j + upper - equal_before[lower]] = pslg.pieces[others[j]];
-  });
+  std::size_t r = 0;
+  const auto push = [&](const ConstraintPiece& p) {
+    if (!merged.empty() && merged.back().a == p.a && merged.back().b == p.b) {
+      merged.back().segment = std::min(merged.back().segment, p.segment);
+    } else {
+      merged.push_back(p);
+    }
+  };
+  for (std::size_t k = 0; k < pslg.pieces.size(); ++k) {
+    if (suspect[k] != 0) continue;
+    while (r < resolved.size() && !before(pslg.pieces[k], resolved[r])) push(resolved[r++]);
+    push(pslg.pieces[k]);
+  }
+  while (r < resolved.size()) push(resolved[r++]);
   pslg.pieces = std::move(merged);
   trace.mark("pieces merged");
 }
