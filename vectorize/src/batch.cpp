@@ -13,8 +13,6 @@
 #include <system_error>
 #include <thread>
 
-#include <opencv2/core/utility.hpp>
-
 #include "vectorize/errors.hpp"
 #include "vectorize/image.hpp"
 
@@ -164,16 +162,6 @@ std::vector<JobResult> run_batch(const std::vector<BatchJob>& jobs, const BatchO
       std::max(1u, std::min<unsigned>(cores, static_cast<unsigned>(std::max<std::size_t>(jobs.size(), 1))));
   Options conversion = options.conversion;
   if (conversion.threads == 0) conversion.threads = std::max(1u, cores / workers);
-  // OpenCV's own pool (Canny, the blur) keeps to the budget too: as many threads as a conversion has,
-  // and with one, none (0: OpenCV runs its functions on the calling thread). Left at its default it
-  // would run every core for each of the images at once.
-  struct OpenCvThreads {
-    int before = cv::getNumThreads();
-    explicit OpenCvThreads(unsigned n) { cv::setNumThreads(n <= 1 ? 0 : static_cast<int>(n)); }
-    ~OpenCvThreads() { cv::setNumThreads(before); }
-    OpenCvThreads(const OpenCvThreads&) = delete;
-    OpenCvThreads& operator=(const OpenCvThreads&) = delete;
-  } const opencv_threads(conversion.threads);
 
   std::vector<JobResult> results(jobs.size());
   std::vector<char> ran(jobs.size(), 0);
