@@ -23,6 +23,7 @@
 #include "cdt/errors.hpp"
 #include "vectorize/batch.hpp"
 #include "vectorize/debug_overlays.hpp"
+#include "vectorize/edges.hpp"
 #include "vectorize/errors.hpp"
 #include "vectorize/image.hpp"
 #include "vectorize/pipeline.hpp"
@@ -176,6 +177,8 @@ int run_batch_cli(const BatchCli& cli, const DebugCli& debug, const vectorize::O
       if (done == total) std::fputc('\n', stderr);
     }
   };
+  // Once, before any image: OpenCV's pool keeps to a conversion's share of the -j budget.
+  vectorize::set_opencv_threads(vectorize::threads_per_conversion(batch, jobs.size()));
   const std::vector<vectorize::JobResult> results = vectorize::run_batch(jobs, batch);
   const double wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   if (terminal && !quiet && results.size() < jobs.size()) std::fputc('\n', stderr);

@@ -8,6 +8,7 @@
 #include <vector>
 
 #include "../test_util.hpp"
+#include "vectorize/batch.hpp"
 
 namespace {
 
@@ -51,6 +52,22 @@ void make_mixed_inputs(const fs::path& in) {
   const std::string photo = read_all(kSamples / "photo.png");
   std::ofstream(in / "sub" / "truncated.png", std::ios::binary) << photo.substr(0, photo.size() / 3);
   std::ofstream(in / "notes.txt") << "not an image, and not named like one";
+}
+
+// The -j budget: N images at a time on one thread each; fewer images share the cores out; an explicit
+// thread count wins.
+TEST(VectorizeBatch, ThreadsPerConversionShareTheBudget) {
+  vectorize::BatchOptions options;
+  options.workers = 4;
+  EXPECT_EQ(vectorize::threads_per_conversion(options, 100), 1u);
+  EXPECT_EQ(vectorize::threads_per_conversion(options, 4), 1u);
+  EXPECT_EQ(vectorize::threads_per_conversion(options, 2), 2u);
+  EXPECT_EQ(vectorize::threads_per_conversion(options, 1), 4u);
+  EXPECT_EQ(vectorize::threads_per_conversion(options, 3), 1u);
+  options.workers = 16;
+  EXPECT_EQ(vectorize::threads_per_conversion(options, 5), 3u);
+  options.conversion.threads = 7;
+  EXPECT_EQ(vectorize::threads_per_conversion(options, 100), 7u);
 }
 
 // Every good image converted, every bad one reported by name, exit status 1, no partial files.

@@ -150,18 +150,29 @@ JobResult run_job(const BatchJob& job, const BatchOptions& options, const Option
   return r;
 }
 
+// -j N is a budget of N cores: N images at a time, each on one thread; with fewer images than that,
+// the cores are shared out among them. So -j 1 converts on one core, and N workers never run
+// N x cores threads.
+unsigned batch_cores(const BatchOptions& options) {
+  return options.workers == 0 ? std::max(1u, std::thread::hardware_concurrency()) : options.workers;
+}
+
+unsigned batch_workers(const BatchOptions& options, std::size_t num_jobs) {
+  return std::max(1u, std::min<unsigned>(batch_cores(options),
+                                         static_cast<unsigned>(std::max<std::size_t>(num_jobs, 1))));
+}
+
 } // namespace
 
+unsigned threads_per_conversion(const BatchOptions& options, std::size_t num_jobs) {
+  if (options.conversion.threads != 0) return options.conversion.threads;
+  return std::max(1u, batch_cores(options) / batch_workers(options, num_jobs));
+}
+
 std::vector<JobResult> run_batch(const std::vector<BatchJob>& jobs, const BatchOptions& options) {
-  // -j N is a budget of N cores: N images at a time, each on one thread; with fewer images than that,
-  // the cores are shared out among them. So -j 1 converts on one core, and N workers never run
-  // N x cores threads.
-  const unsigned cores =
-      options.workers == 0 ? std::max(1u, std::thread::hardware_concurrency()) : options.workers;
-  const unsigned workers =
-      std::max(1u, std::min<unsigned>(cores, static_cast<unsigned>(std::max<std::size_t>(jobs.size(), 1))));
+  const unsigned workers = batch_workers(options, jobs.size());
   Options conversion = options.conversion;
-  if (conversion.threads == 0) conversion.threads = std::max(1u, cores / workers);
+  conversion.threads = threads_per_conversion(options, jobs.size());
 
   std::vector<JobResult> results(jobs.size());
   std::vector<char> ran(jobs.size(), 0);

@@ -4,6 +4,7 @@
 #include "vectorize/edges.hpp"
 
 #include <opencv2/core.hpp>
+#include <opencv2/core/utility.hpp>
 #include <opencv2/imgproc.hpp>
 
 #include <algorithm>
@@ -233,6 +234,11 @@ EdgeMap detect_edges(const Image& image, const EdgeOptions& options, unsigned th
     }
   }
   return map;
+}
+
+void set_opencv_threads(unsigned threads) {
+  // OpenCV reads 0 as "no threads: run on the caller's thread".
+  cv::setNumThreads(threads <= 1 ? 0 : static_cast<int>(threads));
 }
 
 } // namespace vectorize

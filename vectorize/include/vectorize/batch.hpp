@@ -76,6 +76,11 @@ struct BatchOptions {
   std::function<void(const JobResult&, std::size_t done, std::size_t total)> on_done;
 };
 
+/// The threads each conversion of a batch of `num_jobs` images gets: options.conversion.threads when
+/// set, else the -j budget shared out among the images converted at once (1 when there are at least as
+/// many images as cores).
+unsigned threads_per_conversion(const BatchOptions& options, std::size_t num_jobs);
+
 /// Runs the jobs on min(options.workers, jobs) threads, each converting one image at a time (so memory
 /// stays bounded by workers x one image's working set), the cores of options.workers shared out
 /// between them. Every job's result is returned in the order of `jobs`; jobs never started because of

@@ -48,4 +48,9 @@ struct EdgeOptions {
 /// thread); the result is the same for any number.
 EdgeMap detect_edges(const Image& image, const EdgeOptions& options = {}, unsigned threads = 1);
 
+/// Process-wide: how many threads OpenCV's own parallel functions (Canny, the blur) may use; 0 or 1 runs
+/// them on the calling thread. OpenCV's pool is global, so a program sets it once, before converting:
+/// left alone it is every core, for each of a batch's images at once.
+void set_opencv_threads(unsigned threads);
+
 } // namespace vectorize
