@@ -78,6 +78,10 @@ public:
   DeviceSites(DeviceSites&&) noexcept;
   DeviceSites& operator=(DeviceSites&&) noexcept;
 
+  /// Moves the given sites (left out of the diagram) to their true positions in the diagram's
+  /// positions, as missing points are.
+  void leave_out(std::span<const std::uint32_t> sites);
+
   /// Copies the sites' positions in the diagram to the host (kept sites at their grid points, the
   /// others at their true positions), and their true positions when asked for (vectors replaced).
   void positions(std::vector<double>& x, std::vector<double>& y, std::vector<double>* true_x = nullptr,
@@ -200,18 +204,21 @@ public:
                             std::optional<DeviceMesh>& out, std::vector<std::uint32_t>& site_vert_tri,
                             std::vector<std::uint32_t>* degenerate = nullptr);
 
-  /// complete_dual with the n sites' positions read from `sites` on the device (no list of degenerate
-  /// corners: they make it decline, and the caller goes on from host copies of the positions).
+  /// complete_dual with the n sites' positions read from `sites` on the device.
   DualOutcome complete_dual(const DeviceSites& sites, const ::cdt::detail::Box& bounds,
-                            std::optional<DeviceMesh>& out, std::vector<std::uint32_t>& site_vert_tri);
+                            std::optional<DeviceMesh>& out, std::vector<std::uint32_t>& site_vert_tri,
+                            std::vector<std::uint32_t>* degenerate = nullptr);
+
+  /// cdt::detail::remove_sites_from_colouring on the device, with the same result: the regions of the
+  /// `removed` sites (sorted, distinct) are cleared there, and only the cleared cells with their
+  /// neighbours' colours come to the host for the flood (cdt::detail::flood_cleared_cells), whose
+  /// colours go back. Returns per removed site the site now owning its grid cell (kNone if none).
+  std::vector<std::uint32_t> remove_sites(std::span<const std::uint32_t> removed);
 
   /// The sites' grid cells it was made from (site_x, site_y, or those taken from DeviceSites), copied
   /// to the host (vectors replaced).
   void site_cells(std::vector<std::uint32_t>& gx, std::vector<std::uint32_t>& gy,
                   const HostParallelFor& parallel = {}) const;
-
-  /// Replaces the colouring on the device (after cdt::detail::remove_sites_from_colouring on a copy).
-  void set_colour(std::span<const std::uint32_t> colour);
 
   struct State; ///< device buffers and stream (defined by the CUDA code)
 

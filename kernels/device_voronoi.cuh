@@ -32,7 +32,9 @@ struct DeviceVoronoi::State {
   detail::VoronoiBuffers buffers;
   std::uint32_t m = 0;
   std::size_t num_points = 0;
-  detail::DeviceBuffer<double> site_x, site_y; ///< Phase 2: the sites' positions (dual's mesh.x, mesh.y)
+  /// Phase 2 from the host's positions (dual's mesh.x, mesh.y): the sites' positions; from DeviceSites
+  /// the dual reads them there instead.
+  detail::DeviceBuffer<double> site_x, site_y;
 };
 
 } // namespace cdt::gpu

@@ -138,43 +138,68 @@ bool link_on_device(CudaExecutor& executor, DualBuffers& b, std::uint32_t num_sl
   return bad == 0;
 }
 
-/// The sites degenerate corners make dualize take out of the diagram (sorted, distinct).
-void list_culprits(DeviceVoronoi::State& state, const std::uint32_t* list, std::uint32_t num,
-                   const ::cdt::detail::Mesh& mesh, std::vector<std::uint32_t>& out) {
+/// A degenerate corner's four colours and their positions.
+struct CornerSites {
+  std::uint32_t colour[4];
+  double x[4], y[4];
+};
+
+/// The sites degenerate corners make dualize take out of the diagram (sorted, distinct): the `num`
+/// corners of `list` with their sites' positions gathered on the device, the culprits picked on the
+/// host by the CPU executor's rule (corner_culprits).
+void list_culprits(DeviceVoronoi::State& state, const std::uint32_t* list, std::uint32_t num, const double* x,
+                   const double* y, std::vector<std::uint32_t>& out) {
   CudaExecutor& executor = state.executor;
   const std::uint32_t m = state.m;
   const std::uint32_t side = m - 1;
   const std::uint32_t* colour = state.buffers.colour.data();
-  // The degenerate corners are few: their colours copied, the culprits picked on the host by the
-  // CPU executor's rule (corner_culprits).
-  DeviceBuffer<std::uint32_t> d_colours(4 * static_cast<std::size_t>(num));
-  std::uint32_t* colours = d_colours.data();
+  DeviceBuffer<CornerSites> d_corners(num);
+  CornerSites* corners = d_corners.data();
   executor.for_each(
       num,
       [=] __device__(std::size_t k) {
         const std::uint32_t c = list[k];
-        ::cdt::detail::corner_colours(colour, m, c % side, c / side, colours + 4 * k);
+        CornerSites corner;
+        ::cdt::detail::corner_colours(colour, m, c % side, c / side, corner.colour);
+        for (int i = 0; i < 4; ++i) {
+          const std::uint32_t j = corner.colour[i];
+          corner.x[i] = j == ::cdt::kNone ? 0.0 : x[j];
+          corner.y[i] = j == ::cdt::kNone ? 0.0 : y[j];
+        }
+        corners[k] = corner;
       },
       "degenerate_corners");
-  std::vector<std::uint32_t> h_colours(4 * static_cast<std::size_t>(num));
-  executor.download(h_colours.data(), colours, h_colours.size());
+  std::vector<CornerSites> h_corners(num);
+  executor.download(h_corners.data(), corners, num);
   out.clear();
-  for (std::uint32_t k = 0; k < num; ++k)
-    ::cdt::detail::corner_culprits(h_colours.data() + 4 * static_cast<std::size_t>(k), mesh.x.data(),
-                                   mesh.y.data(), out);
+  std::vector<std::uint32_t> picked;
+  for (const CornerSites& corner : h_corners) {
+    // The corner's sites numbered 0..3 by their first place in it, so that equal colours stay equal.
+    std::uint32_t local[4];
+    for (std::uint32_t i = 0; i < 4; ++i) {
+      local[i] = i;
+      for (std::uint32_t j = 0; j < i; ++j)
+        if (corner.colour[j] == corner.colour[i]) {
+          local[i] = j;
+          break;
+        }
+    }
+    picked.clear();
+    ::cdt::detail::corner_culprits(local, corner.x, corner.y, picked);
+    for (const std::uint32_t i : picked) out.push_back(corner.colour[i]);
+  }
   std::sort(out.begin(), out.end());
   out.erase(std::unique(out.begin(), out.end()), out.end());
 }
 
-} // namespace detail
-
-void DeviceVoronoi::set_colour(std::span<const std::uint32_t> colour) {
-  const std::size_t cells = static_cast<std::size_t>(state_->m) * state_->m;
-  if (colour.size() != cells) throw Error("DeviceVoronoi::set_colour: the colouring is not m * m");
-  state_->executor.upload(state_->buffers.colour.data(), colour.data(), cells);
+/// The sites' positions the dual reads: those of `sites` when given, else the host's uploaded into the
+/// state.
+const double* site_positions_x(const DeviceVoronoi::State& state, const DeviceSites::State* sites) {
+  return sites != nullptr ? sites->x.data() : state.site_x.data();
 }
-
-namespace detail {
+const double* site_positions_y(const DeviceVoronoi::State& state, const DeviceSites::State* sites) {
+  return sites != nullptr ? sites->y.data() : state.site_y.data();
+}
 
 /// The part of DeviceVoronoi::dual before the copy to the host: the linked dual in b (b.tri, b.adj,
 /// b.vert_tri) with num_dual slots when built. Times the steps into st.
@@ -200,17 +225,14 @@ DeviceVoronoi::DualOutcome build_dual(DeviceVoronoi::State& state, ::cdt::detail
 
   detail::DeviceEvent written;
   started.record(executor.stream());
-  state_->site_x.resize(n);
-  state_->site_y.resize(n);
-  if (sites != nullptr) {
-    copy_on_device(executor, state_->site_x.data(), sites->x.data(), n, "copy_site_x");
-    copy_on_device(executor, state_->site_y.data(), sites->y.data(), n, "copy_site_y");
-  } else {
+  if (sites == nullptr) {
+    state_->site_x.resize(n);
+    state_->site_y.resize(n);
     executor.upload(state_->site_x.data(), mesh.x.data(), n);
     executor.upload(state_->site_y.data(), mesh.y.data(), n);
   }
-  const double* x = state_->site_x.data();
-  const double* y = state_->site_y.data();
+  const double* x = site_positions_x(state, sites);
+  const double* y = site_positions_y(state, sites);
   const std::uint32_t* colour = state_->buffers.colour.data();
   // Phase 1's scratch of m * m words is free now: it holds the corners' counts, then their offsets.
   std::uint32_t* count = state_->buffers.stack.data();
@@ -235,8 +257,8 @@ DeviceVoronoi::DualOutcome build_dual(DeviceVoronoi::State& state, ::cdt::detail
   std::uint32_t bad = 0;
   executor.download(&bad, d_bad, 1);
   if (bad != 0) {
-    if (degenerate == nullptr || sites != nullptr) return DualOutcome::declined;
-    detail::list_culprits(*state_, bad_list, bad, mesh, *degenerate);
+    if (degenerate == nullptr) return DualOutcome::declined;
+    detail::list_culprits(*state_, bad_list, bad, x, y, *degenerate);
     return DualOutcome::degenerate;
   }
   num_dual = executor.exclusive_scan(count, corners);
@@ -333,9 +355,10 @@ DeviceVoronoi::DualOutcome DeviceVoronoi::complete_dual(::cdt::detail::Mesh& mes
 DeviceVoronoi::DualOutcome DeviceVoronoi::complete_dual(const DeviceSites& sites,
                                                         const ::cdt::detail::Box& bounds,
                                                         std::optional<DeviceMesh>& out,
-                                                        std::vector<std::uint32_t>& site_vert_tri) {
+                                                        std::vector<std::uint32_t>& site_vert_tri,
+                                                        std::vector<std::uint32_t>* degenerate) {
   ::cdt::detail::Mesh none;
-  return detail::complete_dual(*state_, none, &sites.state(), bounds, out, site_vert_tri, nullptr);
+  return detail::complete_dual(*state_, none, &sites.state(), bounds, out, site_vert_tri, degenerate);
 }
 
 namespace detail {
@@ -372,8 +395,8 @@ DeviceVoronoi::DualOutcome complete_dual(DeviceVoronoi::State& voronoi, ::cdt::d
   // With each open edge, the position of its first vertex (the boundary's positions).
   detail::DeviceBuffer<double> d_open_xy(2 * static_cast<std::size_t>(num_open) + 1);
   double* open_xy = d_open_xy.data();
-  const double* site_x = state_->site_x.data();
-  const double* site_y = state_->site_y.data();
+  const double* site_x = site_positions_x(*state_, sites);
+  const double* site_y = site_positions_y(*state_, sites);
   executor.for_each(
       num_open,
       [=] __device__(std::size_t k) {
@@ -407,8 +430,8 @@ DeviceVoronoi::DualOutcome complete_dual(DeviceVoronoi::State& voronoi, ::cdt::d
   s.allocate(num_dual + added, n + k_fake);
   const std::size_t all_words = 3 * static_cast<std::size_t>(s.num_slots);
   // The dual's arrays copied on the device, the added parts uploaded behind them.
-  detail::copy_on_device(executor, s.x.data(), state_->site_x.data(), n, "copy_x");
-  detail::copy_on_device(executor, s.y.data(), state_->site_y.data(), n, "copy_y");
+  detail::copy_on_device(executor, s.x.data(), site_x, n, "copy_x");
+  detail::copy_on_device(executor, s.y.data(), site_y, n, "copy_y");
   detail::copy_on_device(executor, s.tri.data(), tri, words, "copy_tri");
   detail::copy_on_device(executor, s.adj.data(), adj, words, "copy_adj");
   detail::copy_on_device(executor, s.vert_tri.data(), b.vert_tri.data(), n, "copy_vert_tri");

@@ -257,6 +257,29 @@ DeviceSites::~DeviceSites() = default;
 DeviceSites::DeviceSites(DeviceSites&&) noexcept = default;
 DeviceSites& DeviceSites::operator=(DeviceSites&&) noexcept = default;
 
+void DeviceSites::leave_out(std::span<const std::uint32_t> sites) {
+  if (sites.empty()) return;
+  State& s = *state_;
+  for (const std::uint32_t site : sites)
+    if (site >= s.n) throw Error("DeviceSites::leave_out: site " + std::to_string(site) + " out of range");
+  detail::DeviceBuffer<std::uint32_t> d_sites(sites.size());
+  s.executor.upload(d_sites.data(), sites.data(), sites.size());
+  const std::uint32_t* list = d_sites.data();
+  double* x = s.x.data();
+  double* y = s.y.data();
+  const double* true_x = s.true_x.data();
+  const double* true_y = s.true_y.data();
+  s.executor.for_each(
+      sites.size(),
+      [=] __device__(std::size_t k) {
+        x[list[k]] = true_x[list[k]];
+        y[list[k]] = true_y[list[k]];
+      },
+      "leave_out_sites");
+  // Other streams (the dual's) read the positions next; d_sites is freed at the end of this scope.
+  s.executor.synchronize();
+}
+
 void DeviceSites::positions(std::vector<double>& x, std::vector<double>& y, std::vector<double>* true_x,
                             std::vector<double>* true_y, const HostParallelFor& parallel) const {
   const State& s = *state_;

@@ -13,9 +13,11 @@
 // Where the paper copies the debris to the CPU for the flood, this keeps them on the device: they are
 // few, so steps 3 and 4 cost a few small launches and one 4-byte readback per round.
 
+#include <array>
 #include <cstddef>
 #include <cstdint>
 #include <string>
+#include <unordered_map>
 #include <vector>
 
 #include "cdt_kernels.hpp"
@@ -335,6 +337,119 @@ std::vector<std::uint32_t> DeviceVoronoi::colour(float* download_ms) const {
   done.record(executor.stream());
   if (download_ms != nullptr) *download_ms = done.since(started);
   return out;
+}
+
+namespace detail {
+
+/// Whether j is in list[0, num), sorted.
+__device__ inline bool sorted_contains(const std::uint32_t* list, std::uint32_t num, std::uint32_t j) {
+  std::uint32_t lo = 0, hi = num;
+  while (lo < hi) {
+    const std::uint32_t mid = (lo + hi) / 2;
+    if (list[mid] < j)
+      lo = mid + 1;
+    else
+      hi = mid;
+  }
+  return lo < num && list[lo] == j;
+}
+
+/// A cleared cell's neighbours (kNone past the last) as the flood of DeviceVoronoi::remove_sites
+/// starts: their colours and those sites' grid cells.
+struct Around {
+  std::uint32_t cell[4], colour[4], gx[4], gy[4];
+};
+
+} // namespace detail
+
+std::vector<std::uint32_t> DeviceVoronoi::remove_sites(std::span<const std::uint32_t> removed) {
+  using ::cdt::kNone;
+  std::vector<std::uint32_t> owners(removed.size(), kNone);
+  if (removed.empty()) return owners;
+  for (std::size_t k = 0; k < removed.size(); ++k)
+    if (removed[k] >= state_->num_points || (k > 0 && removed[k - 1] >= removed[k]))
+      throw Error("DeviceVoronoi::remove_sites: the sites are not sorted, distinct and in range");
+  detail::CudaExecutor& executor = state_->executor;
+  detail::VoronoiBuffers& b = state_->buffers;
+  const std::uint32_t m = state_->m;
+  const std::size_t cells = static_cast<std::size_t>(m) * m;
+  const auto num = static_cast<std::uint32_t>(removed.size());
+  detail::DeviceBuffer<std::uint32_t> d_removed(num);
+  executor.upload(d_removed.data(), removed.data(), num);
+  const std::uint32_t* list = d_removed.data();
+  std::uint32_t* colour = b.colour.data();
+  const std::uint32_t* gx = b.site_x.data();
+  const std::uint32_t* gy = b.site_y.data();
+  // The cleared cells: every cell coloured by a removed site. Regions are 4-connected to their sites,
+  // so these are the cells the host's walk from each site clears. Phase 1's scratch (m * m words,
+  // free between the dual's passes) holds the list.
+  std::uint32_t* cleared = b.owner.data();
+  const std::uint32_t num_cleared = executor.compact(
+      cells, [=] __device__(std::size_t c) { return detail::sorted_contains(list, num, colour[c]); },
+      cleared);
+  // Per cleared cell, its neighbours' colours as the flood starts (kNone for cleared ones and off the
+  // grid) and those sites' grid cells: all the flood reads.
+  using detail::Around;
+  detail::DeviceBuffer<Around> d_around(num_cleared + 1);
+  Around* around = d_around.data();
+  executor.for_each(
+      num_cleared,
+      [=] __device__(std::size_t k) {
+        const std::uint32_t c = cleared[k];
+        Around a;
+        int i = 0;
+        ::cdt::detail::amend::for_each_neighbour(m, c % m, c / m, [&](std::uint32_t x, std::uint32_t y) {
+          const std::uint32_t j = colour[static_cast<std::size_t>(y) * m + x];
+          const bool none = j == kNone || detail::sorted_contains(list, num, j);
+          a.cell[i] = y * m + x;
+          a.colour[i] = none ? kNone : j;
+          a.gx[i] = none ? 0 : gx[j];
+          a.gy[i] = none ? 0 : gy[j];
+          ++i;
+        });
+        for (; i < 4; ++i) a.cell[i] = kNone;
+        around[k] = a;
+      },
+      "cleared_cells");
+  std::vector<std::uint32_t> h_cleared(num_cleared);
+  std::vector<Around> h_around(num_cleared);
+  executor.download(h_cleared.data(), cleared, num_cleared);
+  executor.download(h_around.data(), around, num_cleared);
+
+  std::unordered_map<std::uint32_t, std::uint32_t> local_colour;
+  std::unordered_map<std::uint32_t, std::array<std::uint32_t, 2>> site_cell;
+  local_colour.reserve(5 * static_cast<std::size_t>(num_cleared));
+  for (std::uint32_t k = 0; k < num_cleared; ++k) {
+    const std::uint32_t c = h_cleared[k];
+    local_colour[c] = kNone;
+    const Around& a = h_around[k];
+    for (int i = 0; i < 4 && a.cell[i] != kNone; ++i) {
+      local_colour.emplace(a.cell[i], a.colour[i]);
+      if (a.colour[i] != kNone) site_cell[a.colour[i]] = {a.gx[i], a.gy[i]};
+    }
+  }
+  ::cdt::detail::flood_cleared_cells(
+      h_cleared, m, [&](std::uint32_t c) -> std::uint32_t& { return local_colour.at(c); },
+      [&](std::uint32_t j) { return site_cell.at(j); });
+
+  std::vector<std::uint32_t> h_new(num_cleared);
+  for (std::uint32_t k = 0; k < num_cleared; ++k) h_new[k] = local_colour.at(h_cleared[k]);
+  detail::DeviceBuffer<std::uint32_t> d_new(num_cleared + 1);
+  executor.upload(d_new.data(), h_new.data(), num_cleared);
+  const std::uint32_t* next = d_new.data();
+  executor.for_each(
+      num_cleared, [=] __device__(std::size_t k) { colour[cleared[k]] = next[k]; }, "recolour_cleared");
+  detail::DeviceBuffer<std::uint32_t> d_owners(num);
+  std::uint32_t* owner = d_owners.data();
+  executor.for_each(
+      num,
+      [=] __device__(std::size_t k) {
+        const std::uint32_t s = list[k];
+        owner[k] = colour[static_cast<std::size_t>(gy[s]) * m + gx[s]];
+      },
+      "removed_sites_owners");
+  executor.download(owners.data(), owner, num);
+  return owners;
 }
 
 std::vector<std::uint32_t> compute_digital_voronoi(std::span<const std::uint32_t> cell_owner,

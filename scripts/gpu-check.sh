@@ -12,6 +12,10 @@
 #              with .carry/bin/bench_cdt_cgal (scripts/device-carry.sh builds it here, statically
 #              linked with CGAL, which that machine lacks), else the device build without CGAL
 #   batch      the vectorize batch benchmark, when its bundle was carried (scripts/device-bundle.sh)
+#   compare    (not in the default list) an earlier tree against this one on the same machine, whose
+#              timings vary 10-25% between calls: TRIXEL_BASE (default .carry/base) holds a copy of it
+#              (`git archive REV | tar -x -C .carry/base`, carried); both bench_cdt builds run in turn,
+#              TRIXEL_ROUNDS times (default 3), on 10M points + 1M segments and the coastlines
 # The CDT matrix (TRIXEL_CDT_SIZES, POINTS:SEGMENTS pairs) is the paper's synthetic design, uniform and
 # Gaussian, plus a 4096 x 4096 lattice with random segments (TRIXEL_CDT_LATTICE=K for K x K, 0 for
 # none) and the GSHHG coastlines when carried (.carry/gshhg-high.txt.gz). Generated inputs are cached in build-gpu/inputs for the later parts.
@@ -87,6 +91,29 @@ if want batch && [ -x .carry/bundle/vectorize ] && [ -d .carry/kodak ]; then
   step bench-batch-cpu bash scripts/bench-batch.sh --bin .carry/bundle/vectorize --images .carry/kodak \
     -n 200 -j "$(nproc)" -- --backend cpu
 fi
+if want compare; then
+  base=${TRIXEL_BASE:-.carry/base}
+  if [ -f "$base/CMakeLists.txt" ]; then
+    step base-configure cmake -S "$base" -B build-base "${generator[@]}" -DCMAKE_BUILD_TYPE=Release \
+      -DTRIXEL_CUDA=ON -DCMAKE_CUDA_ARCHITECTURES="$arch" -DTRIXEL_VECTORIZE=OFF -DTRIXEL_BUILD_TESTS=OFF
+    step base-build cmake --build build-base -j "$(nproc)" --target bench_cdt
+    [ -x build-gpu/bin/bench_cdt ] || step build-bench cmake --build build-gpu -j "$(nproc)" --target bench_cdt
+    one=(--repeat 3 --no-cgal --backend gpu --cache build-gpu/inputs)
+    compare_run() { # compare_run BUILD: one round on both inputs, lines tagged with the build
+      "build-$1/bin/bench_cdt" "${one[@]}" --sizes 10000000:1000000 --case uniform | grep '^| s' | sed "s/^/$1 /"
+      [ -s build-gpu/inputs/gshhg-high.txt ] &&
+        "build-$1/bin/bench_cdt" "${one[@]}" --coast build-gpu/inputs/gshhg-high.txt --case GSHHG |
+        grep '^| G' | sed "s/^/$1 /"
+      return 0
+    }
+    compare_rounds() {
+      for ((r = 0; r < ${TRIXEL_ROUNDS:-3}; ++r)); do compare_run base; compare_run gpu; done
+    }
+    step compare compare_rounds
+  else
+    echo "== compare: no earlier tree in $base (git archive REV | tar -x -C $base)"
+  fi
+fi
 
 echo
 echo "## device: $(cat "$logs/device.txt")"
@@ -97,6 +124,7 @@ echo
 for log in bench-predicates bench-voronoi bench-cdt-gpu bench-cdt-cpu; do
   [ -f "$logs/$log.log" ] && { grep -h -e '^backend' -e '^|' "$logs/$log.log" || true; echo; }
 done
+[ -f "$logs/compare.log" ] && { echo "compare (base = ${TRIXEL_BASE:-.carry/base}, gpu = this tree):"; cat "$logs/compare.log"; echo; }
 for log in bench-batch bench-batch-cpu; do
   [ -f "$logs/$log.log" ] && { echo "$log:"; grep -h '^|' "$logs/$log.log" || true; }
 done

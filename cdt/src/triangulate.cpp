@@ -287,7 +287,6 @@ Triangulation triangulate_on(std::span<const Point> points, std::span<const Segm
   Box bounds; // the box of both positions of every site
   std::vector<std::uint32_t> colour;
 #if defined(TRIXEL_HAVE_CUDA)
-  bool host_positions = !on_gpu; // x, y and the grid cells are on the host
   std::optional<gpu::DeviceSites> device_sites;
   std::optional<gpu::DeviceVoronoi> device_diagram; // Phase 1's colouring stays on the device for Phase 2
   const gpu::HostParallelFor parallel = [&](std::size_t parts, const std::function<void(std::size_t)>& body) {
@@ -366,9 +365,11 @@ Triangulation triangulate_on(std::span<const Point> points, std::span<const Segm
   }
   // Degenerate corners (collinear sites meeting at a grid corner) take their middle site out of the
   // diagram; it becomes a missing point. A few passes settle every input met so far; should they not,
-  // the fake polygon alone is the start and every site a missing point.
-  // With the GPU backend the colouring stays on the device while passes build the dual there; a
-  // pass that finds degenerate corners edits a host copy of the colouring, as the CPU executor does.
+  // the fake polygon alone is the start and every site a missing point. They are common: kept sites
+  // sit on grid points, so three of them are often collinear (10M uniform points: about 6600 sites in
+  // the first pass, one more pass). With the GPU backend the colouring and the positions stay on the
+  // device through the passes; only should the device decline the diagram do they come to the host,
+  // for the CPU executor's dualize.
   Mesh mesh;
 #if defined(TRIXEL_HAVE_CUDA)
   std::optional<gpu::DeviceMesh> device_mesh; // the mesh of Phases 3 to 6 with the GPU backend
@@ -377,65 +378,54 @@ Triangulation triangulate_on(std::span<const Point> points, std::span<const Segm
   std::vector<std::uint32_t> degenerate;
   DualCorners corners; // the CPU executor's dual rows, kept from pass to pass
   int passes = 1;
-  trace.mark("dual's passes set up");
   for (;; ++passes) {
     std::vector<std::uint32_t>* list = passes <= 8 ? &degenerate : nullptr;
+    std::vector<std::uint32_t> owners; // per degenerate site, the site now owning its grid cell
 #if defined(TRIXEL_HAVE_CUDA)
-    if (device_diagram && !host_positions) {
-      // The first pass from the sites' positions on the device; degenerate corners (common: kept sites
-      // sit on grid points, so three of them are often collinear) make it decline, and the passes go on
-      // from host copies of the positions and grid cells, as below.
-      const auto outcome = device_diagram->complete_dual(*device_sites, bounds, device_mesh, site_vert_tri);
-      trace.mark("device dual returned");
-      if (outcome == gpu::DeviceVoronoi::DualOutcome::built) {
-        trace.mark("device dual");
-        check_missing_sites_left_out(kept, site_vert_tri, executor);
-        break;
-      }
-      device_sites->positions(x, y, nullptr, nullptr, parallel);
-      device_diagram->site_cells(grid.gx, grid.gy, parallel);
-      host_positions = true;
-    }
+    bool removed_on_device = false;
     if (device_diagram) {
       using Outcome = gpu::DeviceVoronoi::DualOutcome;
       // The dual is built and completed on the device and stays there for Phase 3 (only its open
-      // edges come to the host); dual reads the sites' positions from x and y, lent for the call.
-      Mesh dual;
-      dual.x.swap(x);
-      dual.y.swap(y);
-      const Outcome outcome = device_diagram->complete_dual(dual, bounds, device_mesh, site_vert_tri, list);
-      x.swap(dual.x);
-      y.swap(dual.y);
+      // edges come to the host).
+      const Outcome outcome =
+          device_diagram->complete_dual(*device_sites, bounds, device_mesh, site_vert_tri, list);
       if (outcome == Outcome::built) {
         trace.mark("device dual");
         check_missing_sites_left_out(kept, site_vert_tri, executor);
         break;
       }
-      colour = device_diagram->colour();
-      if (outcome == Outcome::declined) device_diagram.reset(); // the CPU executor's dualize below
+      if (outcome == Outcome::degenerate) {
+        owners = device_diagram->remove_sites(degenerate);
+        device_sites->leave_out(degenerate);
+        removed_on_device = true;
+      } else {
+        // Declined: the CPU executor's dualize below, from host copies, from now on.
+        device_sites->positions(x, y, nullptr, nullptr, parallel);
+        device_diagram->site_cells(grid.gx, grid.gy, parallel);
+        colour = device_diagram->colour();
+        device_diagram.reset();
+      }
     }
-    if (!device_diagram) {
+    if (!removed_on_device) {
 #endif
       mesh = dualize(colour, m, x, y, kept, bounds, executor, nullptr, list, &corners);
       if (mesh.num_slots() > 0) break;
+      corners.mark_changed(remove_sites_from_colouring(colour, grid, m, degenerate), m);
+      for (const std::uint32_t s : degenerate) {
+        owners.push_back(colour[static_cast<std::size_t>(grid.gy[s]) * m + grid.gx[s]]);
+        x[s] = pslg.vertices[site_vertex[s]].x; // its true position
+        y[s] = pslg.vertices[site_vertex[s]].y;
+      }
 #if defined(TRIXEL_HAVE_CUDA)
     }
 #endif
-    corners.mark_changed(remove_sites_from_colouring(colour, grid, m, degenerate), m);
-    for (const std::uint32_t s : degenerate) {
-      kept[s] = 0;
-      x[s] = pslg.vertices[site_vertex[s]].x; // its true position
-      y[s] = pslg.vertices[site_vertex[s]].y;
-    }
-    for (const std::uint32_t s : degenerate) {
+    for (const std::uint32_t s : degenerate) kept[s] = 0;
+    for (std::size_t k = 0; k < degenerate.size(); ++k) {
       // The site now owning the removed site's grid point is next to it; the fake boundary, always in
       // the mesh, is the fallback start of the search.
-      const std::uint32_t owner = colour[static_cast<std::size_t>(grid.gy[s]) * m + grid.gx[s]];
-      missing.push_back({s, owner != kNone && kept[owner] != 0 ? owner : n});
+      const std::uint32_t owner = owners[k];
+      missing.push_back({degenerate[k], owner != kNone && kept[owner] != 0 ? owner : n});
     }
-#if defined(TRIXEL_HAVE_CUDA)
-    if (device_diagram) device_diagram->set_colour(colour);
-#endif
   }
 #if defined(TRIXEL_HAVE_CUDA)
   trace.mark("dual checked");

@@ -149,7 +149,14 @@ TEST_F(MeshGpu, DualMatchesTheCpuExecutor) {
       ASSERT_FALSE(degenerate.empty()) << what;
       EXPECT_EQ(culprits, degenerate) << what;
       remove_sites_from_colouring(colour, in.grid, in.m, degenerate);
-      diagram.set_colour(colour);
+      // The removal on the device gives the host's colouring.
+      const std::vector<std::uint32_t> owners = diagram.remove_sites(culprits);
+      ASSERT_EQ(diagram.colour(), colour) << what;
+      ASSERT_EQ(owners.size(), degenerate.size()) << what;
+      for (std::size_t k = 0; k < owners.size(); ++k) {
+        const std::uint32_t s = degenerate[k];
+        EXPECT_EQ(owners[k], colour[static_cast<std::size_t>(in.grid.gy[s]) * in.m + in.grid.gx[s]]) << what;
+      }
       for (const std::uint32_t s : degenerate) {
         in.kept[s] = 0;
         in.x[s] = c.points.points[s].x;

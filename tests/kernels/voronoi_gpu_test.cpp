@@ -7,6 +7,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -406,11 +407,14 @@ HostSites host_sites(const std::vector<cdt::Point>& vertices, const std::vector<
 
 // gpu::DeviceSites gives the host's numbering, cells, kept sites, missing points and box, and the
 // diagram made from its cells on the device is the host's colouring: with every vertex a site and
-// with some left out (duplicates), on grids from 1 to 1024 a side, with many points per cell.
+// with some left out (duplicates), on grids from 1 to 1024 a side, with many points per cell. The
+// dual's passes then take the same degenerate sites out of the diagram on both.
 TEST_F(GpuVoronoi, DeviceSitesMatchTheHostSteps) {
   CpuExecutor executor(2);
   Rng rng(7);
   std::size_t missing_seen = 0;
+  std::size_t degenerate_seen = 0;
+  int duals_built = 0;
   for (const std::uint32_t m : {1u, 2u, 64u, 256u, 1024u}) {
     for (const Layout layout : {Layout::uniform, Layout::gaussian, Layout::clustered, Layout::lattice}) {
       for (const bool subset : {false, true}) {
@@ -455,19 +459,59 @@ TEST_F(GpuVoronoi, DeviceSitesMatchTheHostSteps) {
         EXPECT_EQ(true_y, h.true_y) << what;
         EXPECT_EQ(x, h.x) << what;
         EXPECT_EQ(y, h.y) << what;
-        const cdt::gpu::DeviceVoronoi diagram(device);
+        cdt::gpu::DeviceVoronoi diagram(device);
         std::vector<std::uint32_t> gx, gy;
         diagram.site_cells(gx, gy);
         EXPECT_EQ(gx, h.grid.gx) << what;
         EXPECT_EQ(gy, h.grid.gy) << what;
-        EXPECT_EQ(differences(diagram.colour(), cdt::detail::compute_digital_voronoi(h.grid, m, executor), m),
-                  "")
-            << what;
+        std::vector<std::uint32_t> colour = cdt::detail::compute_digital_voronoi(h.grid, m, executor);
+        EXPECT_EQ(differences(diagram.colour(), colour, m), "") << what;
         if (HasFailure()) return;
+        if (m < 64) continue;
+        // The dual's passes as triangulate() runs them, on the host and from the device's sites: the same
+        // degenerate sites each pass, the same colouring after their removal, the same owners of their
+        // cells and the same positions after they are left out.
+        std::vector<double> hx = h.x, hy = h.y;
+        std::vector<std::uint8_t> hkept = h.kept;
+        for (int pass = 1; pass <= 8; ++pass) {
+          const std::string at = what + ", pass " + std::to_string(pass);
+          std::vector<std::uint32_t> degenerate, culprits;
+          const cdt::detail::Mesh host =
+              cdt::detail::dualize(colour, m, hx, hy, hkept, h.bounds, executor, nullptr, &degenerate);
+          std::optional<cdt::gpu::DeviceMesh> on_device;
+          std::vector<std::uint32_t> site_vert_tri;
+          const auto outcome = diagram.complete_dual(device, bounds, on_device, site_vert_tri, &culprits);
+          if (host.num_slots() > 0) {
+            EXPECT_NE(outcome, cdt::gpu::DeviceVoronoi::DualOutcome::degenerate) << at;
+            duals_built += outcome == cdt::gpu::DeviceVoronoi::DualOutcome::built ? 1 : 0;
+            break;
+          }
+          ASSERT_EQ(outcome, cdt::gpu::DeviceVoronoi::DualOutcome::degenerate) << at;
+          EXPECT_EQ(culprits, degenerate) << at;
+          degenerate_seen += degenerate.size();
+          cdt::detail::remove_sites_from_colouring(colour, h.grid, m, degenerate);
+          const std::vector<std::uint32_t> owners = diagram.remove_sites(culprits);
+          EXPECT_EQ(differences(diagram.colour(), colour, m), "") << at;
+          ASSERT_EQ(owners.size(), degenerate.size()) << at;
+          for (std::size_t k = 0; k < owners.size(); ++k) {
+            const std::uint32_t s = degenerate[k];
+            EXPECT_EQ(owners[k], colour[static_cast<std::size_t>(h.grid.gy[s]) * m + h.grid.gx[s]]) << at;
+            hkept[s] = 0;
+            hx[s] = h.true_x[s];
+            hy[s] = h.true_y[s];
+          }
+          device.leave_out(culprits);
+          device.positions(x, y);
+          EXPECT_EQ(x, hx) << at;
+          EXPECT_EQ(y, hy) << at;
+          if (HasFailure()) return;
+        }
       }
     }
   }
   EXPECT_GT(missing_seen, 0u) << "no cell held two sites: the owners' minimum went untested";
+  EXPECT_GT(degenerate_seen, 0u) << "no degenerate corner: the removal on the device went untested";
+  EXPECT_GT(duals_built, 0) << "no dual was built from the device's sites";
 }
 
 } // namespace

@@ -219,11 +219,6 @@ std::vector<std::uint32_t> remove_sites_from_colouring(std::vector<std::uint32_t
                                                        const GridSites& sites, std::uint32_t m,
                                                        std::span<const std::uint32_t> removed) {
   if (colour.size() != static_cast<std::size_t>(m) * m) throw Error("internal error: colour is not m * m");
-  FloodView v;
-  v.colour = colour.data();
-  v.site_x = sites.gx.data();
-  v.site_y = sites.gy.data();
-  v.m = m;
   // Each removed site's region is 4-connected to its own cell: a breadth-first walk finds all of it.
   std::vector<std::uint32_t> cleared;
   for (const std::uint32_t s : removed) {
@@ -241,31 +236,44 @@ std::vector<std::uint32_t> remove_sites_from_colouring(std::vector<std::uint32_t
       });
     }
   }
-  // Flood the cleared cells from every coloured neighbour, nearest site first (Algorithm A.1 without
-  // its "closer to the own site" condition at the seeds: a cleared region's border need not be).
-  std::priority_queue<FloodEntry, std::vector<FloodEntry>, std::greater<>> queue;
-  const auto push_neighbours = [&](std::uint32_t cell) {
-    const std::uint32_t j = colour[cell];
-    for_each_neighbour(m, cell % m, cell / m, [&](std::uint32_t x, std::uint32_t y) {
-      const std::size_t c = static_cast<std::size_t>(y) * m + x;
-      if (colour[c] == kNone) queue.push({squared_distance(v, x, y, j), j, static_cast<std::uint32_t>(c)});
-    });
+  flood_cleared_cells(
+      cleared, m, [&](std::uint32_t c) -> std::uint32_t& { return colour[c]; },
+      [&](std::uint32_t j) {
+        return std::array<std::uint32_t, 2>{sites.gx[j], sites.gy[j]};
+      });
+  return cleared;
+}
+
+void flood_cleared_cells(std::span<const std::uint32_t> cleared, std::uint32_t m,
+                         const std::function<std::uint32_t&(std::uint32_t cell)>& colour,
+                         const std::function<std::array<std::uint32_t, 2>(std::uint32_t site)>& site_cell) {
+  const auto distance = [&](std::uint32_t x, std::uint32_t y, std::uint32_t j) {
+    const auto [sx, sy] = site_cell(j);
+    const std::int64_t dx = static_cast<std::int64_t>(x) - sx;
+    const std::int64_t dy = static_cast<std::int64_t>(y) - sy;
+    return dx * dx + dy * dy;
   };
+  // Algorithm A.1 without its "closer to the own site" condition at the seeds: a cleared region's
+  // border need not be. The queue's order is total, so the result does not depend on the order of
+  // `cleared`.
+  std::priority_queue<FloodEntry, std::vector<FloodEntry>, std::greater<>> queue;
   for (const std::uint32_t a : cleared) {
     for_each_neighbour(m, a % m, a / m, [&](std::uint32_t x, std::uint32_t y) {
-      const std::size_t c = static_cast<std::size_t>(y) * m + x;
-      const std::uint32_t j = colour[c];
-      if (j != kNone) queue.push({squared_distance(v, a % m, a / m, j), j, a});
+      const std::uint32_t j = colour(y * m + x);
+      if (j != kNone) queue.push({distance(a % m, a / m, j), j, a});
     });
   }
   while (!queue.empty()) {
     const FloodEntry e = queue.top();
     queue.pop();
-    if (colour[e.cell] != kNone) continue;
-    colour[e.cell] = e.site;
-    push_neighbours(e.cell);
+    std::uint32_t& here = colour(e.cell);
+    if (here != kNone) continue;
+    here = e.site;
+    for_each_neighbour(m, e.cell % m, e.cell / m, [&](std::uint32_t x, std::uint32_t y) {
+      const std::uint32_t c = y * m + x;
+      if (colour(c) == kNone) queue.push({distance(x, y, e.site), e.site, c});
+    });
   }
-  return cleared;
 }
 
 std::vector<std::uint32_t> compute_digital_voronoi(const GridSites& sites, std::uint32_t m,

@@ -9,8 +9,10 @@
 // kernels/voronoi_kernels.cu on the CUDA executor, so the two give the same colouring by construction.
 // It needs the C++ standard library only and includes no CUDA header.
 
+#include <array>
 #include <cstddef>
 #include <cstdint>
+#include <functional>
 #include <span>
 #include <vector>
 
@@ -48,6 +50,15 @@ std::vector<std::uint32_t> compute_euclidean_colouring(std::span<const std::uint
 std::vector<std::uint32_t> remove_sites_from_colouring(std::vector<std::uint32_t>& colour,
                                                        const GridSites& sites, std::uint32_t m,
                                                        std::span<const std::uint32_t> removed);
+
+/// The flood of remove_sites_from_colouring on any store of the colouring: the `cleared` cells (kNone)
+/// take the colours of their neighbours, nearest site first. colour(c) is cell c's colour, writable;
+/// site_cell(j) site j's grid cell (x, y). Only the cleared cells and their 4-neighbours are read or
+/// written, and only the sites colouring those neighbours asked for, so a caller may hold just those
+/// (the CUDA executor does). Every cleared cell next to a coloured one ends coloured.
+void flood_cleared_cells(std::span<const std::uint32_t> cleared, std::uint32_t m,
+                         const std::function<std::uint32_t&(std::uint32_t cell)>& colour,
+                         const std::function<std::array<std::uint32_t, 2>(std::uint32_t site)>& site_cell);
 
 /// Algorithm A.1 on a Euclidean colouring of sites, in place: the debris (cells that no 4-connected
 /// path of their own colour reaches from their site; see voronoi.cpp for the exact test) are
