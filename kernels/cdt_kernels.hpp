@@ -79,7 +79,7 @@ public:
   DeviceSites& operator=(DeviceSites&&) noexcept;
 
   /// Moves the given sites (left out of the diagram) to their true positions in the diagram's
-  /// positions, as missing points are.
+  /// positions, as missing points are, and clears their kept flag on the device.
   void leave_out(std::span<const std::uint32_t> sites);
 
   /// Copies the sites' positions in the diagram to the host (kept sites at their grid points, the
@@ -204,9 +204,11 @@ public:
                             std::optional<DeviceMesh>& out, std::vector<std::uint32_t>& site_vert_tri,
                             std::vector<std::uint32_t>* degenerate = nullptr);
 
-  /// complete_dual with the n sites' positions read from `sites` on the device.
+  /// complete_dual with the n sites' positions and kept flags read from `sites` on the device. Instead
+  /// of the sites' vert_tri, `unreached` receives the kept sites the dual does not reach (increasing),
+  /// and a site not kept that the dual reaches is an Error (check_missing_sites_left_out).
   DualOutcome complete_dual(const DeviceSites& sites, const ::cdt::detail::Box& bounds,
-                            std::optional<DeviceMesh>& out, std::vector<std::uint32_t>& site_vert_tri,
+                            std::optional<DeviceMesh>& out, std::vector<std::uint32_t>& unreached,
                             std::vector<std::uint32_t>* degenerate = nullptr);
 
   /// cdt::detail::remove_sites_from_colouring on the device, with the same result: the regions of the

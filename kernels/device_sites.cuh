@@ -19,6 +19,7 @@ struct DeviceSites::State {
   std::uint32_t m = 0;                         ///< grid side
   detail::DeviceBuffer<double> true_x, true_y; ///< per site (in the Z order), its true position
   detail::DeviceBuffer<double> x, y;           ///< per site, its position in the diagram
+  detail::DeviceBuffer<std::uint8_t> kept;     ///< per site, 1 while it is a site of the diagram
   /// Per site its grid cell, and per cell (row-major) its kept site or kNone; DeviceVoronoi takes them.
   detail::DeviceBuffer<std::uint32_t> gx, gy, cell_owner;
 };

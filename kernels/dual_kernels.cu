@@ -60,8 +60,8 @@ void copy_on_device(CudaExecutor& executor, T* dst, const T* src, std::size_t n,
 std::size_t dual_device_bytes(std::size_t n) {
   const std::size_t slots = 2 * n + 64;
   // Sites' coordinates, unsorted and sorted triangles, keys and indices with their second buffers,
-  // directed edges' 64-bit keys and ids with their second buffers, links, vert_tri.
-  return 16 * n + 24 * slots + 16 * slots + 3 * slots * 24 + 12 * slots + 4 * n + (std::size_t{1} << 20);
+  // directed edges' 64-bit keys and ids with their second buffers, links, vert_tri, the unreached sites.
+  return 16 * n + 24 * slots + 16 * slots + 3 * slots * 24 + 12 * slots + 8 * n + (std::size_t{1} << 20);
 }
 
 struct DualBuffers {
@@ -355,15 +355,16 @@ DeviceVoronoi::DualOutcome DeviceVoronoi::complete_dual(::cdt::detail::Mesh& mes
 DeviceVoronoi::DualOutcome DeviceVoronoi::complete_dual(const DeviceSites& sites,
                                                         const ::cdt::detail::Box& bounds,
                                                         std::optional<DeviceMesh>& out,
-                                                        std::vector<std::uint32_t>& site_vert_tri,
+                                                        std::vector<std::uint32_t>& unreached,
                                                         std::vector<std::uint32_t>* degenerate) {
   ::cdt::detail::Mesh none;
-  return detail::complete_dual(*state_, none, &sites.state(), bounds, out, site_vert_tri, degenerate);
+  return detail::complete_dual(*state_, none, &sites.state(), bounds, out, unreached, degenerate);
 }
 
 namespace detail {
 
-/// DeviceVoronoi::complete_dual, the sites' positions from the host's mesh.x, mesh.y or from `sites`.
+/// DeviceVoronoi::complete_dual, the sites' positions from the host's mesh.x, mesh.y or from `sites`;
+/// site_vert_tri receives the sites' vert_tri, or with `sites` the kept sites the dual does not reach.
 DeviceVoronoi::DualOutcome complete_dual(DeviceVoronoi::State& voronoi, ::cdt::detail::Mesh& mesh,
                                          const DeviceSites::State* sites, const ::cdt::detail::Box& bounds,
                                          std::optional<DeviceMesh>& out,
@@ -456,10 +457,34 @@ DeviceVoronoi::DualOutcome complete_dual(DeviceVoronoi::State& voronoi, ::cdt::d
     executor.synchronize(); // d_links is freed at the end of this scope
   }
   trace.mark("completion queued");
-  site_vert_tri.resize(n);
-  executor.download(site_vert_tri.data(), b.vert_tri.data(), n);
+  if (sites == nullptr) {
+    site_vert_tri.resize(n);
+    executor.download(site_vert_tri.data(), b.vert_tri.data(), n);
+  } else {
+    // check_missing_sites_left_out, and the kept sites left unreached, on the device: only those come
+    // back (site_vert_tri holds them).
+    const std::uint8_t* kept = sites->kept.data();
+    const std::uint32_t* vert_tri = b.vert_tri.data();
+    auto* d_dualized = executor.scalar<std::uint32_t>();
+    executor.fill_bytes(d_dualized, 0, 1);
+    executor.for_each(
+        n,
+        [=] __device__(std::size_t v) {
+          if (kept[v] == 0 && vert_tri[v] != ::cdt::detail::kNoId) atomicOr(d_dualized, 1u);
+        },
+        "missing_sites_left_out");
+    std::uint32_t dualized = 0;
+    executor.download(&dualized, d_dualized, 1);
+    if (dualized != 0) throw Error("internal error: a missing site was dualized");
+    detail::DeviceBuffer<std::uint32_t> d_unreached(n);
+    const std::uint32_t num_unreached = executor.compact(
+        n, [=] __device__(std::size_t v) { return kept[v] != 0 && vert_tri[v] == ::cdt::detail::kNoId; },
+        d_unreached.data());
+    site_vert_tri.resize(num_unreached);
+    executor.download(site_vert_tri.data(), d_unreached.data(), num_unreached);
+  }
   executor.synchronize();
-  trace.mark("completion applied, vert_tri downloaded");
+  trace.mark("completion applied");
   out.emplace(std::move(state));
   return DualOutcome::built;
 }

@@ -187,8 +187,8 @@ void prepare_sites(DeviceSites::State& s, std::span<const Point> vertices,
       "site_cells");
 
   // Kept sites sit at their grid points, the others at their true positions.
-  DeviceBuffer<std::uint8_t> d_kept(n);
-  std::uint8_t* keep = d_kept.data();
+  s.kept.resize(n);
+  std::uint8_t* keep = s.kept.data();
   executor.for_each(
       n,
       [=] __device__(std::size_t k) {
@@ -267,6 +267,7 @@ void DeviceSites::leave_out(std::span<const std::uint32_t> sites) {
   const std::uint32_t* list = d_sites.data();
   double* x = s.x.data();
   double* y = s.y.data();
+  std::uint8_t* kept = s.kept.data();
   const double* true_x = s.true_x.data();
   const double* true_y = s.true_y.data();
   s.executor.for_each(
@@ -274,6 +275,7 @@ void DeviceSites::leave_out(std::span<const std::uint32_t> sites) {
       [=] __device__(std::size_t k) {
         x[list[k]] = true_x[list[k]];
         y[list[k]] = true_y[list[k]];
+        kept[list[k]] = 0;
       },
       "leave_out_sites");
   // Other streams (the dual's) read the positions next; d_sites is freed at the end of this scope.

@@ -373,8 +373,8 @@ Triangulation triangulate_on(std::span<const Point> points, std::span<const Segm
   Mesh mesh;
 #if defined(TRIXEL_HAVE_CUDA)
   std::optional<gpu::DeviceMesh> device_mesh; // the mesh of Phases 3 to 6 with the GPU backend
-  std::vector<std::uint32_t> site_vert_tri;   // the sites' vert_tri when the dual was completed there
 #endif
+  std::vector<std::uint32_t> unreached; // the kept sites the dual does not reach
   std::vector<std::uint32_t> degenerate;
   DualCorners corners; // the CPU executor's dual rows, kept from pass to pass
   int passes = 1;
@@ -388,10 +388,9 @@ Triangulation triangulate_on(std::span<const Point> points, std::span<const Segm
       // The dual is built and completed on the device and stays there for Phase 3 (only its open
       // edges come to the host).
       const Outcome outcome =
-          device_diagram->complete_dual(*device_sites, bounds, device_mesh, site_vert_tri, list);
+          device_diagram->complete_dual(*device_sites, bounds, device_mesh, unreached, list);
       if (outcome == Outcome::built) {
         trace.mark("device dual");
-        check_missing_sites_left_out(kept, site_vert_tri, executor);
         break;
       }
       if (outcome == Outcome::degenerate) {
@@ -409,7 +408,11 @@ Triangulation triangulate_on(std::span<const Point> points, std::span<const Segm
     if (!removed_on_device) {
 #endif
       mesh = dualize(colour, m, x, y, kept, bounds, executor, nullptr, list, &corners);
-      if (mesh.num_slots() > 0) break;
+      if (mesh.num_slots() > 0) {
+        unreached =
+            executor.compact(n, [&](std::size_t s) { return kept[s] != 0 && mesh.vert_tri[s] == kNoId; });
+        break;
+      }
       corners.mark_changed(remove_sites_from_colouring(colour, grid, m, degenerate), m);
       for (const std::uint32_t s : degenerate) {
         owners.push_back(colour[static_cast<std::size_t>(grid.gy[s]) * m + grid.gx[s]]);
@@ -434,13 +437,7 @@ Triangulation triangulate_on(std::span<const Point> points, std::span<const Segm
   trace.mark("dual");
   // Kept sites the dual did not reach (degenerate diagrams) are inserted like missing points, starting
   // from the fake boundary, which is always in the mesh.
-  const std::uint32_t* vert_tri = mesh.vert_tri.data();
-#if defined(TRIXEL_HAVE_CUDA)
-  if (device_mesh) vert_tri = site_vert_tri.data();
-#endif
-  for (const std::uint32_t s :
-       executor.compact(n, [&](std::size_t s) { return kept[s] != 0 && vert_tri[s] == kNoId; }))
-    missing.push_back({s, n});
+  for (const std::uint32_t s : unreached) missing.push_back({s, n});
   timer.end("dualize").iterations = static_cast<std::uint64_t>(passes);
 
   // Phases 3 to 6. With the GPU backend the mesh goes to the device once and stays there until the

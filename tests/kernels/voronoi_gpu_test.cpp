@@ -479,11 +479,17 @@ TEST_F(GpuVoronoi, DeviceSitesMatchTheHostSteps) {
           const cdt::detail::Mesh host =
               cdt::detail::dualize(colour, m, hx, hy, hkept, h.bounds, executor, nullptr, &degenerate);
           std::optional<cdt::gpu::DeviceMesh> on_device;
-          std::vector<std::uint32_t> site_vert_tri;
-          const auto outcome = diagram.complete_dual(device, bounds, on_device, site_vert_tri, &culprits);
+          std::vector<std::uint32_t> unreached;
+          const auto outcome = diagram.complete_dual(device, bounds, on_device, unreached, &culprits);
           if (host.num_slots() > 0) {
             EXPECT_NE(outcome, cdt::gpu::DeviceVoronoi::DualOutcome::degenerate) << at;
-            duals_built += outcome == cdt::gpu::DeviceVoronoi::DualOutcome::built ? 1 : 0;
+            if (outcome == cdt::gpu::DeviceVoronoi::DualOutcome::built) {
+              ++duals_built;
+              std::vector<std::uint32_t> host_unreached;
+              for (std::uint32_t s = 0; s < hkept.size(); ++s)
+                if (hkept[s] != 0 && host.vert_tri[s] == cdt::detail::kNoId) host_unreached.push_back(s);
+              EXPECT_EQ(unreached, host_unreached) << at;
+            }
             break;
           }
           ASSERT_EQ(outcome, cdt::gpu::DeviceVoronoi::DualOutcome::degenerate) << at;
