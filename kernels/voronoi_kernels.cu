@@ -387,8 +387,8 @@ std::vector<std::uint32_t> DeviceVoronoi::remove_sites(std::span<const std::uint
   const std::uint32_t num_cleared = executor.compact(
       cells, [=] __device__(std::size_t c) { return detail::sorted_contains(list, num, colour[c]); },
       cleared);
-  // Per cleared cell, its neighbours' colours as the flood starts (kNone for cleared ones and off the
-  // grid) and those sites' grid cells: all the flood reads.
+  // Per cleared cell, its neighbours on the grid with their colours as the flood starts (kNone for
+  // cleared ones) and those sites' grid cells: all the flood reads.
   using detail::Around;
   detail::DeviceBuffer<Around> d_around(num_cleared + 1);
   Around* around = d_around.data();
