@@ -316,7 +316,10 @@ int main(int argc, char** argv) {
   app.add_option("--seam-width", seam_width,
                  "Width of the seam stroke, pixels (default: 3 for underlay, 0.5 for stroke)")
       ->check(CLI::Range(0.0, 10.0));
-  app.add_option("--backend", backend_name, "CDT engine: auto (GPU when present), cpu or gpu")
+  app.add_option("--backend", backend_name,
+                 "CDT engine: auto (the GPU when present, for PSLGs of " +
+                     std::to_string(vectorize::kDevicePslgPoints) +
+                     " points or more; the CPU below), cpu or gpu")
       ->check(CLI::IsMember({"auto", "cpu", "gpu"}))
       ->capture_default_str();
   app.add_option("--stats", stats_format, "Print per-stage times and counts to stderr: text or json")

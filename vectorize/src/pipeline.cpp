@@ -109,7 +109,9 @@ Conversion convert(const Image& image, const Options& options, StageRecord* reco
   timer.end("pslg");
 
   cdt::Options cdt_options;
-  cdt_options.backend = options.backend;
+  cdt_options.backend = options.backend == cdt::Backend::automatic && pslg.points.size() < kDevicePslgPoints
+                            ? cdt::Backend::cpu
+                            : options.backend;
   cdt_options.threads = options.threads;
   const cdt::Triangulation triangulation = cdt::triangulate(pslg.points, pslg.segments, cdt_options);
   stats.triangles = triangulation.triangles.size();

@@ -29,6 +29,12 @@ enum class Preset {
   photo,        ///< smooth shading everywhere: dense interior points, fine colour tolerance
 };
 
+/// The size of PSLG from which the automatic backend triangulates on the GPU. A photograph's PSLG
+/// (10-50K points for 0.4-1.6 megapixels) converts faster on the CPU when a batch's workers share the
+/// device, and one image loses only milliseconds; the rule depends on the PSLG alone, so an image gives
+/// the same SVG alone, in a batch and with any -j.
+inline constexpr std::size_t kDevicePslgPoints = 50000;
+
 /// Every knob of the pipeline, in human units (pixels, Delta E).
 struct Options {
   EdgeOptions edges;
@@ -37,6 +43,8 @@ struct Options {
   InteriorOptions interior;
   GroupingOptions grouping;
   SvgOptions svg;
+  /// cdt::Backend::automatic takes the GPU, when there is one, for PSLGs of kDevicePslgPoints points or
+  /// more, and the CPU below that; cpu and gpu are taken as they are.
   cdt::Backend backend = cdt::Backend::automatic;
   /// Threads one conversion may use (simplification, the CDT engine's CPU executor, trixel colours);
   /// 0 uses every hardware thread. The output is the same for any number.
