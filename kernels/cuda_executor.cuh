@@ -190,10 +190,11 @@ public:
 
   /// Host to device copy of n elements, queued on the stream. The host data is read before the call
   /// returns; large arrays go through pinned staging blocks, so they move at the bus's speed instead
-  /// of the driver's pageable-memory path.
+  /// of the driver's pageable-memory path; their host side (into the staging blocks) spreads over
+  /// `parallel` when it is given.
   template <class T>
-  void upload(T* d_dst, const T* h_src, std::size_t n) {
-    copy_to_device(d_dst, h_src, n * sizeof(T));
+  void upload(T* d_dst, const T* h_src, std::size_t n, const HostParallelFor* parallel = nullptr) {
+    copy_to_device(d_dst, h_src, n * sizeof(T), parallel);
   }
 
   /// Device to host copy of n elements; waits for it and for all work queued before it. Large copies
@@ -237,7 +238,7 @@ private:
     return alternate_.data();
   }
 
-  void copy_to_device(void* d_dst, const void* h_src, std::size_t bytes);
+  void copy_to_device(void* d_dst, const void* h_src, std::size_t bytes, const HostParallelFor* parallel);
   void copy_to_host(void* h_dst, const void* d_src, std::size_t bytes, const HostParallelFor* parallel);
   /// The two pinned staging blocks of large copies and their events, made on first use.
   void make_staging();

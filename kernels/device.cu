@@ -176,6 +176,20 @@ namespace {
 /// bus transfer of the other.
 constexpr std::size_t kStagingBytes = std::size_t{8} << 20;
 constexpr std::size_t kCopyPartBytes = std::size_t{512} << 10; ///< a host thread's share of a block
+
+/// memcpy of len bytes, in parts of kCopyPartBytes over `parallel` when given.
+void copy_parts(void* to, const void* from, std::size_t len, const HostParallelFor* parallel) {
+  if (parallel == nullptr || !*parallel) {
+    std::memcpy(to, from, len);
+    return;
+  }
+  const std::size_t parts = (len + kCopyPartBytes - 1) / kCopyPartBytes;
+  (*parallel)(parts, [&](std::size_t p) {
+    const std::size_t offset = p * kCopyPartBytes;
+    std::memcpy(static_cast<unsigned char*>(to) + offset, static_cast<const unsigned char*>(from) + offset,
+                std::min(kCopyPartBytes, len - offset));
+  });
+}
 } // namespace
 
 void CudaExecutor::make_staging() {
@@ -185,7 +199,8 @@ void CudaExecutor::make_staging() {
   }
 }
 
-void CudaExecutor::copy_to_device(void* d_dst, const void* h_src, std::size_t bytes) {
+void CudaExecutor::copy_to_device(void* d_dst, const void* h_src, std::size_t bytes,
+                                  const HostParallelFor* parallel) {
   if (bytes == 0) return;
   if (bytes <= kStagingBytes) {
     CDT_CUDA_CHECK(cudaMemcpyAsync(d_dst, h_src, bytes, cudaMemcpyHostToDevice, stream_));
@@ -200,7 +215,7 @@ void CudaExecutor::copy_to_device(void* d_dst, const void* h_src, std::size_t by
     // The block's last transfer (two blocks back, or of an earlier upload) must be done before it is
     // refilled; an event never recorded counts as done.
     CDT_CUDA_CHECK(cudaEventSynchronize(staged_[buf]));
-    std::memcpy(h_staging_[buf], src + at, len);
+    copy_parts(h_staging_[buf], src + at, len, parallel);
     CDT_CUDA_CHECK(cudaMemcpyAsync(dst + at, h_staging_[buf], len, cudaMemcpyHostToDevice, stream_));
     CDT_CUDA_CHECK(cudaEventRecord(staged_[buf], stream_));
   }
@@ -222,18 +237,9 @@ void CudaExecutor::copy_to_host(void* h_dst, const void* d_src, std::size_t byte
     const std::size_t at = k * kStagingBytes;
     CDT_CUDA_CHECK(cudaEventSynchronize(staged_[buf]));
     const std::size_t len = std::min(kStagingBytes, bytes - at);
-    const auto* from = static_cast<const unsigned char*>(h_staging_[buf]);
-    if (parallel == nullptr || !*parallel) {
-      std::memcpy(dst + at, from, len);
-      return;
-    }
     // The destination is often fresh memory: its page faults cost more than the copy, and spread
     // over threads as well as the copy does.
-    const std::size_t parts = (len + kCopyPartBytes - 1) / kCopyPartBytes;
-    (*parallel)(parts, [&](std::size_t p) {
-      const std::size_t offset = p * kCopyPartBytes;
-      std::memcpy(dst + at + offset, from + offset, std::min(kCopyPartBytes, len - offset));
-    });
+    copy_parts(dst + at, h_staging_[buf], len, parallel);
   };
   for (std::size_t k = 0; k < blocks; ++k) {
     const int buf = static_cast<int>(k % 2);

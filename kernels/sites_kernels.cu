@@ -1,9 +1,10 @@
 // Phase 1's first half on the device: the steps cdt::triangulate runs on the host before the digital
-// Voronoi diagram (the sites' coordinates, the grid mapping's box, the Z order, the renumbering, the
-// grid cells with their owners, the kept sites and the box of every position), each the same
-// computation, so the numbering, the cells and the missing points are the host's. The positions and
-// cells stay on the device; only the numbering, the kept flags and the missing points come back.
+// Voronoi diagram (the merge of duplicate points, the sites' coordinates, the grid mapping's box, the Z
+// order, the renumbering, the grid cells with their owners, the kept sites and the box of every position),
+// each the same computation, so the numbering, the cells and the missing points are the host's. The positions
+// and cells stay on the device; only the numbering, the kept flags and the missing points come back.
 
+#include <algorithm>
 #include <bit>
 #include <cstddef>
 #include <cstdint>
@@ -22,6 +23,7 @@
 #include "gcd/grid_map.hpp"
 #include "gcd/mesh.hpp"
 #include "gcd/shift.hpp"
+#include "pslg.hpp"
 
 namespace cdt::gpu {
 
@@ -85,35 +87,161 @@ Extent box_of(CudaExecutor& executor, std::size_t n, const double* x, const doub
   return all;
 }
 
-/// DeviceSites' construction (a constructor cannot hold the extended lambdas of its steps).
-void prepare_sites(DeviceSites::State& s, std::span<const Point> vertices,
-                   std::span<const std::uint32_t> sites, std::uint32_t m, GridMapping& mapping,
-                   ::cdt::detail::Box& bounds, std::vector<std::uint32_t>& site_vertex,
-                   std::vector<std::uint32_t>& site_of_vertex, std::vector<std::uint8_t>& kept,
-                   std::vector<MissingPoint>& missing, const HostParallelFor& parallel) {
+/// The vertices go up as they are (x, y pairs); the list of sites only when some vertex is not a site
+/// (a duplicate).
+void upload_vertices(DeviceSites::State& s, std::span<const Point> vertices,
+                     std::span<const std::uint32_t> sites, const HostParallelFor& parallel) {
   const std::size_t nv = vertices.size();
   const std::size_t n = sites.size();
   if (n == 0 || n > nv || nv >= kNoId) throw Error("internal error: DeviceSites: no sites, or too many");
+  static_assert(sizeof(Point) == 2 * sizeof(double));
+  s.num_vertices = nv;
+  s.n = static_cast<std::uint32_t>(n);
+  s.vertex_xy.resize(2 * nv);
+  s.executor.upload(s.vertex_xy.data(), reinterpret_cast<const double*>(vertices.data()), 2 * nv, &parallel);
+  if (n != nv) {
+    s.site_list.resize(n);
+    s.executor.upload(s.site_list.data(), sites.data(), n, &parallel);
+  }
+}
+
+/// Bytes of device memory merge_duplicates needs for n points: the points (16 bytes), the hashes and
+/// their order with the sort's second copies (16), the starts of equal hashes, the representatives,
+/// the sites and the points left unresolved (16); CUB's scratch within a megabyte and a byte a point.
+std::size_t duplicates_device_bytes(std::size_t n) { return 49 * n + (std::size_t{1} << 20); }
+
+/// The host's merge_duplicates on the device: the points are sorted by the low 32 bits of their hash
+/// (stable: in index order within equal hashes), so the first point of each run of equal hashes is the
+/// lowest index with its coordinates, and the others of its run with equal coordinates are its
+/// duplicates. A point of a run that differs from the run's first point (another point with the same
+/// hash: a few thousand among ten million points) is resolved on the host among the others like it:
+/// every point with its coordinates is in that run and differs from the first point too.
+void merge_duplicates(DeviceSites::State& s, std::span<const Point> points,
+                      std::vector<std::uint32_t>& duplicate_of, std::vector<std::uint32_t>& sites,
+                      const HostParallelFor& parallel) {
+  const std::size_t nv = points.size();
+  if (nv == 0 || nv >= kNoId) throw Error("internal error: DeviceSites: no points, or too many");
+  require_device_memory(duplicates_device_bytes(nv), 0,
+                        "merging the duplicates of " + std::to_string(nv) + " points");
+  CudaExecutor& executor = s.executor;
+  ::cdt::detail::StepTrace trace("device duplicates");
+  s.num_vertices = nv;
+  s.vertex_xy.resize(2 * nv);
+  executor.upload(s.vertex_xy.data(), reinterpret_cast<const double*>(points.data()), 2 * nv, &parallel);
+  const double* xy = s.vertex_xy.data();
+  trace.mark("points up");
+
+  DeviceBuffer<std::uint32_t> d_hash(nv), d_order(nv);
+  std::uint32_t* hash = d_hash.data();
+  std::uint32_t* order = d_order.data();
+  executor.for_each(
+      nv,
+      [=] __device__(std::size_t i) {
+        hash[i] = static_cast<std::uint32_t>(::cdt::detail::point_hash(xy[2 * i], xy[2 * i + 1]));
+        order[i] = static_cast<std::uint32_t>(i);
+      },
+      "point_hashes");
+  executor.sort_pairs(hash, order, nv, 32);
+  DeviceBuffer<std::uint32_t> d_starts(nv + 1);
+  std::uint32_t* starts = d_starts.data();
+  const std::uint32_t runs = executor.compact(
+      nv, [=] __device__(std::size_t k) { return k == 0 || hash[k] != hash[k - 1]; }, starts);
+  DeviceBuffer<std::uint32_t> d_duplicate_of(nv);
+  std::uint32_t* dup = d_duplicate_of.data();
+  executor.for_each(
+      nv,
+      [=] __device__(std::size_t k) {
+        const std::uint32_t i = order[k];
+        if (k == 0 || hash[k] != hash[k - 1]) {
+          dup[i] = i;
+          return;
+        }
+        // The run's first place: the last start at or before k.
+        std::uint32_t lo = 0, hi = runs;
+        while (hi - lo > 1) {
+          const std::uint32_t mid = (lo + hi) / 2;
+          if (starts[mid] <= k)
+            lo = mid;
+          else
+            hi = mid;
+        }
+        const std::uint32_t first = order[starts[lo]];
+        const bool same = xy[2 * i] == xy[2 * static_cast<std::size_t>(first)] &&
+                          xy[2 * i + 1] == xy[2 * static_cast<std::size_t>(first) + 1];
+        dup[i] = same ? first : kNoId;
+      },
+      "duplicate_of");
+  d_hash = {};
+  d_order = {};
+  d_starts = {};
+
+  DeviceBuffer<std::uint32_t> d_unresolved(nv);
+  const std::uint32_t num_unresolved = executor.compact(
+      nv, [=] __device__(std::size_t i) { return dup[i] == kNoId; }, d_unresolved.data());
+  if (num_unresolved > 0) {
+    std::vector<std::uint32_t> unresolved(num_unresolved);
+    executor.download(unresolved.data(), d_unresolved.data(), num_unresolved);
+    const auto before = [&](std::uint32_t a, std::uint32_t b) {
+      const std::uint64_t ax = ::cdt::detail::coordinate_bits(points[a].x);
+      const std::uint64_t bx = ::cdt::detail::coordinate_bits(points[b].x);
+      if (ax != bx) return ax < bx;
+      const std::uint64_t ay = ::cdt::detail::coordinate_bits(points[a].y);
+      const std::uint64_t by = ::cdt::detail::coordinate_bits(points[b].y);
+      return ay != by ? ay < by : a < b;
+    };
+    std::sort(unresolved.begin(), unresolved.end(), before);
+    // Pairs (point, representative): the first of each group of equal coordinates represents it.
+    std::vector<std::uint32_t> fixes(2 * static_cast<std::size_t>(num_unresolved));
+    for (std::size_t k = 0, first = 0; k < unresolved.size(); ++k) {
+      const Point& p = points[unresolved[k]];
+      const Point& f = points[unresolved[first]];
+      if (p.x != f.x || p.y != f.y) first = k;
+      fixes[2 * k] = unresolved[k];
+      fixes[2 * k + 1] = unresolved[first];
+    }
+    DeviceBuffer<std::uint32_t> d_fixes(fixes.size());
+    executor.upload(d_fixes.data(), fixes.data(), fixes.size());
+    const std::uint32_t* fix = d_fixes.data();
+    executor.for_each(
+        num_unresolved, [=] __device__(std::size_t k) { dup[fix[2 * k]] = fix[2 * k + 1]; },
+        "unresolved_duplicates");
+    executor.synchronize(); // the host's list is freed at the end of this scope
+  }
+  d_unresolved = {};
+  trace.mark("merged");
+
+  s.site_list.resize(nv);
+  const std::uint32_t n = executor.compact(
+      nv, [=] __device__(std::size_t i) { return dup[i] == i; }, s.site_list.data());
+  s.n = n;
+  duplicate_of.resize(nv);
+  sites.resize(n);
+  executor.download(duplicate_of.data(), dup, nv, &parallel);
+  executor.download(sites.data(), s.site_list.data(), n, &parallel);
+  if (n == nv) s.site_list = {};
+  trace.mark("downloaded");
+}
+
+/// DeviceSites' preparation (a constructor cannot hold the extended lambdas of its steps), from the
+/// vertices and sites on the device (upload_vertices or merge_duplicates), which it frees.
+void prepare_sites(DeviceSites::State& s, std::uint32_t m, GridMapping& mapping, ::cdt::detail::Box& bounds,
+                   std::vector<std::uint32_t>& site_vertex, std::vector<std::uint32_t>& site_of_vertex,
+                   std::vector<std::uint8_t>& kept, std::vector<MissingPoint>& missing,
+                   const HostParallelFor& parallel) {
+  const std::size_t nv = s.num_vertices;
+  const std::size_t n = s.n;
+  if (n == 0 || n > nv || s.vertex_xy.size() != 2 * nv)
+    throw Error("internal error: DeviceSites: prepared twice, or without sites");
   if (m == 0 || m > ::cdt::detail::kMaxGridSize)
     throw Error("internal error: DeviceSites: grid size " + std::to_string(m) + " out of range");
-  require_device_memory(sites_device_bytes(nv, n, m), 0,
+  require_device_memory(sites_device_bytes(nv, n, m) - 20 * nv, 0,
                         "the grid sites of " + std::to_string(n) + " points on a " + std::to_string(m) +
                             " x " + std::to_string(m) + " grid");
   CudaExecutor& executor = s.executor;
   ::cdt::detail::StepTrace trace("device sites");
-  s.n = static_cast<std::uint32_t>(n);
   s.m = m;
-
-  // The vertices go up as they are (x, y pairs); the list of sites only when some vertex is a
-  // duplicate (the sites are then not every vertex in order).
-  static_assert(sizeof(Point) == 2 * sizeof(double));
-  DeviceBuffer<double> d_xy(2 * nv);
-  executor.upload(d_xy.data(), reinterpret_cast<const double*>(vertices.data()), 2 * nv);
-  const bool every_vertex = n == nv;
-  DeviceBuffer<std::uint32_t> d_sites(every_vertex ? 1 : n);
-  if (!every_vertex) executor.upload(d_sites.data(), sites.data(), n);
-  const double* xy = d_xy.data();
-  const std::uint32_t* site_list = every_vertex ? nullptr : d_sites.data();
+  const double* xy = s.vertex_xy.data();
+  const std::uint32_t* site_list = n == nv ? nullptr : s.site_list.data();
 
   // The sites' coordinates in their given order (in x, y for now), their box and the grid mapping.
   s.x.resize(n);
@@ -228,6 +356,8 @@ void prepare_sites(DeviceSites::State& s, std::span<const Point> vertices,
   executor.download(kept.data(), keep, n, &parallel);
   executor.download(reinterpret_cast<std::uint32_t*>(missing.data()), pairs,
                     2 * static_cast<std::size_t>(num_missing));
+  s.vertex_xy = {};
+  s.site_list = {};
   trace.mark("downloaded");
 }
 
@@ -249,8 +379,21 @@ DeviceSites::DeviceSites(std::span<const Point> vertices, std::span<const std::u
                          std::vector<std::uint8_t>& kept, std::vector<MissingPoint>& missing,
                          const HostParallelFor& parallel)
     : state_(std::make_unique<State>()) {
-  detail::prepare_sites(*state_, vertices, sites, m, mapping, bounds, site_vertex, site_of_vertex, kept,
-                        missing, parallel);
+  detail::upload_vertices(*state_, vertices, sites, parallel);
+  prepare(m, mapping, bounds, site_vertex, site_of_vertex, kept, missing, parallel);
+}
+
+DeviceSites::DeviceSites(std::span<const Point> points, std::vector<std::uint32_t>& duplicate_of,
+                         std::vector<std::uint32_t>& sites, const HostParallelFor& parallel)
+    : state_(std::make_unique<State>()) {
+  detail::merge_duplicates(*state_, points, duplicate_of, sites, parallel);
+}
+
+void DeviceSites::prepare(std::uint32_t m, GridMapping& mapping, ::cdt::detail::Box& bounds,
+                          std::vector<std::uint32_t>& site_vertex, std::vector<std::uint32_t>& site_of_vertex,
+                          std::vector<std::uint8_t>& kept, std::vector<MissingPoint>& missing,
+                          const HostParallelFor& parallel) {
+  detail::prepare_sites(*state_, m, mapping, bounds, site_vertex, site_of_vertex, kept, missing, parallel);
 }
 
 DeviceSites::~DeviceSites() = default;

@@ -147,22 +147,6 @@ std::size_t validate_segments(std::span<const Point> points, std::span<const Seg
 
 // --- duplicates --------------------------------------------------------------------------------------
 
-/// The bits of v with -0 taken as +0, so that equal coordinates give equal bits.
-std::uint64_t coordinate_bits(double v) {
-  if (v == 0.0) v = 0.0;
-  return std::bit_cast<std::uint64_t>(v);
-}
-
-/// A mix of both coordinates' bits: equal points hash alike, distinct ones collide about never.
-std::uint64_t point_hash(const Point& p) {
-  std::uint64_t h = coordinate_bits(p.x) * 0x9E3779B97F4A7C15ull;
-  h ^= (h >> 29) ^ coordinate_bits(p.y);
-  h *= 0xBF58476D1CE4E5B9ull;
-  h ^= h >> 32;
-  h *= 0x94D049BB133111EBull;
-  return h ^ (h >> 29);
-}
-
 /// Per point, its representative: the lowest index with identical coordinates (-0 and +0 are equal).
 std::vector<std::uint32_t> merge_duplicates(std::span<const Point> points, CpuExecutor& executor) {
   // Identical points only need to meet, not to be ordered: a stable radix sort by a hash of the
@@ -173,7 +157,7 @@ std::vector<std::uint32_t> merge_duplicates(std::span<const Point> points, CpuEx
   std::vector<std::uint32_t> hash(n);
   std::vector<std::uint32_t> order(n);
   executor.for_each(n, [&](std::size_t i) {
-    hash[i] = static_cast<std::uint32_t>(point_hash(points[i]));
+    hash[i] = static_cast<std::uint32_t>(point_hash(points[i].x, points[i].y));
     order[i] = static_cast<std::uint32_t>(i);
   });
   executor.sort_pairs_by_key(hash, order, 32);
@@ -1218,7 +1202,7 @@ PreparedPslg prepare_pslg(std::span<const Point> points, std::span<const Segment
 }
 
 PreparedPslg merge_input(std::span<const Point> points, std::span<const Segment> segments,
-                         CrossingSegments policy, CpuExecutor& executor) {
+                         CrossingSegments policy, CpuExecutor& executor, const DuplicateMerge& merge) {
   if (points.size() >= std::numeric_limits<std::uint32_t>::max() ||
       segments.size() >= std::numeric_limits<std::uint32_t>::max()) {
     throw Error("more than 2^32 - 2 points or segments");
@@ -1229,9 +1213,14 @@ PreparedPslg merge_input(std::span<const Point> points, std::span<const Segment>
   trace.mark("validated");
   PreparedPslg out;
   out.zero_length_segments = zero_length;
-  out.duplicate_of = merge_duplicates(points, executor);
-  trace.mark("duplicates");
-  out.sites = executor.compact(points.size(), [&](std::size_t i) { return out.duplicate_of[i] == i; });
+  if (merge) {
+    merge(out.duplicate_of, out.sites);
+    trace.mark("duplicates, sites");
+  } else {
+    out.duplicate_of = merge_duplicates(points, executor);
+    trace.mark("duplicates");
+    out.sites = executor.compact(points.size(), [&](std::size_t i) { return out.duplicate_of[i] == i; });
+  }
   check_dimension(points, out.sites);
   out.vertices.assign(points.begin(), points.end());
   trace.mark("sites");

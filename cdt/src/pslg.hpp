@@ -11,10 +11,13 @@
 // it (snap rounding in miniature). Input points are only ever reused when hit exactly.
 
 #include <cstdint>
+#include <cstring>
+#include <functional>
 #include <span>
 #include <vector>
 
 #include "cdt/cdt.hpp"
+#include "cdt/detail/host_device.hpp"
 
 namespace cdt::detail {
 
@@ -47,6 +50,31 @@ struct PreparedPslg {
   std::size_t zero_length_segments = 0;
 };
 
+/// The bits of v with -0 taken as +0, so that equal coordinates give equal bits.
+CDT_HD_INLINE std::uint64_t coordinate_bits(double v) {
+  if (v == 0.0) v = 0.0;
+  std::uint64_t bits;
+  std::memcpy(&bits, &v, sizeof bits);
+  return bits;
+}
+
+/// A mix of both coordinates' bits: equal points hash alike, distinct ones collide about never. The
+/// host and the device group duplicate points by its low 32 bits.
+CDT_HD_INLINE std::uint64_t point_hash(double x, double y) {
+  std::uint64_t h = coordinate_bits(x) * 0x9E3779B97F4A7C15ull;
+  h ^= (h >> 29) ^ coordinate_bits(y);
+  h *= 0xBF58476D1CE4E5B9ull;
+  h ^= h >> 32;
+  h *= 0x94D049BB133111EBull;
+  return h ^ (h >> 29);
+}
+
+/// Duplicate points merged elsewhere than on the host (the device): fills, for the points given to
+/// merge_input, duplicate_of (per point the lowest index with identical coordinates, -0 equal to +0)
+/// and sites (the points that are their own representative, increasing), as the host would.
+using DuplicateMerge =
+    std::function<void(std::vector<std::uint32_t>& duplicate_of, std::vector<std::uint32_t>& sites)>;
+
 /// Checks and cleans the input of triangulate(). Throws InvalidInputError (non-finite coordinates,
 /// coordinates beyond kMaxCoordinate, out-of-range indices, zero-length segments under
 /// CrossingSegments::reject (ignored under resolve), fewer than 3 distinct
@@ -68,9 +96,10 @@ PreparedPslg prepare_pslg(std::span<const Point> points, std::span<const Segment
 
 /// The first half of prepare_pslg: input checks (the same errors), duplicate points merged, and as
 /// pieces the input segments between representatives, each vertex pair once (the lowest segment id),
-/// sorted by (a, b), not yet split at points on them or at crossings.
+/// sorted by (a, b), not yet split at points on them or at crossings. The duplicates are merged by
+/// `merge` when given (after the input checks), else on `executor`.
 PreparedPslg merge_input(std::span<const Point> points, std::span<const Segment> segments,
-                         CrossingSegments policy, CpuExecutor& executor);
+                         CrossingSegments policy, CpuExecutor& executor, const DuplicateMerge& merge = {});
 
 /// The second half: splits every piece at the sites on it and at crossings (the errors of prepare_pslg
 /// for crossings), adding the crossing vertices to vertices and sites.

@@ -1,12 +1,14 @@
 // triangulate(): the gCD pipeline (paper sections 3 and 4). The CPU executor runs every phase; with
-// the GPU backend the CUDA executor runs the sites' order, grid cells and kept sites, the digital
-// Voronoi diagram, the dual triangles with their links (Phase 2 but for hull completion and the fake
-// boundary), shifting, missing points, the fake boundary's removal, the segments' screen, the
-// constraints and the Lawson flips before and after them, each the same computation as the CPU
-// executor's step for step, so the result is the same; the CPU executor runs the rest (preparation,
-// hull completion and fake boundary, the suspects' split), until those move to the device too.
+// the GPU backend the CUDA executor runs the merge of duplicate points, the sites' order, grid cells
+// and kept sites, the digital Voronoi diagram, the dual triangles with their links (Phase 2 but for
+// hull completion and the fake boundary), shifting, missing points, the fake boundary's removal, the
+// segments' screen, the constraints and the Lawson flips before and after them, each the same
+// computation as the CPU executor's step for step, so the result is the same; the CPU executor runs
+// the rest (input checks and segments, hull completion and fake boundary, the suspects' split), until
+// those move to the device too.
 //
-//   prepare   merge duplicates (cdt/src/pslg.cpp)
+//   prepare   input checks, merge duplicates (cdt/src/pslg.cpp; the merge on the device with the GPU
+//             backend)
 //   voronoi   Phase 1: grid mapping (Appendix B), digital Voronoi diagram (PBA + Appendix A)
 //   dualize   Phase 2: dual triangles, hull completion, fake boundary
 //   shift     Phase 3: points back to their true coordinates (Algorithms 1 and 2)
@@ -257,9 +259,26 @@ Triangulation triangulate_on(std::span<const Point> points, std::span<const Segm
   CpuExecutor executor(options.threads);
   StepTrace trace("triangulate");
 
+#if defined(TRIXEL_HAVE_CUDA)
+  std::optional<gpu::DeviceSites> device_sites;
+  const gpu::HostParallelFor parallel = [&](std::size_t parts, const std::function<void(std::size_t)>& body) {
+    executor.for_each_part(parts, body);
+  };
+  // With the GPU backend the points go to the device once, where their duplicates are merged and
+  // the sites prepared.
+  DuplicateMerge merge;
+  if (on_gpu) {
+    merge = [&](std::vector<std::uint32_t>& duplicate_of, std::vector<std::uint32_t>& sites) {
+      device_sites.emplace(points, duplicate_of, sites, parallel);
+    };
+  }
+#else
+  const DuplicateMerge merge;
+#endif
   // Input checks and cleaning.
-  PreparedPslg pslg = split == Split::first ? prepare_pslg(points, segments, options.crossings, executor)
-                                            : merge_input(points, segments, options.crossings, executor);
+  PreparedPslg pslg = split == Split::first
+                          ? prepare_pslg(points, segments, options.crossings, executor)
+                          : merge_input(points, segments, options.crossings, executor, merge);
   trace.mark("prepare");
   timer.end("prepare");
   stats.zero_length_segments = pslg.zero_length_segments;
@@ -287,14 +306,14 @@ Triangulation triangulate_on(std::span<const Point> points, std::span<const Segm
   Box bounds; // the box of both positions of every site
   std::vector<std::uint32_t> colour;
 #if defined(TRIXEL_HAVE_CUDA)
-  std::optional<gpu::DeviceSites> device_sites;
   std::optional<gpu::DeviceVoronoi> device_diagram; // Phase 1's colouring stays on the device for Phase 2
-  const gpu::HostParallelFor parallel = [&](std::size_t parts, const std::function<void(std::size_t)>& body) {
-    executor.for_each_part(parts, body);
-  };
   if (on_gpu) {
-    device_sites.emplace(pslg.vertices, pslg.sites, m, mapping, bounds, site_vertex, site_of_vertex, kept,
-                         missing, parallel);
+    if (device_sites) {
+      device_sites->prepare(m, mapping, bounds, site_vertex, site_of_vertex, kept, missing, parallel);
+    } else {
+      device_sites.emplace(pslg.vertices, pslg.sites, m, mapping, bounds, site_vertex, site_of_vertex, kept,
+                           missing, parallel);
+    }
     trace.mark("device sites");
     device_diagram.emplace(*device_sites);
     trace.mark("digital voronoi");

@@ -8,6 +8,7 @@
 #include <cmath>
 #include <cstdint>
 #include <optional>
+#include <span>
 #include <string>
 #include <vector>
 
@@ -18,6 +19,7 @@
 #include "gcd/grid_map.hpp"
 #include "gcd/shift.hpp"
 #include "gcd/voronoi.hpp"
+#include "pslg.hpp"
 
 namespace {
 
@@ -518,6 +520,104 @@ TEST_F(GpuVoronoi, DeviceSitesMatchTheHostSteps) {
   EXPECT_GT(missing_seen, 0u) << "no cell held two sites: the owners' minimum went untested";
   EXPECT_GT(degenerate_seen, 0u) << "no degenerate corner: the removal on the device went untested";
   EXPECT_GT(duals_built, 0) << "no dual was built from the device's sites";
+}
+
+/// Pairs of distinct points whose hashes agree in the low 32 bits (the bits both merges group by),
+/// found among random points by their birthday: about ten pairs among 300000 points.
+std::vector<std::pair<cdt::Point, cdt::Point>> colliding_pairs(Rng& rng) {
+  std::vector<std::pair<std::uint32_t, cdt::Point>> hashed(300000);
+  for (auto& [h, p] : hashed) {
+    p = {rng.unit(), rng.unit()};
+    h = static_cast<std::uint32_t>(cdt::detail::point_hash(p.x, p.y));
+  }
+  std::sort(hashed.begin(), hashed.end(), [](const auto& a, const auto& b) { return a.first < b.first; });
+  std::vector<std::pair<cdt::Point, cdt::Point>> pairs;
+  for (std::size_t k = 1; k < hashed.size(); ++k)
+    if (hashed[k].first == hashed[k - 1].first && !(hashed[k].second == hashed[k - 1].second))
+      pairs.emplace_back(hashed[k - 1].second, hashed[k].second);
+  return pairs;
+}
+
+// The duplicates merged on the device (gpu::DeviceSites from the input points) are the host's: the same
+// representative per point and the same sites, with many copies of points, -0 against +0, points whose
+// hashes collide (resolved apart from the run's first point) and no duplicates at all; and the sites
+// prepared from them afterwards are those of the one-step construction from the host's merge.
+TEST_F(GpuVoronoi, DuplicatesMergeAsOnTheHost) {
+  CpuExecutor executor(2);
+  Rng rng(11);
+  const auto pairs = colliding_pairs(rng);
+  ASSERT_GE(pairs.size(), 2u) << "no colliding hashes found: the device's fallback would go untested";
+  struct Case {
+    std::string name;
+    std::vector<cdt::Point> points;
+  };
+  std::vector<Case> cases;
+  {
+    Case c{"distinct", {}};
+    for (int i = 0; i < 50000; ++i) c.points.push_back({rng.unit(), rng.unit()});
+    cases.push_back(c);
+  }
+  {
+    Case c{"small lattice, many copies", {}};
+    for (int i = 0; i < 200000; ++i) c.points.push_back({double(rng.below(300)), double(rng.below(300))});
+    cases.push_back(c);
+  }
+  {
+    Case c{"one point copied, signed zeros", {{0.0, 0.0}, {1.0, 0.0}, {0.0, 1.0}}};
+    for (int i = 0; i < 100000; ++i) c.points.push_back({0.5, 0.25});
+    for (int i = 0; i < 1000; ++i) {
+      c.points.push_back({-0.0, 0.0});
+      c.points.push_back({0.0, -0.0});
+      c.points.push_back({-0.0, -0.0});
+    }
+    cases.push_back(c);
+  }
+  {
+    // Each colliding pair's points interleaved with copies, after a random start, so that either may
+    // come first in its run.
+    Case c{"colliding hashes", {}};
+    for (int i = 0; i < 1000; ++i) c.points.push_back({rng.unit(), rng.unit()});
+    for (int copy = 0; copy < 5; ++copy) {
+      for (std::size_t k = 0; k < pairs.size(); ++k) {
+        const bool swap = (copy + k) % 2 == 1;
+        c.points.push_back(swap ? pairs[k].second : pairs[k].first);
+        c.points.push_back(swap ? pairs[k].first : pairs[k].second);
+        c.points.push_back(pairs[k].second);
+      }
+    }
+    cases.push_back(c);
+  }
+  for (const Case& c : cases) {
+    const cdt::detail::PreparedPslg host =
+        cdt::detail::merge_input(c.points, {}, cdt::CrossingSegments::resolve, executor);
+    std::vector<std::uint32_t> duplicate_of, sites;
+    cdt::gpu::DeviceSites device(c.points, duplicate_of, sites);
+    EXPECT_EQ(duplicate_of, host.duplicate_of) << c.name;
+    EXPECT_EQ(sites, host.sites) << c.name;
+    if (HasFailure()) return;
+
+    const std::uint32_t m = 256;
+    cdt::detail::GridMapping mapping, one_mapping;
+    cdt::detail::Box bounds, one_bounds;
+    std::vector<std::uint32_t> site_vertex, site_of_vertex, one_site_vertex, one_site_of_vertex;
+    std::vector<std::uint8_t> kept, one_kept;
+    std::vector<cdt::detail::MissingPoint> missing, one_missing;
+    device.prepare(m, mapping, bounds, site_vertex, site_of_vertex, kept, missing);
+    const cdt::gpu::DeviceSites one_step(c.points, host.sites, m, one_mapping, one_bounds, one_site_vertex,
+                                         one_site_of_vertex, one_kept, one_missing);
+    EXPECT_EQ(mapping.scale, one_mapping.scale) << c.name;
+    EXPECT_EQ(site_vertex, one_site_vertex) << c.name;
+    EXPECT_EQ(site_of_vertex, one_site_of_vertex) << c.name;
+    EXPECT_EQ(kept, one_kept) << c.name;
+    EXPECT_EQ(missing.size(), one_missing.size()) << c.name;
+    EXPECT_EQ(bounds.min_x, one_bounds.min_x) << c.name;
+    EXPECT_EQ(bounds.max_y, one_bounds.max_y) << c.name;
+    std::vector<double> x, y, one_x, one_y;
+    device.positions(x, y);
+    one_step.positions(one_x, one_y);
+    EXPECT_EQ(x, one_x) << c.name;
+    EXPECT_EQ(y, one_y) << c.name;
+  }
 }
 
 } // namespace
