@@ -199,13 +199,18 @@ double peak_mib_of(const std::function<void(int)>& f, std::string& child_output)
   return usage.ru_maxrss / 1024.0;
 }
 
+/// Half the machine's physical memory in bytes (0 when unknown).
+std::size_t half_the_memory() {
+  const long pages = sysconf(_SC_PHYS_PAGES);
+  const long page = sysconf(_SC_PAGE_SIZE);
+  return pages > 0 && page > 0 ? static_cast<std::size_t>(pages) * static_cast<std::size_t>(page) / 2 : 0;
+}
+
 } // namespace
 
 int main(int argc, char** argv) {
-  // Both libraries' large arrays reuse freed pages instead of faulting in fresh ones (see
-  // cdt::retain_freed_memory); CGAL runs in this process too, under the same policy.
-  cdt::retain_freed_memory();
   bool quick = false;
+  bool small_pages = false;
   std::string coast;
   std::vector<std::string> files;
   unsigned threads = 0;
@@ -240,6 +245,8 @@ int main(int argc, char** argv) {
       lattice_side = static_cast<std::uint32_t>(std::atoi(argv[++i]));
     else if (!std::strcmp(argv[i], "--no-cgal"))
       with_cgal = false;
+    else if (!std::strcmp(argv[i], "--small-pages"))
+      small_pages = true;
     else if (!std::strcmp(argv[i], "--backend") && i + 1 < argc &&
              (!std::strcmp(argv[i + 1], "auto") || !std::strcmp(argv[i + 1], "cpu") ||
               !std::strcmp(argv[i + 1], "gpu")))
@@ -248,10 +255,17 @@ int main(int argc, char** argv) {
       std::fprintf(stderr, "usage: bench_cdt [--quick] [--coast FILE] [--file PSLG]... [--threads N] "
                            "[--repeat R] [--case TEXT] "
                            "[--no-cgal] [--grid M] [--backend auto|cpu|gpu] [--sizes POINTS:SEGMENTS,...] "
-                           "[--lattice K] [--cache DIR]\n");
+                           "[--lattice K] [--cache DIR] [--small-pages]\n");
       return 2;
     }
   }
+  // Both libraries' large arrays reuse freed pages instead of faulting in fresh ones, from a heap
+  // advised for transparent huge pages as large as half the machine's memory unless --small-pages (see
+  // cdt::retain_freed_memory); CGAL runs in this process too, under the same policy.
+  const bool huge = cdt::retain_freed_memory(small_pages ? 0 : half_the_memory());
+  std::printf("memory: freed pages reused, %s\n", small_pages ? "small pages"
+                                                  : huge      ? "heap advised for huge pages"
+                                                              : "huge pages refused");
   const cdt::Backend backend = backend_name == "cpu"   ? cdt::Backend::cpu
                                : backend_name == "gpu" ? cdt::Backend::gpu
                                                        : cdt::Backend::automatic;

@@ -116,6 +116,8 @@ int main(int argc, char** argv) {
   const fs::path out = prefix.empty() ? default_prefix(input) : fs::path(prefix);
   try {
     const cdt::io::Pslg pslg = cdt::io::read_pslg(input);
+    // The arrays to come, at most about a kilobyte per point and segment, fault in huge pages.
+    cdt::retain_freed_memory(1024 * (pslg.points.size() + pslg.segments.size()));
     const cdt::Triangulation t = cdt::triangulate(pslg.points, pslg.segments, options);
     if (verify) {
       const cdt::VerifyReport report = cdt::verify(t, pslg.points, pslg.segments);
