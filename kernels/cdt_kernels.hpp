@@ -70,21 +70,19 @@ public:
   /// cell's kept site as hint). The copies' host side runs on `parallel` when given. Throws
   /// DeviceError when the device lacks the memory or CUDA fails.
   DeviceSites(std::span<const Point> vertices, std::span<const std::uint32_t> sites, std::uint32_t m,
-              ::cdt::detail::GridMapping& mapping, ::cdt::detail::Box& bounds,
-              std::vector<std::uint32_t>& site_vertex, std::vector<std::uint32_t>& site_of_vertex,
-              std::vector<std::uint8_t>& kept, std::vector<::cdt::detail::MissingPoint>& missing,
-              const HostParallelFor& parallel = {});
+              ::cdt::detail::GridMapping& mapping, ::cdt::detail::Box& bounds, IndexArray& site_vertex,
+              IndexArray& site_of_vertex, std::vector<std::uint8_t>& kept,
+              std::vector<::cdt::detail::MissingPoint>& missing, const HostParallelFor& parallel = {});
   /// The same in two steps, from the input points: this constructor uploads them and merges their
   /// duplicates on the device, filling duplicate_of (per point the lowest index with identical
   /// coordinates, -0 equal to +0) and sites (the points that are their own, increasing) as the host's
   /// merge does (cdt::detail::merge_input); prepare() then does the rest from the points and sites
   /// already on the device.
-  DeviceSites(std::span<const Point> points, std::vector<std::uint32_t>& duplicate_of,
-              std::vector<std::uint32_t>& sites, const HostParallelFor& parallel = {});
+  DeviceSites(std::span<const Point> points, IndexArray& duplicate_of, IndexArray& sites,
+              const HostParallelFor& parallel = {});
   void prepare(std::uint32_t m, ::cdt::detail::GridMapping& mapping, ::cdt::detail::Box& bounds,
-               std::vector<std::uint32_t>& site_vertex, std::vector<std::uint32_t>& site_of_vertex,
-               std::vector<std::uint8_t>& kept, std::vector<::cdt::detail::MissingPoint>& missing,
-               const HostParallelFor& parallel = {});
+               IndexArray& site_vertex, IndexArray& site_of_vertex, std::vector<std::uint8_t>& kept,
+               std::vector<::cdt::detail::MissingPoint>& missing, const HostParallelFor& parallel = {});
   ~DeviceSites();
   DeviceSites(DeviceSites&&) noexcept;
   DeviceSites& operator=(DeviceSites&&) noexcept;

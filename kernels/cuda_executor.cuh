@@ -240,7 +240,8 @@ private:
 
   void copy_to_device(void* d_dst, const void* h_src, std::size_t bytes, const HostParallelFor* parallel);
   void copy_to_host(void* h_dst, const void* d_src, std::size_t bytes, const HostParallelFor* parallel);
-  /// The two pinned staging blocks of large copies and their events, made on first use.
+  /// The two pinned staging blocks of large copies (from the process's pool) and their events, taken
+  /// on first use.
   void make_staging();
 
   static void check_launch(const char* name, const char* file, int line) {
@@ -252,7 +253,8 @@ private:
   DeviceBuffer<unsigned char> temp_;
   DeviceBuffer<unsigned char> alternate_;
   DeviceBuffer<unsigned long long> scalar_;
-  void* h_staging_[2] = {nullptr, nullptr}; ///< pinned host memory, kStagingBytes each
+  void* h_staging_[2] = {nullptr, nullptr}; ///< pinned host memory, kStagingBytes each; back to the pool
+                                            ///< when the executor goes
   cudaEvent_t staged_[2] = {nullptr, nullptr};
 };
 

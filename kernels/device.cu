@@ -160,16 +160,6 @@ CudaExecutor::CudaExecutor() {
   scalar_.resize(1);
 }
 
-CudaExecutor::~CudaExecutor() {
-  // Buffers are freed by their own destructors, in stream order; errors here were reported by the call
-  // that caused them. The stream is the thread's own and stays.
-  cudaStreamSynchronize(stream_);
-  for (int k = 0; k < 2; ++k) {
-    if (h_staging_[k] != nullptr) cudaFreeHost(h_staging_[k]);
-    if (staged_[k] != nullptr) cudaEventDestroy(staged_[k]);
-  }
-}
-
 namespace {
 /// Copies up to this size go straight from pageable memory; larger ones are split into blocks of
 /// this size and staged through two pinned blocks, the host's memcpy of one block overlapping the
@@ -190,11 +180,59 @@ void copy_parts(void* to, const void* from, std::size_t len, const HostParallelF
                 std::min(kCopyPartBytes, len - offset));
   });
 }
+
+/// Pinned staging blocks no executor holds. Pinning host memory costs milliseconds a call, and a
+/// triangulation's executors each stage copies: the blocks are kept for the process's lifetime (the
+/// driver frees them at exit) and handed from one executor to the next.
+struct StagingBlocks {
+  std::mutex mutex;
+  std::vector<void*> free;
+};
+
+StagingBlocks& staging_blocks() {
+  static auto* blocks = new StagingBlocks; // never destroyed: executors may outlive static destructors
+  return *blocks;
+}
+
+void* take_staging_block() {
+  StagingBlocks& blocks = staging_blocks();
+  {
+    const std::lock_guard<std::mutex> lock(blocks.mutex);
+    if (!blocks.free.empty()) {
+      void* block = blocks.free.back();
+      blocks.free.pop_back();
+      return block;
+    }
+  }
+  void* block = nullptr;
+  CDT_CUDA_CHECK(cudaMallocHost(&block, kStagingBytes));
+  return block;
+}
+
+void return_staging_block(void* block) noexcept {
+  StagingBlocks& blocks = staging_blocks();
+  const std::lock_guard<std::mutex> lock(blocks.mutex);
+  try {
+    blocks.free.push_back(block);
+  } catch (...) {
+    cudaFreeHost(block);
+  }
+}
 } // namespace
+
+CudaExecutor::~CudaExecutor() {
+  // Buffers are freed by their own destructors, in stream order; errors here were reported by the call
+  // that caused them. The stream is the thread's own and stays.
+  cudaStreamSynchronize(stream_);
+  for (int k = 0; k < 2; ++k) {
+    if (h_staging_[k] != nullptr) return_staging_block(h_staging_[k]);
+    if (staged_[k] != nullptr) cudaEventDestroy(staged_[k]);
+  }
+}
 
 void CudaExecutor::make_staging() {
   for (int k = 0; k < 2; ++k) {
-    if (h_staging_[k] == nullptr) CDT_CUDA_CHECK(cudaMallocHost(&h_staging_[k], kStagingBytes));
+    if (h_staging_[k] == nullptr) h_staging_[k] = take_staging_block();
     if (staged_[k] == nullptr) CDT_CUDA_CHECK(cudaEventCreateWithFlags(&staged_[k], cudaEventDisableTiming));
   }
 }

@@ -116,9 +116,8 @@ std::size_t duplicates_device_bytes(std::size_t n) { return 49 * n + (std::size_
 /// duplicates. A point of a run that differs from the run's first point (another point with the same
 /// hash: a few thousand among ten million points) is resolved on the host among the others like it:
 /// every point with its coordinates is in that run and differs from the first point too.
-void merge_duplicates(DeviceSites::State& s, std::span<const Point> points,
-                      std::vector<std::uint32_t>& duplicate_of, std::vector<std::uint32_t>& sites,
-                      const HostParallelFor& parallel) {
+void merge_duplicates(DeviceSites::State& s, std::span<const Point> points, IndexArray& duplicate_of,
+                      IndexArray& sites, const HostParallelFor& parallel) {
   const std::size_t nv = points.size();
   if (nv == 0 || nv >= kNoId) throw Error("internal error: DeviceSites: no points, or too many");
   require_device_memory(duplicates_device_bytes(nv), 0,
@@ -225,9 +224,8 @@ void merge_duplicates(DeviceSites::State& s, std::span<const Point> points,
 /// DeviceSites' preparation (a constructor cannot hold the extended lambdas of its steps), from the
 /// vertices and sites on the device (upload_vertices or merge_duplicates), which it frees.
 void prepare_sites(DeviceSites::State& s, std::uint32_t m, GridMapping& mapping, ::cdt::detail::Box& bounds,
-                   std::vector<std::uint32_t>& site_vertex, std::vector<std::uint32_t>& site_of_vertex,
-                   std::vector<std::uint8_t>& kept, std::vector<MissingPoint>& missing,
-                   const HostParallelFor& parallel) {
+                   IndexArray& site_vertex, IndexArray& site_of_vertex, std::vector<std::uint8_t>& kept,
+                   std::vector<MissingPoint>& missing, const HostParallelFor& parallel) {
   const std::size_t nv = s.num_vertices;
   const std::size_t n = s.n;
   if (n == 0 || n > nv || s.vertex_xy.size() != 2 * nv)
@@ -375,22 +373,21 @@ std::size_t sites_device_bytes(std::size_t num_vertices, std::size_t num_sites, 
 
 DeviceSites::DeviceSites(std::span<const Point> vertices, std::span<const std::uint32_t> sites,
                          std::uint32_t m, GridMapping& mapping, ::cdt::detail::Box& bounds,
-                         std::vector<std::uint32_t>& site_vertex, std::vector<std::uint32_t>& site_of_vertex,
-                         std::vector<std::uint8_t>& kept, std::vector<MissingPoint>& missing,
-                         const HostParallelFor& parallel)
+                         IndexArray& site_vertex, IndexArray& site_of_vertex, std::vector<std::uint8_t>& kept,
+                         std::vector<MissingPoint>& missing, const HostParallelFor& parallel)
     : state_(std::make_unique<State>()) {
   detail::upload_vertices(*state_, vertices, sites, parallel);
   prepare(m, mapping, bounds, site_vertex, site_of_vertex, kept, missing, parallel);
 }
 
-DeviceSites::DeviceSites(std::span<const Point> points, std::vector<std::uint32_t>& duplicate_of,
-                         std::vector<std::uint32_t>& sites, const HostParallelFor& parallel)
+DeviceSites::DeviceSites(std::span<const Point> points, IndexArray& duplicate_of, IndexArray& sites,
+                         const HostParallelFor& parallel)
     : state_(std::make_unique<State>()) {
   detail::merge_duplicates(*state_, points, duplicate_of, sites, parallel);
 }
 
 void DeviceSites::prepare(std::uint32_t m, GridMapping& mapping, ::cdt::detail::Box& bounds,
-                          std::vector<std::uint32_t>& site_vertex, std::vector<std::uint32_t>& site_of_vertex,
+                          IndexArray& site_vertex, IndexArray& site_of_vertex,
                           std::vector<std::uint8_t>& kept, std::vector<MissingPoint>& missing,
                           const HostParallelFor& parallel) {
   detail::prepare_sites(*state_, m, mapping, bounds, site_vertex, site_of_vertex, kept, missing, parallel);

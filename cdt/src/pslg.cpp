@@ -148,7 +148,7 @@ std::size_t validate_segments(std::span<const Point> points, std::span<const Seg
 // --- duplicates --------------------------------------------------------------------------------------
 
 /// Per point, its representative: the lowest index with identical coordinates (-0 and +0 are equal).
-std::vector<std::uint32_t> merge_duplicates(std::span<const Point> points, CpuExecutor& executor) {
+IndexArray merge_duplicates(std::span<const Point> points, CpuExecutor& executor) {
   // Identical points only need to meet, not to be ordered: a stable radix sort by a hash of the
   // coordinates brings them together in linear time (a comparison sort of the coordinates took most of
   // the preparation of a million points), in index order within each run of equal hashes. 32 bits of
@@ -166,7 +166,7 @@ std::vector<std::uint32_t> merge_duplicates(std::span<const Point> points, CpuEx
   // collide, so each point is compared with one or two representatives of its run, however many
   // copies the run holds. Most runs are a single point, its own representative: only the heads of
   // longer runs do any work.
-  std::vector<std::uint32_t> duplicate_of(n);
+  IndexArray duplicate_of(n);
   executor.for_each(n, [&](std::size_t i) { duplicate_of[i] = static_cast<std::uint32_t>(i); });
   executor.for_each(n, [&](std::size_t head) {
     if (head > 0 && hash[head] == hash[head - 1]) return;      // inside a run
@@ -189,7 +189,7 @@ std::vector<std::uint32_t> merge_duplicates(std::span<const Point> points, CpuEx
   return duplicate_of;
 }
 
-void check_dimension(std::span<const Point> points, const std::vector<std::uint32_t>& representatives) {
+void check_dimension(std::span<const Point> points, const IndexArray& representatives) {
   const std::size_t count = representatives.size();
   if (count < 3) {
     throw InvalidInputError(Kind::too_few_points, count,
@@ -471,11 +471,11 @@ struct SiteCells {
   std::vector<Point> point;
 };
 
-SiteCells bucket_sites(const SegmentGrid& grid, const std::vector<Point>& vertices,
-                       const std::vector<std::uint32_t>& sites, CpuExecutor& executor) {
+SiteCells bucket_sites(const SegmentGrid& grid, const std::vector<Point>& vertices, const IndexArray& sites,
+                       CpuExecutor& executor) {
   SiteCells cells;
   std::vector<std::uint32_t> cell(sites.size());
-  cells.id = sites;
+  cells.id.assign(sites.begin(), sites.end());
   executor.for_each(sites.size(), [&](std::size_t k) {
     cell[k] = static_cast<std::uint32_t>(grid.cell_of(vertices[sites[k]]));
   });
@@ -814,7 +814,7 @@ public:
       : tolerance_(std::max(tolerance, std::numeric_limits<double>::min())), num_points_(num_points) {}
 
   std::uint32_t choose(const Point& p, const SegmentGrid& grid, const SiteCells& site_cells,
-                       std::vector<Point>& vertices, std::vector<std::uint32_t>& sites) {
+                       std::vector<Point>& vertices, IndexArray& sites) {
     std::uint32_t best = std::numeric_limits<std::uint32_t>::max();
     double best_distance = tolerance_;
     const auto consider = [&](std::uint32_t v, const Point& q) {
@@ -1036,8 +1036,7 @@ std::vector<WorkSegment> cut_few_segments(const std::vector<WorkSegment>& segs, 
 }
 
 /// The input segments between representatives, each vertex pair once (lowest segment id), all dirty.
-std::vector<WorkSegment> initial_segments(std::span<const Segment> segments,
-                                          const std::vector<std::uint32_t>& duplicate_of,
+std::vector<WorkSegment> initial_segments(std::span<const Segment> segments, const IndexArray& duplicate_of,
                                           CpuExecutor& executor) {
   // Zero-length segments were validated and are ignored.
   const std::vector<std::uint32_t> kept = executor.compact(segments.size(), [&](std::size_t s) {
@@ -1073,8 +1072,7 @@ void order_spatially(std::vector<WorkSegment>& segs, const std::vector<Point>& v
   segs = std::move(sorted);
 }
 
-Box bounding_box(const std::vector<Point>& vertices, const std::vector<std::uint32_t>& sites,
-                 CpuExecutor& executor) {
+Box bounding_box(const std::vector<Point>& vertices, const IndexArray& sites, CpuExecutor& executor) {
   const auto extend = [](Box& box, const Point& p) {
     box.min_x = std::min(box.min_x, p.x);
     box.min_y = std::min(box.min_y, p.y);
@@ -1096,9 +1094,8 @@ Box bounding_box(const std::vector<Point>& vertices, const std::vector<std::uint
 /// and `sites`. Returns the pieces sorted by (a, b). box holds every site; the snap tolerance is given
 /// by the caller, so that a subset of the input is treated exactly as the whole would be.
 std::vector<ConstraintPiece> resolve(std::vector<WorkSegment> segs, std::vector<Point>& vertices,
-                                     std::vector<std::uint32_t>& sites, std::size_t num_points,
-                                     const Box& box, double snap_tolerance, CrossingSegments policy,
-                                     CpuExecutor& executor) {
+                                     IndexArray& sites, std::size_t num_points, const Box& box,
+                                     double snap_tolerance, CrossingSegments policy, CpuExecutor& executor) {
   StepTrace trace("prepare");
   SegmentGrid grid(box, segs.size());
   VertexChooser chooser(snap_tolerance, num_points);
@@ -1219,7 +1216,8 @@ PreparedPslg merge_input(std::span<const Point> points, std::span<const Segment>
   } else {
     out.duplicate_of = merge_duplicates(points, executor);
     trace.mark("duplicates");
-    out.sites = executor.compact(points.size(), [&](std::size_t i) { return out.duplicate_of[i] == i; });
+    out.sites =
+        executor.compact<IndexArray>(points.size(), [&](std::size_t i) { return out.duplicate_of[i] == i; });
   }
   check_dimension(points, out.sites);
   out.vertices.assign(points.begin(), points.end());
@@ -1259,7 +1257,7 @@ void split_pieces(PreparedPslg& pslg, std::span<const std::uint32_t> suspect_pie
     segs[k] = {p.a, p.b, p.segment, true, false};
     suspect[suspect_pieces[k]] = 1;
   });
-  std::vector<std::uint32_t> sites(suspect_sites.begin(), suspect_sites.end());
+  IndexArray sites(suspect_sites.begin(), suspect_sites.end());
   const std::size_t first_added = pslg.vertices.size();
   const std::vector<ConstraintPiece> resolved =
       resolve(std::move(segs), pslg.vertices, sites, pslg.duplicate_of.size(),

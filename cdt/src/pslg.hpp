@@ -38,9 +38,9 @@ struct PreparedPslg {
   /// The input points at their input indices, then the vertices added at crossings.
   std::vector<Point> vertices;
   /// Per input point: its representative, the lowest index with identical coordinates.
-  std::vector<std::uint32_t> duplicate_of;
+  IndexArray duplicate_of;
   /// The distinct vertices to triangulate (representatives, then added vertices), increasing.
-  std::vector<std::uint32_t> sites;
+  IndexArray sites;
   /// Pieces that pairwise neither cross nor overlap, with no site in their interiors; a < b, sorted by
   /// (a, b). A segment's pieces follow it exactly, except where a crossing bent it: then they pass
   /// through the rounded crossing vertex, a few ulps off its line (and through any vertex exactly on
@@ -72,8 +72,7 @@ CDT_HD_INLINE std::uint64_t point_hash(double x, double y) {
 /// Duplicate points merged elsewhere than on the host (the device): fills, for the points given to
 /// merge_input, duplicate_of (per point the lowest index with identical coordinates, -0 equal to +0)
 /// and sites (the points that are their own representative, increasing), as the host would.
-using DuplicateMerge =
-    std::function<void(std::vector<std::uint32_t>& duplicate_of, std::vector<std::uint32_t>& sites)>;
+using DuplicateMerge = std::function<void(IndexArray& duplicate_of, IndexArray& sites)>;
 
 /// Checks and cleans the input of triangulate(). Throws InvalidInputError (non-finite coordinates,
 /// coordinates beyond kMaxCoordinate, out-of-range indices, zero-length segments under

@@ -117,9 +117,9 @@ detail::FlipStats flip_stats(const gpu::FlipResult& device) {
 /// numbered close together those reads hit the cache instead of memory (input order is arbitrary, often
 /// random). Keeping ties in order keeps the lowest-numbered point of a cell the same point, so the kept
 /// sites of Phase 1 do not change.
-std::vector<std::uint32_t> spatial_site_order(const detail::GridMapping& mapping, std::span<const double> x,
-                                              std::span<const double> y, std::span<const std::uint32_t> sites,
-                                              detail::CpuExecutor& executor) {
+IndexArray spatial_site_order(const detail::GridMapping& mapping, std::span<const double> x,
+                              std::span<const double> y, std::span<const std::uint32_t> sites,
+                              detail::CpuExecutor& executor) {
   const std::size_t n = sites.size();
   std::vector<std::uint32_t> key(n);
   executor.for_each(
@@ -128,13 +128,14 @@ std::vector<std::uint32_t> spatial_site_order(const detail::GridMapping& mapping
   std::vector<std::uint32_t> order(n);
   executor.for_each(n, [&](std::size_t s) { order[s] = static_cast<std::uint32_t>(s); });
   executor.sort_pairs_by_key(key, order, 2 * std::bit_width(mapping.m - 1));
-  executor.for_each(n, [&](std::size_t s) { order[s] = sites[order[s]]; });
-  return order;
+  IndexArray site_vertex(n);
+  executor.for_each(n, [&](std::size_t s) { site_vertex[s] = sites[order[s]]; });
+  return site_vertex;
 }
 
 /// The PSLG's pieces in mesh vertex ids (id: the piece's index).
 std::vector<detail::ConstraintPiece2> mesh_pieces(const detail::PreparedPslg& pslg,
-                                                  const std::vector<std::uint32_t>& site_of_vertex,
+                                                  const IndexArray& site_of_vertex,
                                                   detail::CpuExecutor& executor) {
   std::vector<detail::ConstraintPiece2> pieces(pslg.pieces.size());
   executor.for_each(pieces.size(), [&](std::size_t k) {
@@ -148,8 +149,7 @@ std::vector<detail::ConstraintPiece2> mesh_pieces(const detail::PreparedPslg& ps
 /// (host or device): only the suspects are split (all of them, should the screen have failed).
 /// site_vertex maps mesh vertices to the PSLG's.
 void split_screened(detail::PreparedPslg& pslg, const detail::ScreenedPieces& screen,
-                    const std::vector<std::uint32_t>& site_vertex, CrossingSegments policy,
-                    detail::CpuExecutor& executor) {
+                    const IndexArray& site_vertex, CrossingSegments policy, detail::CpuExecutor& executor) {
   using namespace detail;
   if (!screen.complete) {
     split_pieces(pslg, policy, executor);
@@ -164,8 +164,7 @@ void split_screened(detail::PreparedPslg& pslg, const detail::ScreenedPieces& sc
 /// site_vertex holds) and appended to the vertex maps, as missing points: each starts its walk from a
 /// vertex it is joined to by a piece (through other added vertices, inserted before it, if need be).
 std::vector<detail::MissingPoint> added_vertices(const detail::PreparedPslg& pslg, std::size_t first_added,
-                                                 std::vector<std::uint32_t>& site_vertex,
-                                                 std::vector<std::uint32_t>& site_of_vertex,
+                                                 IndexArray& site_vertex, IndexArray& site_of_vertex,
                                                  detail::CpuExecutor& executor) {
   using namespace detail;
   const std::size_t added = pslg.vertices.size() - first_added;
@@ -204,8 +203,7 @@ std::vector<detail::MissingPoint> added_vertices(const detail::PreparedPslg& psl
 /// Delaunay. Throws Error when one cannot be inserted.
 detail::InsertStats insert_added_vertices(detail::Mesh& mesh, const detail::PreparedPslg& pslg,
                                           std::span<const detail::MissingPoint> fresh,
-                                          const std::vector<std::uint32_t>& site_vertex,
-                                          detail::CpuExecutor& executor) {
+                                          const IndexArray& site_vertex, detail::CpuExecutor& executor) {
   using namespace detail;
   for (const MissingPoint& f : fresh) {
     const Point& p = pslg.vertices[site_vertex[f.vertex]];
@@ -224,7 +222,7 @@ detail::InsertStats insert_added_vertices(detail::Mesh& mesh, const detail::Prep
 /// and flipped to Delaunay there.
 detail::InsertStats insert_added_vertices(gpu::DeviceMesh& mesh, const detail::PreparedPslg& pslg,
                                           std::span<const detail::MissingPoint> fresh,
-                                          const std::vector<std::uint32_t>& site_vertex) {
+                                          const IndexArray& site_vertex) {
   using namespace detail;
   std::vector<double> x(fresh.size()), y(fresh.size());
   for (std::size_t k = 0; k < fresh.size(); ++k) {
@@ -268,7 +266,7 @@ Triangulation triangulate_on(std::span<const Point> points, std::span<const Segm
   // the sites prepared.
   DuplicateMerge merge;
   if (on_gpu) {
-    merge = [&](std::vector<std::uint32_t>& duplicate_of, std::vector<std::uint32_t>& sites) {
+    merge = [&](IndexArray& duplicate_of, IndexArray& sites) {
       device_sites.emplace(points, duplicate_of, sites, parallel);
     };
   }
@@ -296,11 +294,11 @@ Triangulation triangulate_on(std::span<const Point> points, std::span<const Segm
                                                                           : GridFor::host);
   stats.grid_size = m;
   GridMapping mapping;
-  std::vector<std::uint32_t> site_vertex;    // per site, its vertex
-  std::vector<std::uint32_t> site_of_vertex; // per vertex, its site (kNoId for duplicates)
-  std::vector<double> true_x, true_y;        // per site, its true position (CPU executor)
-  std::vector<double> x, y;                  // per site, its position in the diagram
-  std::vector<std::uint8_t> kept;            // per site, 1 when it owns its grid cell
+  IndexArray site_vertex;             // per site, its vertex
+  IndexArray site_of_vertex;          // per vertex, its site (kNoId for duplicates)
+  std::vector<double> true_x, true_y; // per site, its true position (CPU executor)
+  std::vector<double> x, y;           // per site, its position in the diagram
+  std::vector<std::uint8_t> kept;     // per site, 1 when it owns its grid cell
   std::vector<MissingPoint> missing;
   GridSites grid;
   Box bounds; // the box of both positions of every site

@@ -281,8 +281,8 @@ TEST(PslgErrors, AllCollinear) {
 TEST(PslgDuplicates, MergedIntoTheLowestIndex) {
   const std::vector<Point> p{{1, 0}, {0, 0}, {0, 1}, {0, 0}, {1, 0}, {0, 0}, {-0.0, 1}};
   const PreparedPslg out = prepare_pslg(p, {}, CrossingSegments::resolve);
-  EXPECT_EQ(out.duplicate_of, (std::vector<std::uint32_t>{0, 1, 2, 1, 0, 1, 2}));
-  EXPECT_EQ(out.sites, (std::vector<std::uint32_t>{0, 1, 2}));
+  EXPECT_EQ(out.duplicate_of, (cdt::IndexArray{0, 1, 2, 1, 0, 1, 2}));
+  EXPECT_EQ(out.sites, (cdt::IndexArray{0, 1, 2}));
   ASSERT_EQ(out.vertices.size(), p.size());
   EXPECT_TRUE(std::equal(p.begin(), p.end(), out.vertices.begin()));
   EXPECT_TRUE(out.pieces.empty());
@@ -357,7 +357,7 @@ TEST(PslgCrossing, XIsResolvedIntoFourPiecesAndOneVertex) {
   const PreparedPslg out = prepare_pslg(p, std::vector<Segment>{{0, 1}, {2, 3}}, CrossingSegments::resolve);
   ASSERT_EQ(out.vertices.size(), 5u);
   EXPECT_EQ(out.vertices[4], (Point{1, 1}));
-  EXPECT_EQ(out.sites, (std::vector<std::uint32_t>{0, 1, 2, 3, 4}));
+  EXPECT_EQ(out.sites, (cdt::IndexArray{0, 1, 2, 3, 4}));
   EXPECT_EQ(piece_pairs(out),
             (std::vector<std::pair<std::uint32_t, std::uint32_t>>{{0, 4}, {1, 4}, {2, 4}, {3, 4}}));
   EXPECT_EQ(piece_labels(out), (std::vector<std::uint32_t>{0, 0, 1, 1}));

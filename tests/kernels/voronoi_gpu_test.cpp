@@ -351,7 +351,7 @@ TEST_F(GpuVoronoi, InputBeyondTheMemoryLimitIsADeviceError) {
 /// and owners, kept sites at their grid points, the box of both positions, the missing points.
 struct HostSites {
   cdt::detail::GridMapping mapping;
-  std::vector<std::uint32_t> site_vertex, site_of_vertex;
+  cdt::IndexArray site_vertex, site_of_vertex;
   std::vector<double> true_x, true_y, x, y;
   std::vector<std::uint8_t> kept;
   std::vector<cdt::detail::MissingPoint> missing;
@@ -431,7 +431,7 @@ TEST_F(GpuVoronoi, DeviceSitesMatchTheHostSteps) {
 
         cdt::detail::GridMapping mapping;
         cdt::detail::Box bounds;
-        std::vector<std::uint32_t> site_vertex, site_of_vertex;
+        cdt::IndexArray site_vertex, site_of_vertex;
         std::vector<std::uint8_t> kept;
         std::vector<cdt::detail::MissingPoint> missing;
         cdt::gpu::DeviceSites device(vertices, sites, m, mapping, bounds, site_vertex, site_of_vertex, kept,
@@ -590,7 +590,7 @@ TEST_F(GpuVoronoi, DuplicatesMergeAsOnTheHost) {
   for (const Case& c : cases) {
     const cdt::detail::PreparedPslg host =
         cdt::detail::merge_input(c.points, {}, cdt::CrossingSegments::resolve, executor);
-    std::vector<std::uint32_t> duplicate_of, sites;
+    cdt::IndexArray duplicate_of, sites;
     cdt::gpu::DeviceSites device(c.points, duplicate_of, sites);
     EXPECT_EQ(duplicate_of, host.duplicate_of) << c.name;
     EXPECT_EQ(sites, host.sites) << c.name;
@@ -599,7 +599,7 @@ TEST_F(GpuVoronoi, DuplicatesMergeAsOnTheHost) {
     const std::uint32_t m = 256;
     cdt::detail::GridMapping mapping, one_mapping;
     cdt::detail::Box bounds, one_bounds;
-    std::vector<std::uint32_t> site_vertex, site_of_vertex, one_site_vertex, one_site_of_vertex;
+    cdt::IndexArray site_vertex, site_of_vertex, one_site_vertex, one_site_of_vertex;
     std::vector<std::uint8_t> kept, one_kept;
     std::vector<cdt::detail::MissingPoint> missing, one_missing;
     device.prepare(m, mapping, bounds, site_vertex, site_of_vertex, kept, missing);

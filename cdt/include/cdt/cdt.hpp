@@ -90,8 +90,8 @@ struct Statistics {
   std::vector<PhaseStats> phases;
 };
 
-/// The allocator of Triangulation's per-triangle arrays. Growing such an array (resize) leaves the new
-/// elements default-initialised, which for these element types means unwritten: the triangulation
+/// The allocator of Triangulation's per-triangle and per-point arrays. Growing such an array (resize) leaves
+/// the new elements default-initialised, which for these element types means unwritten: the triangulation
 /// writes every element itself, in parallel, and a zero fill first would cost as much again at 10^7
 /// triangles. Construction with arguments (push_back, assign, copies) behaves as with std::allocator.
 template <class T>
@@ -113,6 +113,9 @@ struct DefaultInitAllocator : std::allocator<T> {
 using TriangleArray =
     std::vector<std::array<std::uint32_t, 3>, DefaultInitAllocator<std::array<std::uint32_t, 3>>>;
 
+/// One 32-bit index per element (per input point, its representative), with the same allocator.
+using IndexArray = std::vector<std::uint32_t, DefaultInitAllocator<std::uint32_t>>;
+
 /// A constrained Delaunay triangulation.
 ///
 /// Triangle t has vertices triangles[t] in counter-clockwise order. Edge i of t joins
@@ -127,7 +130,7 @@ struct Triangulation {
   TriangleArray segment_of_edge;
   /// duplicate_of[i] is the vertex that input point i was merged into (i itself when it is not a
   /// duplicate). Only such representatives appear in triangles.
-  std::vector<std::uint32_t> duplicate_of;
+  IndexArray duplicate_of;
   Statistics stats;
 };
 

@@ -140,10 +140,11 @@ public:
     return running;
   }
 
-  /// The indices i in [0, n) for which keep(i) is true, in increasing order (stream compaction).
-  template <class Pred>
-  std::vector<std::uint32_t> compact(std::size_t n, Pred&& keep) {
-    std::vector<std::uint32_t> out;
+  /// The indices i in [0, n) for which keep(i) is true, in increasing order (stream compaction), in
+  /// a std::vector or another vector of 32-bit indices (Out).
+  template <class Out = std::vector<std::uint32_t>, class Pred>
+  Out compact(std::size_t n, Pred&& keep) {
+    Out out;
     if (num_threads_ == 1 || n < kSerialBelow) {
       for (std::size_t i = 0; i < n; ++i)
         if (keep(i)) out.push_back(static_cast<std::uint32_t>(i));
