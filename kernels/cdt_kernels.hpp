@@ -24,6 +24,7 @@ struct InsertStats;      // cdt/src/gcd/insert.hpp
 struct ConstraintPiece2; // cdt/src/gcd/constraints.hpp
 struct ConstraintStats;  // cdt/src/gcd/constraints.hpp
 struct ScreenedPieces;   // cdt/src/gcd/screen.hpp
+struct ConstraintPiece;  // cdt/src/pslg.hpp
 } // namespace cdt::detail
 
 namespace cdt::gpu {
@@ -73,12 +74,14 @@ public:
               ::cdt::detail::GridMapping& mapping, ::cdt::detail::Box& bounds, IndexArray& site_vertex,
               IndexArray& site_of_vertex, std::vector<std::uint8_t>& kept,
               std::vector<::cdt::detail::MissingPoint>& missing, const HostParallelFor& parallel = {});
-  /// The same in two steps, from the input points: this constructor uploads them and merges their
+  /// The same in two steps, from the input: this constructor uploads the points and merges their
   /// duplicates on the device, filling duplicate_of (per point the lowest index with identical
-  /// coordinates, -0 equal to +0) and sites (the points that are their own, increasing) as the host's
-  /// merge does (cdt::detail::merge_input); prepare() then does the rest from the points and sites
-  /// already on the device.
-  DeviceSites(std::span<const Point> points, IndexArray& duplicate_of, IndexArray& sites,
+  /// coordinates, -0 equal to +0), sites (the points that are their own, increasing) and the pieces
+  /// (the segments between representatives, zero-length ones left out, each pair once with its lowest
+  /// segment id, sorted by (a, b)) as the host's merge does (cdt::detail::merge_input); prepare() then
+  /// does the rest from the points and sites already on the device. The input checks come first.
+  DeviceSites(std::span<const Point> points, std::span<const Segment> segments, IndexArray& duplicate_of,
+              IndexArray& sites, std::vector<::cdt::detail::ConstraintPiece>& pieces,
               const HostParallelFor& parallel = {});
   void prepare(std::uint32_t m, ::cdt::detail::GridMapping& mapping, ::cdt::detail::Box& bounds,
                IndexArray& site_vertex, IndexArray& site_of_vertex, std::vector<std::uint8_t>& kept,

@@ -110,14 +110,80 @@ void upload_vertices(DeviceSites::State& s, std::span<const Point> vertices,
 /// the sites and the points left unresolved (16); CUB's scratch within a megabyte and a byte a point.
 std::size_t duplicates_device_bytes(std::size_t n) { return 49 * n + (std::size_t{1} << 20); }
 
+/// Bytes of device memory pieces_between_representatives needs for m segments: the segments (8
+/// bytes), the kept ones' keys and labels with the sort's second copies (24), the starts of equal keys
+/// and the pieces (16); CUB's scratch within a megabyte and a byte a segment.
+std::size_t pieces_device_bytes(std::size_t m) { return 49 * m + (std::size_t{1} << 20); }
+
+/// The host's initial_segments (cdt/src/pslg.cpp) on the device, from the representatives `dup` of the
+/// nv points: the segments between distinct representatives, as (lower, higher) pairs ordered by
+/// (a, b) and then by segment id (a stable radix sort of the segments in id order), each pair once
+/// with its lowest id.
+void pieces_between_representatives(CudaExecutor& executor, std::span<const Segment> segments,
+                                    const std::uint32_t* dup, std::size_t nv,
+                                    std::vector<::cdt::detail::ConstraintPiece>& pieces,
+                                    const HostParallelFor& parallel) {
+  pieces.clear();
+  const std::size_t m = segments.size();
+  if (m == 0) return;
+  require_device_memory(pieces_device_bytes(m), 0, "the pieces of " + std::to_string(m) + " segments");
+  static_assert(sizeof(Segment) == 2 * sizeof(std::uint32_t));
+  DeviceBuffer<std::uint32_t> d_ends(2 * m);
+  executor.upload(d_ends.data(), reinterpret_cast<const std::uint32_t*>(segments.data()), 2 * m, &parallel);
+  const std::uint32_t* ends = d_ends.data();
+  DeviceBuffer<std::uint32_t> d_kept(m);
+  const std::uint32_t num_kept = executor.compact(
+      m, [=] __device__(std::size_t k) { return dup[ends[2 * k]] != dup[ends[2 * k + 1]]; }, d_kept.data());
+  if (num_kept == 0) return;
+  // Keys a * 2^bits + b, bits enough for any vertex id: 2 * bits <= 64.
+  const int bits = nv <= 1 ? 1 : std::bit_width(nv - 1);
+  DeviceBuffer<std::uint64_t> d_key(num_kept);
+  DeviceBuffer<std::uint32_t> d_label(num_kept);
+  std::uint64_t* key = d_key.data();
+  std::uint32_t* label = d_label.data();
+  const std::uint32_t* kept = d_kept.data();
+  executor.for_each(
+      num_kept,
+      [=] __device__(std::size_t k) {
+        const std::uint32_t s = kept[k];
+        const std::uint32_t a = dup[ends[2 * static_cast<std::size_t>(s)]];
+        const std::uint32_t b = dup[ends[2 * static_cast<std::size_t>(s) + 1]];
+        key[k] = (static_cast<std::uint64_t>(a < b ? a : b) << bits) | (a < b ? b : a);
+        label[k] = s;
+      },
+      "piece_keys");
+  executor.sort_pairs(key, label, num_kept, 2 * bits);
+  DeviceBuffer<std::uint32_t> d_heads(num_kept);
+  const std::uint32_t num_pieces = executor.compact(
+      num_kept, [=] __device__(std::size_t k) { return k == 0 || key[k] != key[k - 1]; }, d_heads.data());
+  static_assert(sizeof(::cdt::detail::ConstraintPiece) == 3 * sizeof(std::uint32_t));
+  DeviceBuffer<std::uint32_t> d_pieces(3 * static_cast<std::size_t>(num_pieces));
+  std::uint32_t* out = d_pieces.data();
+  const std::uint32_t* heads = d_heads.data();
+  const std::uint64_t low = (std::uint64_t{1} << bits) - 1;
+  executor.for_each(
+      num_pieces,
+      [=] __device__(std::size_t r) {
+        const std::uint64_t k = key[heads[r]];
+        out[3 * r] = static_cast<std::uint32_t>(k >> bits);
+        out[3 * r + 1] = static_cast<std::uint32_t>(k & low);
+        out[3 * r + 2] = label[heads[r]];
+      },
+      "pieces");
+  pieces.resize(num_pieces);
+  executor.download(reinterpret_cast<std::uint32_t*>(pieces.data()), out,
+                    3 * static_cast<std::size_t>(num_pieces), &parallel);
+}
+
 /// The host's merge_duplicates on the device: the points are sorted by the low 32 bits of their hash
 /// (stable: in index order within equal hashes), so the first point of each run of equal hashes is the
 /// lowest index with its coordinates, and the others of its run with equal coordinates are its
 /// duplicates. A point of a run that differs from the run's first point (another point with the same
 /// hash: a few thousand among ten million points) is resolved on the host among the others like it:
 /// every point with its coordinates is in that run and differs from the first point too.
-void merge_duplicates(DeviceSites::State& s, std::span<const Point> points, IndexArray& duplicate_of,
-                      IndexArray& sites, const HostParallelFor& parallel) {
+void merge_duplicates(DeviceSites::State& s, std::span<const Point> points, std::span<const Segment> segments,
+                      IndexArray& duplicate_of, IndexArray& sites,
+                      std::vector<::cdt::detail::ConstraintPiece>& pieces, const HostParallelFor& parallel) {
   const std::size_t nv = points.size();
   if (nv == 0 || nv >= kNoId) throw Error("internal error: DeviceSites: no points, or too many");
   require_device_memory(duplicates_device_bytes(nv), 0,
@@ -208,6 +274,9 @@ void merge_duplicates(DeviceSites::State& s, std::span<const Point> points, Inde
   }
   d_unresolved = {};
   trace.mark("merged");
+
+  pieces_between_representatives(executor, segments, dup, nv, pieces, parallel);
+  trace.mark("pieces");
 
   s.site_list.resize(nv);
   const std::uint32_t n = executor.compact(
@@ -380,10 +449,11 @@ DeviceSites::DeviceSites(std::span<const Point> vertices, std::span<const std::u
   prepare(m, mapping, bounds, site_vertex, site_of_vertex, kept, missing, parallel);
 }
 
-DeviceSites::DeviceSites(std::span<const Point> points, IndexArray& duplicate_of, IndexArray& sites,
-                         const HostParallelFor& parallel)
+DeviceSites::DeviceSites(std::span<const Point> points, std::span<const Segment> segments,
+                         IndexArray& duplicate_of, IndexArray& sites,
+                         std::vector<::cdt::detail::ConstraintPiece>& pieces, const HostParallelFor& parallel)
     : state_(std::make_unique<State>()) {
-  detail::merge_duplicates(*state_, points, duplicate_of, sites, parallel);
+  detail::merge_duplicates(*state_, points, segments, duplicate_of, sites, pieces, parallel);
 }
 
 void DeviceSites::prepare(std::uint32_t m, GridMapping& mapping, ::cdt::detail::Box& bounds,

@@ -1199,7 +1199,7 @@ PreparedPslg prepare_pslg(std::span<const Point> points, std::span<const Segment
 }
 
 PreparedPslg merge_input(std::span<const Point> points, std::span<const Segment> segments,
-                         CrossingSegments policy, CpuExecutor& executor, const DuplicateMerge& merge) {
+                         CrossingSegments policy, CpuExecutor& executor, const InputMerge& merge) {
   if (points.size() >= std::numeric_limits<std::uint32_t>::max() ||
       segments.size() >= std::numeric_limits<std::uint32_t>::max()) {
     throw Error("more than 2^32 - 2 points or segments");
@@ -1211,8 +1211,8 @@ PreparedPslg merge_input(std::span<const Point> points, std::span<const Segment>
   PreparedPslg out;
   out.zero_length_segments = zero_length;
   if (merge) {
-    merge(out.duplicate_of, out.sites);
-    trace.mark("duplicates, sites");
+    merge(out.duplicate_of, out.sites, out.pieces);
+    trace.mark("duplicates, sites, pieces");
   } else {
     out.duplicate_of = merge_duplicates(points, executor);
     trace.mark("duplicates");
@@ -1222,12 +1222,14 @@ PreparedPslg merge_input(std::span<const Point> points, std::span<const Segment>
   check_dimension(points, out.sites);
   out.vertices.assign(points.begin(), points.end());
   trace.mark("sites");
-  const std::vector<WorkSegment> segs = initial_segments(segments, out.duplicate_of, executor);
-  out.pieces.resize(segs.size());
-  executor.for_each(segs.size(), [&](std::size_t k) {
-    out.pieces[k] = {segs[k].a, segs[k].b, segs[k].label};
-  });
-  trace.mark("initial segments");
+  if (!merge) {
+    const std::vector<WorkSegment> segs = initial_segments(segments, out.duplicate_of, executor);
+    out.pieces.resize(segs.size());
+    executor.for_each(segs.size(), [&](std::size_t k) {
+      out.pieces[k] = {segs[k].a, segs[k].b, segs[k].label};
+    });
+    trace.mark("initial segments");
+  }
   return out;
 }
 

@@ -69,10 +69,12 @@ CDT_HD_INLINE std::uint64_t point_hash(double x, double y) {
   return h ^ (h >> 29);
 }
 
-/// Duplicate points merged elsewhere than on the host (the device): fills, for the points given to
-/// merge_input, duplicate_of (per point the lowest index with identical coordinates, -0 equal to +0)
-/// and sites (the points that are their own representative, increasing), as the host would.
-using DuplicateMerge = std::function<void(IndexArray& duplicate_of, IndexArray& sites)>;
+/// merge_input's work done elsewhere than on the host (the device), after the input checks: fills, for
+/// the points and segments given to merge_input, duplicate_of (per point the lowest index with
+/// identical coordinates, -0 equal to +0), sites (the points that are their own representative,
+/// increasing) and pieces (merge_input's), as the host would.
+using InputMerge =
+    std::function<void(IndexArray& duplicate_of, IndexArray& sites, std::vector<ConstraintPiece>& pieces)>;
 
 /// Checks and cleans the input of triangulate(). Throws InvalidInputError (non-finite coordinates,
 /// coordinates beyond kMaxCoordinate, out-of-range indices, zero-length segments under
@@ -95,10 +97,10 @@ PreparedPslg prepare_pslg(std::span<const Point> points, std::span<const Segment
 
 /// The first half of prepare_pslg: input checks (the same errors), duplicate points merged, and as
 /// pieces the input segments between representatives, each vertex pair once (the lowest segment id),
-/// sorted by (a, b), not yet split at points on them or at crossings. The duplicates are merged by
-/// `merge` when given (after the input checks), else on `executor`.
+/// sorted by (a, b), not yet split at points on them or at crossings. The duplicates are merged and
+/// the pieces made by `merge` when given (after the input checks), else on `executor`.
 PreparedPslg merge_input(std::span<const Point> points, std::span<const Segment> segments,
-                         CrossingSegments policy, CpuExecutor& executor, const DuplicateMerge& merge = {});
+                         CrossingSegments policy, CpuExecutor& executor, const InputMerge& merge = {});
 
 /// The second half: splits every piece at the sites on it and at crossings (the errors of prepare_pslg
 /// for crossings), adding the crossing vertices to vertices and sites.

@@ -1,14 +1,14 @@
 // triangulate(): the gCD pipeline (paper sections 3 and 4). The CPU executor runs every phase; with
-// the GPU backend the CUDA executor runs the merge of duplicate points, the sites' order, grid cells
-// and kept sites, the digital Voronoi diagram, the dual triangles with their links (Phase 2 but for
-// hull completion and the fake boundary), shifting, missing points, the fake boundary's removal, the
-// segments' screen, the constraints and the Lawson flips before and after them, each the same
-// computation as the CPU executor's step for step, so the result is the same; the CPU executor runs
-// the rest (input checks and segments, hull completion and fake boundary, the suspects' split), until
-// those move to the device too.
+// the GPU backend the CUDA executor runs the merge of duplicate points and of the segments between
+// them, the sites' order, grid cells and kept sites, the digital Voronoi diagram, the dual triangles
+// with their links (Phase 2 but for hull completion and the fake boundary), shifting, missing points,
+// the fake boundary's removal, the segments' screen, the constraints and the Lawson flips before and
+// after them, each the same computation as the CPU executor's step for step, so the result is the
+// same; the CPU executor runs the rest (input checks, hull completion and fake boundary, the
+// suspects' split), until those move to the device too.
 //
-//   prepare   input checks, merge duplicates (cdt/src/pslg.cpp; the merge on the device with the GPU
-//             backend)
+//   prepare   input checks, merge duplicates and the segments between them (cdt/src/pslg.cpp; the
+//             merge on the device with the GPU backend)
 //   voronoi   Phase 1: grid mapping (Appendix B), digital Voronoi diagram (PBA + Appendix A)
 //   dualize   Phase 2: dual triangles, hull completion, fake boundary
 //   shift     Phase 3: points back to their true coordinates (Algorithms 1 and 2)
@@ -264,14 +264,14 @@ Triangulation triangulate_on(std::span<const Point> points, std::span<const Segm
   };
   // With the GPU backend the points go to the device once, where their duplicates are merged and
   // the sites prepared.
-  DuplicateMerge merge;
+  InputMerge merge;
   if (on_gpu) {
-    merge = [&](IndexArray& duplicate_of, IndexArray& sites) {
-      device_sites.emplace(points, duplicate_of, sites, parallel);
+    merge = [&](IndexArray& duplicate_of, IndexArray& sites, std::vector<ConstraintPiece>& pieces) {
+      device_sites.emplace(points, segments, duplicate_of, sites, pieces, parallel);
     };
   }
 #else
-  const DuplicateMerge merge;
+  const InputMerge merge;
 #endif
   // Input checks and cleaning.
   PreparedPslg pslg = split == Split::first

@@ -538,10 +538,11 @@ std::vector<std::pair<cdt::Point, cdt::Point>> colliding_pairs(Rng& rng) {
   return pairs;
 }
 
-// The duplicates merged on the device (gpu::DeviceSites from the input points) are the host's: the same
-// representative per point and the same sites, with many copies of points, -0 against +0, points whose
-// hashes collide (resolved apart from the run's first point) and no duplicates at all; and the sites
-// prepared from them afterwards are those of the one-step construction from the host's merge.
+// The duplicates merged on the device (gpu::DeviceSites from the input) are the host's: the same
+// representative per point, the same sites and the same pieces between them, with many copies of
+// points, -0 against +0, points whose hashes collide (resolved apart from the run's first point) and no
+// duplicates at all; and the sites prepared from them afterwards are those of the one-step
+// construction from the host's merge.
 TEST_F(GpuVoronoi, DuplicatesMergeAsOnTheHost) {
   CpuExecutor executor(2);
   Rng rng(11);
@@ -550,6 +551,7 @@ TEST_F(GpuVoronoi, DuplicatesMergeAsOnTheHost) {
   struct Case {
     std::string name;
     std::vector<cdt::Point> points;
+    std::vector<cdt::Segment> segments = {};
   };
   std::vector<Case> cases;
   {
@@ -587,13 +589,33 @@ TEST_F(GpuVoronoi, DuplicatesMergeAsOnTheHost) {
     }
     cases.push_back(c);
   }
-  for (const Case& c : cases) {
+  std::size_t pieces_seen = 0;
+  for (Case& c : cases) {
+    // Segments between random points, some of them repeated, reversed, from a point to itself or
+    // between two copies of a point (zero length: left out).
+    const auto n = static_cast<std::uint32_t>(c.points.size());
+    for (std::uint32_t k = 0; k < n / 4; ++k) {
+      const cdt::Segment g{rng.below(n), rng.below(n)};
+      c.segments.push_back(g);
+      if (k % 5 == 0) c.segments.push_back({g.b, g.a});
+      if (k % 7 == 0) c.segments.push_back(g);
+      if (k % 11 == 0) c.segments.push_back({g.a, g.a});
+    }
     const cdt::detail::PreparedPslg host =
-        cdt::detail::merge_input(c.points, {}, cdt::CrossingSegments::resolve, executor);
+        cdt::detail::merge_input(c.points, c.segments, cdt::CrossingSegments::resolve, executor);
     cdt::IndexArray duplicate_of, sites;
-    cdt::gpu::DeviceSites device(c.points, duplicate_of, sites);
+    std::vector<cdt::detail::ConstraintPiece> pieces;
+    cdt::gpu::DeviceSites device(c.points, c.segments, duplicate_of, sites, pieces);
     EXPECT_EQ(duplicate_of, host.duplicate_of) << c.name;
     EXPECT_EQ(sites, host.sites) << c.name;
+    ASSERT_EQ(pieces.size(), host.pieces.size()) << c.name;
+    for (std::size_t k = 0; k < pieces.size(); ++k) {
+      EXPECT_EQ(pieces[k].a, host.pieces[k].a) << c.name << " piece " << k;
+      EXPECT_EQ(pieces[k].b, host.pieces[k].b) << c.name << " piece " << k;
+      EXPECT_EQ(pieces[k].segment, host.pieces[k].segment) << c.name << " piece " << k;
+      if (HasFailure()) return;
+    }
+    pieces_seen += pieces.size();
     if (HasFailure()) return;
 
     const std::uint32_t m = 256;
@@ -618,6 +640,7 @@ TEST_F(GpuVoronoi, DuplicatesMergeAsOnTheHost) {
     EXPECT_EQ(x, one_x) << c.name;
     EXPECT_EQ(y, one_y) << c.name;
   }
+  EXPECT_GT(pieces_seen, 0u);
 }
 
 } // namespace
