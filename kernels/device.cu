@@ -162,9 +162,9 @@ CudaExecutor::CudaExecutor() {
 
 namespace {
 /// Copies up to this size go straight from pageable memory; larger ones are split into blocks of
-/// this size and staged through two pinned blocks, the host's memcpy of one block overlapping the
-/// bus transfer of the other.
-constexpr std::size_t kStagingBytes = std::size_t{8} << 20;
+/// this size and staged through kStagingBlocks pinned blocks, the host's memcpy of one block
+/// overlapping the bus transfers of the others.
+constexpr std::size_t kStagingBytes = std::size_t{16} << 20;
 constexpr std::size_t kCopyPartBytes = std::size_t{512} << 10; ///< a host thread's share of a block
 
 /// memcpy of len bytes, in parts of kCopyPartBytes over `parallel` when given.
@@ -224,14 +224,14 @@ CudaExecutor::~CudaExecutor() {
   // Buffers are freed by their own destructors, in stream order; errors here were reported by the call
   // that caused them. The stream is the thread's own and stays.
   cudaStreamSynchronize(stream_);
-  for (int k = 0; k < 2; ++k) {
+  for (int k = 0; k < kStagingBlocks; ++k) {
     if (h_staging_[k] != nullptr) return_staging_block(h_staging_[k]);
     if (staged_[k] != nullptr) cudaEventDestroy(staged_[k]);
   }
 }
 
 void CudaExecutor::make_staging() {
-  for (int k = 0; k < 2; ++k) {
+  for (int k = 0; k < kStagingBlocks; ++k) {
     if (h_staging_[k] == nullptr) h_staging_[k] = take_staging_block();
     if (staged_[k] == nullptr) CDT_CUDA_CHECK(cudaEventCreateWithFlags(&staged_[k], cudaEventDisableTiming));
   }
@@ -249,9 +249,9 @@ void CudaExecutor::copy_to_device(void* d_dst, const void* h_src, std::size_t by
   const auto* src = static_cast<const unsigned char*>(h_src);
   for (std::size_t at = 0, k = 0; at < bytes; at += kStagingBytes, ++k) {
     const std::size_t len = std::min(kStagingBytes, bytes - at);
-    const int buf = static_cast<int>(k % 2);
-    // The block's last transfer (two blocks back, or of an earlier upload) must be done before it is
-    // refilled; an event never recorded counts as done.
+    const int buf = static_cast<int>(k % kStagingBlocks);
+    // The block's last transfer (kStagingBlocks blocks back, or of an earlier upload) must be done
+    // before it is refilled; an event never recorded counts as done.
     CDT_CUDA_CHECK(cudaEventSynchronize(staged_[buf]));
     copy_parts(h_staging_[buf], src + at, len, parallel);
     CDT_CUDA_CHECK(cudaMemcpyAsync(dst + at, h_staging_[buf], len, cudaMemcpyHostToDevice, stream_));
@@ -271,7 +271,7 @@ void CudaExecutor::copy_to_host(void* h_dst, const void* d_src, std::size_t byte
   const auto* src = static_cast<const unsigned char*>(d_src);
   const std::size_t blocks = (bytes + kStagingBytes - 1) / kStagingBytes;
   const auto drain = [&](std::size_t k) { // waits for block k and copies it out of its staging block
-    const int buf = static_cast<int>(k % 2);
+    const int buf = static_cast<int>(k % kStagingBlocks);
     const std::size_t at = k * kStagingBytes;
     CDT_CUDA_CHECK(cudaEventSynchronize(staged_[buf]));
     const std::size_t len = std::min(kStagingBytes, bytes - at);
@@ -279,17 +279,19 @@ void CudaExecutor::copy_to_host(void* h_dst, const void* d_src, std::size_t byte
     // over threads as well as the copy does.
     copy_parts(dst + at, h_staging_[buf], len, parallel);
   };
+  // Up to kStagingBlocks - 1 transfers in flight while the host drains the oldest.
+  constexpr std::size_t lag = kStagingBlocks - 1;
   for (std::size_t k = 0; k < blocks; ++k) {
-    const int buf = static_cast<int>(k % 2);
+    const int buf = static_cast<int>(k % kStagingBlocks);
     const std::size_t at = k * kStagingBytes;
-    // Block k - 2 used this staging block and was drained in the last iteration; stream order puts
-    // this transfer after any upload still reading it.
+    // Block k - kStagingBlocks used this staging block and was drained in the last iteration; stream
+    // order puts this transfer after any upload still reading it.
     CDT_CUDA_CHECK(cudaMemcpyAsync(h_staging_[buf], src + at, std::min(kStagingBytes, bytes - at),
                                    cudaMemcpyDeviceToHost, stream_));
     CDT_CUDA_CHECK(cudaEventRecord(staged_[buf], stream_));
-    if (k >= 1) drain(k - 1);
+    if (k >= lag) drain(k - lag);
   }
-  drain(blocks - 1);
+  for (std::size_t k = blocks > lag ? blocks - lag : 0; k < blocks; ++k) drain(k);
   synchronize();
 }
 
