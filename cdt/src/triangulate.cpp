@@ -262,8 +262,8 @@ Triangulation triangulate_on(std::span<const Point> points, std::span<const Segm
   const gpu::HostParallelFor parallel = [&](std::size_t parts, const std::function<void(std::size_t)>& body) {
     executor.for_each_part(parts, body);
   };
-  // With the GPU backend the points go to the device once, where their duplicates are merged and
-  // the sites prepared.
+  // With the GPU backend the points and segments go to the device once: the duplicates are merged
+  // and the pieces made there, and the sites are prepared from the points already there.
   InputMerge merge;
   if (on_gpu) {
     merge = [&](IndexArray& duplicate_of, IndexArray& sites, std::vector<ConstraintPiece>& pieces) {
