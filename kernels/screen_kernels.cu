@@ -49,19 +49,24 @@ ScreenedPieces DeviceMesh::screen(std::span<const ConstraintPiece2> host_pieces)
   DeviceBuffer<ConstraintPiece2> d_pieces(np);
   executor.upload(d_pieces.data(), host_pieces.data(), np);
   const ConstraintPiece2* pieces = d_pieces.data();
-  // Per edge side, the piece lying on it; per piece, whether it is walked, and whether it is suspect;
-  // per slot, the lowest walker through it.
-  DeviceBuffer<std::uint32_t> d_piece_on(3 * static_cast<std::size_t>(s.num_slots)), d_owner(s.num_slots);
-  DeviceBuffer<std::uint8_t> d_walker(np), d_suspect(np), d_site(s.num_vertices);
+  // Per edge side, the piece lying on it; per piece, whether it is walked, whether it shares a triangle
+  // and whether it is suspect; per slot, the lowest and the highest walker through it.
+  DeviceBuffer<std::uint32_t> d_piece_on(3 * static_cast<std::size_t>(s.num_slots)), d_low(s.num_slots),
+      d_high(s.num_slots);
+  DeviceBuffer<std::uint8_t> d_walker(np), d_shared(np), d_suspect(np), d_site(s.num_vertices);
   DeviceBuffer<std::uint32_t> d_failed(1);
   std::uint32_t* piece_on = d_piece_on.data();
-  std::uint32_t* owner = d_owner.data();
+  std::uint32_t* low = d_low.data();
+  std::uint32_t* high = d_high.data();
   std::uint8_t* walker = d_walker.data();
+  std::uint8_t* shared = d_shared.data();
   std::uint8_t* suspect = d_suspect.data();
   std::uint8_t* site = d_site.data();
   std::uint32_t* failed = d_failed.data();
   executor.fill_bytes(piece_on, 0xFF, d_piece_on.size());
-  executor.fill_bytes(owner, 0xFF, s.num_slots);
+  executor.fill_bytes(low, 0xFF, s.num_slots);
+  executor.fill_bytes(high, 0, s.num_slots);
+  executor.fill_bytes(shared, 0, np);
   executor.fill_bytes(suspect, 0, np);
   executor.fill_bytes(site, 0, s.num_vertices);
   executor.fill_bytes(failed, 0, 1);
@@ -80,11 +85,22 @@ ScreenedPieces DeviceMesh::screen(std::span<const ConstraintPiece2> host_pieces)
         if (walker[k] == 0) return;
         const auto flag = [](std::uint8_t& f) { f = 1; };
         const auto lower = [](std::uint32_t* word, std::uint32_t v) { return detail::atomic_min(word, v); };
-        if (!::cdt::detail::screen_corridor(m, pieces[k], static_cast<std::uint32_t>(k), piece_on, owner,
-                                            suspect, site, flag, lower))
+        const auto raise = [](std::uint32_t* word, std::uint32_t v) { return atomicMax(word, v); };
+        if (!::cdt::detail::screen_corridor(m, pieces[k], static_cast<std::uint32_t>(k), piece_on, low, high,
+                                            shared, suspect, site, flag, lower, raise))
           atomicExch(failed, 1u);
       },
       "screen_corridors");
+  executor.for_each(
+      np,
+      [=] __device__(std::size_t k) {
+        if (shared[k] == 0) return;
+        const auto flag = [](std::uint8_t& f) { f = 1; };
+        if (!::cdt::detail::screen_shared_triangles(m, pieces, static_cast<std::uint32_t>(k), piece_on, low,
+                                                    high, suspect, site, flag))
+          atomicExch(failed, 1u);
+      },
+      "screen_shared");
   std::uint32_t walk_failed = 0;
   executor.download(&walk_failed, failed, 1);
   if (walk_failed != 0) {

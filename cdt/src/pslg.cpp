@@ -1268,26 +1268,49 @@ void split_pieces(PreparedPslg& pslg, std::span<const std::uint32_t> suspect_pie
     pslg.sites.push_back(static_cast<std::uint32_t>(v));
   trace.mark("suspects resolved");
   // The others are unchanged; both lists are sorted by (a, b), and a resolved piece identical to
-  // another piece merges into it (the lowest segment id).
-  std::vector<ConstraintPiece> merged;
-  merged.reserve(pslg.pieces.size() + resolved.size());
+  // another piece merges into it (the lowest segment id). The resolved pieces (few) find their places
+  // among the others by binary search; the others are copied around them in parallel.
   const auto before = [](const ConstraintPiece& p, const ConstraintPiece& q) {
     return p.a != q.a ? p.a < q.a : p.b < q.b;
   };
-  std::size_t r = 0;
-  const auto push = [&](const ConstraintPiece& p) {
-    if (!merged.empty() && merged.back().a == p.a && merged.back().b == p.b) {
-      merged.back().segment = std::min(merged.back().segment, p.segment);
-    } else {
-      merged.push_back(p);
-    }
+  const auto same = [](const ConstraintPiece& p, const ConstraintPiece& q) {
+    return p.a == q.a && p.b == q.b;
   };
-  for (std::size_t k = 0; k < pslg.pieces.size(); ++k) {
-    if (suspect[k] != 0) continue;
-    while (r < resolved.size() && !before(pslg.pieces[k], resolved[r])) push(resolved[r++]);
-    push(pslg.pieces[k]);
+  const std::vector<std::uint32_t> kept =
+      executor.compact(pslg.pieces.size(), [&](std::size_t k) { return suspect[k] == 0; });
+  const auto kept_before = [&](std::uint32_t k, const ConstraintPiece& q) {
+    return before(pslg.pieces[k], q);
+  };
+  std::vector<ConstraintPiece> inserted; // resolved pieces that are new, with their places:
+  std::vector<std::size_t> place;        // the number of kept pieces before each
+  std::vector<std::pair<std::size_t, std::uint32_t>> absorbed; // (kept position, segment)
+  for (const ConstraintPiece& q : resolved) {
+    if (!inserted.empty() && same(inserted.back(), q)) {
+      inserted.back().segment = std::min(inserted.back().segment, q.segment);
+      continue;
+    }
+    const auto at =
+        static_cast<std::size_t>(std::lower_bound(kept.begin(), kept.end(), q, kept_before) - kept.begin());
+    if (at < kept.size() && same(pslg.pieces[kept[at]], q)) {
+      absorbed.emplace_back(at, q.segment);
+    } else {
+      inserted.push_back(q);
+      place.push_back(at);
+    }
   }
-  while (r < resolved.size()) push(resolved[r++]);
+  std::vector<ConstraintPiece> merged(kept.size() + inserted.size());
+  executor.for_each(kept.size(), [&](std::size_t i) {
+    const auto shift =
+        static_cast<std::size_t>(std::upper_bound(place.begin(), place.end(), i) - place.begin());
+    merged[i + shift] = pslg.pieces[kept[i]];
+  });
+  for (std::size_t j = 0; j < inserted.size(); ++j) merged[place[j] + j] = inserted[j];
+  for (const auto& [at, segment] : absorbed) {
+    const auto shift =
+        static_cast<std::size_t>(std::upper_bound(place.begin(), place.end(), at) - place.begin());
+    std::uint32_t& kept_segment = merged[at + shift].segment;
+    kept_segment = std::min(kept_segment, segment);
+  }
   pslg.pieces = std::move(merged);
   trace.mark("pieces merged");
 }

@@ -322,6 +322,42 @@ TEST(PslgSplit, TJunctionSplitsTheCrossbarOnly) {
   EXPECT_EQ(out.vertices.size(), 4u);
 }
 
+// Splitting only the suspects (the pieces with a site inside them) gives what splitting all gives: the
+// others kept, the suspects' parts placed among them, and a part identical to a kept piece merged into
+// it with the lowest segment id. Segments along the rows of a lattice overlap and pass through points
+// everywhere, but never cross.
+TEST(PslgSplit, SuspectsAloneAsAll) {
+  trixel_gen::Random rng(5);
+  constexpr int kSide = 12;
+  std::vector<Point> points;
+  for (int y = 0; y < kSide; ++y)
+    for (int x = 0; x < kSide; ++x) points.push_back({double(x), double(y)});
+  std::vector<Segment> segments;
+  for (int k = 0; k < 300; ++k) {
+    const auto y = static_cast<std::uint32_t>(rng.range(0, kSide - 1));
+    const auto x0 = static_cast<std::uint32_t>(rng.range(0, kSide - 1));
+    const auto x1 = static_cast<std::uint32_t>(rng.range(0, kSide - 1));
+    if (x0 != x1) segments.push_back({y * kSide + x0, y * kSide + x1});
+  }
+  CpuExecutor executor(2);
+  PreparedPslg all = cdt::detail::merge_input(points, segments, CrossingSegments::reject, executor);
+  PreparedPslg some = all;
+  std::vector<std::uint32_t> suspects;
+  for (std::uint32_t k = 0; k < some.pieces.size(); ++k) {
+    const Point& a = some.vertices[some.pieces[k].a];
+    const Point& b = some.vertices[some.pieces[k].b];
+    if (std::abs(a.x - b.x) > 1) suspects.push_back(k);
+  }
+  ASSERT_GT(suspects.size(), 10u);
+  ASSERT_LT(suspects.size(), some.pieces.size());
+  const std::vector<std::uint32_t> sites(some.sites.begin(), some.sites.end());
+  cdt::detail::split_pieces(all, CrossingSegments::reject, executor);
+  cdt::detail::split_pieces(some, suspects, sites, CrossingSegments::reject, executor);
+  EXPECT_EQ(piece_pairs(some), piece_pairs(all));
+  EXPECT_EQ(piece_labels(some), piece_labels(all));
+  EXPECT_EQ(some.vertices.size(), all.vertices.size());
+}
+
 TEST(PslgOverlap, PartialOverlapIsMergedWithLowestIds) {
   //  0 ----- 2 ===== 1 ----- 3      segment 1: 0-1, segment 0: 2-3
   const std::vector<Point> p{{0, 0}, {3, 0}, {1, 0}, {5, 0}, {0, 1}};

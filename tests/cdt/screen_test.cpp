@@ -194,6 +194,26 @@ TEST(ScreenPieces, PiecesThatAreNoEdgesAreSuspectOnlyWhereTheyMeet) {
   const cdt::detail::ConstraintPiece2 along{at(0, 2), at(2, 2), 0}, across{at(0, 1), at(1, 3), 0};
   EXPECT_EQ(screen({along, across}).pieces, (std::vector<std::uint32_t>{0, 1}));
   EXPECT_EQ(screen({across, along}).pieces, (std::vector<std::uint32_t>{0, 1}));
+  // A fan from (0, 0): both pass the triangle (0, 0), (1, 0), (1, 1) and meet only at their common end,
+  // which the exact test of the two settles. In every order of the pieces.
+  const cdt::detail::ConstraintPiece2 low{at(0, 0), at(3, 1), 0}, high{at(0, 0), at(2, 1), 0};
+  for (const auto& fan : {std::vector{low, high}, std::vector{high, low}}) {
+    const cdt::detail::ScreenedPieces s = screen(fan);
+    EXPECT_TRUE(s.pieces.empty());
+    EXPECT_TRUE(s.sites.empty());
+  }
+  // A third through that triangle keeps all three suspect, with the triangle's corners.
+  const cdt::detail::ConstraintPiece2 third{at(0, 0), at(5, 2), 0};
+  for (const auto& fan : {std::vector{low, high, third}, std::vector{third, high, low}}) {
+    const cdt::detail::ScreenedPieces s = screen(fan);
+    EXPECT_EQ(s.pieces, (std::vector<std::uint32_t>{0, 1, 2}));
+    for (const std::uint32_t v : {at(0, 0), at(1, 0), at(1, 1), at(3, 1), at(2, 1), at(5, 2)})
+      EXPECT_TRUE(std::binary_search(s.sites.begin(), s.sites.end(), v)) << v;
+  }
+  // A crossing pair beside a fan from (2, 2) that shares a triangle: the fan stays clean.
+  const std::vector<cdt::detail::ConstraintPiece2> mixed{
+      {at(0, 0), at(2, 1), 0}, {at(0, 1), at(2, 0), 0}, {at(2, 2), at(5, 3), 0}, {at(2, 2), at(4, 3), 0}};
+  EXPECT_EQ(screen(mixed).pieces, (std::vector<std::uint32_t>{0, 1}));
 }
 
 TEST(ScreenPieces, AnEndOutsideTheMeshMakesEverythingSuspect) {

@@ -22,18 +22,30 @@ ScreenedPieces screen_pieces(const MeshView& m, std::span<const ConstraintPiece2
   if (walkers.empty()) return out;
 
   // The pieces that are no edges walk their corridors: the sites on them, the edge-pieces they cross,
-  // the triangles they share.
-  std::vector<std::uint8_t> suspect(pieces.size(), 0), site(m.num_vertices, 0);
-  std::vector<std::uint32_t> owner(m.num_slots, kNoId);
+  // the triangles they share; then those that share one settle it.
+  std::vector<std::uint8_t> suspect(pieces.size(), 0), shared(pieces.size(), 0), site(m.num_vertices, 0);
+  std::vector<std::uint32_t> low(m.num_slots, kNoId), high(m.num_slots, 0);
   std::atomic<bool> failed{false};
   const auto flag = [](std::uint8_t& f) {
     std::atomic_ref<std::uint8_t>(f).store(1, std::memory_order_relaxed);
   };
   const auto lower = [](std::uint32_t* word, std::uint32_t k) { return atomic_min(word, k); };
+  const auto raise = [](std::uint32_t* word, std::uint32_t k) { return atomic_max(word, k); };
   executor.for_each(walkers.size(), [&](std::size_t w) {
     const std::uint32_t k = walkers[w];
-    if (!screen_corridor(m, pieces[k], k, piece_on.data(), owner.data(), suspect.data(), site.data(), flag,
-                         lower))
+    if (!screen_corridor(m, pieces[k], k, piece_on.data(), low.data(), high.data(), shared.data(),
+                         suspect.data(), site.data(), flag, lower, raise))
+      failed.store(true, std::memory_order_relaxed);
+  });
+  if (failed.load()) {
+    out.complete = false;
+    return out;
+  }
+  const std::vector<std::uint32_t> sharers =
+      executor.compact(pieces.size(), [&](std::size_t k) { return shared[k] != 0; });
+  executor.for_each(sharers.size(), [&](std::size_t w) {
+    if (!screen_shared_triangles(m, pieces.data(), sharers[w], piece_on.data(), low.data(), high.data(),
+                                 suspect.data(), site.data(), flag))
       failed.store(true, std::memory_order_relaxed);
   });
   if (failed.load()) {

@@ -10,13 +10,17 @@
 // only the triangles of its corridor, and every site on it and every edge-segment it crosses belongs
 // to them; and where two segments that are no edges cross, the crossing lies in a triangle (or on an
 // edge, between two) that both corridors hold. So a segment that is no edge is suspect only when a
-// site lies on it, when it crosses an edge-segment, or when its corridor shares a triangle with
-// another's; the rest (most long segments of an input without crossings) meet nothing. The suspects
-// are those, the edge-segments they cross, and the sites on them; split_pieces then resolves the
-// suspects alone (cdt/src/pslg.hpp), finding in its first round exactly the pairs it would find among
-// all. Where a crossing may be (a crossed edge-segment, a shared triangle), the triangles there, their
-// sites and the segments on their edges are suspect too: a crossing's rounded vertex lies there, and
-// the repair rounds test what passes near it.
+// site lies on it, when it crosses an edge-segment, or when it crosses another whose corridor shares
+// a triangle with its own; the rest (every segment of an input without crossings, but for points on
+// segments) meet nothing. Two such segments can meet only by crossing properly: an end of one on the
+// other is a site on it, which its walk finds, and so is an overlap. A triangle that two corridors
+// share is settled by testing the two exactly; one that three or more share keeps them all suspect
+// (which one to test against is not known there). The suspects are those, the edge-segments they
+// cross, and the sites on them; split_pieces then resolves the suspects alone (cdt/src/pslg.hpp),
+// finding in its first round exactly the pairs it would find among all. Where a crossing may be (a
+// crossed edge-segment, a triangle of a crossing pair or of three corridors), the triangles there,
+// their sites and the segments on their edges are suspect too: a crossing's rounded vertex lies there,
+// and the repair rounds test what passes near it.
 
 #include <cstdint>
 #include <span>
@@ -160,31 +164,49 @@ CDT_HD void screen_mark_triangle(const MeshView& m, std::uint32_t t, const std::
   }
 }
 
-/// The screen's second pass for piece k, which is no edge. Its corridor's triangles are both sides of
-/// every edge it crosses or runs along (two segments that cross do so inside a triangle or inside an
-/// edge, and then both pass the triangles there): lower(&owner[t], k) claims each, and where it finds
-/// another piece j's claim, both are suspect, with the marks around t. For every site strictly between
-/// its ends, flag(site[v]) and flag(suspect[k]); at every edge-piece it crosses, flag(suspect[k]) and the
-/// marks around the two triangles there. flag sets a byte to 1; lower is an atomic minimum returning the
-/// previous value (both atomic on host threads), so of the pieces through a triangle every one but the
-/// first to claim it sees another's claim, and the first is flagged by the second: the result does not
-/// depend on the order. Returns false when the walk fails.
-template <class Flag, class Lower>
-CDT_HD bool screen_corridor(const MeshView& m, const ConstraintPiece2& p, std::uint32_t k,
-                            const std::uint32_t* piece_on, std::uint32_t* owner, std::uint8_t* suspect,
-                            std::uint8_t* site, Flag&& flag, Lower&& lower) {
-  const auto claim = [&](std::uint32_t t) {
-    const std::uint32_t j = lower(&owner[t], k);
-    if (j == kNoId || j == k) return;
-    flag(suspect[k]);
-    flag(suspect[j]);
-    screen_mark_triangle(m, t, piece_on, suspect, site, flag);
-  };
+/// True when pieces p and q (mesh vertex ids) cross at a single point interior to both. Two pieces that
+/// are no edges meet only so or where a vertex lies on one of them (see above).
+CDT_HD_INLINE bool pieces_cross(const MeshView& m, const ConstraintPiece2& p, const ConstraintPiece2& q) {
+  if (p.a == q.a || p.a == q.b || p.b == q.a || p.b == q.b) return false;
+  const int oa = orient_vertices(m, p.a, p.b, q.a), ob = orient_vertices(m, p.a, p.b, q.b);
+  if (!((oa > 0 && ob < 0) || (oa < 0 && ob > 0))) return false;
+  const int oc = orient_vertices(m, q.a, q.b, p.a), od = orient_vertices(m, q.a, q.b, p.b);
+  return (oc > 0 && od < 0) || (oc < 0 && od > 0);
+}
+
+/// Calls claim(t) for each triangle of the corridor of a-b: both sides of every edge it crosses or runs
+/// along (two segments that cross do so inside a triangle or inside an edge, and then both pass the
+/// triangles there), some more than once. crossed(e) and on_vertex(v) as walk_corridor's.
+template <class OnVertex, class Crossed, class Claim>
+CDT_HD bool walk_corridor_triangles(const MeshView& m, std::uint32_t a, std::uint32_t b, OnVertex&& on_vertex,
+                                    Crossed&& crossed, Claim&& claim) {
   const auto both_sides = [&](std::uint32_t e) {
     claim(edge_tri(e));
     if (m.adj[e] != kNoId) claim(edge_tri(m.adj[e]));
   };
   return walk_corridor(
+      m, a, b, on_vertex,
+      [&](std::uint32_t e) {
+        both_sides(e);
+        crossed(e);
+      },
+      both_sides);
+}
+
+/// The screen's second pass for piece k, which is no edge. For every site strictly between its ends,
+/// flag(site[v]) and flag(suspect[k]); at every edge-piece it crosses, flag(suspect[k]) and the marks
+/// around the two triangles there. Each triangle of its corridor it claims for the pieces through it:
+/// lower(&low[t], k) and raise(&high[t], k) keep the lowest and the highest (atomic minimum and maximum,
+/// high starting at 0). Where lower finds another piece j's claim, flag(shared[k]) and flag(shared[j]):
+/// of the pieces through a triangle, every one but the first sees another's, and the first is flagged by
+/// the second, so that the result does not depend on the order. flag sets a byte to 1. Returns false
+/// when the walk fails.
+template <class Flag, class Lower, class Raise>
+CDT_HD bool screen_corridor(const MeshView& m, const ConstraintPiece2& p, std::uint32_t k,
+                            const std::uint32_t* piece_on, std::uint32_t* low, std::uint32_t* high,
+                            std::uint8_t* shared, std::uint8_t* suspect, std::uint8_t* site, Flag&& flag,
+                            Lower&& lower, Raise&& raise) {
+  return walk_corridor_triangles(
       m, p.a, p.b,
       [&](std::uint32_t v) {
         if (v == p.a || v == p.b) return;
@@ -192,13 +214,50 @@ CDT_HD bool screen_corridor(const MeshView& m, const ConstraintPiece2& p, std::u
         flag(suspect[k]);
       },
       [&](std::uint32_t e) {
-        both_sides(e);
         if (piece_on[e] == kNoId) return;
         flag(suspect[k]);
         screen_mark_triangle(m, edge_tri(e), piece_on, suspect, site, flag);
         if (m.adj[e] != kNoId) screen_mark_triangle(m, edge_tri(m.adj[e]), piece_on, suspect, site, flag);
       },
-      both_sides);
+      [&](std::uint32_t t) {
+        raise(&high[t], k);
+        const std::uint32_t j = lower(&low[t], k);
+        if (j == kNoId || j == k) return;
+        flag(shared[k]);
+        flag(shared[j]);
+      });
+}
+
+/// The screen's third pass for piece k, which shares a triangle of its corridor with another piece, after
+/// the second pass is done everywhere. At a triangle t whose lowest and highest pieces differ: when k is
+/// neither, three or more pieces pass t and k flags them as suspect (itself and both, which covers every
+/// piece there, as each one between flags itself); when k is the highest, it tests the lowest exactly
+/// and flags both when they cross. Each time, the marks around t. Returns false when the walk fails.
+template <class Flag>
+CDT_HD bool screen_shared_triangles(const MeshView& m, const ConstraintPiece2* pieces, std::uint32_t k,
+                                    const std::uint32_t* piece_on, const std::uint32_t* low,
+                                    const std::uint32_t* high, std::uint8_t* suspect, std::uint8_t* site,
+                                    Flag&& flag) {
+  const ConstraintPiece2& p = pieces[k];
+  std::uint32_t last = kNoId; // consecutive claims of one triangle are settled once
+  return walk_corridor_triangles(
+      m, p.a, p.b, [](std::uint32_t) {}, [](std::uint32_t) {},
+      [&](std::uint32_t t) {
+        if (t == last) return;
+        last = t;
+        const std::uint32_t lo = low[t], hi = high[t];
+        if (lo == hi || k == lo) return;
+        if (k != hi) {
+          flag(suspect[lo]);
+          flag(suspect[hi]);
+        } else if (!pieces_cross(m, p, pieces[lo])) {
+          return;
+        } else {
+          flag(suspect[lo]);
+        }
+        flag(suspect[k]);
+        screen_mark_triangle(m, t, piece_on, suspect, site, flag);
+      });
 }
 
 } // namespace cdt::detail
