@@ -6,6 +6,7 @@
 #include <cstdint>
 #include <vector>
 
+#include "cdt/detail/trace.hpp"
 #include "cdt_kernels.hpp"
 #include "cuda_check.cuh"
 #include "cuda_executor.cuh"
@@ -45,6 +46,12 @@ ScreenedPieces DeviceMesh::screen(std::span<const ConstraintPiece2> host_pieces)
   if (np == 0) return out;
   detail::CudaExecutor& executor = s.executor;
   const MeshView m = s.view();
+  // Traced, each step is waited for.
+  ::cdt::detail::StepTrace trace("device screen");
+  const auto mark = [&](const char* step) {
+    if (::cdt::detail::trace_enabled()) executor.synchronize();
+    trace.mark(step);
+  };
 
   DeviceBuffer<ConstraintPiece2> d_pieces(np);
   executor.upload(d_pieces.data(), host_pieces.data(), np);
@@ -77,6 +84,7 @@ ScreenedPieces DeviceMesh::screen(std::span<const ConstraintPiece2> host_pieces)
         walker[k] = edge ? 0 : 1;
       },
       "screen_edges");
+  mark("edges");
   // The walks set bytes of other pieces and sites: several threads may store 1 to the same byte, which
   // is the only value stored.
   executor.for_each(
@@ -91,6 +99,7 @@ ScreenedPieces DeviceMesh::screen(std::span<const ConstraintPiece2> host_pieces)
           atomicExch(failed, 1u);
       },
       "screen_corridors");
+  mark("corridors");
   executor.for_each(
       np,
       [=] __device__(std::size_t k) {
@@ -101,6 +110,7 @@ ScreenedPieces DeviceMesh::screen(std::span<const ConstraintPiece2> host_pieces)
           atomicExch(failed, 1u);
       },
       "screen_shared");
+  mark("shared triangles");
   std::uint32_t walk_failed = 0;
   executor.download(&walk_failed, failed, 1);
   if (walk_failed != 0) {
@@ -118,6 +128,7 @@ ScreenedPieces DeviceMesh::screen(std::span<const ConstraintPiece2> host_pieces)
   out.pieces = detail::flagged(executor, suspect, np);
   if (out.pieces.empty()) return out;
   out.sites = detail::flagged(executor, site, s.num_vertices);
+  mark("suspects downloaded");
   return out;
 }
 
