@@ -1,0 +1,98 @@
+// Tests of retain_freed_memory(): the process-wide memory policy for large triangulations. Each runs in
+// a child process (a death test's), so that the policy never reaches the other tests.
+
+#include <gtest/gtest.h>
+
+#include <cstdint>
+#include <cstdio>
+#include <cstdlib>
+#include <fstream>
+#include <sstream>
+#include <string>
+
+#include "cdt/cdt.hpp"
+
+#if defined(__GLIBC__)
+#include <malloc.h>
+#include <unistd.h>
+#endif
+
+namespace {
+
+#if defined(__GLIBC__)
+
+/// Whether every byte of [begin, end) lies in mappings of this process whose VmFlags hold `flag`
+/// (/proc/self/smaps); false when that file cannot be read.
+bool mapped_with_flag(std::uintptr_t begin, std::uintptr_t end, const std::string& flag) {
+  std::ifstream smaps("/proc/self/smaps");
+  if (!smaps) return false;
+  std::string line;
+  std::uintptr_t lo = 0, hi = 0, covered_to = begin;
+  while (std::getline(smaps, line)) {
+    unsigned long long a = 0, b = 0;
+    if (std::sscanf(line.c_str(), "%llx-%llx ", &a, &b) == 2 && line.find(':') > line.find('-')) {
+      lo = a;
+      hi = b;
+    } else if (line.rfind("VmFlags:", 0) == 0) {
+      std::istringstream words(line.substr(8));
+      bool has = false;
+      for (std::string w; words >> w;) has = has || w == flag;
+      // Mappings come in address order: extend the covered prefix of the range.
+      if (has && lo <= covered_to && hi > covered_to) covered_to = hi;
+    }
+  }
+  return covered_to >= end;
+}
+
+TEST(RetainFreedMemory, LargeBlocksComeFromTheHeapAndItIsNeverTrimmed) {
+  EXPECT_EXIT(
+      {
+        if (!cdt::retain_freed_memory()) std::exit(2);
+        // Far above the default mapping threshold: without the policy this block is a mapping of its
+        // own, far above the heap, and returned to the system when freed.
+        constexpr std::size_t kBytes = std::size_t{64} << 20;
+        void* block = std::malloc(kBytes);
+        if (block == nullptr) std::exit(3);
+        if (reinterpret_cast<std::uintptr_t>(block) + kBytes > reinterpret_cast<std::uintptr_t>(sbrk(0)))
+          std::exit(4); // not inside the heap
+        void* const grown = sbrk(0);
+        std::free(block);
+        if (sbrk(0) != grown) std::exit(5); // the heap's top was given back
+        // The same memory serves the next large block.
+        void* again = std::malloc(kBytes);
+        if (again != block) std::exit(6);
+        std::free(again);
+        std::exit(0);
+      },
+      ::testing::ExitedWithCode(0), "");
+}
+
+/// Whether the kernel lets a process advise huge pages (transparent huge pages not "never").
+bool huge_pages_can_be_advised() {
+  std::ifstream f("/sys/kernel/mm/transparent_hugepage/enabled");
+  std::string modes;
+  return std::getline(f, modes) && modes.find("[never]") == std::string::npos;
+}
+
+TEST(RetainFreedMemory, HugePagesAdviceCoversTheHeapItGrew) {
+  if (!huge_pages_can_be_advised()) GTEST_SKIP() << "transparent huge pages are off on this machine";
+  EXPECT_EXIT(
+      {
+        malloc_trim(0); // the heap's free top is now small: the block below begins near its end
+        void* const top = sbrk(0);
+        constexpr std::size_t kBytes = std::size_t{32} << 20;
+        if (!cdt::retain_freed_memory(kBytes)) std::exit(4);
+        constexpr std::uintptr_t kHugePage = std::uintptr_t{2} << 20;
+        // The advised block began within a huge page below the old top, so its whole 2 MiB pages
+        // hold [begin + 2 MiB, begin + kBytes - 4 MiB), whatever its alignment.
+        const auto begin = (reinterpret_cast<std::uintptr_t>(top) + kHugePage - 1) & ~(kHugePage - 1);
+        const std::uintptr_t end = begin + kBytes - 2 * kHugePage;
+        if (reinterpret_cast<std::uintptr_t>(sbrk(0)) < end) std::exit(2); // the heap did not grow
+        std::exit(mapped_with_flag(begin + kHugePage, end, "hg") ? 0 : 3);
+      },
+      ::testing::ExitedWithCode(0), "");
+}
+
+#endif
+
+} // namespace
