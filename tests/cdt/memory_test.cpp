@@ -19,6 +19,18 @@
 
 namespace {
 
+#if defined(__SANITIZE_ADDRESS__)
+constexpr bool kGlibcAllocator = false; // AddressSanitizer's allocator serves malloc
+#elif defined(__has_feature)
+#if __has_feature(address_sanitizer)
+constexpr bool kGlibcAllocator = false;
+#else
+constexpr bool kGlibcAllocator = true;
+#endif
+#else
+constexpr bool kGlibcAllocator = true;
+#endif
+
 #if defined(__GLIBC__)
 
 /// Whether every byte of [begin, end) lies in mappings of this process whose VmFlags hold `flag`
@@ -45,6 +57,7 @@ bool mapped_with_flag(std::uintptr_t begin, std::uintptr_t end, const std::strin
 }
 
 TEST(RetainFreedMemory, LargeBlocksComeFromTheHeapAndItIsNeverTrimmed) {
+  if (!kGlibcAllocator) GTEST_SKIP() << "malloc is not glibc's in this build";
   EXPECT_EXIT(
       {
         if (!cdt::retain_freed_memory()) std::exit(2);
@@ -75,6 +88,7 @@ bool huge_pages_can_be_advised() {
 }
 
 TEST(RetainFreedMemory, HugePagesAdviceCoversTheHeapItGrew) {
+  if (!kGlibcAllocator) GTEST_SKIP() << "malloc is not glibc's in this build";
   if (!huge_pages_can_be_advised()) GTEST_SKIP() << "transparent huge pages are off on this machine";
   EXPECT_EXIT(
       {
