@@ -1253,11 +1253,9 @@ void split_pieces(PreparedPslg& pslg, std::span<const std::uint32_t> suspect_pie
   // The tolerance of the whole input, so that the suspects are treated as they would be with it.
   const double tolerance = snap_tolerance_of(bounding_box(pslg.vertices, pslg.sites, executor));
   std::vector<WorkSegment> segs(suspect_pieces.size());
-  std::vector<std::uint8_t> suspect(pslg.pieces.size(), 0);
   executor.for_each(segs.size(), [&](std::size_t k) {
     const ConstraintPiece& p = pslg.pieces[suspect_pieces[k]];
     segs[k] = {p.a, p.b, p.segment, true, false};
-    suspect[suspect_pieces[k]] = 1;
   });
   IndexArray sites(suspect_sites.begin(), suspect_sites.end());
   const std::size_t first_added = pslg.vertices.size();
@@ -1269,48 +1267,68 @@ void split_pieces(PreparedPslg& pslg, std::span<const std::uint32_t> suspect_pie
   trace.mark("suspects resolved");
   // The others are unchanged; both lists are sorted by (a, b), and a resolved piece identical to
   // another piece merges into it (the lowest segment id). The resolved pieces (few) find their places
-  // among the others by binary search; the others are copied around them in parallel.
+  // among all by binary search; the runs of others between the suspects and those places are then
+  // copied in parallel.
   const auto before = [](const ConstraintPiece& p, const ConstraintPiece& q) {
     return p.a != q.a ? p.a < q.a : p.b < q.b;
   };
   const auto same = [](const ConstraintPiece& p, const ConstraintPiece& q) {
     return p.a == q.a && p.b == q.b;
   };
-  const std::vector<std::uint32_t> kept =
-      executor.compact(pslg.pieces.size(), [&](std::size_t k) { return suspect[k] == 0; });
-  const auto kept_before = [&](std::uint32_t k, const ConstraintPiece& q) {
-    return before(pslg.pieces[k], q);
+  std::vector<std::uint32_t> suspects(suspect_pieces.begin(), suspect_pieces.end());
+  std::sort(suspects.begin(), suspects.end());
+  const auto is_suspect = [&](std::size_t k) {
+    return std::binary_search(suspects.begin(), suspects.end(), k);
   };
   std::vector<ConstraintPiece> inserted; // resolved pieces that are new, with their places:
-  std::vector<std::size_t> place;        // the number of kept pieces before each
-  std::vector<std::pair<std::size_t, std::uint32_t>> absorbed; // (kept position, segment)
+  std::vector<std::size_t> place;        // the index in pslg.pieces each goes before
   for (const ConstraintPiece& q : resolved) {
     if (!inserted.empty() && same(inserted.back(), q)) {
       inserted.back().segment = std::min(inserted.back().segment, q.segment);
       continue;
     }
-    const auto at =
-        static_cast<std::size_t>(std::lower_bound(kept.begin(), kept.end(), q, kept_before) - kept.begin());
-    if (at < kept.size() && same(pslg.pieces[kept[at]], q)) {
-      absorbed.emplace_back(at, q.segment);
+    const auto at = static_cast<std::size_t>(
+        std::lower_bound(pslg.pieces.begin(), pslg.pieces.end(), q, before) - pslg.pieces.begin());
+    if (at < pslg.pieces.size() && same(pslg.pieces[at], q) && !is_suspect(at)) {
+      pslg.pieces[at].segment = std::min(pslg.pieces[at].segment, q.segment);
     } else {
       inserted.push_back(q);
       place.push_back(at);
     }
   }
-  std::vector<ConstraintPiece> merged(kept.size() + inserted.size());
-  executor.for_each(kept.size(), [&](std::size_t i) {
-    const auto shift =
-        static_cast<std::size_t>(std::upper_bound(place.begin(), place.end(), i) - place.begin());
-    merged[i + shift] = pslg.pieces[kept[i]];
-  });
-  for (std::size_t j = 0; j < inserted.size(); ++j) merged[place[j] + j] = inserted[j];
-  for (const auto& [at, segment] : absorbed) {
-    const auto shift =
-        static_cast<std::size_t>(std::upper_bound(place.begin(), place.end(), at) - place.begin());
-    std::uint32_t& kept_segment = merged[at + shift].segment;
-    kept_segment = std::min(kept_segment, segment);
+  // Walking the suspects and the places in order: runs of kept pieces (source, destination, length),
+  // cut into parts of at most kRun for the threads, and the inserted pieces' destinations.
+  struct Run {
+    std::size_t from, to, count;
+  };
+  constexpr std::size_t kRun = std::size_t{1} << 16;
+  std::vector<Run> runs;
+  std::vector<std::size_t> inserted_at(inserted.size());
+  std::size_t from = 0, to = 0, s = 0, j = 0;
+  const auto copy_until = [&](std::size_t stop) {
+    while (from < stop) {
+      const std::size_t count = std::min(stop - from, kRun);
+      runs.push_back({from, to, count});
+      from += count;
+      to += count;
+    }
+  };
+  while (s < suspects.size() || j < inserted.size()) {
+    if (j < inserted.size() && (s == suspects.size() || place[j] <= suspects[s])) {
+      copy_until(place[j]);
+      inserted_at[j++] = to++;
+    } else {
+      copy_until(suspects[s]);
+      from = suspects[s++] + 1;
+    }
   }
+  copy_until(pslg.pieces.size());
+  std::vector<ConstraintPiece> merged(to);
+  executor.for_each(runs.size(), [&](std::size_t r) {
+    std::copy_n(pslg.pieces.begin() + static_cast<std::ptrdiff_t>(runs[r].from), runs[r].count,
+                merged.begin() + static_cast<std::ptrdiff_t>(runs[r].to));
+  });
+  for (std::size_t k = 0; k < inserted.size(); ++k) merged[inserted_at[k]] = inserted[k];
   pslg.pieces = std::move(merged);
   trace.mark("pieces merged");
 }
