@@ -105,7 +105,7 @@ void upload_vertices(DeviceSites::State& s, std::span<const Point> vertices,
   }
 }
 
-/// Bytes of device memory merge_duplicates needs for n points: the points (16 bytes), the hashes and
+/// Bytes of device memory merge_input_on_device needs for n points: the points (16 bytes), the hashes and
 /// their order with the sort's second copies (16), the starts of equal hashes, the representatives,
 /// the sites and the points left unresolved (16); CUB's scratch within a megabyte and a byte a point.
 std::size_t duplicates_device_bytes(std::size_t n) { return 49 * n + (std::size_t{1} << 20); }
@@ -175,15 +175,18 @@ void pieces_between_representatives(CudaExecutor& executor, std::span<const Segm
                     3 * static_cast<std::size_t>(num_pieces), &parallel);
 }
 
-/// The host's merge_duplicates on the device: the points are sorted by the low 32 bits of their hash
-/// (stable: in index order within equal hashes), so the first point of each run of equal hashes is the
-/// lowest index with its coordinates, and the others of its run with equal coordinates are its
-/// duplicates. A point of a run that differs from the run's first point (another point with the same
-/// hash: a few thousand among ten million points) is resolved on the host among the others like it:
-/// every point with its coordinates is in that run and differs from the first point too.
-void merge_duplicates(DeviceSites::State& s, std::span<const Point> points, std::span<const Segment> segments,
-                      IndexArray& duplicate_of, IndexArray& sites,
-                      std::vector<::cdt::detail::ConstraintPiece>& pieces, const HostParallelFor& parallel) {
+/// merge_input's work on the device: duplicates, sites and pieces. The duplicates as the host's
+/// merge_duplicates finds them: the points are sorted by the low 32 bits of their hash (stable: in index
+/// order within equal hashes), so the first point of each run of equal hashes is the lowest index with
+/// its coordinates, and the others of its run with equal coordinates are its duplicates. A point of a
+/// run that differs from the run's first point (another point with the same hash: a few thousand among
+/// ten million points) is resolved on the host among the others like it: every point with its
+/// coordinates is in that run and differs from the first point too. Then the sites (the points that are
+/// their own representative) and the pieces (pieces_between_representatives).
+void merge_input_on_device(DeviceSites::State& s, std::span<const Point> points,
+                           std::span<const Segment> segments, IndexArray& duplicate_of, IndexArray& sites,
+                           std::vector<::cdt::detail::ConstraintPiece>& pieces,
+                           const HostParallelFor& parallel) {
   const std::size_t nv = points.size();
   if (nv == 0 || nv >= kNoId) throw Error("internal error: DeviceSites: no points, or too many");
   require_device_memory(duplicates_device_bytes(nv), 0,
@@ -291,7 +294,7 @@ void merge_duplicates(DeviceSites::State& s, std::span<const Point> points, std:
 }
 
 /// DeviceSites' preparation (a constructor cannot hold the extended lambdas of its steps), from the
-/// vertices and sites on the device (upload_vertices or merge_duplicates), which it frees.
+/// vertices and sites on the device (upload_vertices or merge_input_on_device), which it frees.
 void prepare_sites(DeviceSites::State& s, std::uint32_t m, GridMapping& mapping, ::cdt::detail::Box& bounds,
                    IndexArray& site_vertex, IndexArray& site_of_vertex, std::vector<std::uint8_t>& kept,
                    std::vector<MissingPoint>& missing, const HostParallelFor& parallel) {
@@ -453,7 +456,7 @@ DeviceSites::DeviceSites(std::span<const Point> points, std::span<const Segment>
                          IndexArray& duplicate_of, IndexArray& sites,
                          std::vector<::cdt::detail::ConstraintPiece>& pieces, const HostParallelFor& parallel)
     : state_(std::make_unique<State>()) {
-  detail::merge_duplicates(*state_, points, segments, duplicate_of, sites, pieces, parallel);
+  detail::merge_input_on_device(*state_, points, segments, duplicate_of, sites, pieces, parallel);
 }
 
 void DeviceSites::prepare(std::uint32_t m, GridMapping& mapping, ::cdt::detail::Box& bounds,
