@@ -1220,6 +1220,9 @@ PreparedPslg merge_input(std::span<const Point> points, std::span<const Segment>
         executor.compact<IndexArray>(points.size(), [&](std::size_t i) { return out.duplicate_of[i] == i; });
   }
   check_dimension(points, out.sites);
+  // Room for the vertices that crossings may add: growing the array would copy every point (30 MB for
+  // the coastlines) for the first of them.
+  out.vertices.reserve(points.size() + points.size() / 256 + 1024);
   out.vertices.assign(points.begin(), points.end());
   trace.mark("sites");
   if (!merge) {
