@@ -62,30 +62,42 @@ struct Input {
   trixel_gen::Pslg pslg;
 };
 
+/// Reads '>'-separated polylines of "lon lat" lines; exits naming the file and line on anything else
+/// (a file of another format, such as the cdt command's, is not read as coordinates).
 trixel_gen::Pslg read_coast(const std::string& path) {
   std::ifstream in(path);
   if (!in) {
     std::fprintf(stderr, "bench_cdt: cannot read %s\n", path.c_str());
     std::exit(1);
   }
+  const auto fail = [&](std::size_t line_number, const char* reason) {
+    std::fprintf(stderr, "bench_cdt: %s:%zu: %s\n", path.c_str(), line_number, reason);
+    std::exit(1);
+  };
   trixel_gen::Pslg p;
   std::string line;
+  bool header_seen = false;
   bool open = false;
-  while (std::getline(in, line)) {
+  for (std::size_t line_number = 1; std::getline(in, line); ++line_number) {
     if (line.empty()) continue;
     if (line[0] == '>') {
+      header_seen = true;
       open = false;
       continue;
     }
+    if (!header_seen)
+      fail(line_number, "not a GMT multi-segment file ('>' header expected before the first point)");
     std::istringstream fields(line);
     double lon = 0;
     double lat = 0;
-    if (!(fields >> lon >> lat)) continue;
+    std::string rest;
+    if (!(fields >> lon >> lat) || (fields >> rest)) fail(line_number, "expected a line 'lon lat'");
     const auto id = static_cast<std::uint32_t>(p.points.size());
     p.points.push_back({lon, lat});
     if (open) p.segments.push_back({id - 1, id});
     open = true;
   }
+  if (p.points.empty()) fail(1, "no points");
   return p;
 }
 
