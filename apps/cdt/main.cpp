@@ -44,6 +44,11 @@ void print_stats(const cdt::Triangulation& t, std::size_t points, std::size_t se
               "ignored\n",
               s.backend.c_str(), s.grid_size, s.grid_size, static_cast<unsigned long long>(s.added_vertices),
               static_cast<unsigned long long>(s.zero_length_segments));
+  if (s.attempts > 1) {
+    std::printf("mesh made %u times (the crossings added more vertices than there were sites, or one could "
+                "not be inserted): the phases sum every attempt\n",
+                s.attempts);
+  }
   std::printf("%-12s %10s %10s %10s %10s\n", "phase", "ms", "flips", "missing", "rounds");
   for (const auto& p : s.phases) {
     std::printf("%-12s %10.2f %10llu %10llu %10llu\n", p.name.c_str(), p.milliseconds,

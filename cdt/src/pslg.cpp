@@ -45,6 +45,9 @@ using Kind = InvalidInputError::Kind;
 constexpr int kMaxRounds = 32;
 constexpr std::size_t kRepairVerticesPerFirstVertex = 8;
 constexpr std::size_t kRepairVerticesSlack = 1024;
+/// The segment grid of the crossing resolution is sized again when the pieces outnumber the segments
+/// it was sized for by more than this.
+constexpr std::size_t kGridGrowth = 2;
 
 std::string format_number(double v) {
   std::array<char, 64> buffer{};
@@ -801,69 +804,88 @@ Point crossing_point(const Point& a, const Point& b, const Point& c, const Point
   return x;
 }
 
-/// Chooses the vertex for a rounded crossing point.
+/// Chooses the vertices for the rounded crossing points of a round.
 ///
 /// An input point at exactly that place is reused, and so is an added vertex within a tolerance of a
-/// few ulps of the largest coordinate (the nearest one), so that rounded crossing points of segments
-/// that overlap to within rounding error (a shared border digitised twice) gather on few vertices. The
-/// tolerance is far below any feature the input can resolve. Input points are only reused exactly: a
-/// segment may bend through an added vertex, never through an input point that is not on it.
+/// few ulps of the largest coordinate (the nearest one, the lowest id among the nearest), so that
+/// rounded crossing points of segments that overlap to within rounding error (a shared border
+/// digitised twice) gather on few vertices. The tolerance is far below any feature the input can
+/// resolve. Input points are only reused exactly: a segment may bend through an added vertex, never
+/// through an input point that is not on it.
+///
+/// The points are taken in order, each seeing the vertices the earlier ones added. Most points have no
+/// other point of their round within the tolerance: their choice depends only on the vertices of earlier
+/// rounds and is made in parallel; only the crowded ones are chosen one by one.
 class VertexChooser {
 public:
   VertexChooser(double tolerance, std::size_t num_points)
       : tolerance_(std::max(tolerance, std::numeric_limits<double>::min())), num_points_(num_points) {}
 
-  std::uint32_t choose(const Point& p, const SegmentGrid& grid, const SiteCells& site_cells,
-                       std::vector<Point>& vertices, IndexArray& sites) {
-    std::uint32_t best = std::numeric_limits<std::uint32_t>::max();
-    double best_distance = tolerance_;
-    const auto consider = [&](std::uint32_t v, const Point& q) {
-      const double distance = std::max(std::abs(q.x - p.x), std::abs(q.y - p.y));
-      if (v < num_points_ && distance != 0.0) return;
-      if (distance <= best_distance && (distance < best_distance || v < best)) {
-        best = v;
-        best_distance = distance;
-      }
-    };
-    // Cells are far larger than the tolerance except in inputs at the limit of double precision, where
-    // scanning a huge box would cost more than an extra vertex.
-    const bool scanned = grid.for_each_cell_in_box(
-        p.x - tolerance_, p.y - tolerance_, p.x + tolerance_, p.y + tolerance_, 9, [&](std::size_t cell) {
-          for (std::size_t k = site_cells.start[cell]; k < site_cells.start[cell + 1]; ++k) {
-            consider(site_cells.id[k], site_cells.point[k]);
+  /// The vertex of each point of `at`; new ones are appended to vertices and sites.
+  std::vector<std::uint32_t> choose(std::span<const Point> at, const SegmentGrid& grid,
+                                    const SiteCells& site_cells, std::vector<Point>& vertices,
+                                    IndexArray& sites, CpuExecutor& executor) {
+    const std::size_t n = at.size();
+    // This round's points by bucket, to find the crowded ones.
+    std::vector<Keyed> round(n);
+    executor.for_each(n, [&](std::size_t k) { round[k] = {key_of(at[k]), static_cast<std::uint32_t>(k)}; });
+    executor.sort(
+        round, [](const Keyed& p, const Keyed& q) { return p.key != q.key ? p.key < q.key : p.id < q.id; });
+    std::vector<Choice> earlier(n);
+    std::vector<std::uint8_t> crowded(n, 0);
+    executor.for_each(n, [&](std::size_t k) {
+      earlier[k] = nearest_earlier(at[k], grid, site_cells, vertices);
+      for_each_near(round, key_of(at[k]), [&](std::uint32_t j) {
+        if (j != k && distance(at[j], at[k]) <= tolerance_) crowded[k] = 1;
+      });
+    });
+    // In order: a point alone in its neighbourhood takes what earlier rounds left or a new vertex; a
+    // crowded one also sees the vertices added by the crowded points before it.
+    std::vector<std::uint32_t> chosen(n);
+    std::unordered_multimap<Key, std::uint32_t, KeyHash> fresh; // the crowded points' new vertices
+    const std::size_t first_new = vertices.size();
+    for (std::size_t k = 0; k < n; ++k) {
+      Choice best = earlier[k];
+      const Key key = key_of(at[k]);
+      if (crowded[k] != 0 && !best.final) {
+        for (std::int64_t dy = -1; dy <= 1; ++dy) {
+          for (std::int64_t dx = -1; dx <= 1; ++dx) {
+            const auto [first, last] = fresh.equal_range(Key{key.x + dx, key.y + dy});
+            for (auto it = first; it != last; ++it)
+              consider(best, it->second, distance(vertices[it->second], at[k]));
           }
-        });
-    if (!scanned) {
-      const std::size_t cell = grid.cell_of(p);
-      for (std::size_t k = site_cells.start[cell]; k < site_cells.start[cell + 1]; ++k) {
-        if (site_cells.point[k] == p) return site_cells.id[k];
+        }
       }
-    }
-    const Key key = key_of(p);
-    for (std::int64_t dy = -1; dy <= 1; ++dy) {
-      for (std::int64_t dx = -1; dx <= 1; ++dx) {
-        const auto [first, last] = added_.equal_range(Key{key.x + dx, key.y + dy});
-        for (auto it = first; it != last; ++it) consider(it->second, vertices[it->second]);
+      if (best.vertex == kNone) {
+        if (vertices.size() >= std::numeric_limits<std::uint32_t>::max()) {
+          throw Error("crossing resolution needs more than 2^32 - 1 vertices");
+        }
+        best.vertex = static_cast<std::uint32_t>(vertices.size());
+        vertices.push_back(at[k]);
+        sites.push_back(best.vertex);
+        if (crowded[k] != 0) fresh.emplace(key, best.vertex);
       }
+      chosen[k] = best.vertex;
     }
-    if (best != std::numeric_limits<std::uint32_t>::max()) return best;
-    if (vertices.size() >= std::numeric_limits<std::uint32_t>::max()) {
-      throw Error("crossing resolution needs more than 2^32 - 1 vertices");
-    }
-    const auto v = static_cast<std::uint32_t>(vertices.size());
-    vertices.push_back(p);
-    sites.push_back(v);
-    added_.emplace(key, v);
-    return v;
+    // This round's vertices join the earlier ones, by key.
+    const std::size_t old = added_.size();
+    added_.resize(old + vertices.size() - first_new);
+    executor.for_each(vertices.size() - first_new, [&](std::size_t k) {
+      const auto v = static_cast<std::uint32_t>(first_new + k);
+      added_[old + k] = {key_of(vertices[v]), v};
+    });
+    executor.sort(
+        added_, [](const Keyed& p, const Keyed& q) { return p.key != q.key ? p.key < q.key : p.id < q.id; });
+    return chosen;
   }
 
 private:
-  /// Buckets of side `tolerance_` for the vertices added in this round (the site cells do not hold them
-  /// yet): a vertex within the tolerance lies in one of the 3 x 3 buckets around p's.
+  /// Buckets of side `tolerance_`: a point within the tolerance of p lies in one of the 3 x 3 buckets
+  /// around p's.
   struct Key {
     std::int64_t x;
     std::int64_t y;
-    friend bool operator==(const Key&, const Key&) = default;
+    friend auto operator<=>(const Key&, const Key&) = default;
   };
   struct KeyHash {
     std::size_t operator()(const Key& k) const noexcept {
@@ -871,14 +893,68 @@ private:
       return hx ^ (std::hash<std::int64_t>{}(k.y) + 0x9E3779B97F4A7C15ull + (hx << 6) + (hx >> 2));
     }
   };
+  struct Keyed {
+    Key key;
+    std::uint32_t id;
+  };
+  struct Choice {
+    std::uint32_t vertex = kNone;
+    double distance = 0.0;
+    bool final = false; // an exact input point found without the neighbourhood's scan
+  };
+
   Key key_of(const Point& p) const {
     return {static_cast<std::int64_t>(std::floor(p.x / tolerance_)),
             static_cast<std::int64_t>(std::floor(p.y / tolerance_))};
   }
+  static double distance(const Point& p, const Point& q) {
+    return std::max(std::abs(q.x - p.x), std::abs(q.y - p.y));
+  }
+  void consider(Choice& best, std::uint32_t v, double distance) const {
+    if (v < num_points_ && distance != 0.0) return;
+    if (distance > tolerance_) return;
+    if (best.vertex == kNone || distance < best.distance || (distance == best.distance && v < best.vertex)) {
+      best.vertex = v;
+      best.distance = distance;
+    }
+  }
+  /// Calls f(id) for each entry of `sorted` in the 3 x 3 buckets around `key`.
+  template <class F>
+  static void for_each_near(const std::vector<Keyed>& sorted, const Key& key, F&& f) {
+    for (std::int64_t dx = -1; dx <= 1; ++dx) {
+      const Key low{key.x + dx, key.y - 1};
+      auto it = std::lower_bound(sorted.begin(), sorted.end(), low,
+                                 [](const Keyed& e, const Key& k) { return e.key < k; });
+      for (; it != sorted.end() && it->key.x == low.x && it->key.y <= key.y + 1; ++it) f(it->id);
+    }
+  }
+  /// The choice among the vertices of earlier rounds: the site cells hold them all (and the input
+  /// points); should the neighbourhood span too many cells, only an exact input point of p's cell and
+  /// the added vertices by key are looked at.
+  Choice nearest_earlier(const Point& p, const SegmentGrid& grid, const SiteCells& site_cells,
+                         const std::vector<Point>& vertices) const {
+    Choice best;
+    // Cells are far larger than the tolerance except in inputs at the limit of double precision, where
+    // scanning a huge box would cost more than an extra vertex.
+    const bool scanned = grid.for_each_cell_in_box(
+        p.x - tolerance_, p.y - tolerance_, p.x + tolerance_, p.y + tolerance_, 9, [&](std::size_t cell) {
+          for (std::size_t k = site_cells.start[cell]; k < site_cells.start[cell + 1]; ++k) {
+            consider(best, site_cells.id[k], distance(site_cells.point[k], p));
+          }
+        });
+    if (!scanned) {
+      const std::size_t cell = grid.cell_of(p);
+      for (std::size_t k = site_cells.start[cell]; k < site_cells.start[cell + 1]; ++k) {
+        if (site_cells.point[k] == p) return {site_cells.id[k], 0.0, true};
+      }
+    }
+    for_each_near(added_, key_of(p), [&](std::uint32_t v) { consider(best, v, distance(vertices[v], p)); });
+    return best;
+  }
 
   double tolerance_;
   std::size_t num_points_;
-  std::unordered_multimap<Key, std::uint32_t, KeyHash> added_;
+  std::vector<Keyed> added_; // the vertices of earlier rounds, by key
 };
 
 // --- pieces ------------------------------------------------------------------------------------------
@@ -1098,6 +1174,7 @@ std::vector<ConstraintPiece> resolve(std::vector<WorkSegment> segs, std::vector<
                                      double snap_tolerance, CrossingSegments policy, CpuExecutor& executor) {
   StepTrace trace("prepare");
   SegmentGrid grid(box, segs.size());
+  std::size_t grid_segments = segs.size(); // the number of segments the grid was sized for
   VertexChooser chooser(snap_tolerance, num_points);
   // Each round: split at the vertices on the segments (and, in repair rounds, snap new vertices into
   // segments passing within the tolerance), then bend crossing pieces through their rounded crossing
@@ -1108,12 +1185,20 @@ std::vector<ConstraintPiece> resolve(std::vector<WorkSegment> segs, std::vector<
   SiteCells site_cells;       // sites[0, bucketed) by cell
   std::size_t bucketed = 0;
   for (int round = 0; round < kMaxRounds; ++round) {
+    // Many crossings cut the segments into many more pieces, which would crowd the cells sized for the
+    // segments (every dirty piece tests the pieces of its cells): the grid grows with them.
+    const bool regrown = segs.size() > kGridGrowth * grid_segments;
+    if (regrown) {
+      grid = SegmentGrid(box, segs.size() / 4);
+      grid_segments = segs.size();
+      spatial_order = false;
+    }
     if (!spatial_order) order_spatially(segs, vertices, grid, executor);
     trace.mark("segments ordered");
     Ends ends = endpoints(segs, vertices, executor);
     grid.build(ends, executor);
     trace.mark("segment grid");
-    if (round == 0) {
+    if (round == 0 || regrown) {
       site_cells = bucket_sites(grid, vertices, sites, executor);
     } else {
       add_sites(site_cells, grid, vertices, std::span(sites).subspan(bucketed), executor);
@@ -1129,6 +1214,7 @@ std::vector<ConstraintPiece> resolve(std::vector<WorkSegment> segs, std::vector<
       order_spatially(segs, vertices, grid, executor);
       ends = endpoints(segs, vertices, executor);
       grid.build(ends, executor);
+      trace.mark("cut at sites");
     }
     const auto crossings = find_crossings(grid, ends, segs, round == 0, executor);
     trace.mark("crossings");
@@ -1145,15 +1231,20 @@ std::vector<ConstraintPiece> resolve(std::vector<WorkSegment> segs, std::vector<
     if (policy == CrossingSegments::reject && !crossings.empty()) reject_crossing(crossings, segs);
 
     first_new = static_cast<std::uint32_t>(vertices.size());
-    std::vector<std::pair<std::uint32_t, std::uint32_t>> cuts;
-    cuts.reserve(2 * crossings.size());
-    for (const auto& [i, j] : crossings) {
-      const Point x =
+    // The rounded crossing points (exact arithmetic, in parallel) and their vertices.
+    std::vector<Point> at(crossings.size());
+    executor.for_each(crossings.size(), [&](std::size_t k) {
+      const auto& [i, j] = crossings[k];
+      at[k] =
           crossing_point(vertices[segs[i].a], vertices[segs[i].b], vertices[segs[j].a], vertices[segs[j].b]);
-      const std::uint32_t v = chooser.choose(x, grid, site_cells, vertices, sites);
-      cuts.emplace_back(i, v);
-      cuts.emplace_back(j, v);
-    }
+    });
+    const std::vector<std::uint32_t> chosen = chooser.choose(at, grid, site_cells, vertices, sites, executor);
+    std::vector<std::pair<std::uint32_t, std::uint32_t>> cuts(2 * crossings.size());
+    executor.for_each(crossings.size(), [&](std::size_t k) {
+      cuts[2 * k] = {crossings[k].first, chosen[k]};
+      cuts[2 * k + 1] = {crossings[k].second, chosen[k]};
+    });
+    trace.mark("crossing vertices");
     if (round == 0) first_round_vertices = vertices.size() - num_points;
     const std::size_t repair_vertices = vertices.size() - num_points - first_round_vertices;
     if (repair_vertices > kRepairVerticesPerFirstVertex * first_round_vertices + kRepairVerticesSlack ||
@@ -1175,6 +1266,7 @@ std::vector<ConstraintPiece> resolve(std::vector<WorkSegment> segs, std::vector<
     spatial_order = 8 * cuts.size() < segs.size();
     segs = spatial_order ? cut_few_segments(segs, crossing_cuts, bent, grid, vertices, executor)
                          : cut_segments(segs, crossing_cuts, bent, CutAt::crossings, executor);
+    trace.mark("pieces cut");
   }
   throw Error("crossing segments: resolution did not converge"); // not reached: the loop throws first
 }

@@ -245,11 +245,44 @@ enum class Split {
   screened, ///< after: only the segments the Delaunay mesh leaves suspect (gcd/screen.hpp)
 };
 
+/// What a triangulation started again carries over from the attempt before: its start, the phases it
+/// spent, and the PSLG when it was split already.
+struct Restart {
+  Clock::time_point start;
+  std::vector<PhaseStats> phases;
+  std::uint32_t attempts = 1; // made before this one
+  std::optional<detail::PreparedPslg> split_pslg;
+};
+
+/// The phases of an earlier attempt and of a later one, one row per name in the order first met, with
+/// times, flips, missing points and rounds added up.
+std::vector<PhaseStats> add_phases(std::vector<PhaseStats> earlier, const std::vector<PhaseStats>& later) {
+  for (const PhaseStats& p : later) {
+    const auto same =
+        std::find_if(earlier.begin(), earlier.end(), [&](const PhaseStats& e) { return e.name == p.name; });
+    if (same == earlier.end()) {
+      earlier.push_back(p);
+      continue;
+    }
+    same->milliseconds += p.milliseconds;
+    same->flips += p.flips;
+    same->missing += p.missing;
+    same->iterations += p.iterations;
+  }
+  return earlier;
+}
+
+/// With more vertices added at crossings than this many per site, the mesh is made again from all of
+/// them (as when splitting first) rather than inserting them into the sites' mesh: inserting costs
+/// rounds that grow with their crowding, the diagram places them in one pass.
+constexpr std::size_t kRestartAbovePerSite = 1;
+
 /// The whole pipeline on the CPU executor alone, or with the CUDA executor's phases when on_gpu.
+/// `restart` carries what an earlier attempt on the same input left.
 Triangulation triangulate_on(std::span<const Point> points, std::span<const Segment> segments,
-                             const Options& options, bool on_gpu, Split split) {
+                             const Options& options, bool on_gpu, Split split, Restart* restart = nullptr) {
   using namespace detail;
-  const auto t_start = Clock::now();
+  const auto t_start = restart != nullptr ? restart->start : Clock::now();
   Triangulation result;
   Statistics& stats = result.stats;
   stats.backend = on_gpu ? kGpuBackendName : "cpu";
@@ -274,7 +307,8 @@ Triangulation triangulate_on(std::span<const Point> points, std::span<const Segm
   const InputMerge merge;
 #endif
   // Input checks and cleaning.
-  PreparedPslg pslg = split == Split::first
+  PreparedPslg pslg = restart != nullptr && restart->split_pslg ? std::move(*restart->split_pslg)
+                      : split == Split::first
                           ? prepare_pslg(points, segments, options.crossings, executor)
                           : merge_input(points, segments, options.crossings, executor, merge);
   trace.mark("prepare");
@@ -511,6 +545,19 @@ Triangulation triangulate_on(std::span<const Point> points, std::span<const Segm
   if (!on_gpu) delaunay = flip_to_delaunay_in_parts(mesh, executor, dirty.data());
   end_phase("delaunay", delaunay.rounds, delaunay.flips);
 
+  // Starts again from the sites, splitting first (with split_pslg, the PSLG split already), the device's
+  // memory given back first.
+  const auto start_again = [&](std::optional<PreparedPslg> split_pslg) {
+#if defined(TRIXEL_HAVE_CUDA)
+    device_mesh.reset();
+    device_diagram.reset();
+    device_sites.reset();
+#endif
+    Restart next{t_start, restart != nullptr ? add_phases(restart->phases, stats.phases) : stats.phases,
+                 restart != nullptr ? restart->attempts + 1 : 1, std::move(split_pslg)};
+    return triangulate_on(points, segments, options, on_gpu, Split::first, &next);
+  };
+
   // Step 1's splitting, when screened: the segments are tested against the Delaunay mesh, and only the
   // suspects against each other (screen.hpp). The vertices added at crossings are then inserted with
   // their flips, so the mesh stays Delaunay.
@@ -532,7 +579,12 @@ Triangulation triangulate_on(std::span<const Point> points, std::span<const Segm
     split_screened(pslg, screen, site_vertex, options.crossings, executor);
     trace.mark("split");
     InsertStats placed;
-    if (pslg.vertices.size() > first_added) {
+    const std::size_t added = pslg.vertices.size() - first_added;
+    if (added > kRestartAbovePerSite * n) {
+      end_phase("split", 0, 0, added);
+      return start_again(std::move(pslg));
+    }
+    if (added > 0) {
       const std::vector<MissingPoint> fresh =
           added_vertices(pslg, first_added, site_vertex, site_of_vertex, executor);
       try {
@@ -545,7 +597,7 @@ Triangulation triangulate_on(std::span<const Point> points, std::span<const Segm
       } catch (const Error&) {
         // A crossing vertex rounded out of the sites' hull (the exact crossing is inside it, but may be
         // within rounding of its boundary) cannot be inserted: split first, where it is a site.
-        return triangulate_on(points, segments, options, on_gpu, Split::first);
+        return start_again(std::nullopt);
       }
       trace.mark("added vertices");
     }
@@ -573,7 +625,7 @@ Triangulation triangulate_on(std::span<const Point> points, std::span<const Segm
     // the screen have missed a pair (rounded crossing points snapping across a neighbourhood), the
     // whole input is split first instead.
     if (!screened) throw;
-    return triangulate_on(points, segments, options, on_gpu, Split::first);
+    return start_again(std::nullopt);
   }
   end_phase("constraints", cons.outer_iterations, cons.flips);
 
@@ -620,6 +672,10 @@ Triangulation triangulate_on(std::span<const Point> points, std::span<const Segm
     });
   }
   timer.end("output");
+  if (restart != nullptr) {
+    stats.phases = add_phases(std::move(restart->phases), stats.phases);
+    stats.attempts = restart->attempts + 1;
+  }
   stats.total_milliseconds = std::chrono::duration<double, std::milli>(Clock::now() - t_start).count();
   return result;
 }

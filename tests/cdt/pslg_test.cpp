@@ -503,6 +503,74 @@ TEST(PslgCrossing, FewCrossingsAmongManySegmentsConverge) {
   EXPECT_TRUE(segments_connected(out, in.segments));
 }
 
+// The crossing vertices are chosen in parallel where no other crossing point of the round lies within
+// the tolerance, one by one where some do: the same vertices and pieces for any thread count. Crossings
+// gathering on one point (crowded), segments overlapping within rounding (crowded, snapped), and
+// thousands of crossings cutting the segments into many more pieces (the segment grid grows).
+TEST(PslgCrossing, SameVerticesAndPiecesForAnyThreadCount) {
+  std::vector<trixel_gen::Pslg> inputs(3);
+  for (int k = 0; k < 40; ++k) {
+    const double angle = 3.141592653589793 * (k + 0.37) / 40;
+    const auto a = static_cast<std::uint32_t>(inputs[0].points.size());
+    inputs[0].points.push_back({0.3 + std::cos(angle), 0.1 + std::sin(angle)});
+    inputs[0].points.push_back({0.3 - std::cos(angle), 0.1 - std::sin(angle)});
+    inputs[0].segments.push_back({a, a + 1});
+  }
+  trixel_gen::Random rng(11);
+  for (int k = 0; k < 200; ++k) {
+    const double t = rng.unit();
+    inputs[1].points.push_back({1e9 + t, 1e9 + 0.3 * t + 1e-12 * rng.unit()});
+  }
+  inputs[1].points.push_back({1e9, 1e9 + 1});
+  while (inputs[1].segments.size() < 30) {
+    const auto a = static_cast<std::uint32_t>(rng.next() % 200);
+    const auto b = static_cast<std::uint32_t>(rng.next() % 200);
+    if (!(inputs[1].points[a] == inputs[1].points[b])) inputs[1].segments.push_back({a, b});
+  }
+  for (std::uint32_t k = 0; k < 400; ++k) {
+    inputs[2].points.push_back({rng.unit(), rng.unit()});
+    inputs[2].points.push_back({rng.unit(), rng.unit()});
+    inputs[2].segments.push_back({2 * k, 2 * k + 1});
+  }
+  for (std::size_t i = 0; i < inputs.size(); ++i) {
+    const trixel_gen::Pslg& in = inputs[i];
+    CpuExecutor one(1);
+    CpuExecutor three(3);
+    const PreparedPslg a = prepare_pslg(in.points, in.segments, CrossingSegments::resolve, one);
+    const PreparedPslg b = prepare_pslg(in.points, in.segments, CrossingSegments::resolve, three);
+    EXPECT_GT(a.vertices.size(), in.points.size()) << "input " << i;
+    EXPECT_EQ(contract_violation(a), "") << "input " << i;
+    EXPECT_TRUE(segments_connected(a, in.segments)) << "input " << i;
+    EXPECT_EQ(a.vertices, b.vertices) << "input " << i;
+    EXPECT_EQ(piece_pairs(a), piece_pairs(b)) << "input " << i;
+    EXPECT_EQ(piece_labels(a), piece_labels(b)) << "input " << i;
+  }
+  // 400 segments across the square cross about 19,000 times: the pieces outnumber the segments nearly
+  // 100 to 1.
+  EXPECT_GT(prepare_pslg(inputs[2].points, inputs[2].segments, CrossingSegments::resolve).pieces.size(),
+            90 * inputs[2].segments.size());
+}
+
+// Crossing points within the tolerance of each other share a vertex: 40 segments through one point
+// cross 780 times, and their rounded crossing points gather on a few vertices.
+TEST(PslgCrossing, CrossingPointsWithinTheToleranceShareAVertex) {
+  std::vector<Point> p;
+  std::vector<Segment> s;
+  for (int k = 0; k < 40; ++k) {
+    const double angle = 3.141592653589793 * (k + 0.37) / 40;
+    const auto a = static_cast<std::uint32_t>(p.size());
+    p.push_back({0.3 + std::cos(angle), 0.1 + std::sin(angle)});
+    p.push_back({0.3 - std::cos(angle), 0.1 - std::sin(angle)});
+    s.push_back({a, a + 1});
+  }
+  for (const unsigned threads : {1u, 3u}) {
+    CpuExecutor executor(threads);
+    const PreparedPslg out = prepare_pslg(p, s, CrossingSegments::resolve, executor);
+    EXPECT_GT(out.vertices.size(), p.size());
+    EXPECT_LE(out.vertices.size(), p.size() + 8) << "threads " << threads;
+  }
+}
+
 // --- property tests ----------------------------------------------------------------------------------
 
 /// Random segments on a k x k lattice: many collinear overlaps, points on segments, and crossings at

@@ -294,6 +294,46 @@ TEST(TriangulateScreened, CrossingRandomSegmentsAsSplittingFirst) {
       if (a != b) in.segments.push_back({a, b});
     }
     expect_same_as_splitting_first(in.points, in.segments, true, "seed " + std::to_string(seed));
+    cdt::Options cpu;
+    cpu.backend = cdt::Backend::cpu;
+    const cdt::Triangulation t = cdt::triangulate(in.points, in.segments, cpu);
+    EXPECT_LT(t.stats.added_vertices, in.points.size()) << seed;
+    EXPECT_EQ(t.stats.attempts, 1u) << seed << ": the crossing vertices are inserted into the sites' mesh";
+  }
+}
+
+// Long segments among few points: more crossing vertices than sites, so the mesh is made again from
+// all of them instead of inserting them. The same result as splitting first; the statistics name each
+// phase once, summing both attempts.
+TEST(TriangulateScreened, CrossingsOutnumberingTheSitesMakeTheMeshAgain) {
+  for (std::uint64_t seed = 1; seed <= 2; ++seed) {
+    trixel_gen::Pslg in = trixel_gen::random_points(300, Distribution::uniform, seed);
+    trixel_gen::Random rng(seed + 200);
+    for (int k = 0; k < 150; ++k) {
+      const auto a = static_cast<std::uint32_t>(rng.next() % in.points.size());
+      const auto b = static_cast<std::uint32_t>(rng.next() % in.points.size());
+      if (a != b) in.segments.push_back({a, b});
+    }
+    const std::string what = "seed " + std::to_string(seed);
+    expect_same_as_splitting_first(in.points, in.segments, true, what);
+    std::vector<std::set<std::array<Coordinates, 3>>> triangles;
+    for (const unsigned threads : {1u, 3u}) {
+      cdt::Options cpu;
+      cpu.backend = cdt::Backend::cpu;
+      cpu.threads = threads;
+      const cdt::Triangulation t = cdt::triangulate(in.points, in.segments, cpu);
+      EXPECT_GT(t.stats.added_vertices, in.points.size()) << what;
+      EXPECT_EQ(t.stats.attempts, 2u) << what;
+      std::set<std::string> names;
+      for (const cdt::PhaseStats& p : t.stats.phases)
+        EXPECT_TRUE(names.insert(p.name).second) << what << p.name;
+      const auto split = std::find_if(t.stats.phases.begin(), t.stats.phases.end(),
+                                      [](const cdt::PhaseStats& p) { return p.name == "split"; });
+      ASSERT_NE(split, t.stats.phases.end()) << what;
+      EXPECT_EQ(split->missing, t.stats.added_vertices) << what;
+      triangles.push_back(triangles_by_coordinates(t));
+    }
+    EXPECT_EQ(triangles[0], triangles[1]) << what << ": the same for any thread count";
   }
 }
 

@@ -86,6 +86,10 @@ struct Statistics {
   std::uint32_t grid_size = 0;            ///< grid side actually used
   std::uint64_t added_vertices = 0;       ///< vertices added where crossing segments were split
   std::uint64_t zero_length_segments = 0; ///< input segments of zero length, ignored
+  /// Times the mesh was made: 2 when the segments, split after the sites' mesh, added more vertices
+  /// than there were sites (the mesh is then made again from all of them, faster than inserting them)
+  /// or, rarely, when a crossing vertex could not be inserted. The phases sum both attempts.
+  std::uint32_t attempts = 1;
   double total_milliseconds = 0.0;
   std::vector<PhaseStats> phases;
 };
