@@ -219,9 +219,11 @@ DeviceVoronoi::DualOutcome build_dual(DeviceVoronoi::State& state, ::cdt::detail
   mesh.seg.clear();
   mesh.vert_tri.clear();
   if (m < 2 || n < 3) return DualOutcome::declined;
+  ::cdt::detail::StepTrace trace("device dual corners");
   st.device_bytes = detail::dual_device_bytes(n);
   detail::require_device_memory(st.device_bytes, 0,
                                 "the dual triangulation of " + std::to_string(n) + " sites");
+  trace.mark("memory checked");
 
   detail::DeviceEvent written;
   started.record(executor.stream());
@@ -256,9 +258,11 @@ DeviceVoronoi::DualOutcome build_dual(DeviceVoronoi::State& state, ::cdt::detail
       "corner_counts");
   std::uint32_t bad = 0;
   executor.download(&bad, d_bad, 1);
+  trace.mark("counted");
   if (bad != 0) {
     if (degenerate == nullptr) return DualOutcome::declined;
     detail::list_culprits(*state_, bad_list, bad, x, y, *degenerate);
+    trace.mark("culprits listed");
     return DualOutcome::degenerate;
   }
   num_dual = executor.exclusive_scan(count, corners);

@@ -36,7 +36,7 @@ struct ConstraintPiece {
 /// The cleaned input of the triangulator.
 struct PreparedPslg {
   /// The input points at their input indices, then the vertices added at crossings.
-  std::vector<Point> vertices;
+  PointArray vertices;
   /// Per input point: its representative, the lowest index with identical coordinates.
   IndexArray duplicate_of;
   /// The distinct vertices to triangulate (representatives, then added vertices), increasing.

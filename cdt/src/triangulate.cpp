@@ -445,8 +445,11 @@ Triangulation triangulate_on(std::span<const Point> points, std::span<const Segm
         break;
       }
       if (outcome == Outcome::degenerate) {
+        trace.mark("device dual: degenerate corners");
         owners = device_diagram->remove_sites(degenerate);
+        trace.mark("device dual: sites removed");
         device_sites->leave_out(degenerate);
+        trace.mark("device dual: sites left out");
         removed_on_device = true;
       } else {
         // Declined: the CPU executor's dualize below, from host copies, from now on.

@@ -29,7 +29,7 @@ make_mesh(std::vector<Point> vertices, std::vector<Triangle> triangles,
           const std::map<std::pair<std::uint32_t, std::uint32_t>, std::uint32_t>& constraints = {},
           std::size_t num_points = 0) {
   Triangulation t;
-  t.vertices = std::move(vertices);
+  t.vertices.assign(vertices.begin(), vertices.end());
   t.triangles.assign(triangles.begin(), triangles.end());
   const std::size_t n = t.triangles.size();
   t.neighbors.assign(n, {kNone, kNone, kNone});
@@ -309,7 +309,7 @@ TEST(Verify, UnusedPointFails) {
   std::vector<Point> p = kQuad;
   p.push_back({1, 0.5});
   Triangulation t = quad_02();
-  t.vertices = p;
+  t.vertices.assign(p.begin(), p.end());
   t.duplicate_of.push_back(4);
   const auto r = cdt::verify(t, p, {});
   EXPECT_TRUE(mentions(r, "input point 4 is used by no triangle")) << all_problems(r);
@@ -320,7 +320,7 @@ TEST(Verify, PointOutsideTheHullFails) {
   std::vector<Point> p = kQuad;
   p.push_back({5, 5});
   Triangulation t = quad_02();
-  t.vertices = p;
+  t.vertices.assign(p.begin(), p.end());
   t.duplicate_of.push_back(4);
   const auto r = cdt::verify(t, p, {});
   EXPECT_TRUE(mentions(r, "vertex 4 lies outside the hull")) << all_problems(r);
@@ -463,7 +463,7 @@ Triangulation lattice_mesh(std::uint32_t k, std::vector<Point>& points) {
     for (std::uint32_t x = 0; x < k; ++x) points.push_back({static_cast<double>(x), static_cast<double>(y)});
   }
   Triangulation t;
-  t.vertices = points;
+  t.vertices.assign(points.begin(), points.end());
   t.duplicate_of.resize(points.size());
   for (std::uint32_t i = 0; i < points.size(); ++i) t.duplicate_of[i] = i;
   const auto id = [k](std::uint32_t x, std::uint32_t y) { return y * k + x; };

@@ -95,9 +95,10 @@ struct Statistics {
 };
 
 /// The allocator of Triangulation's per-triangle and per-point arrays. Growing such an array (resize) leaves
-/// the new elements default-initialised, which for these element types means unwritten: the triangulation
-/// writes every element itself, in parallel, and a zero fill first would cost as much again at 10^7
-/// triangles. Construction with arguments (push_back, assign, copies) behaves as with std::allocator.
+/// the new elements unwritten (default-initialised; for Point, whose members' initialisers would write
+/// zeros, not even that): the triangulation writes every element itself, in parallel, and a zero fill
+/// first would cost as much again at 10^7 elements. Construction with arguments (push_back, assign,
+/// copies) behaves as with std::allocator.
 template <class T>
 struct DefaultInitAllocator : std::allocator<T> {
   template <class U>
@@ -109,9 +110,13 @@ struct DefaultInitAllocator : std::allocator<T> {
   DefaultInitAllocator(const DefaultInitAllocator<U>&) noexcept {}
   template <class U>
   void construct(U* p) noexcept(std::is_nothrow_default_constructible_v<U>) {
-    ::new (static_cast<void*>(p)) U;
+    // Point is an aggregate of two doubles (an implicit-lifetime type: the allocation holds its objects).
+    if constexpr (!std::is_same_v<U, Point>) ::new (static_cast<void*>(p)) U;
   }
 };
+
+/// One point per vertex, with the same allocator.
+using PointArray = std::vector<Point, DefaultInitAllocator<Point>>;
 
 /// Three 32-bit entries per triangle (vertices, neighbours or segments of its edges).
 using TriangleArray =
@@ -128,7 +133,7 @@ using IndexArray = std::vector<std::uint32_t, DefaultInitAllocator<std::uint32_t
 /// segment the edge lies on, or kNone when it is not a constraint.
 struct Triangulation {
   /// The input points at their input indices, then vertices added where crossing segments were split.
-  std::vector<Point> vertices;
+  PointArray vertices;
   TriangleArray triangles;
   TriangleArray neighbors;
   TriangleArray segment_of_edge;
