@@ -17,9 +17,9 @@
 #include <cstddef>
 #include <cstdint>
 #include <string>
-#include <unordered_map>
 #include <vector>
 
+#include "cdt/detail/trace.hpp"
 #include "cdt_kernels.hpp"
 #include "cuda_check.cuh"
 #include "cuda_executor.cuh"
@@ -354,6 +354,49 @@ __device__ inline bool sorted_contains(const std::uint32_t* list, std::uint32_t 
   return lo < num && list[lo] == j;
 }
 
+/// A map from 32-bit keys (never kNone) to values with room for a given number of entries, by linear
+/// probing in one array: the host's part of DeviceVoronoi::remove_sites looks up tens of thousands of
+/// cells and sites, where a node-based map costs an allocation per entry.
+template <class V>
+class ProbeMap {
+public:
+  explicit ProbeMap(std::size_t entries) {
+    std::size_t capacity = 16;
+    while (capacity < 2 * entries) capacity *= 2;
+    keys_.assign(capacity, ::cdt::kNone);
+    values_.resize(capacity);
+    mask_ = capacity - 1;
+  }
+  /// Sets key's value.
+  void set(std::uint32_t key, const V& value) {
+    const std::size_t i = slot(key);
+    keys_[i] = key;
+    values_[i] = value;
+  }
+  /// Sets key's value unless it has one.
+  void add(std::uint32_t key, const V& value) {
+    const std::size_t i = slot(key);
+    if (keys_[i] == key) return;
+    keys_[i] = key;
+    values_[i] = value;
+  }
+  V& at(std::uint32_t key) {
+    const std::size_t i = slot(key);
+    if (keys_[i] != key) throw Error("DeviceVoronoi::remove_sites: the flood read beyond its cells");
+    return values_[i];
+  }
+
+private:
+  std::size_t slot(std::uint32_t key) const {
+    std::size_t i = static_cast<std::size_t>((key * 0x9E3779B97F4A7C15ull) >> 32) & mask_;
+    while (keys_[i] != key && keys_[i] != ::cdt::kNone) i = (i + 1) & mask_;
+    return i;
+  }
+  std::vector<std::uint32_t> keys_;
+  std::vector<V> values_;
+  std::size_t mask_ = 0;
+};
+
 /// A cleared cell's neighbours (kNone past the last) as the flood of DeviceVoronoi::remove_sites
 /// starts: their colours and those sites' grid cells.
 struct Around {
@@ -369,6 +412,7 @@ std::vector<std::uint32_t> DeviceVoronoi::remove_sites(std::span<const std::uint
   for (std::size_t k = 0; k < removed.size(); ++k)
     if (removed[k] >= state_->num_points || (k > 0 && removed[k - 1] >= removed[k]))
       throw Error("DeviceVoronoi::remove_sites: the sites are not sorted, distinct and in range");
+  ::cdt::detail::StepTrace trace("device remove sites");
   detail::CudaExecutor& executor = state_->executor;
   detail::VoronoiBuffers& b = state_->buffers;
   const std::uint32_t m = state_->m;
@@ -416,16 +460,16 @@ std::vector<std::uint32_t> DeviceVoronoi::remove_sites(std::span<const std::uint
   executor.download(h_cleared.data(), cleared, num_cleared);
   executor.download(h_around.data(), around, num_cleared);
 
-  std::unordered_map<std::uint32_t, std::uint32_t> local_colour;
-  std::unordered_map<std::uint32_t, std::array<std::uint32_t, 2>> site_cell;
-  local_colour.reserve(5 * static_cast<std::size_t>(num_cleared));
+  trace.mark("cleared cells");
+  detail::ProbeMap<std::uint32_t> local_colour(5 * static_cast<std::size_t>(num_cleared));
+  detail::ProbeMap<std::array<std::uint32_t, 2>> site_cell(4 * static_cast<std::size_t>(num_cleared));
   for (std::uint32_t k = 0; k < num_cleared; ++k) {
     const std::uint32_t c = h_cleared[k];
-    local_colour[c] = kNone;
+    local_colour.set(c, kNone);
     const Around& a = h_around[k];
     for (int i = 0; i < 4 && a.cell[i] != kNone; ++i) {
-      local_colour.emplace(a.cell[i], a.colour[i]);
-      if (a.colour[i] != kNone) site_cell[a.colour[i]] = {a.gx[i], a.gy[i]};
+      local_colour.add(a.cell[i], a.colour[i]);
+      if (a.colour[i] != kNone) site_cell.set(a.colour[i], {a.gx[i], a.gy[i]});
     }
   }
   ::cdt::detail::flood_cleared_cells(
@@ -434,6 +478,7 @@ std::vector<std::uint32_t> DeviceVoronoi::remove_sites(std::span<const std::uint
 
   std::vector<std::uint32_t> h_new(num_cleared);
   for (std::uint32_t k = 0; k < num_cleared; ++k) h_new[k] = local_colour.at(h_cleared[k]);
+  trace.mark("flooded on the host");
   detail::DeviceBuffer<std::uint32_t> d_new(num_cleared + 1);
   executor.upload(d_new.data(), h_new.data(), num_cleared);
   const std::uint32_t* next = d_new.data();
@@ -449,6 +494,7 @@ std::vector<std::uint32_t> DeviceVoronoi::remove_sites(std::span<const std::uint
       },
       "removed_sites_owners");
   executor.download(owners.data(), owner, num);
+  trace.mark("recoloured");
   return owners;
 }
 
