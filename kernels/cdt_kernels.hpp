@@ -25,6 +25,7 @@ struct ConstraintPiece2; // cdt/src/gcd/constraints.hpp
 struct ConstraintStats;  // cdt/src/gcd/constraints.hpp
 struct ScreenedPieces;   // cdt/src/gcd/screen.hpp
 struct ConstraintPiece;  // cdt/src/pslg.hpp
+using PieceArray = std::vector<ConstraintPiece, DefaultInitAllocator<ConstraintPiece>>; // as in pslg.hpp
 } // namespace cdt::detail
 
 namespace cdt::gpu {
@@ -81,8 +82,7 @@ public:
   /// segment id, sorted by (a, b)) as the host's merge does (cdt::detail::merge_input); prepare() then
   /// does the rest from the points and sites already on the device. The input checks come first.
   DeviceSites(std::span<const Point> points, std::span<const Segment> segments, IndexArray& duplicate_of,
-              IndexArray& sites, std::vector<::cdt::detail::ConstraintPiece>& pieces,
-              const HostParallelFor& parallel = {});
+              IndexArray& sites, ::cdt::detail::PieceArray& pieces, const HostParallelFor& parallel = {});
   void prepare(std::uint32_t m, ::cdt::detail::GridMapping& mapping, ::cdt::detail::Box& bounds,
                IndexArray& site_vertex, IndexArray& site_of_vertex, std::vector<std::uint8_t>& kept,
                std::vector<::cdt::detail::MissingPoint>& missing, const HostParallelFor& parallel = {});

@@ -121,8 +121,7 @@ std::size_t pieces_device_bytes(std::size_t m) { return 49 * m + (std::size_t{1}
 /// with its lowest id.
 void pieces_between_representatives(CudaExecutor& executor, std::span<const Segment> segments,
                                     const std::uint32_t* dup, std::size_t nv,
-                                    std::vector<::cdt::detail::ConstraintPiece>& pieces,
-                                    const HostParallelFor& parallel) {
+                                    ::cdt::detail::PieceArray& pieces, const HostParallelFor& parallel) {
   pieces.clear();
   const std::size_t m = segments.size();
   if (m == 0) return;
@@ -185,8 +184,7 @@ void pieces_between_representatives(CudaExecutor& executor, std::span<const Segm
 /// their own representative) and the pieces (pieces_between_representatives).
 void merge_input_on_device(DeviceSites::State& s, std::span<const Point> points,
                            std::span<const Segment> segments, IndexArray& duplicate_of, IndexArray& sites,
-                           std::vector<::cdt::detail::ConstraintPiece>& pieces,
-                           const HostParallelFor& parallel) {
+                           ::cdt::detail::PieceArray& pieces, const HostParallelFor& parallel) {
   const std::size_t nv = points.size();
   if (nv == 0 || nv >= kNoId) throw Error("internal error: DeviceSites: no points, or too many");
   require_device_memory(duplicates_device_bytes(nv), 0,
@@ -453,8 +451,8 @@ DeviceSites::DeviceSites(std::span<const Point> vertices, std::span<const std::u
 }
 
 DeviceSites::DeviceSites(std::span<const Point> points, std::span<const Segment> segments,
-                         IndexArray& duplicate_of, IndexArray& sites,
-                         std::vector<::cdt::detail::ConstraintPiece>& pieces, const HostParallelFor& parallel)
+                         IndexArray& duplicate_of, IndexArray& sites, ::cdt::detail::PieceArray& pieces,
+                         const HostParallelFor& parallel)
     : state_(std::make_unique<State>()) {
   detail::merge_input_on_device(*state_, points, segments, duplicate_of, sites, pieces, parallel);
 }

@@ -1168,9 +1168,9 @@ Box bounding_box(const PointArray& vertices, const IndexArray& sites, CpuExecuto
 /// in a piece's interior (see prepare_pslg); vertices added at crossings are appended to `vertices`
 /// and `sites`. Returns the pieces sorted by (a, b). box holds every site; the snap tolerance is given
 /// by the caller, so that a subset of the input is treated exactly as the whole would be.
-std::vector<ConstraintPiece> resolve(std::vector<WorkSegment> segs, PointArray& vertices, IndexArray& sites,
-                                     std::size_t num_points, const Box& box, double snap_tolerance,
-                                     CrossingSegments policy, CpuExecutor& executor) {
+PieceArray resolve(std::vector<WorkSegment> segs, PointArray& vertices, IndexArray& sites,
+                   std::size_t num_points, const Box& box, double snap_tolerance, CrossingSegments policy,
+                   CpuExecutor& executor) {
   StepTrace trace("prepare");
   SegmentGrid grid(box, segs.size());
   std::size_t grid_segments = segs.size(); // the number of segments the grid was sized for
@@ -1219,7 +1219,7 @@ std::vector<ConstraintPiece> resolve(std::vector<WorkSegment> segs, PointArray& 
     trace.mark("crossings");
     if (crossings.empty() && !on_segment.any_snapped) {
       const std::vector<std::uint32_t> order = order_by_ends(segs, vertices.size(), executor);
-      std::vector<ConstraintPiece> pieces(segs.size());
+      PieceArray pieces(segs.size());
       executor.for_each(segs.size(), [&](std::size_t k) {
         const WorkSegment& p = segs[order[k]];
         pieces[k] = {p.a, p.b, p.label};
@@ -1355,7 +1355,7 @@ void split_pieces(PreparedPslg& pslg, std::span<const std::uint32_t> suspect_pie
   });
   IndexArray sites(suspect_sites.begin(), suspect_sites.end());
   const std::size_t first_added = pslg.vertices.size();
-  const std::vector<ConstraintPiece> resolved =
+  const PieceArray resolved =
       resolve(std::move(segs), pslg.vertices, sites, pslg.duplicate_of.size(),
               bounding_box(pslg.vertices, sites, executor), tolerance, policy, executor);
   for (std::size_t v = first_added; v < pslg.vertices.size(); ++v)
@@ -1376,8 +1376,8 @@ void split_pieces(PreparedPslg& pslg, std::span<const std::uint32_t> suspect_pie
   const auto is_suspect = [&](std::size_t k) {
     return std::binary_search(suspects.begin(), suspects.end(), k);
   };
-  std::vector<ConstraintPiece> inserted; // resolved pieces that are new, with their places:
-  std::vector<std::size_t> place;        // the index in pslg.pieces each goes before
+  PieceArray inserted;            // resolved pieces that are new, with their places:
+  std::vector<std::size_t> place; // the index in pslg.pieces each goes before
   for (const ConstraintPiece& q : resolved) {
     if (!inserted.empty() && same(inserted.back(), q)) {
       inserted.back().segment = std::min(inserted.back().segment, q.segment);
@@ -1419,7 +1419,7 @@ void split_pieces(PreparedPslg& pslg, std::span<const std::uint32_t> suspect_pie
     }
   }
   copy_until(pslg.pieces.size());
-  std::vector<ConstraintPiece> merged(to);
+  PieceArray merged(to);
   executor.for_each(runs.size(), [&](std::size_t r) {
     std::copy_n(pslg.pieces.begin() + static_cast<std::ptrdiff_t>(runs[r].from), runs[r].count,
                 merged.begin() + static_cast<std::ptrdiff_t>(runs[r].to));

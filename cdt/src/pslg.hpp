@@ -33,6 +33,9 @@ struct ConstraintPiece {
   std::uint32_t segment; ///< the lowest input segment id that covers this piece
 };
 
+/// Pieces, grown without a zero fill: every element is written in parallel where it is made.
+using PieceArray = std::vector<ConstraintPiece, DefaultInitAllocator<ConstraintPiece>>;
+
 /// The cleaned input of the triangulator.
 struct PreparedPslg {
   /// The input points at their input indices, then the vertices added at crossings.
@@ -45,7 +48,7 @@ struct PreparedPslg {
   /// (a, b). A segment's pieces follow it exactly, except where a crossing bent it: then they pass
   /// through the rounded crossing vertex, a few ulps off its line (and through any vertex exactly on
   /// the bent pieces).
-  std::vector<ConstraintPiece> pieces;
+  PieceArray pieces;
   /// Input segments from a point to itself (or to a duplicate of it), ignored.
   std::size_t zero_length_segments = 0;
 };
@@ -73,8 +76,7 @@ CDT_HD_INLINE std::uint64_t point_hash(double x, double y) {
 /// the points and segments given to merge_input, duplicate_of (per point the lowest index with
 /// identical coordinates, -0 equal to +0), sites (the points that are their own representative,
 /// increasing) and pieces (merge_input's), as the host would.
-using InputMerge =
-    std::function<void(IndexArray& duplicate_of, IndexArray& sites, std::vector<ConstraintPiece>& pieces)>;
+using InputMerge = std::function<void(IndexArray& duplicate_of, IndexArray& sites, PieceArray& pieces)>;
 
 /// Checks and cleans the input of triangulate(). Throws InvalidInputError (non-finite coordinates,
 /// coordinates beyond kMaxCoordinate, out-of-range indices, zero-length segments under

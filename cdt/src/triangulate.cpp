@@ -299,7 +299,7 @@ Triangulation triangulate_on(std::span<const Point> points, std::span<const Segm
   // and the pieces made there, and the sites are prepared from the points already there.
   InputMerge merge;
   if (on_gpu) {
-    merge = [&](IndexArray& duplicate_of, IndexArray& sites, std::vector<ConstraintPiece>& pieces) {
+    merge = [&](IndexArray& duplicate_of, IndexArray& sites, PieceArray& pieces) {
       device_sites.emplace(points, segments, duplicate_of, sites, pieces, parallel);
     };
   }

@@ -604,7 +604,7 @@ TEST_F(GpuVoronoi, DuplicatesMergeAsOnTheHost) {
     const cdt::detail::PreparedPslg host =
         cdt::detail::merge_input(c.points, c.segments, cdt::CrossingSegments::resolve, executor);
     cdt::IndexArray duplicate_of, sites;
-    std::vector<cdt::detail::ConstraintPiece> pieces;
+    cdt::detail::PieceArray pieces;
     cdt::gpu::DeviceSites device(c.points, c.segments, duplicate_of, sites, pieces);
     EXPECT_EQ(duplicate_of, host.duplicate_of) << c.name;
     EXPECT_EQ(sites, host.sites) << c.name;
