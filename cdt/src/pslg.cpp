@@ -1055,24 +1055,37 @@ std::vector<WorkSegment> cut_segments(const std::vector<WorkSegment>& segs, cons
 std::vector<WorkSegment> cut_few_segments(const std::vector<WorkSegment>& segs, const SplitLists& cuts,
                                           const std::vector<std::uint8_t>& bent, const SegmentGrid& grid,
                                           const PointArray& vertices, CpuExecutor& executor) {
-  const auto key = [&](const WorkSegment& p) { return std::tuple{grid.cell_of(vertices[p.a]), p.a, p.b}; };
+  // A piece's place: the grid cell of its first end, then its ends.
+  struct Place {
+    std::size_t cell;
+    std::uint32_t a, b;
+    auto operator<=>(const Place&) const = default;
+  };
+  const auto place_of = [&](const WorkSegment& p) { return Place{grid.cell_of(vertices[p.a]), p.a, p.b}; };
   const std::vector<std::uint32_t> cut = executor.compact(
       segs.size(), [&](std::size_t s) { return cuts.start[s + 1] > cuts.start[s] || bent[s] != 0; });
   // The pieces of the cut segments, as cut_segments makes them, with their places among segs.
-  std::vector<WorkSegment> fresh;
+  struct Fresh {
+    Place place;
+    WorkSegment piece;
+  };
+  std::vector<Fresh> fresh;
   for (const std::uint32_t s : cut) {
     for_each_piece(segs[s], cuts.of(s), bent[s] != 0, CutAt::crossings,
-                   [&](std::size_t, const WorkSegment& p) { fresh.push_back(p); });
+                   [&](std::size_t, const WorkSegment& p) {
+                     fresh.push_back({Place{}, p});
+                   });
   }
-  std::sort(fresh.begin(), fresh.end(), [&](const WorkSegment& p, const WorkSegment& q) {
-    return std::tuple_cat(key(p), std::tuple{p.label}) < std::tuple_cat(key(q), std::tuple{q.label});
+  executor.for_each(fresh.size(), [&](std::size_t k) { fresh[k].place = place_of(fresh[k].piece); });
+  executor.sort(fresh, [](const Fresh& p, const Fresh& q) {
+    return p.place != q.place ? p.place < q.place : p.piece.label < q.piece.label;
   });
   // Merge equal pieces among themselves (into the lowest label, flags of any).
-  std::vector<WorkSegment> unique;
-  for (const WorkSegment& p : fresh) {
-    if (!unique.empty() && unique.back().a == p.a && unique.back().b == p.b) {
-      unique.back().dirty = unique.back().dirty || p.dirty;
-      unique.back().snapped = unique.back().snapped || p.snapped;
+  std::vector<Fresh> unique;
+  for (const Fresh& p : fresh) {
+    if (!unique.empty() && unique.back().place == p.place) {
+      unique.back().piece.dirty = unique.back().piece.dirty || p.piece.dirty;
+      unique.back().piece.snapped = unique.back().piece.snapped || p.piece.snapped;
     } else {
       unique.push_back(p);
     }
@@ -1089,24 +1102,23 @@ std::vector<WorkSegment> cut_few_segments(const std::vector<WorkSegment>& segs, 
     rest[k].dirty = rest[k].snapped;
     rest[k].snapped = false;
   });
-  // Each new piece goes before the first uncut segment not below it, or into it when equal.
+  // Each new piece goes before the first uncut segment not below it, or into it when equal: both
+  // lists in order, merged in one pass.
   std::vector<WorkSegment> out;
   out.reserve(rest.size() + unique.size());
-  std::size_t copied = 0;
-  for (WorkSegment p : unique) {
-    const auto at = std::partition_point(rest.begin() + static_cast<std::ptrdiff_t>(copied), rest.end(),
-                                         [&](const WorkSegment& g) { return key(g) < key(p); });
-    out.insert(out.end(), rest.begin() + static_cast<std::ptrdiff_t>(copied), at);
-    copied = static_cast<std::size_t>(at - rest.begin());
-    if (at != rest.end() && at->a == p.a && at->b == p.b) {
-      at->label = std::min(at->label, p.label);
-      at->dirty = at->dirty || p.dirty;
-      at->snapped = at->snapped || p.snapped;
+  std::size_t r = 0;
+  for (const Fresh& f : unique) {
+    while (r < rest.size() && place_of(rest[r]) < f.place) out.push_back(rest[r++]);
+    const WorkSegment& p = f.piece;
+    if (r < rest.size() && rest[r].a == p.a && rest[r].b == p.b) {
+      rest[r].label = std::min(rest[r].label, p.label);
+      rest[r].dirty = rest[r].dirty || p.dirty;
+      rest[r].snapped = rest[r].snapped || p.snapped;
     } else {
       out.push_back(p);
     }
   }
-  out.insert(out.end(), rest.begin() + static_cast<std::ptrdiff_t>(copied), rest.end());
+  out.insert(out.end(), rest.begin() + static_cast<std::ptrdiff_t>(r), rest.end());
   return out;
 }
 
