@@ -1384,24 +1384,32 @@ void split_pieces(PreparedPslg& pslg, std::span<const std::uint32_t> suspect_pie
     return p.a == q.a && p.b == q.b;
   };
   std::vector<std::uint32_t> suspects(suspect_pieces.begin(), suspect_pieces.end());
-  std::sort(suspects.begin(), suspects.end());
+  if (!std::is_sorted(suspects.begin(), suspects.end())) executor.sort(suspects, std::less<>());
   const auto is_suspect = [&](std::size_t k) {
     return std::binary_search(suspects.begin(), suspects.end(), k);
   };
-  PieceArray inserted;            // resolved pieces that are new, with their places:
-  std::vector<std::size_t> place; // the index in pslg.pieces each goes before
-  for (const ConstraintPiece& q : resolved) {
-    if (!inserted.empty() && same(inserted.back(), q)) {
-      inserted.back().segment = std::min(inserted.back().segment, q.segment);
-      continue;
-    }
+  // Each resolved piece's place among all, and whether a kept piece equal to it absorbs it (searched in
+  // parallel: on a lattice with random segments most pieces are suspects).
+  std::vector<std::size_t> at_of(resolved.size());
+  std::vector<std::uint8_t> absorbed(resolved.size());
+  executor.for_each(resolved.size(), [&](std::size_t k) {
+    const ConstraintPiece& q = resolved[k];
     const auto at = static_cast<std::size_t>(
         std::lower_bound(pslg.pieces.begin(), pslg.pieces.end(), q, before) - pslg.pieces.begin());
-    if (at < pslg.pieces.size() && same(pslg.pieces[at], q) && !is_suspect(at)) {
-      pslg.pieces[at].segment = std::min(pslg.pieces[at].segment, q.segment);
+    at_of[k] = at;
+    absorbed[k] = at < pslg.pieces.size() && same(pslg.pieces[at], q) && !is_suspect(at);
+  });
+  PieceArray inserted;            // resolved pieces that are new, with their places:
+  std::vector<std::size_t> place; // the index in pslg.pieces each goes before
+  for (std::size_t k = 0; k < resolved.size(); ++k) {
+    const ConstraintPiece& q = resolved[k];
+    if (!inserted.empty() && same(inserted.back(), q)) {
+      inserted.back().segment = std::min(inserted.back().segment, q.segment);
+    } else if (absorbed[k] != 0) {
+      pslg.pieces[at_of[k]].segment = std::min(pslg.pieces[at_of[k]].segment, q.segment);
     } else {
       inserted.push_back(q);
-      place.push_back(at);
+      place.push_back(at_of[k]);
     }
   }
   // Walking the suspects and the places in order: runs of kept pieces (source, destination, length),
