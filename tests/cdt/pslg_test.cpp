@@ -434,23 +434,27 @@ TEST(PslgCrossing, InexactCrossingPointStillGivesValidPieces) {
   EXPECT_EQ(contract_violation(out), "");
 }
 
+/// Adds n segments through `centre` (diameters of the circle of that radius, at angles not quite
+/// regular): their crossings all lie at the centre, and their rounded crossing points near it.
+void add_star(trixel_gen::Pslg& in, int n, const Point& centre, double radius) {
+  for (int k = 0; k < n; ++k) {
+    const double angle = 3.141592653589793 * (k + 0.37) / n;
+    const auto a = static_cast<std::uint32_t>(in.points.size());
+    in.points.push_back({centre.x + radius * std::cos(angle), centre.y + radius * std::sin(angle)});
+    in.points.push_back({centre.x - radius * std::cos(angle), centre.y - radius * std::sin(angle)});
+    in.segments.push_back({a, a + 1});
+  }
+}
+
 // Several segments crossing at (nearly) one point: the rounded crossings create new crossings between
 // the bent pieces, which later rounds must resolve.
 TEST(PslgCrossing, ManySegmentsThroughOnePointConverge) {
-  std::vector<Point> p;
-  std::vector<Segment> s;
-  const int n = 40;
-  for (int k = 0; k < n; ++k) {
-    const double angle = 3.141592653589793 * (k + 0.37) / n;
-    const auto a = static_cast<std::uint32_t>(p.size());
-    p.push_back({0.3 + std::cos(angle), 0.1 + std::sin(angle)});
-    p.push_back({0.3 - std::cos(angle), 0.1 - std::sin(angle)});
-    s.push_back({a, a + 1});
-  }
-  const PreparedPslg out = prepare_pslg(p, s, CrossingSegments::resolve);
-  EXPECT_GT(out.vertices.size(), p.size());
+  trixel_gen::Pslg in;
+  add_star(in, 40, {0.3, 0.1}, 1.0);
+  const PreparedPslg out = prepare_pslg(in.points, in.segments, CrossingSegments::resolve);
+  EXPECT_GT(out.vertices.size(), in.points.size());
   EXPECT_EQ(contract_violation(out), "");
-  EXPECT_TRUE(segments_connected(out, s));
+  EXPECT_TRUE(segments_connected(out, in.segments));
 }
 
 TEST(PslgCrossing, NearlyParallelCrossingConverges) {
@@ -489,14 +493,7 @@ TEST(PslgCrossing, SegmentsOverlappingWithinRoundingErrorConverge) {
 // that do not cross, takes that path.
 TEST(PslgCrossing, FewCrossingsAmongManySegmentsConverge) {
   trixel_gen::Pslg in = trixel_gen::synthetic_pslg(20000, 4000, trixel_gen::Distribution::uniform, 5);
-  const int n = 8;
-  for (int k = 0; k < n; ++k) {
-    const double angle = 3.141592653589793 * (k + 0.37) / n;
-    const auto a = static_cast<std::uint32_t>(in.points.size());
-    in.points.push_back({0.5 + 0.01 * std::cos(angle), 0.5 + 0.01 * std::sin(angle)});
-    in.points.push_back({0.5 - 0.01 * std::cos(angle), 0.5 - 0.01 * std::sin(angle)});
-    in.segments.push_back({a, a + 1});
-  }
+  add_star(in, 8, {0.5, 0.5}, 0.01);
   const PreparedPslg out = prepare_pslg(in.points, in.segments, CrossingSegments::resolve);
   EXPECT_GT(out.vertices.size(), in.points.size());
   EXPECT_EQ(contract_violation(out), "");
@@ -509,13 +506,7 @@ TEST(PslgCrossing, FewCrossingsAmongManySegmentsConverge) {
 // thousands of crossings cutting the segments into many more pieces (the segment grid grows).
 TEST(PslgCrossing, SameVerticesAndPiecesForAnyThreadCount) {
   std::vector<trixel_gen::Pslg> inputs(3);
-  for (int k = 0; k < 40; ++k) {
-    const double angle = 3.141592653589793 * (k + 0.37) / 40;
-    const auto a = static_cast<std::uint32_t>(inputs[0].points.size());
-    inputs[0].points.push_back({0.3 + std::cos(angle), 0.1 + std::sin(angle)});
-    inputs[0].points.push_back({0.3 - std::cos(angle), 0.1 - std::sin(angle)});
-    inputs[0].segments.push_back({a, a + 1});
-  }
+  add_star(inputs[0], 40, {0.3, 0.1}, 1.0);
   trixel_gen::Random rng(11);
   for (int k = 0; k < 200; ++k) {
     const double t = rng.unit();
@@ -554,20 +545,13 @@ TEST(PslgCrossing, SameVerticesAndPiecesForAnyThreadCount) {
 // Crossing points within the tolerance of each other share a vertex: 40 segments through one point
 // cross 780 times, and their rounded crossing points gather on a few vertices.
 TEST(PslgCrossing, CrossingPointsWithinTheToleranceShareAVertex) {
-  std::vector<Point> p;
-  std::vector<Segment> s;
-  for (int k = 0; k < 40; ++k) {
-    const double angle = 3.141592653589793 * (k + 0.37) / 40;
-    const auto a = static_cast<std::uint32_t>(p.size());
-    p.push_back({0.3 + std::cos(angle), 0.1 + std::sin(angle)});
-    p.push_back({0.3 - std::cos(angle), 0.1 - std::sin(angle)});
-    s.push_back({a, a + 1});
-  }
+  trixel_gen::Pslg in;
+  add_star(in, 40, {0.3, 0.1}, 1.0);
   for (const unsigned threads : {1u, 3u}) {
     CpuExecutor executor(threads);
-    const PreparedPslg out = prepare_pslg(p, s, CrossingSegments::resolve, executor);
-    EXPECT_GT(out.vertices.size(), p.size());
-    EXPECT_LE(out.vertices.size(), p.size() + 8) << "threads " << threads;
+    const PreparedPslg out = prepare_pslg(in.points, in.segments, CrossingSegments::resolve, executor);
+    EXPECT_GT(out.vertices.size(), in.points.size());
+    EXPECT_LE(out.vertices.size(), in.points.size() + 8) << "threads " << threads;
   }
 }
 

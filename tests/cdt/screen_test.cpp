@@ -288,11 +288,7 @@ TEST(TriangulateScreened, CrossingRandomSegmentsAsSplittingFirst) {
     trixel_gen::Pslg in = trixel_gen::random_points(3000, Distribution::uniform, seed);
     trixel_gen::Random rng(seed + 100);
     // Long random segments: thousands of crossings, several on most segments.
-    for (int k = 0; k < 120; ++k) {
-      const auto a = static_cast<std::uint32_t>(rng.next() % in.points.size());
-      const auto b = static_cast<std::uint32_t>(rng.next() % in.points.size());
-      if (a != b) in.segments.push_back({a, b});
-    }
+    trixel_gen::add_random_segments(in, 120, rng);
     expect_same_as_splitting_first(in.points, in.segments, true, "seed " + std::to_string(seed));
     cdt::Options cpu;
     cpu.backend = cdt::Backend::cpu;
@@ -309,11 +305,7 @@ TEST(TriangulateScreened, CrossingsOutnumberingTheSitesMakeTheMeshAgain) {
   for (std::uint64_t seed = 1; seed <= 2; ++seed) {
     trixel_gen::Pslg in = trixel_gen::random_points(300, Distribution::uniform, seed);
     trixel_gen::Random rng(seed + 200);
-    for (int k = 0; k < 150; ++k) {
-      const auto a = static_cast<std::uint32_t>(rng.next() % in.points.size());
-      const auto b = static_cast<std::uint32_t>(rng.next() % in.points.size());
-      if (a != b) in.segments.push_back({a, b});
-    }
+    trixel_gen::add_random_segments(in, 150, rng);
     const std::string what = "seed " + std::to_string(seed);
     expect_same_as_splitting_first(in.points, in.segments, true, what);
     std::vector<std::set<std::array<Coordinates, 3>>> triangles;
@@ -341,11 +333,7 @@ TEST(TriangulateScreened, SyntheticPslgWithAFewCrossersAsSplittingFirst) {
   // Mostly edges of the Delaunay mesh (short segments), plus a few long ones crossing them.
   trixel_gen::Pslg in = trixel_gen::synthetic_pslg(20000, 2000, Distribution::uniform, 7);
   trixel_gen::Random rng(8);
-  for (int k = 0; k < 10; ++k) {
-    in.segments.push_back({static_cast<std::uint32_t>(rng.next() % in.points.size()),
-                           static_cast<std::uint32_t>(rng.next() % in.points.size())});
-    if (in.segments.back().a == in.segments.back().b) in.segments.pop_back();
-  }
+  trixel_gen::add_random_segments(in, 10, rng);
   expect_same_as_splitting_first(in.points, in.segments, true, "synthetic");
 }
 

@@ -101,15 +101,8 @@ TEST_F(TriangulateGpu, CrossingSegmentsMatchTheCpuBackend) {
   trixel_gen::Pslg crossing = trixel_gen::random_points(3000, Distribution::uniform, 51);
   trixel_gen::Pslg synthetic = trixel_gen::synthetic_pslg(20000, 2000, Distribution::uniform, 52);
   trixel_gen::Random rng(53);
-  const auto add_crossers = [&](trixel_gen::Pslg& in, int count) {
-    for (int k = 0; k < count; ++k) {
-      const auto a = static_cast<std::uint32_t>(rng.next() % in.points.size());
-      const auto b = static_cast<std::uint32_t>(rng.next() % in.points.size());
-      if (a != b) in.segments.push_back({a, b});
-    }
-  };
-  add_crossers(crossing, 120); // thousands of crossings
-  add_crossers(synthetic, 10); // mostly Delaunay edges, a few long segments across them
+  trixel_gen::add_random_segments(crossing, 120, rng); // thousands of crossings
+  trixel_gen::add_random_segments(synthetic, 10, rng); // mostly Delaunay edges, a few long ones across
   for (const auto* in : {&crossing, &synthetic}) {
     const std::string what = in == &crossing ? "random crossing segments" : "synthetic with crossers";
     expect_same_as_cpu(in->points, in->segments, what);

@@ -218,6 +218,16 @@ inline Pslg synthetic_pslg(std::size_t num_points, std::size_t num_segments, Dis
   return p;
 }
 
+/// `tries` segments between random points of p, less those whose two points are the same: long
+/// segments that cross many others.
+inline void add_random_segments(Pslg& p, std::size_t tries, Random& rng) {
+  for (std::size_t k = 0; k < tries; ++k) {
+    const auto a = static_cast<std::uint32_t>(rng.next() % p.points.size());
+    const auto b = static_cast<std::uint32_t>(rng.next() % p.points.size());
+    if (a != b) p.segments.push_back({a, b});
+  }
+}
+
 /// k x k lattice with random segments between lattice points (crossings and overlaps included).
 inline Pslg lattice_with_segments(std::uint32_t k, std::size_t num_segments, std::uint64_t seed) {
   Random rng(seed);
