@@ -9,6 +9,7 @@
 #include <cmath>
 #include <cstddef>
 #include <cstdint>
+#include <limits>
 #include <stdexcept>
 #include <unordered_map>
 #include <unordered_set>
@@ -70,10 +71,15 @@ void mark_near_segment(std::vector<std::uint8_t>& near, int width, int height, c
                        const cdt::Point& b) {
   const double length = std::hypot(b.x - a.x, b.y - a.y);
   const int steps = std::max(1, static_cast<int>(std::ceil(length / 0.25)));
+  int last_x = std::numeric_limits<int>::min();
+  int last_y = 0;
   for (int i = 0; i <= steps; ++i) {
     const double t = static_cast<double>(i) / steps;
     const int px = static_cast<int>(std::floor(a.x + t * (b.x - a.x)));
     const int py = static_cast<int>(std::floor(a.y + t * (b.y - a.y)));
+    if (px == last_x && py == last_y) continue; // consecutive samples mostly share a pixel
+    last_x = px;
+    last_y = py;
     for (int dy = -1; dy <= 1; ++dy)
       for (int dx = -1; dx <= 1; ++dx) {
         const int x = px + dx;

@@ -7,6 +7,7 @@
 
 #include <algorithm>
 #include <array>
+#include <bit>
 #include <cmath>
 #include <cstddef>
 #include <cstdint>
@@ -133,17 +134,26 @@ float round_up(double v) {
 // the segment. Whether a segment is alive is kept in a byte array apart, which stays in cache.
 class SegmentGrid {
 public:
-  SegmentGrid(Vec lo, Vec hi, double cell) : lo_(lo), cell_(cell) {
+  SegmentGrid(Vec lo, Vec hi, double cell) : lo_(lo), cell_(cell), inverse_cell_(1.0 / cell) {
     nx_ = static_cast<int>(std::floor((hi.x - lo.x) / cell)) + 1;
     ny_ = static_cast<int>(std::floor((hi.y - lo.y) / cell)) + 1;
     cells_.resize(static_cast<std::size_t>(nx_) * ny_);
+  }
+
+  // Gives each cell room for the entries of these segments, so that entering them does not grow the
+  // cells' arrays one reallocation at a time.
+  void reserve(const std::vector<Segment>& segments) {
+    std::vector<std::uint32_t> counts(cells_.size(), 0);
+    for (const Segment& s : segments)
+      for_cell_indices({s.a, s.b, s.b}, 2, [&](std::size_t cell) { ++counts[cell]; });
+    for (std::size_t c = 0; c < cells_.size(); ++c) cells_[c].reserve(counts[c] + counts[c] / 4);
   }
 
   void insert(std::uint32_t id, const Vec& a, const Vec& b) {
     const Entry entry{id, round_down(std::min(a.x, b.x)), round_up(std::max(a.x, b.x)),
                       round_down(std::min(a.y, b.y)), round_up(std::max(a.y, b.y))};
     const std::array<Vec, 3> poly = {a, b, b};
-    for_cells(poly, 2, [&](std::vector<Entry>& cell) { cell.push_back(entry); });
+    for_cell_indices(poly, 2, [&](std::size_t cell) { cells_[cell].push_back(entry); });
   }
 
   // Calls f(id) once for every live segment in the cells met by the polygon (2 or 3 points, convex)
@@ -181,14 +191,21 @@ private:
   };
 
   int col(double x) const {
-    return std::clamp(static_cast<int>(std::floor((x - lo_.x) / cell_)), 0, nx_ - 1);
+    return std::clamp(static_cast<int>(std::floor((x - lo_.x) * inverse_cell_)), 0, nx_ - 1);
   }
   int row(double y) const {
-    return std::clamp(static_cast<int>(std::floor((y - lo_.y) / cell_)), 0, ny_ - 1);
+    return std::clamp(static_cast<int>(std::floor((y - lo_.y) * inverse_cell_)), 0, ny_ - 1);
   }
 
   template <class F>
   void for_cells(const std::array<Vec, 3>& poly, int n, F&& f) {
+    for_cell_indices(poly, n, [&](std::size_t cell) { f(cells_[cell]); });
+  }
+
+  // Calls f(index) for every cell that the polygon (2 or 3 points, convex), widened by a small margin,
+  // meets.
+  template <class F>
+  void for_cell_indices(const std::array<Vec, 3>& poly, int n, F&& f) const {
     const double margin = 1e-3 * cell_;
     double ymin = poly[0].y;
     double ymax = poly[0].y;
@@ -223,12 +240,13 @@ private:
       if (xmin > xmax) continue;
       const int c0 = col(xmin - margin);
       const int c1 = col(xmax + margin);
-      for (int c = c0; c <= c1; ++c) f(cells_[static_cast<std::size_t>(r) * nx_ + c]);
+      for (int c = c0; c <= c1; ++c) f(static_cast<std::size_t>(r) * nx_ + c);
     }
   }
 
   Vec lo_;
   double cell_;
+  double inverse_cell_;
   int nx_ = 1;
   int ny_ = 1;
   std::vector<std::vector<Entry>> cells_;
@@ -250,17 +268,23 @@ struct ChainState {
   int min_alive = 2;
 };
 
+// A point to try removing, ordered by cost, ties in input order so that the result is deterministic.
+// The order is two integer keys (a cost is finite and >= 0, so its bits order as the number does),
+// compared without branches: the queue's comparisons are much of the simplification's time.
 struct Candidate {
-  double cost;
-  std::uint32_t chain;
-  std::uint32_t vertex;
-  std::uint32_t version;
-  // A min-heap on cost; ties in input order so the result is deterministic.
+  Candidate(double cost, std::uint32_t chain, std::uint32_t vertex, std::uint32_t at_version)
+      : cost_bits(std::bit_cast<std::uint64_t>(cost)),
+        place(static_cast<std::uint64_t>(chain) << 32 | vertex), version(at_version) {}
+  std::uint32_t chain() const { return static_cast<std::uint32_t>(place >> 32); }
+  std::uint32_t vertex() const { return static_cast<std::uint32_t>(place); }
+  // A min-heap: the "largest" candidate is the cheapest.
   bool operator<(const Candidate& o) const {
-    if (cost != o.cost) return cost > o.cost;
-    if (chain != o.chain) return chain > o.chain;
-    return vertex > o.vertex;
+    return (cost_bits > o.cost_bits) | ((cost_bits == o.cost_bits) & (place > o.place));
   }
+
+  std::uint64_t cost_bits;
+  std::uint64_t place; // chain << 32 | vertex
+  std::uint32_t version;
 };
 
 constexpr std::uint32_t kNoSegment = std::numeric_limits<std::uint32_t>::max();
@@ -330,13 +354,19 @@ public:
 
     for (const std::uint32_t c : own) {
       ChainState& s = states_[c];
-      for_each_segment_start(
-          s, [&](int i) { s.segment_from[i] = add_segment(s.points[i], s.points[s.next[i]]); });
+      for_each_segment_start(s, [&](int i) {
+        s.segment_from[i] = static_cast<std::uint32_t>(segments_.size());
+        segments_.push_back({s.points[i], s.points[s.next[i]]});
+      });
     }
     for (const std::uint32_t c : fixed) {
       const ChainState& s = states_[c];
-      for_each_segment_start(s, [&](int i) { add_segment(s.points[i], s.points[s.next[i]]); });
+      for_each_segment_start(s, [&](int i) { segments_.push_back({s.points[i], s.points[s.next[i]]}); });
     }
+    grid_->reserve(segments_);
+    segment_alive_.assign(segments_.size(), 1);
+    for (std::uint32_t id = 0; id < segments_.size(); ++id)
+      grid_->insert(id, segments_[id].a, segments_[id].b);
   }
 
   void run() {
@@ -351,15 +381,15 @@ public:
         for (const std::uint32_t c : own_)
           for (int v = 0; v < static_cast<int>(states_[c].points.size()); ++v) push(queue, c, v);
       } else {
-        for (const Candidate& b : blocked) push(queue, b.chain, static_cast<int>(b.vertex));
+        for (const Candidate& b : blocked) push(queue, b.chain(), static_cast<int>(b.vertex()));
       }
       blocked.clear();
       std::size_t removed = 0;
       while (!queue.empty()) {
         const Candidate cand = queue.top();
         queue.pop();
-        ChainState& s = states_[cand.chain];
-        const int v = static_cast<int>(cand.vertex);
+        ChainState& s = states_[cand.chain()];
+        const int v = static_cast<int>(cand.vertex());
         if (!s.alive[v] || s.version[v] != cand.version || s.num_alive <= s.min_alive) continue;
         if (!removable(s, v)) {
           blocked.push_back(cand);
@@ -367,8 +397,8 @@ public:
         }
         remove(s, v);
         ++removed;
-        push(queue, cand.chain, s.prev[v]);
-        push(queue, cand.chain, s.next[v]);
+        push(queue, cand.chain(), s.prev[v]);
+        push(queue, cand.chain(), s.next[v]);
       }
       if (blocked.empty() || removed == 0) break;
     }
@@ -389,7 +419,8 @@ private:
   }
 
   // The largest squared distance of the original points from u to w (exclusive) to the segment uw;
-  // infinity when uw would cut into a solid pixel next to an outline point it replaces.
+  // infinity when uw would cut into a solid pixel next to an outline point it replaces. Stops at the
+  // first point farther than the tolerance: such a cost is only ever rejected.
   double squared_deviation(const ChainState& s, int u, int w) const {
     const int n = static_cast<int>(s.points.size());
     const Vec& a = s.points[u];
@@ -397,6 +428,7 @@ private:
     double worst = 0.0;
     for (int i = u + 1 == n ? 0 : u + 1; i != w; i = i + 1 == n ? 0 : i + 1) {
       worst = std::max(worst, squared_distance_to_segment(a, b, s.points[i]));
+      if (worst > squared_tolerance_) return worst;
       if (!s.outline[i]) continue;
       // The segment stays within the tolerance of the point, so the solid pixels it could cut into
       // are the point's own and its neighbours.
@@ -416,7 +448,7 @@ private:
     const int w = s.next[v];
     if (s.pixels[u] == s.pixels[w]) return;
     const double cost = squared_deviation(s, u, w);
-    if (cost <= squared_tolerance_) queue.push({cost, c, static_cast<std::uint32_t>(v), s.version[v]});
+    if (cost <= squared_tolerance_) queue.emplace(cost, c, static_cast<std::uint32_t>(v), s.version[v]);
   }
 
   // Whether replacing u-v-w by u-w creates no contact with another segment and sweeps over no point.
