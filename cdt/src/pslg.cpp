@@ -941,11 +941,10 @@ private:
             consider(best, site_cells.id[k], distance(site_cells.point[k], p));
           }
         });
-    if (!scanned) {
-      const std::size_t cell = grid.cell_of(p);
-      for (std::size_t k = site_cells.start[cell]; k < site_cells.start[cell + 1]; ++k) {
-        if (site_cells.point[k] == p) return {site_cells.id[k], 0.0, true};
-      }
+    if (scanned) return best; // the cells hold every earlier round's vertex too (they are sites)
+    const std::size_t cell = grid.cell_of(p);
+    for (std::size_t k = site_cells.start[cell]; k < site_cells.start[cell + 1]; ++k) {
+      if (site_cells.point[k] == p) return {site_cells.id[k], 0.0, true};
     }
     for_each_near(added_, key_of(p), [&](std::uint32_t v) { consider(best, v, distance(vertices[v], p)); });
     return best;
