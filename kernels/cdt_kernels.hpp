@@ -46,6 +46,11 @@ std::string device_description();
 /// Also turned on by the environment variable TRIXEL_CUDA_SYNC=1.
 void set_debug_sync(bool on) noexcept;
 
+/// With TRIXEL_CUDA_PROFILE=1, prints the time of each kind of device step since the last call (each
+/// step waited for, so that its time is its own) to stderr under `heading` and starts a new table;
+/// nothing otherwise.
+void print_profile(const char* heading);
+
 /// Signs of orient2d for num queries on the device; coords holds ax ay bx by cx cy per query (6 * num
 /// doubles), signs receives num values in {-1, 0, 1}. Throws DeviceError on any CUDA failure.
 void orient2d_signs(const double* coords, int* signs, std::size_t num);
@@ -308,6 +313,10 @@ public:
 
   /// cdt::detail::flip_to_delaunay (constraint edges never flip); upload_ms and download_ms stay 0.
   FlipResult flip();
+
+  /// The same checking at first only the triangles the last insert() split or made: what restores the
+  /// Delaunay property after points were inserted into a Delaunay mesh.
+  FlipResult flip_after_insert();
 
   /// Step 3 after Phase 5: cdt::detail::flip_to_delaunay checking at first only the slots that the last
   /// insert_constraints flipped (none when it was not called).

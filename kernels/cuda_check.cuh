@@ -16,6 +16,13 @@ namespace cdt::gpu::detail {
 /// True when launches should be followed by a synchronisation (debug switch).
 bool debug_sync() noexcept;
 
+/// True when the executor's steps are timed one by one (TRIXEL_CUDA_PROFILE=1): each waits for the
+/// work before it and for itself, and its time goes to a table by name printed to stderr at exit. For
+/// finding the costly kernels; the waiting makes the whole slower.
+bool profiling() noexcept;
+/// Adds `milliseconds` to the profile's row `name` (a string literal or other static string).
+void add_to_profile(const char* name, double milliseconds);
+
 inline void check(cudaError_t status, const char* what, const char* file, int line) {
   if (status != cudaSuccess) raise_cuda_error(status, what, file, line);
 }

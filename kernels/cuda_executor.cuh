@@ -109,8 +109,10 @@ public:
     constexpr unsigned kBlock = 256;
     const std::size_t blocks = (n + kBlock - 1) / kBlock;
     const auto grid = static_cast<unsigned>(blocks < max_blocks_ ? blocks : max_blocks_);
-    for_each_kernel<<<grid, kBlock, 0, stream_>>>(n, f);
-    check_launch(name, __FILE__, __LINE__);
+    timed(name, [&] {
+      for_each_kernel<<<grid, kBlock, 0, stream_>>>(n, f);
+      check_launch(name, __FILE__, __LINE__);
+    });
   }
 
   /// The same as for_each: the CPU executor runs a few large parts differently from many small
@@ -145,12 +147,14 @@ public:
     const thrust::counting_iterator<std::uint32_t> first(0);
     auto* d_count = scalar<std::uint32_t>();
     const IndexPredicate<Pred> pred{keep};
-    std::size_t bytes = 0;
-    CDT_CUDA_CHECK(cub::DeviceSelect::If(nullptr, bytes, first, d_out, d_count, n, pred, stream_));
-    CDT_CUDA_CHECK(cub::DeviceSelect::If(temp(bytes), bytes, first, d_out, d_count, n, pred, stream_));
-    check_launch("cub::DeviceSelect::If", __FILE__, __LINE__);
     std::uint32_t count = 0;
-    download(&count, d_count, 1);
+    timed("compact", [&] {
+      std::size_t bytes = 0;
+      CDT_CUDA_CHECK(cub::DeviceSelect::If(nullptr, bytes, first, d_out, d_count, n, pred, stream_));
+      CDT_CUDA_CHECK(cub::DeviceSelect::If(temp(bytes), bytes, first, d_out, d_count, n, pred, stream_));
+      check_launch("cub::DeviceSelect::If", __FILE__, __LINE__);
+      download(&count, d_count, 1);
+    });
     return count;
   }
 
@@ -159,10 +163,12 @@ public:
   void sort_keys(K* d_keys, std::size_t n, int end_bit = static_cast<int>(8 * sizeof(K))) {
     if (n < 2) return;
     cub::DoubleBuffer<K> keys(d_keys, reinterpret_cast<K*>(alternate(n * sizeof(K))));
-    std::size_t bytes = 0;
-    CDT_CUDA_CHECK(cub::DeviceRadixSort::SortKeys(nullptr, bytes, keys, n, 0, end_bit, stream_));
-    CDT_CUDA_CHECK(cub::DeviceRadixSort::SortKeys(temp(bytes), bytes, keys, n, 0, end_bit, stream_));
-    check_launch("cub::DeviceRadixSort::SortKeys", __FILE__, __LINE__);
+    timed("sort_keys", [&] {
+      std::size_t bytes = 0;
+      CDT_CUDA_CHECK(cub::DeviceRadixSort::SortKeys(nullptr, bytes, keys, n, 0, end_bit, stream_));
+      CDT_CUDA_CHECK(cub::DeviceRadixSort::SortKeys(temp(bytes), bytes, keys, n, 0, end_bit, stream_));
+      check_launch("cub::DeviceRadixSort::SortKeys", __FILE__, __LINE__);
+    });
     if (keys.Current() != d_keys)
       CDT_CUDA_CHECK(
           cudaMemcpyAsync(d_keys, keys.Current(), n * sizeof(K), cudaMemcpyDeviceToDevice, stream_));
@@ -176,10 +182,13 @@ public:
     unsigned char* d_alt = alternate(values_at + n * sizeof(V));
     cub::DoubleBuffer<K> keys(d_keys, reinterpret_cast<K*>(d_alt));
     cub::DoubleBuffer<V> values(d_values, reinterpret_cast<V*>(d_alt + values_at));
-    std::size_t bytes = 0;
-    CDT_CUDA_CHECK(cub::DeviceRadixSort::SortPairs(nullptr, bytes, keys, values, n, 0, end_bit, stream_));
-    CDT_CUDA_CHECK(cub::DeviceRadixSort::SortPairs(temp(bytes), bytes, keys, values, n, 0, end_bit, stream_));
-    check_launch("cub::DeviceRadixSort::SortPairs", __FILE__, __LINE__);
+    timed("sort_pairs", [&] {
+      std::size_t bytes = 0;
+      CDT_CUDA_CHECK(cub::DeviceRadixSort::SortPairs(nullptr, bytes, keys, values, n, 0, end_bit, stream_));
+      CDT_CUDA_CHECK(
+          cub::DeviceRadixSort::SortPairs(temp(bytes), bytes, keys, values, n, 0, end_bit, stream_));
+      check_launch("cub::DeviceRadixSort::SortPairs", __FILE__, __LINE__);
+    });
     if (keys.Current() != d_keys)
       CDT_CUDA_CHECK(
           cudaMemcpyAsync(d_keys, keys.Current(), n * sizeof(K), cudaMemcpyDeviceToDevice, stream_));
@@ -201,7 +210,11 @@ public:
   /// spread their host side (out of the pinned staging blocks) over `parallel` when it is given.
   template <class T>
   void download(T* h_dst, const T* d_src, std::size_t n, const HostParallelFor* parallel = nullptr) {
-    copy_to_host(h_dst, d_src, n * sizeof(T), parallel);
+    // A count or a flag is part of the step that made it.
+    if (n * sizeof(T) <= sizeof(unsigned long long))
+      copy_to_host(h_dst, d_src, n * sizeof(T), parallel);
+    else
+      timed("download", [&] { copy_to_host(h_dst, d_src, n * sizeof(T), parallel); });
   }
 
   /// Sets n elements of d_dst to the byte value `byte` (0 or 0xFF fill 32-bit words with 0 or kNone).
@@ -231,6 +244,19 @@ public:
 
 private:
   static constexpr std::size_t round_up(std::size_t bytes) { return (bytes + 255) / 256 * 256; }
+
+  /// Runs launch(); when profiling, waits for the work before it and for it, and adds its time to the
+  /// profile under `name`.
+  template <class Launch>
+  void timed(const char* name, Launch&& launch) {
+    if (!profiling()) return launch();
+    synchronize();
+    const double start = host_milliseconds();
+    launch();
+    synchronize();
+    add_to_profile(name, host_milliseconds() - start);
+  }
+  static double host_milliseconds();
 
   /// The sorts' second buffers: a reusable block of at least `bytes` bytes.
   unsigned char* alternate(std::size_t bytes) {

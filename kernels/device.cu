@@ -2,7 +2,9 @@
 
 #include <algorithm>
 #include <atomic>
+#include <chrono>
 #include <cstdint>
+#include <cstdio>
 #include <cstdlib>
 #include <cstring>
 #include <limits>
@@ -10,6 +12,7 @@
 #include <mutex>
 #include <string>
 #include <utility>
+#include <vector>
 
 #include "cdt_kernels.hpp"
 #include "cuda_check.cuh"
@@ -18,9 +21,64 @@
 namespace cdt::gpu {
 namespace {
 std::atomic<bool> g_debug_sync{false};
+
+/// The profile of TRIXEL_CUDA_PROFILE=1: milliseconds and calls by step name, printed at exit.
+class Profile {
+public:
+  void add(const char* name, double milliseconds) {
+    std::lock_guard lock(mutex_);
+    Row& row = rows_[name];
+    row.milliseconds += milliseconds;
+    ++row.calls;
+  }
+  ~Profile() { print("at exit"); }
+  // Prints the table and clears it.
+  void print(const char* heading) {
+    std::lock_guard lock(mutex_);
+    if (rows_.empty()) return;
+    std::vector<std::pair<std::string, Row>> rows(rows_.begin(), rows_.end());
+    rows_.clear();
+    std::sort(rows.begin(), rows.end(),
+              [](const auto& a, const auto& b) { return a.second.milliseconds > b.second.milliseconds; });
+    double total = 0;
+    for (const auto& [name, row] : rows) total += row.milliseconds;
+    std::fprintf(stderr, "device profile, %s (each step waited for): %.1f ms in all\n", heading, total);
+    for (const auto& [name, row] : rows)
+      std::fprintf(stderr, "  %-32s %10.2f ms %8llu calls\n", name.c_str(), row.milliseconds,
+                   static_cast<unsigned long long>(row.calls));
+  }
+
+private:
+  struct Row {
+    double milliseconds = 0;
+    std::uint64_t calls = 0;
+  };
+  std::mutex mutex_;
+  std::map<std::string, Row> rows_;
+};
+
+Profile& profile() {
+  static Profile table;
+  return table;
 }
+} // namespace
 
 namespace detail {
+
+bool profiling() noexcept {
+  static const bool from_env = [] {
+    const char* v = std::getenv("TRIXEL_CUDA_PROFILE");
+    return v != nullptr && std::strcmp(v, "0") != 0 && v[0] != '\0';
+  }();
+  return from_env;
+}
+
+void add_to_profile(const char* name, double milliseconds) { profile().add(name, milliseconds); }
+
+double CudaExecutor::host_milliseconds() {
+  return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now().time_since_epoch())
+      .count();
+}
 
 void raise_cuda_error(cudaError_t status, const char* what, const char* file, int line) {
   throw DeviceError(std::string("CUDA error ") + cudaGetErrorName(status) + " (" +
@@ -310,6 +368,10 @@ float DeviceEvent::since(const DeviceEvent& start) const {
 void CudaExecutor::synchronize() { CDT_CUDA_CHECK(cudaStreamSynchronize(stream_)); }
 
 } // namespace detail
+
+void print_profile(const char* heading) {
+  if (detail::profiling()) profile().print(heading);
+}
 
 void set_debug_sync(bool on) noexcept { g_debug_sync.store(on, std::memory_order_relaxed); }
 

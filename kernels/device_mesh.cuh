@@ -54,6 +54,9 @@ struct DeviceMesh::State {
   detail::DeviceBuffer<std::uint32_t> failure_word{1};
   /// Per slot, 1 where the last insert_constraints flipped it (empty before the first call).
   detail::DeviceBuffer<std::uint8_t> flipped_by_constraints;
+  /// Per slot, 1 where the last insert() split a triangle or made one (for flip_after_insert(); empty
+  /// before the first call).
+  detail::DeviceBuffer<std::uint8_t> made_by_insert;
 
   ::cdt::detail::MeshView view() {
     return ::cdt::detail::MeshView{x.data(),   y.data(),        tri.data(), adj.data(),

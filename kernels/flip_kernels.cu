@@ -216,6 +216,12 @@ FlipResult flip_mesh(DeviceMesh::State& s, const std::uint8_t* only) {
 
 FlipResult DeviceMesh::flip() { return detail::flip_mesh(*state_, nullptr); }
 
+FlipResult DeviceMesh::flip_after_insert() {
+  const detail::DeviceBuffer<std::uint8_t>& made = state_->made_by_insert;
+  if (made.size() != state_->num_slots) return flip(); // no insert since the mesh changed size
+  return detail::flip_mesh(*state_, made.data());
+}
+
 FlipResult DeviceMesh::flip_after_constraints() {
   const detail::DeviceBuffer<std::uint8_t>& flipped = state_->flipped_by_constraints;
   if (flipped.size() != state_->num_slots) return FlipResult{}; // no constraints were inserted

@@ -424,6 +424,9 @@ InsertStats insert(DeviceMesh::State& s, std::span<const MissingPoint> missing) 
     }
   }
   const MeshView m = s.view();
+  s.made_by_insert.resize(m.num_slots);
+  std::uint8_t* made = s.made_by_insert.data();
+  executor.fill_bytes(made, 0, m.num_slots);
   const std::uint32_t num_free = executor.compact(
       m.num_slots, [=] __device__(std::size_t t) { return !m.alive(static_cast<std::uint32_t>(t)); },
       d_free.data());
@@ -608,6 +611,8 @@ InsertStats insert(DeviceMesh::State& s, std::span<const MissingPoint> missing) 
           else
             ::cdt::detail::split_edge(m, v, loc_t[q], loc_e[q], loc_u[q], loc_j[q], new0[q], new1[q], own[q]);
           pending[v] = 0;
+          made[loc_t[q]] = made[new0[q]] = made[new1[q]] = 1;
+          if (loc_u[q] != kNoId) made[loc_u[q]] = 1;
         },
         "insert_split");
     // Lines 20-22: outer links.

@@ -78,6 +78,9 @@ public:
     phase.name = name;
     phase.milliseconds = std::chrono::duration<double, std::milli>(now - start_).count();
     stats_.phases.push_back(phase);
+#if defined(TRIXEL_HAVE_CUDA)
+    gpu::print_profile(name); // with TRIXEL_CUDA_PROFILE=1: the phase's device steps
+#endif
     start_ = now;
     return stats_.phases.back();
   }
@@ -232,7 +235,7 @@ detail::InsertStats insert_added_vertices(gpu::DeviceMesh& mesh, const detail::P
   }
   mesh.add_vertices(x, y);
   InsertStats placed = mesh.insert(fresh);
-  const gpu::FlipResult flips = mesh.flip();
+  const gpu::FlipResult flips = mesh.flip_after_insert();
   placed.flips += flips.flips;
   placed.rounds += flips.rounds;
   return placed;
