@@ -297,6 +297,9 @@ public:
   /// cdt::detail::insert_missing_points (the mesh grows on the device when free slots are short).
   ::cdt::detail::InsertStats insert(std::span<const ::cdt::detail::MissingPoint> missing);
 
+  /// cdt::detail::flip_fake_fans: the fake vertices' fans made convex chains before their removal.
+  FlipResult flip_fake_fans(std::uint32_t first_fake);
+
   /// cdt::detail::remove_fake_boundary: the fake vertices leave, the slots are compacted in the order
   /// of their lowest vertex.
   void remove_fake_boundary(std::uint32_t first_fake);

@@ -87,8 +87,9 @@ void apply_flips(CudaExecutor& executor, DeviceFlipBatch& batch, const MeshView&
 }
 
 /// The flips on a mesh on the device: flip_to_delaunay's rounds, the first over the live slots t with
-/// only[t] != 0 when only is given.
-FlipResult flip_mesh(DeviceMesh::State& s, const std::uint8_t* only) {
+/// only[t] != 0 when only is given. With first_fake given, the fake fans' flips instead
+/// (fake_fan_candidate), the first round over the live slots with a fake corner.
+FlipResult flip_mesh(DeviceMesh::State& s, const std::uint8_t* only, std::uint32_t first_fake = kNoId) {
   FlipResult result;
   const std::uint32_t slots = s.num_slots;
   if (slots == 0) return result;
@@ -116,7 +117,9 @@ FlipResult flip_mesh(DeviceMesh::State& s, const std::uint8_t* only) {
   std::uint32_t n = executor.compact(
       slots,
       [=] __device__(std::size_t t) {
-        return m.alive(static_cast<std::uint32_t>(t)) && (only == nullptr || only[t] != 0);
+        if (!m.alive(static_cast<std::uint32_t>(t)) || (only != nullptr && only[t] == 0)) return false;
+        return first_fake == kNoId || (m.tri[3 * t] >= first_fake || m.tri[3 * t + 1] >= first_fake ||
+                                       m.tri[3 * t + 2] >= first_fake);
       },
       list);
   {
@@ -139,7 +142,9 @@ FlipResult flip_mesh(DeviceMesh::State& s, const std::uint8_t* only) {
         n,
         [=] __device__(std::size_t k) {
           const std::uint32_t t = l[k];
-          const std::uint32_t e = ::cdt::detail::delaunay_flip_candidate(m, active_flag, partner, t);
+          const std::uint32_t e = first_fake == kNoId
+                                      ? ::cdt::detail::delaunay_flip_candidate(m, active_flag, partner, t)
+                                      : ::cdt::detail::fake_fan_candidate(m, active_flag, t, first_fake);
           cand[k] = e;
           nbr[k] = kNoId;
           if (e == kNoId) return;
@@ -166,7 +171,7 @@ FlipResult flip_mesh(DeviceMesh::State& s, const std::uint8_t* only) {
       // The lowest proposer always holds both of its claims, so no winner means no proposal.
       if (executor.compact(
               n, [=] __device__(std::size_t k) { return cand[k] != kNoId; }, waiting) != 0)
-        throw Error("internal error: a Delaunay flipping round claimed no pair");
+        throw Error("internal error: a flipping round claimed no pair");
       break;
     }
     executor.for_each(
@@ -213,6 +218,10 @@ FlipResult flip_mesh(DeviceMesh::State& s, const std::uint8_t* only) {
 }
 
 } // namespace detail
+
+FlipResult DeviceMesh::flip_fake_fans(std::uint32_t first_fake) {
+  return detail::flip_mesh(*state_, nullptr, first_fake);
+}
 
 FlipResult DeviceMesh::flip() { return detail::flip_mesh(*state_, nullptr); }
 

@@ -12,7 +12,8 @@
 //   voronoi   Phase 1: grid mapping (Appendix B), digital Voronoi diagram (PBA + Appendix A)
 //   dualize   Phase 2: dual triangles, hull completion, fake boundary
 //   shift     Phase 3: points back to their true coordinates (Algorithms 1 and 2)
-//   insert    Phase 4: missing points (Algorithm 3), fake boundary removal
+//   insert    Phase 4: missing points (Algorithm 3), fake boundary removal (on the device after the
+//             flips that make the fake vertices' fans convex chains, gcd/flip.hpp flip_fake_fans)
 //   delaunay  Phase 5: Lawson flips to the Delaunay triangulation
 //   split     Step 1, after the sites are triangulated: segments split at points on them and at
 //             crossings. A segment that is an edge of the Delaunay mesh can neither cross another edge
@@ -526,6 +527,11 @@ Triangulation triangulate_on(std::span<const Point> points, std::span<const Segm
 #if defined(TRIXEL_HAVE_CUDA)
   if (on_gpu) {
     insert = device_mesh->insert(missing);
+    // The paper's rounds leave the points outside the sites' hull in huge fans of the fake vertices,
+    // which the removal would walk one thread per fan (at 10M + 1M, 39 of the phase's 52 ms).
+    const gpu::FlipResult fans = device_mesh->flip_fake_fans(n);
+    insert.flips += fans.flips;
+    insert.rounds += fans.rounds;
     device_mesh->remove_fake_boundary(n);
   }
 #endif

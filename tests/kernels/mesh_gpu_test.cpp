@@ -318,12 +318,16 @@ TEST_F(MeshGpu, ShiftAndInsertMatchTheCpuExecutor) {
     expect_same_mesh(copy, host, shifted);
 
     const InsertStats host_insert = insert_missing_points(host, host_missing, executor);
+    const FlipStats host_fans = flip_fake_fans(host, start.n, executor);
     remove_fake_boundary(host, start.n, executor);
     const InsertStats device_insert = device.insert(device_missing);
+    const cdt::gpu::FlipResult device_fans = device.flip_fake_fans(start.n);
     device.remove_fake_boundary(start.n);
     const std::string inserted = std::string(c.name) + ", after missing points";
     EXPECT_EQ(device_insert.inserted, host_insert.inserted) << inserted;
     EXPECT_EQ(device_insert.rounds, host_insert.rounds) << inserted;
+    EXPECT_EQ(device_fans.flips, host_fans.flips) << inserted;
+    EXPECT_EQ(device_fans.rounds, host_fans.rounds) << inserted;
     EXPECT_EQ(host_insert.inserted, host_missing.size()) << inserted;
     EXPECT_GT(host_missing.size(), 0u) << inserted << ": the case must exercise Algorithm 3";
     device.download(copy);

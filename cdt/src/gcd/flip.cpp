@@ -53,12 +53,13 @@ void FlipBatch::apply(Mesh& mesh, std::span<const std::uint32_t> edges, CpuExecu
 namespace {
 
 /// The parallel rounds of Phase 5 (propose, claim by atomic minimum, flip the winners' batch), with the
-/// per-slot state they keep from round to round.
+/// per-slot state they keep from round to round. With first_fake given, the rounds of flip_fake_fans
+/// instead (fake_fan_candidate proposes).
 class FlipRounds {
 public:
-  FlipRounds(Mesh& mesh, CpuExecutor& executor)
-      : mesh_(mesh), executor_(executor), mark_(mesh.num_slots(), kNoId), active_(mesh.num_slots(), 0),
-        batch_(mesh.num_slots()) {}
+  FlipRounds(Mesh& mesh, CpuExecutor& executor, std::uint32_t first_fake = kNoId)
+      : mesh_(mesh), executor_(executor), first_fake_(first_fake), mark_(mesh.num_slots(), kNoId),
+        active_(mesh.num_slots(), 0), batch_(mesh.num_slots()) {}
 
   /// Flags the slots of `list` as active (the paper's marked triangles of the coming round).
   void activate(const std::vector<std::uint32_t>& list) {
@@ -87,7 +88,8 @@ public:
     // Propose and claim: the proposer's slot index is its label, so the lowest proposer wins.
     executor_.for_each(n, [&](std::size_t k) {
       const std::uint32_t t = list[k];
-      const std::uint32_t e = delaunay_flip_candidate(m, active_flag, partner, t);
+      const std::uint32_t e = first_fake_ == kNoId ? delaunay_flip_candidate(m, active_flag, partner, t)
+                                                   : fake_fan_candidate(m, active_flag, t, first_fake_);
       cand[k] = e;
       nbr[k] = kNoId;
       if (e == kNoId) return;
@@ -111,7 +113,7 @@ public:
     if (winners.empty()) {
       // The lowest proposer always holds both of its claims, so no winner means no proposal.
       if (!executor_.compact(n, [&](std::size_t k) { return cand[k] != kNoId; }).empty()) {
-        throw Error("internal error: a Delaunay flipping round claimed no pair");
+        throw Error("internal error: a flipping round claimed no pair");
       }
       executor_.for_each(n, [&](std::size_t k) { active_flag[list[k]] = 0; });
       return {};
@@ -166,6 +168,7 @@ public:
 private:
   Mesh& mesh_;
   CpuExecutor& executor_;
+  std::uint32_t first_fake_;
   std::vector<std::uint32_t> mark_;
   std::vector<std::uint8_t> active_;
   FlipBatch batch_;
@@ -200,6 +203,19 @@ FlipStats flip_to_delaunay(Mesh& mesh, CpuExecutor& executor, const std::uint8_t
   FlipRounds rounds(mesh, executor);
   std::vector<std::uint32_t> active = executor.compact(
       slots, [&](std::size_t t) { return checked_at_first(m, only, static_cast<std::uint32_t>(t)); });
+  rounds.activate(active);
+  while (!active.empty()) active = rounds.round(active, stats);
+  return stats;
+}
+
+FlipStats flip_fake_fans(Mesh& mesh, std::uint32_t first_fake, CpuExecutor& executor) {
+  FlipStats stats;
+  const MeshView m = mesh.view();
+  FlipRounds rounds(mesh, executor, first_fake);
+  std::vector<std::uint32_t> active = executor.compact(m.num_slots, [&](std::size_t t) {
+    const auto s = static_cast<std::uint32_t>(t);
+    return m.alive(s) && (m.v(s, 0) >= first_fake || m.v(s, 1) >= first_fake || m.v(s, 2) >= first_fake);
+  });
   rounds.activate(active);
   while (!active.empty()) active = rounds.round(active, stats);
   return stats;

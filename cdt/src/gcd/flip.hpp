@@ -47,6 +47,14 @@ FlipStats flip_to_delaunay(Mesh& mesh, CpuExecutor& executor, const std::uint8_t
 /// thread.
 FlipStats flip_to_delaunay_in_parts(Mesh& mesh, CpuExecutor& executor, const std::uint8_t* only = nullptr);
 
+/// Before the fake boundary's removal (Phase 4 with the paper's rounds): flips, in the same rounds as
+/// flip_to_delaunay, every edge between a fake vertex (first_fake or above) and a real one whose flip is
+/// strictly convex and joins two real vertices (fake_fan_candidate), starting from the triangles with a
+/// fake corner. Algorithm 3 inserts without flips, so every missing point outside the sites' hull ends
+/// in the fan of a fake vertex, and removing a fake vertex walks and refills its fan on one thread; the
+/// flips leave the fans convex chains. Each flip lowers the number of fake-real edges, so they end.
+FlipStats flip_fake_fans(Mesh& mesh, std::uint32_t first_fake, CpuExecutor& executor);
+
 // --- per-element work (host and device) --------------------------------------------------------------
 
 CDT_HD_INLINE int orient_vertices(const MeshView& m, std::uint32_t a, std::uint32_t b, std::uint32_t c) {
@@ -90,6 +98,24 @@ CDT_HD inline std::uint32_t delaunay_flip_candidate(const MeshView& m, const std
     const std::uint32_t u = edge_tri(e);
     if (u < t && active[u]) continue;
     if (edge_wants_flip(m, t, i)) return edge_id(t, i);
+  }
+  return kNoId;
+}
+
+/// flip_fake_fans' rule: the encoded edge 3t + i that active triangle t proposes to flip, or kNoId. Edge
+/// i joins a fake vertex and a real one, the corners across it on both sides are real, and its flip is
+/// strictly convex. Each pair is checked once per round, as in delaunay_flip_candidate.
+CDT_HD inline std::uint32_t fake_fan_candidate(const MeshView& m, const std::uint8_t* active, std::uint32_t t,
+                                               std::uint32_t first_fake) {
+  for (std::uint32_t i = 0; i < 3; ++i) {
+    const std::uint32_t e = m.adj[3 * t + i];
+    if (e == kNoId || m.seg[3 * t + i] != kNoId) continue;
+    const std::uint32_t u = edge_tri(e);
+    if (u < t && active[u]) continue;
+    const std::uint32_t a = m.v(t, i), b = m.v(t, next3(i)), c = m.v(t, prev3(i));
+    const std::uint32_t d = m.v(u, edge_index(e));
+    if (a >= first_fake || d >= first_fake || (b >= first_fake) == (c >= first_fake)) continue;
+    if (flip_is_convex(m, t, i)) return edge_id(t, i);
   }
   return kNoId;
 }
