@@ -140,20 +140,11 @@ public:
     cells_.resize(static_cast<std::size_t>(nx_) * ny_);
   }
 
-  // Gives each cell room for the entries of these segments, so that entering them does not grow the
-  // cells' arrays one reallocation at a time.
-  void reserve(const std::vector<Segment>& segments) {
-    std::vector<std::uint32_t> counts(cells_.size(), 0);
-    for (const Segment& s : segments)
-      for_cell_indices({s.a, s.b, s.b}, 2, [&](std::size_t cell) { ++counts[cell]; });
-    for (std::size_t c = 0; c < cells_.size(); ++c) cells_[c].reserve(counts[c] + counts[c] / 4);
-  }
-
   void insert(std::uint32_t id, const Vec& a, const Vec& b) {
     const Entry entry{id, round_down(std::min(a.x, b.x)), round_up(std::max(a.x, b.x)),
                       round_down(std::min(a.y, b.y)), round_up(std::max(a.y, b.y))};
     const std::array<Vec, 3> poly = {a, b, b};
-    for_cell_indices(poly, 2, [&](std::size_t cell) { cells_[cell].push_back(entry); });
+    for_cells(poly, 2, [&](std::vector<Entry>& cell) { cell.push_back(entry); });
   }
 
   // Calls f(id) once for every live segment in the cells met by the polygon (2 or 3 points, convex)
@@ -199,13 +190,6 @@ private:
 
   template <class F>
   void for_cells(const std::array<Vec, 3>& poly, int n, F&& f) {
-    for_cell_indices(poly, n, [&](std::size_t cell) { f(cells_[cell]); });
-  }
-
-  // Calls f(index) for every cell that the polygon (2 or 3 points, convex), widened by a small margin,
-  // meets.
-  template <class F>
-  void for_cell_indices(const std::array<Vec, 3>& poly, int n, F&& f) const {
     const double margin = 1e-3 * cell_;
     double ymin = poly[0].y;
     double ymax = poly[0].y;
@@ -240,7 +224,7 @@ private:
       if (xmin > xmax) continue;
       const int c0 = col(xmin - margin);
       const int c1 = col(xmax + margin);
-      for (int c = c0; c <= c1; ++c) f(static_cast<std::size_t>(r) * nx_ + c);
+      for (int c = c0; c <= c1; ++c) f(cells_[static_cast<std::size_t>(r) * nx_ + c]);
     }
   }
 
@@ -354,19 +338,13 @@ public:
 
     for (const std::uint32_t c : own) {
       ChainState& s = states_[c];
-      for_each_segment_start(s, [&](int i) {
-        s.segment_from[i] = static_cast<std::uint32_t>(segments_.size());
-        segments_.push_back({s.points[i], s.points[s.next[i]]});
-      });
+      for_each_segment_start(
+          s, [&](int i) { s.segment_from[i] = add_segment(s.points[i], s.points[s.next[i]]); });
     }
     for (const std::uint32_t c : fixed) {
       const ChainState& s = states_[c];
-      for_each_segment_start(s, [&](int i) { segments_.push_back({s.points[i], s.points[s.next[i]]}); });
+      for_each_segment_start(s, [&](int i) { add_segment(s.points[i], s.points[s.next[i]]); });
     }
-    grid_->reserve(segments_);
-    segment_alive_.assign(segments_.size(), 1);
-    for (std::uint32_t id = 0; id < segments_.size(); ++id)
-      grid_->insert(id, segments_[id].a, segments_[id].b);
   }
 
   void run() {
