@@ -536,8 +536,9 @@ InsertStats insert(DeviceMesh::State& s, std::span<const MissingPoint> missing) 
           loc_e[q] = at.edge;
           loc_u[q] = at.u;
           loc_j[q] = at.j;
-          atomicMin(mark + at.tri, q);
-          if (at.u != kNoId) atomicMin(mark + at.u, q);
+          const std::uint32_t key = ::cdt::detail::claim_key(q);
+          atomicMin(mark + at.tri, key);
+          if (at.u != kNoId) atomicMin(mark + at.u, key);
         },
         "locate_missing");
     s.check(failure, "inserting missing points (Algorithm 3, point location)");
@@ -549,8 +550,9 @@ InsertStats insert(DeviceMesh::State& s, std::span<const MissingPoint> missing) 
           const std::uint32_t q = remaining[r];
           const std::uint32_t t = loc_t[q], u = loc_u[q];
           if (t == kNoId) return;
-          const bool holds_t = mark[t] == q;
-          const bool holds_u = u != kNoId && mark[u] == q;
+          const std::uint32_t key = ::cdt::detail::claim_key(static_cast<std::uint32_t>(q));
+          const bool holds_t = mark[t] == key;
+          const bool holds_u = u != kNoId && mark[u] == key;
           const bool wins = holds_t && (u == kNoId || holds_u);
           flags[q] = static_cast<std::uint8_t>((holds_t ? kHoldsT : 0) | (holds_u ? kHoldsU : 0) |
                                                (wins ? kWins : 0));
@@ -565,7 +567,7 @@ InsertStats insert(DeviceMesh::State& s, std::span<const MissingPoint> missing) 
           const std::uint32_t containers[2] = {loc_t[q], loc_u[q]};
           for (const std::uint32_t c : containers) {
             if (c == kNoId) continue;
-            const std::uint32_t w = mark[c];
+            const std::uint32_t w = ::cdt::detail::claim_holder(mark[c]);
             if (w != kNoId && (flags[w] & kWins) != 0) {
               start[q] = points[w].vertex;
               return;
@@ -576,7 +578,7 @@ InsertStats insert(DeviceMesh::State& s, std::span<const MissingPoint> missing) 
     std::uint32_t* picked = d_picked.data();
     const std::uint32_t num_winners = executor.compact(
         n, [=] __device__(std::size_t r) { return (flags[remaining[r]] & kWins) != 0; }, picked);
-    // The smallest located index holds every mark it made, so a round without winners means none was
+    // The smallest located key holds every mark it made, so a round without winners means none was
     // located.
     if (num_winners == 0)
       throw Error(std::string("internal error: inserting missing points (Algorithm 3; hints may form a "

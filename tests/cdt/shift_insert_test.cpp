@@ -360,6 +360,51 @@ TEST(InsertMissing, FarAndUselessHints) {
   }
 }
 
+// Missing points listed along a curve (as the points' space-filling order lists a coastline's) crowd a few
+// containers. Were the lowest list position to win each container, the winner would be the crowd's end
+// and its split would leave the rest of the crowd in one child: a round per point. The scattered claim
+// keys pick an arbitrary member, so the rounds grow with the logarithm of the crowd.
+TEST(InsertMissing, CrowdsAlongACurveTakeFewRounds) {
+  Points p;
+  for (int i = 0; i < 4000; ++i) {
+    const double t = i / 40.0; // 0 .. 100
+    p.add(t, t * t / 200.0 + 0.001 * i);
+  }
+  for (bool delaunay : {true, false}) {
+    Fixture f = fixture(p, {.cell = 32.0, .fakes = 8, .delaunay = delaunay});
+    ASSERT_GT(f.missing.size(), 3900u);
+    CpuExecutor ex(2);
+    const auto r = run_phases(f, ex);
+    ASSERT_EQ(r.error, "") << "delaunay " << delaunay;
+    EXPECT_EQ(r.insert.inserted, r.missing);
+    EXPECT_LT(r.insert.rounds, 100u) << "delaunay " << delaunay;
+  }
+}
+
+// The claim keys are a bijection of [0, 2^31) that never gives kNoId.
+TEST(InsertMissing, ClaimKeysAreInvertible) {
+  using cdt::detail::claim_holder;
+  using cdt::detail::claim_key;
+  std::mt19937 rng(3);
+  std::uniform_int_distribution<std::uint32_t> any(0, 0x7FFFFFFEu);
+  for (int i = 0; i < 100000; ++i) {
+    const std::uint32_t q = i < 50000 ? static_cast<std::uint32_t>(i) : any(rng);
+    const std::uint32_t key = claim_key(q);
+    ASSERT_LT(key, 0x80000000u);
+    ASSERT_EQ(claim_holder(key), q);
+  }
+  EXPECT_EQ(claim_holder(cdt::detail::kNoId), cdt::detail::kNoId);
+  // Neighbouring positions get scattered keys: the lowest key of a run is rarely at its start.
+  int at_start = 0;
+  for (std::uint32_t base = 0; base < 64000; base += 64) {
+    std::uint32_t best = base;
+    for (std::uint32_t q = base; q < base + 64; ++q)
+      if (claim_key(q) < claim_key(best)) best = q;
+    at_start += best == base ? 1 : 0;
+  }
+  EXPECT_LT(at_start, 100);
+}
+
 /// Vertex 0 at (cx, cy) surrounded by ring vertices 1..n; triangles (0, i, i + 1).
 Mesh star_mesh(double cx, double cy, const std::vector<std::pair<double, double>>& ring) {
   Mesh m;

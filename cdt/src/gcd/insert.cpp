@@ -91,8 +91,9 @@ InsertStats insert_missing_points(Mesh& mesh, std::span<const MissingPoint> miss
       loc_e[q] = at.edge;
       loc_u[q] = at.u;
       loc_j[q] = at.j;
-      atomic_min(&mark[at.tri], q);
-      if (at.u != kNoId) atomic_min(&mark[at.u], q);
+      const std::uint32_t key = claim_key(static_cast<std::uint32_t>(q));
+      atomic_min(&mark[at.tri], key);
+      if (at.u != kNoId) atomic_min(&mark[at.u], key);
     });
     failure.check("inserting missing points (Algorithm 3, point location)");
 
@@ -102,8 +103,9 @@ InsertStats insert_missing_points(Mesh& mesh, std::span<const MissingPoint> miss
       const auto q = remaining[r];
       const std::uint32_t t = loc_t[q], u = loc_u[q];
       if (t == kNoId) return;
-      const bool holds_t = mark[t] == q;
-      const bool holds_u = u != kNoId && mark[u] == q;
+      const std::uint32_t key = claim_key(static_cast<std::uint32_t>(q));
+      const bool holds_t = mark[t] == key;
+      const bool holds_u = u != kNoId && mark[u] == key;
       const bool wins = holds_t && (u == kNoId || holds_u);
       flags[q] =
           static_cast<std::uint8_t>((holds_t ? kHoldsT : 0) | (holds_u ? kHoldsU : 0) | (wins ? kWins : 0));
@@ -118,7 +120,7 @@ InsertStats insert_missing_points(Mesh& mesh, std::span<const MissingPoint> miss
       if (loc_t[q] == kNoId || (flags[q] & kWins) != 0) return;
       for (const std::uint32_t c : {loc_t[q], loc_u[q]}) {
         if (c == kNoId) continue;
-        const std::uint32_t w = mark[c];
+        const std::uint32_t w = claim_holder(mark[c]);
         if (w != kNoId && (flags[w] & kWins) != 0) {
           start[q] = missing[w].vertex;
           return;
@@ -127,7 +129,7 @@ InsertStats insert_missing_points(Mesh& mesh, std::span<const MissingPoint> miss
     });
     std::vector<std::uint32_t> winners =
         executor.compact(n, [&](std::size_t r) { return (flags[remaining[r]] & kWins) != 0; });
-    // The smallest located index holds every mark it made, so a round without winners means none was located.
+    // The smallest located key holds every mark it made, so a round without winners means none was located.
     if (winners.empty()) failure.record(WorkStatus::stuck);
     failure.check("inserting missing points (Algorithm 3; hints may form a cycle)");
     for (auto& w : winners) w = remaining[w];

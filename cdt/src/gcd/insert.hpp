@@ -3,9 +3,10 @@
 // boundary added in Phase 2.
 //
 // Algorithm 3 rounds: every pending point locates its container (one triangle, or the two triangles of the
-// edge it lies on) and marks it with its index by atomic minimum; a point whose marks all survive splits its
-// container (1 -> 3 inside a triangle, 2 -> 4 on an edge) into reused free slots; links are repaired in a
-// separate step. The smallest pending index always wins, so every round inserts at least one point.
+// edge it lies on) and marks it by atomic minimum of a key scattered from its index (claim_key); a point
+// whose marks all survive splits its container (1 -> 3 inside a triangle, 2 -> 4 on an edge) into reused free
+// slots; links are repaired in a separate step. The smallest pending key always wins, so every round
+// inserts at least one point.
 //
 // Point location is a straight walk from a vertex towards the point rather than the paper's unspecified
 // search: a visibility walk can cycle in a triangulation that is not Delaunay (ours is not until Phase 5),
@@ -320,12 +321,50 @@ CDT_HD_INLINE std::uint32_t split_forward(std::uint32_t x, std::uint32_t k, std:
   return edge_id(k == prev3(j) ? x : s1, k);
 }
 
+/// The order in which a round's points claim their containers (Algorithm 3 line 4): the mark is the
+/// atomic minimum of claim_key(q), not of the list position q itself. The missing points are listed in
+/// the points' order along a space-filling curve, so the lowest position in a container is a point at
+/// the edge of that container's crowd, and splitting there leaves nearly all the crowd in one child:
+/// points along a line (coastlines) or in a cluster then took one round each. The key is a bijection of
+/// [0, 2^31) (multiplications by odd constants and a xor-shift, each invertible modulo 2^31) that
+/// scatters neighbouring positions, so a container's winner is an arbitrary member of its crowd and the
+/// rounds grow with the logarithm of the crowd, as in a random binary search tree. The smallest key
+/// still wins every mark it makes, so each round inserts a point; kNoId is never a key.
+inline constexpr std::uint32_t kClaimMask = 0x7FFFFFFFu;
+inline constexpr std::uint32_t kClaimMul0 = 0x9E3779B1u, kClaimMul1 = 0x85EBCA6Bu;
+
+/// The inverse of an odd c modulo 2^32 (so modulo 2^31 too), by Newton's iteration x <- x (2 - c x),
+/// each step doubling the correct low bits (c is its own inverse modulo 8).
+constexpr std::uint32_t inverse_of_odd(std::uint32_t c) {
+  std::uint32_t x = c;
+  for (int i = 0; i < 5; ++i) x *= 2u - c * x;
+  return x;
+}
+inline constexpr std::uint32_t kClaimInv0 = inverse_of_odd(kClaimMul0),
+                               kClaimInv1 = inverse_of_odd(kClaimMul1);
+static_assert(kClaimMul0 * kClaimInv0 == 1u && kClaimMul1 * kClaimInv1 == 1u);
+
+/// claim_key(q) for a list position q < 2^31 (insert_missing_points takes fewer than 2^31 - 1 points).
+CDT_HD_INLINE std::uint32_t claim_key(std::uint32_t q) {
+  std::uint32_t a = (q * kClaimMul0) & kClaimMask;
+  a ^= a >> 16; // its own inverse on 31 bits
+  return (a * kClaimMul1) & kClaimMask;
+}
+
+/// The list position whose claim_key is `key`, or kNoId for kNoId (no mark).
+CDT_HD_INLINE std::uint32_t claim_holder(std::uint32_t key) {
+  if (key == kNoId) return kNoId;
+  std::uint32_t a = (key * kClaimInv1) & kClaimMask;
+  a ^= a >> 16;
+  return (a * kClaimInv0) & kClaimMask;
+}
+
 // Per missing point, after the marking: which container marks it holds, and whether it won them all.
 enum : std::uint8_t { kHoldsT = 1, kHoldsU = 2, kWins = 4 };
 
 /// A round of Algorithm 3 seen by one point: per missing point (by its position in the list) its
 /// location (containers t and u, edges e and j; u = kNoId inside t), its new slots and its flags, and
-/// per slot the lowest point marking it.
+/// per slot the lowest claim_key marking it.
 struct InsertRound {
   const std::uint32_t* loc_t = nullptr;
   const std::uint32_t* loc_e = nullptr;
@@ -377,7 +416,7 @@ CDT_HD inline void link_split_outer_edges(const MeshView& m, const InsertRound& 
     const std::uint32_t old = m.adj[ne];
     if (old == kNoId) continue;
     const std::uint32_t x = edge_tri(old);
-    const std::uint32_t w = r.mark[x];
+    const std::uint32_t w = claim_holder(r.mark[x]);
     if (w != kNoId && (r.flags[w] & kWins) != 0) {
       m.adj[ne] = split_forward(x, edge_index(old), r.loc_t[w], r.loc_e[w], r.loc_j[w], r.new0[w], r.new1[w]);
     } else {
