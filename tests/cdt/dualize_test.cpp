@@ -157,6 +157,48 @@ TEST(Dualize, LatticeSitesWithTiesStayValid) {
   EXPECT_GT(stats.dual_triangles, 0u);
 }
 
+// A full lattice's hull is four straight sides of collinear sites. The fake boundary's triangles share
+// the hull out among the fake vertices, each the part in its own direction, so that no fake vertex's fan
+// holds a whole side (steps that walk fans, above all the fake boundary's removal, walk them on one
+// thread).
+TEST(Dualize, FakeVerticesShareAStraightHull) {
+  CpuExecutor executor(2);
+  const std::uint32_t m = 64;
+  Sites s;
+  std::vector<std::uint32_t> colour(static_cast<std::size_t>(m) * m);
+  for (std::uint32_t y = 0; y < m; ++y)
+    for (std::uint32_t x = 0; x < m; ++x) {
+      colour[static_cast<std::size_t>(y) * m + x] = static_cast<std::uint32_t>(s.x.size());
+      s.gx.push_back(x);
+      s.gy.push_back(y);
+      s.x.push_back(x);
+      s.y.push_back(y);
+      s.kept.push_back(1);
+    }
+  DualizeStats stats;
+  const Mesh mesh =
+      dualize(colour, m, s.x, s.y, s.kept, Box{0, 0, double(m - 1), double(m - 1)}, executor, &stats);
+  expect_valid(mesh);
+  ASSERT_GT(stats.dual_triangles, 0u);
+  const auto n = static_cast<std::uint32_t>(s.x.size());
+  const std::uint32_t hull = 4 * (m - 1);
+  ASSERT_EQ(stats.fake_vertices, 16u); // ceil(sqrt(hull size))
+  std::vector<std::uint32_t> fan(stats.fake_vertices, 0);
+  for (std::uint32_t t = 0; t < mesh.num_slots(); ++t) {
+    if (!mesh.alive(t)) continue;
+    for (std::uint32_t i = 0; i < 3; ++i)
+      if (mesh.tri[3 * t + i] >= n) ++fan[mesh.tri[3 * t + i] - n];
+  }
+  std::uint32_t total = 0;
+  for (std::uint32_t f = 0; f < stats.fake_vertices; ++f) {
+    EXPECT_LE(fan[f], 2 * hull / stats.fake_vertices + 4) << "fake vertex " << f;
+    total += fan[f];
+  }
+  // The ring between hull and fake polygon: a triangle per hull edge (one fake corner) and one per fake
+  // edge (two).
+  EXPECT_EQ(total, hull + 2 * stats.fake_vertices);
+}
+
 // A pass after taking the sites of degenerate corners out recomputes only the rows of corners around
 // the recoloured cells and keeps the others from the first pass: it must give what a pass over every
 // row gives. Dense sites on the amended digital diagram meet collinear at corners often.

@@ -68,6 +68,74 @@ void add_outside_vertex(std::vector<std::uint32_t>& hull, std::uint32_t f, const
   hull.swap(next);
 }
 
+/// The ring between the convex hull (counter-clockwise, collinear vertices kept) and the fake polygon
+/// (fake vertices first_fake .. first_fake + k - 1, counter-clockwise around it) triangulated by one
+/// merge of the two cycles: each step adds the triangle of the current bridge (a fake vertex, a hull
+/// vertex) with the next hull vertex or the next fake vertex, whichever is valid, the one whose
+/// direction from the hull's centroid comes first when both are. Each fake vertex so takes the part of
+/// the hull in its own direction, about hull size / k vertices. (Adding the fake vertices one by one,
+/// each to every hull edge it sees, gave the first ones everything they saw: a straight side of the
+/// hull, a lattice's or clipped points' edge of thousands of collinear vertices, went into one fake
+/// vertex's fan, and each later step that walks fans, above all the fake boundary's removal, walked it
+/// on one thread.) Appends the m + k triangles to out and returns true; returns false, adding nothing,
+/// when some step finds neither triangle valid.
+bool zip_fake_boundary(const std::vector<std::uint32_t>& hull, std::uint32_t first_fake, std::uint32_t k,
+                       const double* x, const double* y, std::vector<Tri>& out) {
+  const std::size_t m = hull.size();
+  if (m < 3 || k < 3) return false;
+  double cx = 0, cy = 0;
+  for (const std::uint32_t v : hull) {
+    cx += x[v];
+    cy += y[v];
+  }
+  cx /= static_cast<double>(m);
+  cy /= static_cast<double>(m);
+  const auto h = [&](std::size_t j) { return hull[j % m]; };
+  const auto f = [&](std::size_t i) { return first_fake + static_cast<std::uint32_t>(i % k); };
+  // The segment from fake vertex fv to hull vertex j stays outside the hull: fv sees one of j's edges.
+  const auto sees = [&](std::uint32_t fv, std::size_t j) {
+    return orient(x, y, h(j), h(j + 1), fv) < 0 || orient(x, y, h(j + m - 1), h(j), fv) < 0;
+  };
+  // The first bridge: fake vertex 0 and the hull vertex it sees closest to its direction from the centroid.
+  const double fx = x[first_fake] - cx, fy = y[first_fake] - cy;
+  std::size_t start = m;
+  double best = -2;
+  for (std::size_t j = 0; j < m; ++j) {
+    const double hx = x[hull[j]] - cx, hy = y[hull[j]] - cy;
+    const double norm = std::hypot(hx, hy);
+    const double cosine = norm > 0 ? (hx * fx + hy * fy) / (norm * std::hypot(fx, fy)) : -2;
+    if (cosine > best && sees(first_fake, j)) {
+      best = cosine;
+      start = j;
+    }
+  }
+  if (start == m) return false;
+  std::vector<Tri> ring;
+  ring.reserve(m + k);
+  std::size_t i = 0, j = 0; // the bridge: fake vertex i, hull vertex start + j
+  while (i < k || j < m) {
+    const std::uint32_t fi = f(i), fn = f(i + 1), hj = h(start + j), hn = h(start + j + 1);
+    const bool hull_step = j < m && orient(x, y, hj, hn, fi) < 0;
+    const bool fake_step = i < k && orient(x, y, fi, fn, hj) > 0 && sees(fn, start + j);
+    bool take_hull = hull_step;
+    if (hull_step && fake_step) {
+      // Both valid: the hull's next vertex first when its direction comes before the next fake's.
+      take_hull = orient2d(cx, cy, x[fn], y[fn], x[hn], y[hn]) < 0;
+    } else if (!hull_step && !fake_step) {
+      return false;
+    }
+    if (take_hull) {
+      ring.push_back({hn, hj, fi});
+      ++j;
+    } else {
+      ring.push_back({fi, fn, hj});
+      ++i;
+    }
+  }
+  out.insert(out.end(), ring.begin(), ring.end());
+  return true;
+}
+
 /// The boundary cycle (counter-clockwise) through the open edges (in increasing edge order), or empty
 /// when they do not form one simple cycle.
 /// The open edges (indices into `open`) in the order they run around the dual's boundary, when it is
@@ -294,7 +362,9 @@ std::optional<DualCompletion> plan_dual_completion(std::span<const OpenEdge> ope
   fake_polygon(bounds, k_fake, plan.fake_x, plan.fake_y);
   lx.insert(lx.end(), plan.fake_x.begin(), plan.fake_x.end());
   ly.insert(ly.end(), plan.fake_y.begin(), plan.fake_y.end());
-  for (std::uint32_t f = b; f < b + k_fake; ++f) add_outside_vertex(hull, f, lx.data(), ly.data(), added);
+  if (!zip_fake_boundary(hull, b, k_fake, lx.data(), ly.data(), added)) {
+    for (std::uint32_t f = b; f < b + k_fake; ++f) add_outside_vertex(hull, f, lx.data(), ly.data(), added);
+  }
   const auto global = [&](std::uint32_t local) { return local < b ? boundary[local] : n + (local - b); };
   plan.triangles.reserve(added.size());
   for (const Tri& t : added) plan.triangles.push_back({global(t.a), global(t.b), global(t.c)});
