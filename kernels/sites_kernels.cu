@@ -169,6 +169,8 @@ void pieces_between_representatives(CudaExecutor& executor, std::span<const Segm
         out[3 * r + 2] = label[heads[r]];
       },
       "pieces");
+  // Room for what the split adds, as the host's merge leaves (cdt::detail::piece_room).
+  pieces.reserve(num_pieces + num_pieces / 256 + 1024);
   pieces.resize(num_pieces);
   executor.download(reinterpret_cast<std::uint32_t*>(pieces.data()), out,
                     3 * static_cast<std::size_t>(num_pieces), &parallel);

@@ -21,6 +21,7 @@
 #include <charconv>
 #include <cmath>
 #include <cstddef>
+#include <cstring>
 #include <functional>
 #include <limits>
 #include <string>
@@ -1331,6 +1332,7 @@ PreparedPslg merge_input(std::span<const Point> points, std::span<const Segment>
   trace.mark("sites");
   if (!merge) {
     const std::vector<WorkSegment> segs = initial_segments(segments, out.duplicate_of, executor);
+    out.pieces.reserve(piece_room(segs.size()));
     out.pieces.resize(segs.size());
     executor.for_each(segs.size(), [&](std::size_t k) {
       out.pieces[k] = {segs[k].a, segs[k].b, segs[k].label};
@@ -1372,10 +1374,12 @@ void split_pieces(PreparedPslg& pslg, std::span<const std::uint32_t> suspect_pie
   for (std::size_t v = first_added; v < pslg.vertices.size(); ++v)
     pslg.sites.push_back(static_cast<std::uint32_t>(v));
   trace.mark("suspects resolved");
-  // The others are unchanged; both lists are sorted by (a, b), and a resolved piece identical to
-  // another piece merges into it (the lowest segment id). The resolved pieces (few) find their places
-  // among all by binary search; the runs of others between the suspects and those places are then
-  // copied in parallel.
+  // The others are unchanged; both lists are sorted by (a, b). A resolved piece identical to a piece
+  // of the list merges into it (the lowest segment id), a suspect included: most suspects come back
+  // as they were, and keep their places. The new pieces (few) find their places by binary search,
+  // the suspects that did not come back leave, and the array is changed in place: the runs of kept
+  // pieces between those places move by how many pieces came and went before them, most of them not
+  // at all. (A merge into a fresh array wrote every piece, 21 MB for the coastlines, into fresh pages.)
   const auto before = [](const ConstraintPiece& p, const ConstraintPiece& q) {
     return p.a != q.a ? p.a < q.a : p.b < q.b;
   };
@@ -1384,52 +1388,55 @@ void split_pieces(PreparedPslg& pslg, std::span<const std::uint32_t> suspect_pie
   };
   std::vector<std::uint32_t> suspects(suspect_pieces.begin(), suspect_pieces.end());
   if (!std::is_sorted(suspects.begin(), suspects.end())) executor.sort(suspects, std::less<>());
-  const auto is_suspect = [&](std::size_t k) {
-    return std::binary_search(suspects.begin(), suspects.end(), k);
-  };
-  // Each resolved piece's place among all, and whether a kept piece equal to it absorbs it (searched in
+  // Each resolved piece's place among all, and whether the piece there is identical (searched in
   // parallel: on a lattice with random segments most pieces are suspects).
   std::vector<std::size_t> at_of(resolved.size());
-  std::vector<std::uint8_t> absorbed(resolved.size());
+  std::vector<std::uint8_t> hit(resolved.size());
   executor.for_each(resolved.size(), [&](std::size_t k) {
     const ConstraintPiece& q = resolved[k];
     const auto at = static_cast<std::size_t>(
         std::lower_bound(pslg.pieces.begin(), pslg.pieces.end(), q, before) - pslg.pieces.begin());
     at_of[k] = at;
-    absorbed[k] = at < pslg.pieces.size() && same(pslg.pieces[at], q) && !is_suspect(at);
+    hit[k] = at < pslg.pieces.size() && same(pslg.pieces[at], q);
   });
-  PieceArray inserted;            // resolved pieces that are new, with their places:
-  std::vector<std::size_t> place; // the index in pslg.pieces each goes before
+  std::vector<std::uint8_t> stays(suspects.size(), 0); // a suspect that came back
+  PieceArray inserted;                                 // resolved pieces that are new, with their places:
+  std::vector<std::size_t> place;                      // the index in pslg.pieces each goes before
   for (std::size_t k = 0; k < resolved.size(); ++k) {
     const ConstraintPiece& q = resolved[k];
     if (!inserted.empty() && same(inserted.back(), q)) {
       inserted.back().segment = std::min(inserted.back().segment, q.segment);
-    } else if (absorbed[k] != 0) {
-      pslg.pieces[at_of[k]].segment = std::min(pslg.pieces[at_of[k]].segment, q.segment);
+    } else if (hit[k] != 0) {
+      ConstraintPiece& there = pslg.pieces[at_of[k]];
+      const auto it = std::lower_bound(suspects.begin(), suspects.end(), at_of[k]);
+      if (it != suspects.end() && *it == at_of[k] && stays[it - suspects.begin()] == 0) {
+        stays[it - suspects.begin()] = 1; // a suspect's own id is not kept unless it came back
+        there.segment = q.segment;
+      } else {
+        there.segment = std::min(there.segment, q.segment);
+      }
     } else {
       inserted.push_back(q);
       place.push_back(at_of[k]);
     }
   }
-  // Walking the suspects and the places in order: runs of kept pieces (source, destination, length),
-  // cut into parts of at most kRun for the threads, and the inserted pieces' destinations.
+  // Walking the leaving suspects and the places in order: runs of kept pieces (source, destination,
+  // length) and the inserted pieces' destinations.
   struct Run {
     std::size_t from, to, count;
   };
-  constexpr std::size_t kRun = std::size_t{1} << 16;
   std::vector<Run> runs;
   std::vector<std::size_t> inserted_at(inserted.size());
   std::size_t from = 0, to = 0, s = 0, j = 0;
   const auto copy_until = [&](std::size_t stop) {
-    while (from < stop) {
-      const std::size_t count = std::min(stop - from, kRun);
-      runs.push_back({from, to, count});
-      from += count;
-      to += count;
-    }
+    if (from < stop) runs.push_back({from, to, stop - from});
+    to += stop - from;
+    from = stop;
   };
   while (s < suspects.size() || j < inserted.size()) {
-    if (j < inserted.size() && (s == suspects.size() || place[j] <= suspects[s])) {
+    if (s < suspects.size() && stays[s] != 0) {
+      ++s;
+    } else if (j < inserted.size() && (s == suspects.size() || place[j] <= suspects[s])) {
       copy_until(place[j]);
       inserted_at[j++] = to++;
     } else {
@@ -1438,13 +1445,19 @@ void split_pieces(PreparedPslg& pslg, std::span<const std::uint32_t> suspect_pie
     }
   }
   copy_until(pslg.pieces.size());
-  PieceArray merged(to);
-  executor.for_each(runs.size(), [&](std::size_t r) {
-    std::copy_n(pslg.pieces.begin() + static_cast<std::ptrdiff_t>(runs[r].from), runs[r].count,
-                merged.begin() + static_cast<std::ptrdiff_t>(runs[r].to));
-  });
-  for (std::size_t k = 0; k < inserted.size(); ++k) merged[inserted_at[k]] = inserted[k];
-  pslg.pieces = std::move(merged);
+  // In place: a run moving left never overwrites what a later run still has to read, nor one moving
+  // right what an earlier one has to read; so the left-moving runs go first to last, the
+  // right-moving ones last to first, and the inserted pieces (which may land in runs' old places)
+  // after them.
+  const std::size_t old_size = pslg.pieces.size();
+  if (to > old_size) pslg.pieces.resize(to);
+  ConstraintPiece* data = pslg.pieces.data();
+  for (const Run& r : runs)
+    if (r.to < r.from) std::memmove(data + r.to, data + r.from, r.count * sizeof(ConstraintPiece));
+  for (auto r = runs.rbegin(); r != runs.rend(); ++r)
+    if (r->to > r->from) std::memmove(data + r->to, data + r->from, r->count * sizeof(ConstraintPiece));
+  for (std::size_t k = 0; k < inserted.size(); ++k) data[inserted_at[k]] = inserted[k];
+  pslg.pieces.resize(to);
   trace.mark("pieces merged");
 }
 

@@ -53,6 +53,10 @@ struct PreparedPslg {
   std::size_t zero_length_segments = 0;
 };
 
+/// Room for the pieces of n input pieces that split_pieces (the suspects' form) may add without moving
+/// the array: a crossing adds two. The device's merge download reserves the same.
+inline std::size_t piece_room(std::size_t n) { return n + n / 256 + 1024; }
+
 /// The bits of v with -0 taken as +0, so that equal coordinates give equal bits.
 CDT_HD_INLINE std::uint64_t coordinate_bits(double v) {
   if (v == 0.0) v = 0.0;

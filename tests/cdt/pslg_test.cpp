@@ -13,6 +13,7 @@
 #include <limits>
 #include <numeric>
 #include <string>
+#include <tuple>
 #include <vector>
 
 #include "cdt/detail/predicates.hpp"
@@ -356,6 +357,62 @@ TEST(PslgSplit, SuspectsAloneAsAll) {
   EXPECT_EQ(piece_pairs(some), piece_pairs(all));
   EXPECT_EQ(piece_labels(some), piece_labels(all));
   EXPECT_EQ(some.vertices.size(), all.vertices.size());
+}
+
+// Suspects that come back as they were keep their places, the cut ones leave, and their parts are put
+// among the rest in place (moved left where more left than came before them, right where more came):
+// the same pieces as splitting all. Random segments, many crossing; the suspects are every cut piece
+// and a share of the others.
+TEST(PslgSplit, SuspectsThatComeBackKeepTheirPlaces) {
+  for (const std::uint64_t seed : {11u, 12u, 13u}) {
+    trixel_gen::Random rng(seed);
+    std::vector<Point> points;
+    for (int k = 0; k < 400; k += 2) { // short segments, most of them crossing nothing
+      const Point p{rng.unit() * 100, rng.unit() * 100};
+      points.push_back(p);
+      points.push_back({p.x + rng.unit() * 3, p.y + rng.unit() * 3});
+    }
+    std::vector<Segment> segments;
+    for (std::uint32_t k = 0; k + 1 < 400; k += 2) {
+      const bool long_one = k % 40 == 0; // a few long segments cross many short ones
+      const std::uint32_t b = long_one ? static_cast<std::uint32_t>(rng.range(0, 399)) : k + 1;
+      if (b != k) segments.push_back({k, b});
+    }
+    CpuExecutor executor(2);
+    PreparedPslg all = cdt::detail::merge_input(points, segments, CrossingSegments::resolve, executor);
+    PreparedPslg some = all;
+    cdt::detail::split_pieces(all, CrossingSegments::resolve, executor);
+    const auto kept = piece_pairs(all);
+    std::vector<std::uint32_t> suspects;
+    std::size_t cut = 0;
+    for (std::uint32_t k = 0; k < some.pieces.size(); ++k) {
+      const std::pair<std::uint32_t, std::uint32_t> ab{some.pieces[k].a, some.pieces[k].b};
+      const bool whole = std::binary_search(kept.begin(), kept.end(), ab);
+      cut += whole ? 0 : 1;
+      if (!whole || rng.range(0, 2) == 0) suspects.push_back(k);
+    }
+    ASSERT_GT(cut, 5u) << "seed " << seed;
+    ASSERT_LT(suspects.size(), some.pieces.size());
+    const std::vector<std::uint32_t> sites(some.sites.begin(), some.sites.end());
+    cdt::detail::split_pieces(some, suspects, sites, CrossingSegments::resolve, executor);
+    // The crossing vertices are numbered in the order each split meets them: compare by coordinates.
+    ASSERT_EQ(some.vertices.size(), all.vertices.size()) << "seed " << seed;
+    const auto by_coordinates = [](const PreparedPslg& out) {
+      std::vector<std::tuple<double, double, double, double, std::uint32_t>> list;
+      for (const auto& piece : out.pieces) {
+        Point a = out.vertices[piece.a], b = out.vertices[piece.b];
+        if (std::tie(b.x, b.y) < std::tie(a.x, a.y)) std::swap(a, b);
+        list.emplace_back(a.x, a.y, b.x, b.y, piece.segment);
+      }
+      std::sort(list.begin(), list.end());
+      return list;
+    };
+    EXPECT_EQ(by_coordinates(some), by_coordinates(all)) << "seed " << seed;
+    // And the list stays sorted by (a, b), as the triangulation expects.
+    const auto pairs = piece_pairs(some);
+    EXPECT_TRUE(std::is_sorted(pairs.begin(), pairs.end())) << "seed " << seed;
+    EXPECT_EQ(std::adjacent_find(pairs.begin(), pairs.end()), pairs.end()) << "seed " << seed;
+  }
 }
 
 TEST(PslgOverlap, PartialOverlapIsMergedWithLowestIds) {
