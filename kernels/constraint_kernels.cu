@@ -47,11 +47,29 @@ __device__ bool is_error(ConstraintStatus s) { return s >= ConstraintStatus::ver
 
 } // namespace
 
+void check_device_pieces(CudaExecutor& executor, const ConstraintPiece2* pieces,
+                         std::span<const ConstraintPiece2> host_pieces, std::uint32_t num_vertices) {
+  if (host_pieces.empty()) return;
+  DeviceBuffer<std::uint32_t> d_bad(1);
+  std::uint32_t* bad = d_bad.data();
+  executor.fill_bytes(bad, 0xFF, 1);
+  executor.for_each(
+      host_pieces.size(),
+      [=] __device__(std::size_t k) {
+        if (!::cdt::detail::piece_endpoints_valid(pieces[k], num_vertices))
+          atomicMin(bad, static_cast<std::uint32_t>(k));
+      },
+      "check_pieces");
+  std::uint32_t first = kNoId;
+  executor.download(&first, bad, 1);
+  if (first != kNoId) ::cdt::detail::throw_invalid_piece(first, host_pieces[first]);
+}
+
 ConstraintStats insert_constraints(DeviceMesh::State& s, std::span<const ConstraintPiece2> host_pieces,
                                    unsigned inner_iterations, std::uint8_t* flipped) {
   ConstraintStats stats;
   const std::uint32_t slots = s.num_slots;
-  ::cdt::detail::check_constraint_pieces(slots, s.num_vertices, host_pieces);
+  ::cdt::detail::check_constraint_counts(slots, host_pieces.size());
   if (host_pieces.empty()) return stats;
   const std::uint64_t max_inner_iterations = ::cdt::detail::constraint_iteration_bound(s.num_vertices);
   const unsigned inner_limit = inner_iterations == 0 ? 1u : inner_iterations;
@@ -61,6 +79,7 @@ ConstraintStats insert_constraints(DeviceMesh::State& s, std::span<const Constra
   const MeshView m = s.view();
   DeviceBuffer<ConstraintPiece2> d_pieces(num_pieces);
   executor.upload(d_pieces.data(), host_pieces.data(), num_pieces);
+  check_device_pieces(executor, d_pieces.data(), host_pieces, s.num_vertices);
   const ConstraintPiece2* piece = d_pieces.data();
   DeviceBuffer<std::uint32_t> d_cmark(slots), d_claim(slots);
   std::uint32_t* cmark = d_cmark.data();

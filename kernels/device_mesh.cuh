@@ -4,11 +4,13 @@
 
 #include <cstddef>
 #include <cstdint>
+#include <span>
 #include <string>
 
 #include "cdt_kernels.hpp"
 #include "cuda_check.cuh"
 #include "cuda_executor.cuh"
+#include "gcd/constraints.hpp"
 #include "gcd/mesh.hpp"
 #include "gcd/shift.hpp"
 
@@ -39,6 +41,12 @@ struct DeviceFlipBatch {
 /// them; throws Error when a link is lost (the mesh was not valid). Waits for the batch.
 void apply_flips(CudaExecutor& executor, DeviceFlipBatch& batch, const ::cdt::detail::MeshView& m,
                  const std::uint32_t* edges, std::uint32_t n);
+
+/// check_constraint_pieces' test of every piece, on the device's copy of host_pieces (one pass instead of
+/// a serial loop over millions on the host); throws the same Error for the first bad piece.
+void check_device_pieces(CudaExecutor& executor, const ::cdt::detail::ConstraintPiece2* pieces,
+                         std::span<const ::cdt::detail::ConstraintPiece2> host_pieces,
+                         std::uint32_t num_vertices);
 
 /// Device memory of a mesh of `slots` triangles over nv vertices, in bytes.
 std::size_t mesh_device_bytes(std::size_t slots, std::size_t nv);

@@ -41,7 +41,7 @@ ScreenedPieces DeviceMesh::screen(std::span<const ConstraintPiece2> host_pieces)
   using detail::DeviceBuffer;
   ScreenedPieces out;
   State& s = *state_;
-  ::cdt::detail::check_constraint_pieces(s.num_slots, s.num_vertices, host_pieces);
+  ::cdt::detail::check_constraint_counts(s.num_slots, host_pieces.size());
   const std::size_t np = host_pieces.size();
   if (np == 0) return out;
   detail::CudaExecutor& executor = s.executor;
@@ -55,6 +55,7 @@ ScreenedPieces DeviceMesh::screen(std::span<const ConstraintPiece2> host_pieces)
 
   DeviceBuffer<ConstraintPiece2> d_pieces(np);
   executor.upload(d_pieces.data(), host_pieces.data(), np);
+  detail::check_device_pieces(executor, d_pieces.data(), host_pieces, s.num_vertices);
   const ConstraintPiece2* pieces = d_pieces.data();
   // Per edge side, the piece lying on it; per piece, whether it is walked, whether it shares a triangle
   // and whether it is suspect; per slot, the lowest and the highest walker through it.

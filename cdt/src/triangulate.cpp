@@ -138,15 +138,16 @@ IndexArray spatial_site_order(const detail::GridMapping& mapping, std::span<cons
 }
 
 /// The PSLG's pieces in mesh vertex ids (id: the piece's index).
-std::vector<detail::ConstraintPiece2> mesh_pieces(const detail::PreparedPslg& pslg,
-                                                  const IndexArray& site_of_vertex,
-                                                  detail::CpuExecutor& executor) {
-  std::vector<detail::ConstraintPiece2> pieces(pslg.pieces.size());
+/// The pieces in mesh vertex ids, written into `pieces` (its storage reused when made again after a
+/// split: a fresh array of millions of pieces costs its page faults again).
+void mesh_pieces(const detail::PreparedPslg& pslg, const IndexArray& site_of_vertex,
+                 detail::CpuExecutor& executor, std::vector<detail::ConstraintPiece2>& pieces) {
+  if (pieces.capacity() < pslg.pieces.size()) pieces.reserve(detail::piece_room(pslg.pieces.size()));
+  pieces.resize(pslg.pieces.size());
   executor.for_each(pieces.size(), [&](std::size_t k) {
     pieces[k] = {site_of_vertex[pslg.pieces[k].a], site_of_vertex[pslg.pieces[k].b],
                  static_cast<std::uint32_t>(k)};
   });
-  return pieces;
 }
 
 /// Splits the pieces after the sites are triangulated, given their screen against the Delaunay mesh
@@ -577,17 +578,19 @@ Triangulation triangulate_on(std::span<const Point> points, std::span<const Segm
   // The pieces in mesh vertex ids, for the screen and then the constraints; made again only when the
   // split changed them.
   std::vector<ConstraintPiece2> pieces;
+  bool pieces_stale = true;
   if (split == Split::screened && !pslg.pieces.empty()) {
     screened = true;
     const std::size_t first_added = pslg.vertices.size();
-    pieces = mesh_pieces(pslg, site_of_vertex, executor);
+    mesh_pieces(pslg, site_of_vertex, executor, pieces);
+    pieces_stale = false;
     ScreenedPieces screen;
 #if defined(TRIXEL_HAVE_CUDA)
     if (on_gpu) screen = device_mesh->screen(pieces);
 #endif
     if (!on_gpu) screen = screen_pieces(mesh.view(), pieces, executor);
     trace.mark("screened");
-    if (!screen.complete || !screen.pieces.empty()) pieces.clear();
+    if (!screen.complete || !screen.pieces.empty()) pieces_stale = true;
     split_screened(pslg, screen, site_vertex, options.crossings, executor);
     trace.mark("split");
     InsertStats placed;
@@ -618,7 +621,7 @@ Triangulation triangulate_on(std::span<const Point> points, std::span<const Segm
   stats.added_vertices = pslg.vertices.size() - points.size();
 
   // Step 2: constraints (pieces named by their index; seg holds the piece index).
-  if (pieces.empty()) pieces = mesh_pieces(pslg, site_of_vertex, executor);
+  if (pieces_stale) mesh_pieces(pslg, site_of_vertex, executor, pieces);
   ConstraintStats cons;
   // The slots the constraints' flips rewrote: after Phase 5, only their edges can fail the incircle test.
   std::vector<std::uint8_t> flipped;

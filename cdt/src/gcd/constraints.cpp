@@ -64,18 +64,22 @@ std::uint64_t constraint_iteration_bound(std::uint64_t n) {
   return n < (1u << 28) ? 16 * n * n + 10'000'000 : ~std::uint64_t{0};
 }
 
-void check_constraint_pieces(std::uint32_t num_slots, std::uint32_t num_vertices,
-                             std::span<const ConstraintPiece2> pieces) {
+void check_constraint_counts(std::uint32_t num_slots, std::size_t num_pieces) {
   if (num_slots >= kMaxConstraintSlots)
     throw Error("too many triangles for constraint insertion (at most 2^30 slots)");
-  if (pieces.size() >= kNoId) throw Error("too many constraint pieces for 32-bit indices");
-  for (std::size_t k = 0; k < pieces.size(); ++k) {
-    const ConstraintPiece2& p = pieces[k];
-    if (p.a >= num_vertices || p.b >= num_vertices || p.a == p.b) {
-      throw Error("internal error: constraint piece " + std::to_string(k) + " (" + std::to_string(p.a) +
-                  ", " + std::to_string(p.b) + ") has invalid endpoints");
-    }
-  }
+  if (num_pieces >= kNoId) throw Error("too many constraint pieces for 32-bit indices");
+}
+
+void throw_invalid_piece(std::size_t k, const ConstraintPiece2& p) {
+  throw Error("internal error: constraint piece " + std::to_string(k) + " (" + std::to_string(p.a) + ", " +
+              std::to_string(p.b) + ") has invalid endpoints");
+}
+
+void check_constraint_pieces(std::uint32_t num_slots, std::uint32_t num_vertices,
+                             std::span<const ConstraintPiece2> pieces) {
+  check_constraint_counts(num_slots, pieces.size());
+  for (std::size_t k = 0; k < pieces.size(); ++k)
+    if (!piece_endpoints_valid(pieces[k], num_vertices)) throw_invalid_piece(k, pieces[k]);
 }
 
 ConstraintStats insert_constraints(Mesh& mesh, std::span<const ConstraintPiece2> pieces,

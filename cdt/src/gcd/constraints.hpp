@@ -84,6 +84,17 @@ inline constexpr std::uint32_t kMaxConstraintSlots = 1u << 30;
 void check_constraint_pieces(std::uint32_t num_slots, std::uint32_t num_vertices,
                              std::span<const ConstraintPiece2> pieces);
 
+/// The first two of those checks alone (the device tests the pieces on its own copy).
+void check_constraint_counts(std::uint32_t num_slots, std::size_t num_pieces);
+
+/// Whether a piece's endpoints are distinct vertices of a mesh of num_vertices.
+CDT_HD_INLINE bool piece_endpoints_valid(const ConstraintPiece2& p, std::uint32_t num_vertices) {
+  return p.a < num_vertices && p.b < num_vertices && p.a != p.b;
+}
+
+/// The error for piece k with invalid endpoints.
+[[noreturn]] void throw_invalid_piece(std::size_t k, const ConstraintPiece2& p);
+
 // --- per-element work (host and device) --------------------------------------------------------------
 
 /// Result of a per-element step. Values from vertex_on_piece on are errors; the driver reports the one of
