@@ -15,7 +15,10 @@
 #   compare    (not in the default list) an earlier tree against this one on the same machine, whose
 #              timings vary 10-25% between calls: TRIXEL_BASE (default .carry/base) holds a copy of it
 #              (`git archive REV | tar -x -C .carry/base`, carried); both bench_cdt builds run in turn,
-#              TRIXEL_ROUNDS times (default 3), on 10M points + 1M segments and the coastlines
+#              TRIXEL_ROUNDS times (default 3), on 10M points + 1M segments and the coastlines;
+#              TRIXEL_COMPARE_SIZES (POINTS:SEGMENTS pairs, default 10000000:1000000),
+#              TRIXEL_COMPARE_CASE (default uniform; "" for uniform and Gaussian) and
+#              TRIXEL_COMPARE_LATTICE (K, default 0: none) choose the synthetic inputs
 # The CDT matrix (TRIXEL_CDT_SIZES, POINTS:SEGMENTS pairs) is the paper's synthetic design, uniform and
 # Gaussian, plus a 4096 x 4096 lattice with random segments (TRIXEL_CDT_LATTICE=K for K x K, 0 for
 # none) and the GSHHG coastlines when carried (.carry/gshhg-high.txt.gz). Generated inputs are cached in build-gpu/inputs for the later parts.
@@ -99,8 +102,13 @@ if want compare; then
     step base-build cmake --build build-base -j "$(nproc)" --target bench_cdt
     [ -x build-gpu/bin/bench_cdt ] || step build-bench cmake --build build-gpu -j "$(nproc)" --target bench_cdt
     one=(--repeat 3 --no-cgal --backend gpu --cache build-gpu/inputs)
-    compare_run() { # compare_run BUILD: one round on both inputs, lines tagged with the build
-      "build-$1/bin/bench_cdt" "${one[@]}" --sizes 10000000:1000000 --case uniform | grep '^| s' | sed "s/^/$1 /"
+    compare_case=${TRIXEL_COMPARE_CASE-uniform}
+    compare_run() { # compare_run BUILD: one round on every input, lines tagged with the build
+      "build-$1/bin/bench_cdt" "${one[@]}" --sizes "${TRIXEL_COMPARE_SIZES:-10000000:1000000}" \
+        ${compare_case:+--case "$compare_case"} | grep '^| s' | sed "s/^/$1 /"
+      [ "${TRIXEL_COMPARE_LATTICE:-0}" != 0 ] &&
+        "build-$1/bin/bench_cdt" "${one[@]}" --lattice "$TRIXEL_COMPARE_LATTICE" --case lattice |
+        grep '^| l' | sed "s/^/$1 /"
       [ -s build-gpu/inputs/gshhg-high.txt ] &&
         "build-$1/bin/bench_cdt" "${one[@]}" --coast build-gpu/inputs/gshhg-high.txt --case GSHHG |
         grep '^| G' | sed "s/^/$1 /"
