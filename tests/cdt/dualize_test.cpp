@@ -68,6 +68,15 @@ struct Sites {
   std::vector<std::uint32_t> gx, gy;
   std::vector<double> x, y;
   std::vector<std::uint8_t> kept;
+
+  /// A kept site at grid point (x, y), at that position.
+  void add(std::uint32_t x, std::uint32_t y) {
+    gx.push_back(x);
+    gy.push_back(y);
+    this->x.push_back(x);
+    this->y.push_back(y);
+    kept.push_back(1);
+  }
 };
 
 Sites random_sites(std::uint32_t m, std::uint32_t count, std::uint64_t seed) {
@@ -79,11 +88,7 @@ Sites random_sites(std::uint32_t m, std::uint32_t count, std::uint64_t seed) {
     const auto y = static_cast<std::uint32_t>(rng.range(0, m - 1));
     if (used[static_cast<std::size_t>(y) * m + x]) continue;
     used[static_cast<std::size_t>(y) * m + x] = 1;
-    s.gx.push_back(x);
-    s.gy.push_back(y);
-    s.x.push_back(x);
-    s.y.push_back(y);
-    s.kept.push_back(1);
+    s.add(x, y);
   }
   return s;
 }
@@ -144,11 +149,7 @@ TEST(Dualize, LatticeSitesWithTiesStayValid) {
   Sites s;
   for (std::uint32_t y = 2; y < m; y += 6)
     for (std::uint32_t x = 1; x < m; x += 5) {
-      s.gx.push_back(x);
-      s.gy.push_back(y);
-      s.x.push_back(x);
-      s.y.push_back(y);
-      s.kept.push_back(1);
+      s.add(x, y);
     }
   const auto colour = brute_force_colour(s.gx, s.gy, m);
   DualizeStats stats;
@@ -169,11 +170,7 @@ TEST(Dualize, FakeVerticesShareAStraightHull) {
   for (std::uint32_t y = 0; y < m; ++y)
     for (std::uint32_t x = 0; x < m; ++x) {
       colour[static_cast<std::size_t>(y) * m + x] = static_cast<std::uint32_t>(s.x.size());
-      s.gx.push_back(x);
-      s.gy.push_back(y);
-      s.x.push_back(x);
-      s.y.push_back(y);
-      s.kept.push_back(1);
+      s.add(x, y);
     }
   DualizeStats stats;
   const Mesh mesh =

@@ -97,13 +97,13 @@ bool zip_fake_boundary(const std::vector<std::uint32_t>& hull, std::uint32_t fir
     return orient(x, y, h(j), h(j + 1), fv) < 0 || orient(x, y, h(j + m - 1), h(j), fv) < 0;
   };
   // The first bridge: fake vertex 0 and the hull vertex it sees closest to its direction from the centroid.
-  const double fx = x[first_fake] - cx, fy = y[first_fake] - cy;
+  const double fx = x[first_fake] - cx, fy = y[first_fake] - cy, f_norm = std::hypot(fx, fy);
   std::size_t start = m;
   double best = -2;
   for (std::size_t j = 0; j < m; ++j) {
     const double hx = x[hull[j]] - cx, hy = y[hull[j]] - cy;
     const double norm = std::hypot(hx, hy);
-    const double cosine = norm > 0 ? (hx * fx + hy * fy) / (norm * std::hypot(fx, fy)) : -2;
+    const double cosine = norm > 0 ? (hx * fx + hy * fy) / (norm * f_norm) : -2;
     if (cosine > best && sees(first_fake, j)) {
       best = cosine;
       start = j;
