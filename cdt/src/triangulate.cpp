@@ -137,9 +137,9 @@ IndexArray spatial_site_order(const detail::GridMapping& mapping, std::span<cons
   return site_vertex;
 }
 
-/// The PSLG's pieces in mesh vertex ids (id: the piece's index).
-/// The pieces in mesh vertex ids, written into `pieces` (its storage reused when made again after a
-/// split: a fresh array of millions of pieces costs its page faults again).
+/// The PSLG's pieces in mesh vertex ids (id: the piece's index), written into `pieces`, whose storage is
+/// reused when they are made again after a split (a fresh array of millions of pieces costs its page
+/// faults again).
 void mesh_pieces(const detail::PreparedPslg& pslg, const IndexArray& site_of_vertex,
                  detail::CpuExecutor& executor, std::vector<detail::ConstraintPiece2>& pieces) {
   if (pieces.capacity() < pslg.pieces.size()) pieces.reserve(detail::piece_room(pslg.pieces.size()));
