@@ -69,12 +69,12 @@ struct Sites {
   std::vector<double> x, y;
   std::vector<std::uint8_t> kept;
 
-  /// A kept site at grid point (x, y), at that position.
-  void add(std::uint32_t x, std::uint32_t y) {
-    gx.push_back(x);
-    gy.push_back(y);
-    this->x.push_back(x);
-    this->y.push_back(y);
+  /// A kept site at grid point (px, py), at that position.
+  void add(std::uint32_t px, std::uint32_t py) {
+    gx.push_back(px);
+    gy.push_back(py);
+    x.push_back(px);
+    y.push_back(py);
     kept.push_back(1);
   }
 };
