@@ -300,9 +300,16 @@ public:
   /// cdt::detail::flip_fake_fans: the fake vertices' fans made convex chains before their removal.
   FlipResult flip_fake_fans(std::uint32_t first_fake);
 
+  /// The host's part of the fake boundary's removal (cdt::detail::delete_fake_vertices): the fake
+  /// vertices' fans numbered locally, the first local fake vertex, and each local vertex's id in the mesh.
+  using RemoveOnHost = std::function<void(::cdt::detail::Mesh& fans, std::uint32_t first_fake,
+                                          std::span<const std::uint32_t> ranked_as)>;
+
   /// cdt::detail::remove_fake_boundary: the fake vertices leave, the slots are compacted in the order
-  /// of their lowest vertex.
-  void remove_fake_boundary(std::uint32_t first_fake);
+  /// of their lowest vertex. The fake vertices' fans are numbered locally and copied to the host, which
+  /// deletes the fake vertices (remove_on_host), and the result is written back: the fans are few
+  /// triangles, but walking them is serial work.
+  void remove_fake_boundary(std::uint32_t first_fake, const RemoveOnHost& remove_on_host);
 
   /// cdt::detail::screen_pieces on the device, the same result: the pieces (mesh vertex ids; the id
   /// field is ignored) that are no edges of the mesh, the edge-pieces they cross and the sites near

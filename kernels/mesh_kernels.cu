@@ -2,8 +2,10 @@
 // 2), missing points (Algorithm 3) and the fake boundary's removal, on a mesh that stays on the device.
 // The per-element work is cdt/src/gcd/shift.hpp's and insert.hpp's; each driver below runs the same
 // steps as its CPU executor twin (cdt/src/gcd/shift.cpp, insert.cpp) in the same order with the same
-// ordered compactions, so both executors leave the same mesh slot for slot.
+// ordered compactions, so both executors leave the same mesh slot for slot. The fake boundary's removal
+// is the exception: its fans go to the host, whose edits come back (DeviceMesh::remove_fake_boundary).
 
+#include <algorithm>
 #include <array>
 #include <cstddef>
 #include <cstdint>
@@ -26,7 +28,6 @@ namespace cdt::gpu {
 using ::cdt::detail::edge_id;
 using ::cdt::detail::edge_index;
 using ::cdt::detail::edge_tri;
-using ::cdt::detail::HoleShape;
 using ::cdt::detail::HoleView;
 using ::cdt::detail::InsertStats;
 using ::cdt::detail::kHoldsT;
@@ -83,14 +84,14 @@ struct DeletedStars {
   std::uint32_t written = 0;
 };
 
-/// cdt::detail::delete_vertex_round on the device: active[0, n) pairwise non-adjacent.
-void delete_vertex_round(DeviceMesh::State& s, const std::uint32_t* active, std::uint32_t n, HoleShape shape,
+/// cdt::detail::delete_vertex_round on the device for star holes (the fake boundary's open fans are
+/// removed on the host): active[0, n) pairwise non-adjacent.
+void delete_vertex_round(DeviceMesh::State& s, const std::uint32_t* active, std::uint32_t n,
                          const std::uint8_t* leaving, std::uint32_t* hint, DeviceHoles& ws) {
   if (n == 0) return;
   if (s.num_slots >= ::cdt::detail::kBoundaryRef / 3) throw Error("internal error: too many triangle slots");
   CudaExecutor& executor = s.executor;
   const MeshView m = s.view();
-  const bool star = shape == HoleShape::star;
   if (ws.slot_pos.size() < m.num_slots) {
     ws.slot_pos.resize(m.num_slots);
     executor.fill_bytes(ws.slot_pos.data(), 0xFF, m.num_slots);
@@ -107,8 +108,8 @@ void delete_vertex_round(DeviceMesh::State& s, const std::uint32_t* active, std:
         const std::uint32_t size = ::cdt::detail::ring_size(m, active[i], closed);
         if (size == 0)
           failure.record(WorkStatus::broken_fan);
-        else if (closed != star)
-          failure.record(star ? WorkStatus::open_star : WorkStatus::closed_fake);
+        else if (!closed)
+          failure.record(WorkStatus::open_star);
         count[i] = size;
         offset[i] = size;
       },
@@ -135,31 +136,26 @@ void delete_vertex_round(DeviceMesh::State& s, const std::uint32_t* active, std:
       n,
       [=] __device__(std::size_t i) {
         const std::uint32_t v = active[i], base = offset[i], size = count[i];
-        WorkStatus status = WorkStatus::ok;
-        if (star) {
-          status = ::cdt::detail::cut_ears(m, h, base, size, m.x[v], m.y[v]);
-          if (hint != nullptr) {
-            std::uint32_t chosen = h.vertex[base];
-            for (std::uint32_t p = base; p < base + size; ++p) {
-              if (leaving == nullptr || leaving[h.vertex[p]] == 0) {
-                chosen = h.vertex[p];
-                break;
-              }
+        const WorkStatus status = ::cdt::detail::cut_ears(m, h, base, size, m.x[v], m.y[v]);
+        if (hint != nullptr) {
+          std::uint32_t chosen = h.vertex[base];
+          for (std::uint32_t p = base; p < base + size; ++p) {
+            if (leaving == nullptr || leaving[h.vertex[p]] == 0) {
+              chosen = h.vertex[p];
+              break;
             }
-            hint[i] = chosen;
           }
-        } else {
-          status = ::cdt::detail::fill_pockets(m, h, base, size);
+          hint[i] = chosen;
         }
         if (status != WorkStatus::ok) failure.record(status);
         m.vert_tri[v] = kNoId;
       },
       "fill_holes");
-  s.check(failure, star ? "deleting bad cases (ear cutting)" : "removing the fake boundary (pocket fill)");
+  s.check(failure, "deleting bad cases (ear cutting)");
   executor.for_each(
       n,
       [=] __device__(std::size_t i) {
-        ::cdt::detail::relink_hole(m, h, offset[i], count[i], star, slot_pos);
+        ::cdt::detail::relink_hole(m, h, offset[i], count[i], true, slot_pos);
       },
       "relink_hole");
   executor.for_each(
@@ -171,10 +167,11 @@ void delete_vertex_round(DeviceMesh::State& s, const std::uint32_t* active, std:
       "release_slot_marks");
 }
 
-/// cdt::detail::delete_vertices on the device: deletes the n vertices of `pending` (leaving[v] set for
-/// each) in rounds of pairwise non-adjacent vertices; star holes report to `stars`. Returns the rounds.
+/// cdt::detail::delete_vertices on the device for star holes: deletes the n vertices of `pending`
+/// (leaving[v] set for each) in rounds of pairwise non-adjacent vertices, reporting to `stars` when
+/// given. Returns the rounds.
 std::uint64_t delete_vertices(DeviceMesh::State& s, DeviceBuffer<std::uint32_t>& pending, std::uint32_t n,
-                              HoleShape shape, std::uint8_t* leaving, DeletedStars* stars) {
+                              std::uint8_t* leaving, DeletedStars* stars) {
   CudaExecutor& executor = s.executor;
   DeviceHoles ws;
   DeviceBuffer<std::uint8_t> now_flags(n);
@@ -207,7 +204,7 @@ std::uint64_t delete_vertices(DeviceMesh::State& s, DeviceBuffer<std::uint32_t>&
     executor.for_each(
         num_active, [=] __device__(std::size_t i) { act[i] = list[pick[i]]; }, "gather_active");
     std::uint32_t* hint = hints.data();
-    delete_vertex_round(s, act, num_active, shape, leaving, hint, ws);
+    delete_vertex_round(s, act, num_active, leaving, hint, ws);
     executor.for_each(
         num_active, [=] __device__(std::size_t i) { leaving[act[i]] = 0; }, "clear_leaving");
     if (stars != nullptr) {
@@ -392,7 +389,7 @@ ShiftStats shift(DeviceMesh::State& s, std::uint32_t num_sites, const double* tx
       d_scratch.data());
   DeviceBuffer<MissingPoint> d_deleted(num_bad);
   DeletedStars stars{tx, ty, d_deleted.data(), 0};
-  stats.rounds += delete_vertices(s, d_bad, num_bad, HoleShape::star, leaving, &stars);
+  stats.rounds += delete_vertices(s, d_bad, num_bad, leaving, &stars);
   const std::size_t first = missing.size();
   missing.resize(first + stars.written);
   executor.download(missing.data() + first, d_deleted.data(), stars.written);
@@ -643,31 +640,219 @@ InsertStats insert(DeviceMesh::State& s, std::span<const MissingPoint> missing) 
   return stats;
 }
 
-void remove_fake_boundary(DeviceMesh::State& s, std::uint32_t first_fake) {
+/// The mesh's edge of a local edge of the fans' copy (global: the mesh's slot of each local slot).
+__device__ inline std::uint32_t global_edge(const std::uint32_t* global, std::uint32_t le) {
+  return le == kNoId ? kNoId : edge_id(global[edge_tri(le)], edge_index(le));
+}
+
+/// The fake vertices' fans, numbered locally, copied to the host for remove_on_host and written back.
+/// Local slots: the fans' triangles (those with a corner >= first_fake) in slot order, then the
+/// triangles across their edges (each with its corners and only its links back to the fans), then one
+/// free slot standing for every other triangle that a vert_tri names. Local vertices: the corners of
+/// all of them in the order of their ids, so the fake ones come last. All numbering by ordered
+/// compactions, so the copy is the same on every run.
+void remove_fake_fans(DeviceMesh::State& s, std::uint32_t first_fake, const DeviceMesh::RemoveOnHost& remove_on_host) {
+  CudaExecutor& executor = s.executor;
+  const MeshView m = s.view();
+  // Per slot of the mesh: its local slot (claims of the triangles across go in as kClaim | edge first).
+  constexpr std::uint32_t kClaim = 0x80000000u;
+  DeviceBuffer<std::uint32_t> d_local(m.num_slots), d_fans(m.num_slots);
+  std::uint32_t* local = d_local.data();
+  std::uint32_t* fans = d_fans.data();
+  executor.fill_bytes(local, 0xFF, m.num_slots);
+  const std::uint32_t num_fans = executor.compact(
+      m.num_slots,
+      [=] __device__(std::size_t t) {
+        const std::uint32_t* c = m.tri + 3 * t;
+        return c[0] != kNoId && (c[0] >= first_fake || c[1] >= first_fake || c[2] >= first_fake);
+      },
+      fans);
+  if (num_fans == 0) return;
+  if (num_fans >= kClaim / 3) throw Error("internal error: remove_fake_boundary: too many fan triangles");
+  executor.for_each(
+      num_fans, [=] __device__(std::size_t r) { local[fans[r]] = static_cast<std::uint32_t>(r); }, "fan_slots");
+  const std::uint32_t fan_edges = 3 * num_fans;
+  executor.for_each(
+      fan_edges,
+      [=] __device__(std::size_t k) {
+        const std::uint32_t e = m.adj[3 * fans[k / 3] + k % 3];
+        if (e != kNoId) atomicMin(local + edge_tri(e), kClaim | static_cast<std::uint32_t>(k));
+      },
+      "claim_across");
+  DeviceBuffer<std::uint32_t> d_across(fan_edges);
+  std::uint32_t* across = d_across.data();
+  const std::uint32_t num_across = executor.compact(
+      fan_edges,
+      [=] __device__(std::size_t k) {
+        const std::uint32_t e = m.adj[3 * fans[k / 3] + k % 3];
+        return e != kNoId && local[edge_tri(e)] == (kClaim | static_cast<std::uint32_t>(k));
+      },
+      across);
+  const std::uint32_t num_local = num_fans + num_across; // the free slot comes after these
+  DeviceBuffer<std::uint32_t> d_global(num_local);
+  std::uint32_t* global = d_global.data();
+  executor.for_each(
+      num_local,
+      [=] __device__(std::size_t q) {
+        if (q < num_fans) {
+          global[q] = fans[q];
+          return;
+        }
+        const std::uint32_t k = across[q - num_fans];
+        const std::uint32_t u = edge_tri(m.adj[3 * fans[k / 3] + k % 3]);
+        global[q] = u;
+        local[u] = static_cast<std::uint32_t>(q);
+      },
+      "across_slots");
+  // Local vertices.
+  DeviceBuffer<std::uint32_t> d_vlocal(m.num_vertices);
+  std::uint32_t* vlocal = d_vlocal.data();
+  executor.fill_bytes(vlocal, 0xFF, m.num_vertices);
+  executor.for_each(
+      num_local,
+      [=] __device__(std::size_t q) {
+        for (std::uint32_t j = 0; j < 3; ++j) vlocal[m.tri[3 * global[q] + j]] = 0;
+      },
+      "mark_fan_vertices");
+  DeviceBuffer<std::uint32_t> d_ids(m.num_vertices);
+  std::uint32_t* ids = d_ids.data();
+  const std::uint32_t num_ids =
+      executor.compact(m.num_vertices, [=] __device__(std::size_t v) { return vlocal[v] == 0; }, ids);
+  executor.for_each(
+      num_ids, [=] __device__(std::size_t i) { vlocal[ids[i]] = static_cast<std::uint32_t>(i); }, "vertex_ids");
+
+  // The copy: tri, adj, seg of num_local + 1 slots, then vert_tri and ids of the vertices, in one buffer.
+  const std::size_t words = 3 * static_cast<std::size_t>(num_local + 1);
+  const std::size_t copy_size = 3 * words + 2 * static_cast<std::size_t>(num_ids);
+  DeviceBuffer<std::uint32_t> d_copy(copy_size);
+  DeviceBuffer<double> d_xy(2 * static_cast<std::size_t>(num_ids));
+  std::uint32_t* ltri = d_copy.data();
+  std::uint32_t* ladj = ltri + words;
+  std::uint32_t* lseg = ladj + words;
+  std::uint32_t* lvt = lseg + words;
+  std::uint32_t* lids = lvt + num_ids;
+  double* lxy = d_xy.data();
+  executor.fill_bytes(ltri, 0xFF, 3 * words);
+  executor.for_each(
+      fan_edges,
+      [=] __device__(std::size_t k) {
+        const std::uint32_t t = fans[k / 3], i = k % 3;
+        const std::uint32_t e = m.adj[3 * t + i];
+        ltri[k] = vlocal[m.tri[3 * t + i]];
+        lseg[k] = m.seg[3 * t + i];
+        if (e == kNoId) return;
+        const std::uint32_t u = local[edge_tri(e)];
+        ladj[k] = edge_id(u, edge_index(e));
+        if (u >= num_fans) ladj[edge_id(u, edge_index(e))] = static_cast<std::uint32_t>(k);
+      },
+      "copy_fans");
+  executor.for_each(
+      num_across,
+      [=] __device__(std::size_t q) {
+        const std::uint32_t u = global[num_fans + q];
+        for (std::uint32_t j = 0; j < 3; ++j) ltri[3 * (num_fans + q) + j] = vlocal[m.tri[3 * u + j]];
+      },
+      "copy_across");
+  executor.for_each(
+      num_ids,
+      [=] __device__(std::size_t i) {
+        const std::uint32_t v = ids[i];
+        const std::uint32_t t = m.vert_tri[v];
+        const std::uint32_t lt = t == kNoId ? kNoId : local[t];
+        lvt[i] = lt != kNoId ? lt : (t == kNoId ? kNoId : num_local);
+        lids[i] = v;
+        lxy[2 * i] = m.x[v];
+        lxy[2 * i + 1] = m.y[v];
+      },
+      "copy_fan_vertices");
+  std::vector<std::uint32_t> copy(copy_size);
+  std::vector<double> xy(2 * static_cast<std::size_t>(num_ids));
+  executor.download(copy.data(), d_copy.data(), copy_size);
+  executor.download(xy.data(), lxy, xy.size());
+
+  ::cdt::detail::Mesh host;
+  host.tri.assign(copy.begin(), copy.begin() + words);
+  host.adj.assign(copy.begin() + words, copy.begin() + 2 * words);
+  host.seg.assign(copy.begin() + 2 * words, copy.begin() + 3 * words);
+  host.vert_tri.assign(copy.begin() + 3 * words, copy.begin() + 3 * words + num_ids);
+  host.x.resize(num_ids);
+  host.y.resize(num_ids);
+  for (std::size_t i = 0; i < num_ids; ++i) {
+    host.x[i] = xy[2 * i];
+    host.y[i] = xy[2 * i + 1];
+  }
+  const std::span<const std::uint32_t> ranked_as(copy.data() + 3 * words + num_ids, num_ids);
+  const auto first_local_fake =
+      static_cast<std::uint32_t>(std::lower_bound(ranked_as.begin(), ranked_as.end(), first_fake) - ranked_as.begin());
+  remove_on_host(host, first_local_fake, ranked_as);
+  if (host.tri.size() != words || host.adj.size() != words || host.seg.size() != words ||
+      host.vert_tri.size() < first_local_fake)
+    throw Error("internal error: remove_fake_boundary: the fans' copy changed size on the host");
+
+  // Write back: the fans' slots whole, the links back from the triangles across, the real vertices'
+  // vert_tri where the host changed them (compared with the copy still on the device).
+  DeviceBuffer<std::uint32_t> d_back(3 * words + first_local_fake);
+  std::uint32_t* btri = d_back.data();
+  std::uint32_t* badj = btri + words;
+  std::uint32_t* bseg = badj + words;
+  std::uint32_t* bvt = bseg + words;
+  executor.upload(btri, host.tri.data(), words);
+  executor.upload(badj, host.adj.data(), words);
+  executor.upload(bseg, host.seg.data(), words);
+  executor.upload(bvt, host.vert_tri.data(), first_local_fake);
+  const FailureWord failure = s.failure();
+  const std::uint32_t slots = num_local;
+  executor.for_each(
+      fan_edges,
+      [=] __device__(std::size_t k) {
+        const std::uint32_t t = fans[k / 3], i = k % 3;
+        const std::uint32_t lv = btri[k], le = badj[k];
+        if ((lv != kNoId && lv >= num_ids) || (le != kNoId && edge_tri(le) >= slots)) {
+          failure.record(WorkStatus::broken_fan);
+          return;
+        }
+        const std::uint32_t e = m.adj[3 * t + i]; // still the old link: the triangles across are read here
+        if (e != kNoId && local[edge_tri(e)] >= num_fans) {
+          const std::uint32_t back = badj[edge_id(local[edge_tri(e)], edge_index(e))];
+          if (back != kNoId && edge_tri(back) >= slots) {
+            failure.record(WorkStatus::broken_fan);
+            return;
+          }
+          m.adj[e] = global_edge(global, back);
+        }
+      },
+      "write_back_links");
+  executor.for_each(
+      fan_edges,
+      [=] __device__(std::size_t k) {
+        const std::uint32_t t = fans[k / 3], i = k % 3;
+        const std::uint32_t lv = btri[k], le = badj[k];
+        if ((lv != kNoId && lv >= num_ids) || (le != kNoId && edge_tri(le) >= slots)) return;
+        m.tri[3 * t + i] = lv == kNoId ? kNoId : lids[lv];
+        m.adj[3 * t + i] = global_edge(global, le);
+        m.seg[3 * t + i] = bseg[k];
+      },
+      "write_back_fans");
+  executor.for_each(
+      first_local_fake,
+      [=] __device__(std::size_t i) {
+        const std::uint32_t lt = bvt[i];
+        if (lt == lvt[i]) return;
+        if (lt != kNoId && lt >= slots) {
+          failure.record(WorkStatus::broken_fan);
+          return;
+        }
+        m.vert_tri[lids[i]] = lt == kNoId ? kNoId : global[lt];
+      },
+      "write_back_vert_tri");
+  s.check(failure, "writing the fake boundary's removal back");
+}
+
+/// After the fake boundary's removal: the live slots compacted in the order of their lowest vertex, the
+/// fake vertices dropped.
+void compact_after_fake_removal(DeviceMesh::State& s, std::uint32_t first_fake) {
   CudaExecutor& executor = s.executor;
   const std::uint32_t nv = s.num_vertices;
-  if (first_fake > nv) throw Error("internal error: remove_fake_boundary: first_fake beyond the vertices");
-  {
-    const MeshView m = s.view();
-    const std::uint32_t fakes = nv - first_fake;
-    DeviceBuffer<std::uint8_t> d_leaving(nv);
-    std::uint8_t* leaving = d_leaving.data();
-    executor.fill_bytes(leaving, 0, nv);
-    executor.for_each(
-        fakes,
-        [=] __device__(std::size_t i) {
-          leaving[first_fake + i] = m.vert_tri[first_fake + i] != kNoId ? 1 : 0;
-        },
-        "fake_leaving");
-    DeviceBuffer<std::uint32_t> d_pending(fakes);
-    std::uint32_t* pending = d_pending.data();
-    const std::uint32_t n = executor.compact(
-        fakes, [=] __device__(std::size_t i) { return leaving[first_fake + i] != 0; }, pending);
-    executor.for_each(
-        n, [=] __device__(std::size_t i) { pending[i] += first_fake; }, "fake_ids");
-    delete_vertices(s, d_pending, n, HoleShape::open_fan, leaving, nullptr);
-  }
-
   // Compaction ordered by each triangle's lowest vertex (remove_fake_boundary in insert.cpp: a stable
   // sort keeps the slots of one key in slot order), links and vert_tri renumbered.
   const MeshView m = s.view();
@@ -809,8 +994,15 @@ InsertStats DeviceMesh::insert(std::span<const MissingPoint> missing) {
   return detail::insert(*state_, missing);
 }
 
-void DeviceMesh::remove_fake_boundary(std::uint32_t first_fake) {
-  detail::remove_fake_boundary(*state_, first_fake);
+void DeviceMesh::remove_fake_boundary(std::uint32_t first_fake, const RemoveOnHost& remove_on_host) {
+  State& s = *state_;
+  if (first_fake > s.num_vertices)
+    throw Error("internal error: remove_fake_boundary: first_fake beyond the vertices");
+  ::cdt::detail::StepTrace trace("fake boundary");
+  detail::remove_fake_fans(s, first_fake, remove_on_host);
+  trace.mark("fans removed");
+  detail::compact_after_fake_removal(s, first_fake);
+  trace.mark("slots compacted");
 }
 
 void DeviceMesh::output(std::span<const std::uint32_t> vertex_of,

@@ -533,7 +533,10 @@ Triangulation triangulate_on(std::span<const Point> points, std::span<const Segm
     const gpu::FlipResult fans = device_mesh->flip_fake_fans(n);
     insert.flips += fans.flips;
     insert.rounds += fans.rounds;
-    device_mesh->remove_fake_boundary(n);
+    device_mesh->remove_fake_boundary(
+        n, [&](Mesh& fan_copy, std::uint32_t first_fake, std::span<const std::uint32_t> ranked_as) {
+          delete_fake_vertices(fan_copy, first_fake, executor, ranked_as.data());
+        });
   }
 #endif
   // On CPU threads each part inserts its points with Lawson's flips as it goes; what the parts leave is

@@ -8,6 +8,7 @@
 #include <cmath>
 #include <cstdio>
 #include <random>
+#include <map>
 #include <set>
 #include <utility>
 #include <vector>
@@ -165,6 +166,145 @@ TEST(FakeBoundary, ThinDiagonalBand) {
   CpuExecutor ex(2);
   const auto r = run_phases(f, ex);
   ASSERT_EQ(r.error, "");
+}
+
+// The GPU backend removes the fake boundary on the host from a copy of the fake vertices' fans, numbered
+// locally (DeviceMesh::remove_fake_boundary): deleting the fake vertices there, ranked by their ids in the
+// whole mesh, and writing the result back must leave the mesh exactly as the deletion on the whole mesh
+// does, slot for slot. Here the copy is made from a host mesh the way the device makes it.
+struct FansCopy {
+  Mesh fans;
+  std::vector<std::uint32_t> slot;      ///< the mesh's slot of each local slot but the last (free) one
+  std::vector<std::uint32_t> vertex;    ///< the mesh's id of each local vertex
+  std::uint32_t num_fans = 0;           ///< local slots [0, num_fans) are the fans' triangles
+  std::uint32_t first_fake = 0;         ///< the first local fake vertex
+  std::vector<std::uint32_t> vert_tri;  ///< local vert_tri as copied
+};
+
+FansCopy copy_fans(const Mesh& mesh, std::uint32_t first_fake) {
+  using cdt::detail::kNoId;
+  FansCopy c;
+  std::map<std::uint32_t, std::uint32_t> local; // mesh slot -> local slot
+  for (std::uint32_t t = 0; t < mesh.num_slots(); ++t) {
+    const std::uint32_t* v = &mesh.tri[3 * t];
+    if (v[0] == kNoId || std::max({v[0], v[1], v[2]}) < first_fake) continue;
+    local[t] = static_cast<std::uint32_t>(c.slot.size());
+    c.slot.push_back(t);
+  }
+  c.num_fans = static_cast<std::uint32_t>(c.slot.size());
+  for (std::uint32_t r = 0; r < c.num_fans; ++r) {
+    for (std::uint32_t i = 0; i < 3; ++i) {
+      const std::uint32_t e = mesh.adj[3 * c.slot[r] + i];
+      if (e != kNoId && local.emplace(e / 3, static_cast<std::uint32_t>(c.slot.size())).second)
+        c.slot.push_back(e / 3);
+    }
+  }
+  std::map<std::uint32_t, std::uint32_t> vlocal;
+  for (const std::uint32_t t : c.slot)
+    for (std::uint32_t j = 0; j < 3; ++j) vlocal[mesh.tri[3 * t + j]] = 0;
+  for (auto& [v, l] : vlocal) {
+    l = static_cast<std::uint32_t>(c.vertex.size());
+    c.vertex.push_back(v);
+  }
+  c.first_fake = static_cast<std::uint32_t>(std::ranges::lower_bound(c.vertex, first_fake) - c.vertex.begin());
+  const auto slots = c.slot.size() + 1;
+  c.fans.tri.assign(3 * slots, kNoId);
+  c.fans.adj.assign(3 * slots, kNoId);
+  c.fans.seg.assign(3 * slots, kNoId);
+  for (std::size_t q = 0; q < c.slot.size(); ++q)
+    for (std::uint32_t j = 0; j < 3; ++j) c.fans.tri[3 * q + j] = vlocal[mesh.tri[3 * c.slot[q] + j]];
+  for (std::uint32_t k = 0; k < 3 * c.num_fans; ++k) {
+    const std::uint32_t e = mesh.adj[3 * c.slot[k / 3] + k % 3];
+    c.fans.seg[k] = mesh.seg[3 * c.slot[k / 3] + k % 3];
+    if (e == kNoId) continue;
+    const std::uint32_t u = local.at(e / 3);
+    c.fans.adj[k] = 3 * u + e % 3;
+    if (u >= c.num_fans) c.fans.adj[3 * u + e % 3] = k;
+  }
+  for (const std::uint32_t v : c.vertex) {
+    c.fans.x.push_back(mesh.x[v]);
+    c.fans.y.push_back(mesh.y[v]);
+    const std::uint32_t t = mesh.vert_tri[v];
+    c.fans.vert_tri.push_back(t == kNoId ? kNoId : local.contains(t) ? local[t] : static_cast<std::uint32_t>(c.slot.size()));
+  }
+  c.vert_tri = c.fans.vert_tri;
+  return c;
+}
+
+void write_back(Mesh& mesh, const FansCopy& c) {
+  using cdt::detail::kNoId;
+  const auto edge = [&](std::uint32_t le) { return le == kNoId ? kNoId : 3 * c.slot.at(le / 3) + le % 3; };
+  for (std::uint32_t k = 0; k < 3 * c.num_fans; ++k) {
+    const std::uint32_t e = mesh.adj[3 * c.slot[k / 3] + k % 3];
+    if (e == kNoId) continue;
+    const auto it = std::ranges::find(c.slot, e / 3);
+    const auto u = static_cast<std::uint32_t>(it - c.slot.begin());
+    if (u >= c.num_fans) mesh.adj[e] = edge(c.fans.adj[3 * u + e % 3]);
+  }
+  for (std::uint32_t k = 0; k < 3 * c.num_fans; ++k) {
+    const std::uint32_t t = c.slot[k / 3], i = k % 3;
+    mesh.tri[3 * t + i] = c.fans.tri[k] == kNoId ? kNoId : c.vertex.at(c.fans.tri[k]);
+    mesh.adj[3 * t + i] = edge(c.fans.adj[k]);
+    mesh.seg[3 * t + i] = c.fans.seg[k];
+  }
+  for (std::uint32_t v = 0; v < c.first_fake; ++v) {
+    const std::uint32_t t = c.fans.vert_tri[v];
+    if (t != c.vert_tri[v]) mesh.vert_tri[c.vertex[v]] = t == kNoId ? kNoId : c.slot.at(t);
+  }
+}
+
+TEST(FakeBoundary, RemovalFromACopyOfTheFansMatchesTheWholeMesh) {
+  using namespace cdt::detail;
+  Points hull_runs;
+  for (int k = 0; k <= 80; ++k) {
+    const double t = k * 0.25;
+    hull_runs.add(t, 0);
+    hull_runs.add(t, 20);
+    if (k != 0 && k != 80) {
+      hull_runs.add(0, t);
+      hull_runs.add(20, t);
+    }
+  }
+  std::mt19937_64 rng(6);
+  std::uniform_real_distribution<double> d(0.0, 20.0);
+  for (int i = 0; i < 400; ++i) {
+    const double px = d(rng);
+    hull_runs.add(px, d(rng));
+  }
+  struct Case {
+    Points points;
+    FixtureOptions options;
+    const char* name;
+  };
+  const std::vector<Case> cases = {
+      {distinct(hull_runs), {.cell = 1.0, .fakes = 4, .delaunay = true}, "straight hull, 4 fakes"},
+      {distinct(hull_runs), {.cell = 1.0, .fakes = 40, .delaunay = false}, "straight hull, 40 fakes"},
+      {uniform(3000, 100.0, 7), {.cell = 2.0, .fakes = 12, .delaunay = false}, "uniform, 12 fakes"},
+  };
+  for (const Case& c : cases) {
+    Fixture f = fixture(c.points, c.options);
+    CpuExecutor ex(2);
+    std::vector<MissingPoint> missing = f.missing;
+    shift_to_true_positions(f.mesh, f.num_sites, f.true_x, f.true_y, missing, ex);
+    insert_missing_points(f.mesh, missing, ex);
+    Mesh whole = f.mesh;
+    Mesh patched = f.mesh;
+    remove_fake_boundary(whole, f.num_sites, ex, nullptr, false);
+    ASSERT_EQ(check_mesh(whole), "") << c.name;
+
+    FansCopy copy = copy_fans(patched, f.num_sites);
+    ASSERT_GT(copy.num_fans, 0u) << c.name;
+    ASSERT_LT(copy.slot.size(), patched.num_slots()) << c.name << ": the copy must be a part of the mesh";
+    delete_fake_vertices(copy.fans, copy.first_fake, ex, copy.vertex.data());
+    write_back(patched, copy);
+    patched.x.resize(f.num_sites);
+    patched.y.resize(f.num_sites);
+    patched.vert_tri.resize(f.num_sites);
+    EXPECT_EQ(patched.tri, whole.tri) << c.name;
+    EXPECT_EQ(patched.adj, whole.adj) << c.name;
+    EXPECT_EQ(patched.seg, whole.seg) << c.name;
+    EXPECT_EQ(patched.vert_tri, whole.vert_tri) << c.name;
+  }
 }
 
 // Dense clusters put many points into single cells (long insertion chains in one container) next to

@@ -9,6 +9,7 @@
 #include <cstdint>
 #include <optional>
 #include <set>
+#include <span>
 #include <string>
 #include <utility>
 #include <vector>
@@ -322,7 +323,10 @@ TEST_F(MeshGpu, ShiftAndInsertMatchTheCpuExecutor) {
     remove_fake_boundary(host, start.n, executor);
     const InsertStats device_insert = device.insert(device_missing);
     const cdt::gpu::FlipResult device_fans = device.flip_fake_fans(start.n);
-    device.remove_fake_boundary(start.n);
+    device.remove_fake_boundary(
+        start.n, [&](Mesh& fans, std::uint32_t first_fake, std::span<const std::uint32_t> ranked_as) {
+          delete_fake_vertices(fans, first_fake, executor, ranked_as.data());
+        });
     const std::string inserted = std::string(c.name) + ", after missing points";
     EXPECT_EQ(device_insert.inserted, host_insert.inserted) << inserted;
     EXPECT_EQ(device_insert.rounds, host_insert.rounds) << inserted;

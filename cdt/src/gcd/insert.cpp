@@ -402,32 +402,38 @@ InsertStats insert_missing_points_in_parts(Mesh& mesh, std::span<const MissingPo
   return stats;
 }
 
+void delete_fake_vertices(Mesh& mesh, std::uint32_t first_fake, CpuExecutor& executor,
+                          const std::uint32_t* ranked_as) {
+  const std::uint32_t nv = mesh.num_vertices();
+  if (first_fake > nv) throw Error("internal error: remove_fake_boundary: first_fake beyond the vertices");
+  const MeshView m = mesh.view();
+  std::vector<std::uint8_t> leaving(nv, 0);
+  executor.for_each(nv - first_fake, [&](std::size_t i) {
+    leaving[first_fake + i] = m.vert_tri[first_fake + i] != kNoId ? 1 : 0;
+  });
+  std::vector<std::uint32_t> fakes =
+      executor.compact(nv - first_fake, [&](std::size_t i) { return leaving[first_fake + i] != 0; });
+  for (auto& f : fakes) f += first_fake;
+  delete_vertices(
+      mesh, std::move(fakes), HoleShape::open_fan, leaving,
+      [](std::span<const std::uint32_t>, std::span<const std::uint32_t>) {}, executor, ranked_as);
+}
+
 void remove_fake_boundary(Mesh& mesh, std::uint32_t first_fake, CpuExecutor& executor,
                           std::vector<std::uint8_t>* changed, bool compact) {
   const std::uint32_t nv = mesh.num_vertices();
   if (first_fake > nv) throw Error("internal error: remove_fake_boundary: first_fake beyond the vertices");
-  {
+  // The fake vertices' fans: the holes are filled into these slots.
+  if (changed != nullptr) {
     const MeshView m = mesh.view();
-    std::vector<std::uint8_t> leaving(nv, 0);
-    executor.for_each(nv - first_fake, [&](std::size_t i) {
-      leaving[first_fake + i] = m.vert_tri[first_fake + i] != kNoId ? 1 : 0;
+    std::vector<std::uint8_t>& flag = *changed;
+    executor.for_each(m.num_slots, [&](std::size_t t) {
+      if (!m.alive(static_cast<std::uint32_t>(t))) return;
+      for (std::uint32_t i = 0; i < 3; ++i)
+        if (m.tri[3 * t + i] >= first_fake) flag[t] = 1;
     });
-    std::vector<std::uint32_t> fakes =
-        executor.compact(nv - first_fake, [&](std::size_t i) { return leaving[first_fake + i] != 0; });
-    for (auto& f : fakes) f += first_fake;
-    // The fake vertices' fans: the holes are filled into these slots.
-    if (changed != nullptr) {
-      std::vector<std::uint8_t>& flag = *changed;
-      executor.for_each(m.num_slots, [&](std::size_t t) {
-        if (!m.alive(static_cast<std::uint32_t>(t))) return;
-        for (std::uint32_t i = 0; i < 3; ++i)
-          if (m.tri[3 * t + i] >= first_fake) flag[t] = 1;
-      });
-    }
-    delete_vertices(
-        mesh, std::move(fakes), HoleShape::open_fan, leaving,
-        [](std::span<const std::uint32_t>, std::span<const std::uint32_t>) {}, executor);
   }
+  delete_fake_vertices(mesh, first_fake, executor);
 
   if (!compact) {
     mesh.x.resize(first_fake);

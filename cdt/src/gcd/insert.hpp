@@ -83,6 +83,18 @@ InsertStats insert_missing_points_in_parts(Mesh& mesh, std::span<const MissingPo
 void remove_fake_boundary(Mesh& mesh, std::uint32_t first_fake, CpuExecutor& executor,
                           std::vector<std::uint8_t>* changed = nullptr, bool compact = true);
 
+/// remove_fake_boundary's deletions alone (no compaction; the fake vertices stay in x/y with vert_tri
+/// kNoId). With `ranked_as`, vertex v is ranked as vertex ranked_as[v] when the rounds are chosen: the GPU
+/// backend copies the fake vertices' fans out of its mesh, numbered locally with ranked_as naming each
+/// local vertex's id in the whole mesh, deletes the fake vertices on the host and writes the result back,
+/// which is then what this leaves on the whole mesh, slot for slot. The fans are few triangles (about the
+/// hull's vertices and the fake polygon's), but the hull's straight runs pass from fan to fan as the fake
+/// vertices go, which one GPU thread per fan walks slowly. On the fans' copy, the triangles across their
+/// edges need only their corners and their links back (all that the deletion reads of them), and a free
+/// slot can stand for any other triangle named by a ring vertex's vert_tri.
+void delete_fake_vertices(Mesh& mesh, std::uint32_t first_fake, CpuExecutor& executor,
+                          const std::uint32_t* ranked_as = nullptr);
+
 // ------------------------------------------------------------------------------------------------------------
 // Per-element work (host and device).
 

@@ -72,7 +72,7 @@ HoleView HoleWorkspace::view() {
 std::uint64_t delete_vertices(
     Mesh& mesh, std::vector<std::uint32_t> pending, HoleShape shape, std::vector<std::uint8_t>& leaving,
     const std::function<void(std::span<const std::uint32_t>, std::span<const std::uint32_t>)>& after_round,
-    CpuExecutor& executor) {
+    CpuExecutor& executor, const std::uint32_t* ranked_as) {
   const MeshView m = mesh.view();
   HoleWorkspace ws;
   WorkFailure failure;
@@ -84,7 +84,7 @@ std::uint64_t delete_vertices(
     now.assign(pending.size(), 0);
     executor.for_each(pending.size(), [&](std::size_t i) {
       bool go = false;
-      const WorkStatus s = may_delete_now(m, pending[i], leaving.data(), go);
+      const WorkStatus s = may_delete_now(m, pending[i], leaving.data(), go, ranked_as);
       if (s != WorkStatus::ok) failure.record(s);
       now[i] = go ? 1 : 0;
     });

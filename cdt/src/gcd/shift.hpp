@@ -242,12 +242,16 @@ CDT_HD inline WorkStatus shift_is_good(MeshView m, std::uint32_t v, double tx, d
 }
 
 /// Algorithm 2 line 3: whether leaving vertex v may go this round, i.e. no leaving neighbour has a lower
-/// priority (so the vertices deleted together are pairwise non-adjacent and their fans disjoint).
-CDT_HD inline WorkStatus may_delete_now(MeshView m, std::uint32_t v, const std::uint8_t* leaving, bool& now) {
+/// priority (so the vertices deleted together are pairwise non-adjacent and their fans disjoint). With
+/// `ranked_as`, vertex w is ranked as vertex ranked_as[w] (a copied-out part of a mesh deletes in the
+/// order of the whole).
+CDT_HD inline WorkStatus may_delete_now(MeshView m, std::uint32_t v, const std::uint8_t* leaving, bool& now,
+                                        const std::uint32_t* ranked_as = nullptr) {
   now = true;
-  const std::uint32_t pv = vertex_priority(v);
+  auto priority = [&](std::uint32_t w) { return vertex_priority(ranked_as != nullptr ? ranked_as[w] : w); };
+  const std::uint32_t pv = priority(v);
   const bool ok = walk_neighbours(m, v, [&](std::uint32_t w) {
-    if (leaving[w] != 0 && vertex_priority(w) < pv) now = false;
+    if (leaving[w] != 0 && priority(w) < pv) now = false;
     return now;
   });
   return ok ? WorkStatus::ok : WorkStatus::broken_fan;
@@ -532,10 +536,11 @@ void delete_vertex_round(Mesh& mesh, std::span<const std::uint32_t> active, Hole
 
 /// Algorithm 2's outer loop: deletes every vertex with leaving[v] != 0 (listed in `pending`) in rounds of
 /// pairwise non-adjacent vertices, clearing leaving[v] as it goes, and calls after_round(active, hints) after
-/// each round (hints only for star holes). Returns the number of rounds.
+/// each round (hints only for star holes). Vertices are ranked as may_delete_now ranks them with
+/// `ranked_as`. Returns the number of rounds.
 std::uint64_t delete_vertices(
     Mesh& mesh, std::vector<std::uint32_t> pending, HoleShape shape, std::vector<std::uint8_t>& leaving,
     const std::function<void(std::span<const std::uint32_t>, std::span<const std::uint32_t>)>& after_round,
-    CpuExecutor& executor);
+    CpuExecutor& executor, const std::uint32_t* ranked_as = nullptr);
 
 } // namespace cdt::detail
