@@ -2,18 +2,19 @@
 // the GPU backend the CUDA executor runs the merge of duplicate points and of the segments between
 // them, the sites' order, grid cells and kept sites, the digital Voronoi diagram, the dual triangles
 // with their links (Phase 2 but for hull completion and the fake boundary), shifting, missing points,
-// the fake boundary's removal, the segments' screen, the constraints and the Lawson flips before and
-// after them, each the same computation as the CPU executor's step for step, so the result is the
-// same; the CPU executor runs the rest (input checks, hull completion and fake boundary, the
-// suspects' split), until those move to the device too.
+// the segments' screen, the constraints and the Lawson flips before and after them, each the same
+// computation as the CPU executor's step for step, so the result is the same; the CPU executor runs
+// the rest (input checks, hull completion and fake boundary, the fake vertices' deletion on a copy of
+// their fans, the suspects' split), until those move to the device too.
 //
 //   prepare   input checks, merge duplicates and the segments between them (cdt/src/pslg.cpp; the
 //             merge on the device with the GPU backend)
 //   voronoi   Phase 1: grid mapping (Appendix B), digital Voronoi diagram (PBA + Appendix A)
 //   dualize   Phase 2: dual triangles, hull completion, fake boundary
 //   shift     Phase 3: points back to their true coordinates (Algorithms 1 and 2)
-//   insert    Phase 4: missing points (Algorithm 3), fake boundary removal (on the device after the
-//             flips that make the fake vertices' fans convex chains, gcd/flip.hpp flip_fake_fans)
+//   insert    Phase 4: missing points (Algorithm 3), fake boundary removal (with the GPU backend: the
+//             device flips the fake vertices' fans to convex chains, gcd/flip.hpp flip_fake_fans, and
+//             the host deletes the fake vertices from a copy of the fans, delete_fake_vertices)
 //   delaunay  Phase 5: Lawson flips to the Delaunay triangulation
 //   split     Step 1, after the sites are triangulated: segments split at points on them and at
 //             crossings. A segment that is an edge of the Delaunay mesh can neither cross another edge
@@ -529,7 +530,8 @@ Triangulation triangulate_on(std::span<const Point> points, std::span<const Segm
   if (on_gpu) {
     insert = device_mesh->insert(missing);
     // The paper's rounds leave the points outside the sites' hull in huge fans of the fake vertices,
-    // which the removal would walk one thread per fan (at 10M + 1M, 39 of the phase's 52 ms).
+    // which the removal would copy to the host and fill there without flips. Without these flips the
+    // coastlines' insert phase took 10 ms instead of 13-14, uniform 10M + 1M 18-19 instead of 16-17.
     const gpu::FlipResult fans = device_mesh->flip_fake_fans(n);
     insert.flips += fans.flips;
     insert.rounds += fans.rounds;
