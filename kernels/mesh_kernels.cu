@@ -651,7 +651,8 @@ __device__ inline std::uint32_t global_edge(const std::uint32_t* global, std::ui
 /// free slot standing for every other triangle that a vert_tri names. Local vertices: the corners of
 /// all of them in the order of their ids, so the fake ones come last. All numbering by ordered
 /// compactions, so the copy is the same on every run.
-void remove_fake_fans(DeviceMesh::State& s, std::uint32_t first_fake, const DeviceMesh::RemoveOnHost& remove_on_host) {
+void remove_fake_fans(DeviceMesh::State& s, std::uint32_t first_fake,
+                      const DeviceMesh::RemoveOnHost& remove_on_host) {
   CudaExecutor& executor = s.executor;
   const MeshView m = s.view();
   // Per slot of the mesh: its local slot (claims of the triangles across go in as kClaim | edge first).
@@ -670,7 +671,8 @@ void remove_fake_fans(DeviceMesh::State& s, std::uint32_t first_fake, const Devi
   if (num_fans == 0) return;
   if (num_fans >= kClaim / 3) throw Error("internal error: remove_fake_boundary: too many fan triangles");
   executor.for_each(
-      num_fans, [=] __device__(std::size_t r) { local[fans[r]] = static_cast<std::uint32_t>(r); }, "fan_slots");
+      num_fans, [=] __device__(std::size_t r) { local[fans[r]] = static_cast<std::uint32_t>(r); },
+      "fan_slots");
   const std::uint32_t fan_edges = 3 * num_fans;
   executor.for_each(
       fan_edges,
@@ -716,10 +718,11 @@ void remove_fake_fans(DeviceMesh::State& s, std::uint32_t first_fake, const Devi
       "mark_fan_vertices");
   DeviceBuffer<std::uint32_t> d_ids(m.num_vertices);
   std::uint32_t* ids = d_ids.data();
-  const std::uint32_t num_ids =
-      executor.compact(m.num_vertices, [=] __device__(std::size_t v) { return vlocal[v] == 0; }, ids);
+  const std::uint32_t num_ids = executor.compact(
+      m.num_vertices, [=] __device__(std::size_t v) { return vlocal[v] == 0; }, ids);
   executor.for_each(
-      num_ids, [=] __device__(std::size_t i) { vlocal[ids[i]] = static_cast<std::uint32_t>(i); }, "vertex_ids");
+      num_ids, [=] __device__(std::size_t i) { vlocal[ids[i]] = static_cast<std::uint32_t>(i); },
+      "vertex_ids");
 
   // The copy: tri, adj, seg of num_local + 1 slots, then vert_tri and ids of the vertices, in one buffer.
   const std::size_t words = 3 * static_cast<std::size_t>(num_local + 1);
@@ -782,8 +785,8 @@ void remove_fake_fans(DeviceMesh::State& s, std::uint32_t first_fake, const Devi
     host.y[i] = xy[2 * i + 1];
   }
   const std::span<const std::uint32_t> ranked_as(copy.data() + 3 * words + num_ids, num_ids);
-  const auto first_local_fake =
-      static_cast<std::uint32_t>(std::lower_bound(ranked_as.begin(), ranked_as.end(), first_fake) - ranked_as.begin());
+  const auto first_local_fake = static_cast<std::uint32_t>(
+      std::lower_bound(ranked_as.begin(), ranked_as.end(), first_fake) - ranked_as.begin());
   remove_on_host(host, first_local_fake, ranked_as);
   if (host.tri.size() != words || host.adj.size() != words || host.seg.size() != words ||
       host.vert_tri.size() < first_local_fake)

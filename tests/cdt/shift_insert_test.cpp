@@ -7,8 +7,8 @@
 #include <chrono>
 #include <cmath>
 #include <cstdio>
-#include <random>
 #include <map>
+#include <random>
 #include <set>
 #include <utility>
 #include <vector>
@@ -174,11 +174,11 @@ TEST(FakeBoundary, ThinDiagonalBand) {
 // does, slot for slot. Here the copy is made from a host mesh the way the device makes it.
 struct FansCopy {
   Mesh fans;
-  std::vector<std::uint32_t> slot;      ///< the mesh's slot of each local slot but the last (free) one
-  std::vector<std::uint32_t> vertex;    ///< the mesh's id of each local vertex
-  std::uint32_t num_fans = 0;           ///< local slots [0, num_fans) are the fans' triangles
-  std::uint32_t first_fake = 0;         ///< the first local fake vertex
-  std::vector<std::uint32_t> vert_tri;  ///< local vert_tri as copied
+  std::vector<std::uint32_t> slot;     ///< the mesh's slot of each local slot but the last (free) one
+  std::vector<std::uint32_t> vertex;   ///< the mesh's id of each local vertex
+  std::uint32_t num_fans = 0;          ///< local slots [0, num_fans) are the fans' triangles
+  std::uint32_t first_fake = 0;        ///< the first local fake vertex
+  std::vector<std::uint32_t> vert_tri; ///< local vert_tri as copied
 };
 
 FansCopy copy_fans(const Mesh& mesh, std::uint32_t first_fake) {
@@ -206,7 +206,8 @@ FansCopy copy_fans(const Mesh& mesh, std::uint32_t first_fake) {
     l = static_cast<std::uint32_t>(c.vertex.size());
     c.vertex.push_back(v);
   }
-  c.first_fake = static_cast<std::uint32_t>(std::ranges::lower_bound(c.vertex, first_fake) - c.vertex.begin());
+  c.first_fake =
+      static_cast<std::uint32_t>(std::ranges::lower_bound(c.vertex, first_fake) - c.vertex.begin());
   const auto slots = c.slot.size() + 1;
   c.fans.tri.assign(3 * slots, kNoId);
   c.fans.adj.assign(3 * slots, kNoId);
@@ -225,7 +226,9 @@ FansCopy copy_fans(const Mesh& mesh, std::uint32_t first_fake) {
     c.fans.x.push_back(mesh.x[v]);
     c.fans.y.push_back(mesh.y[v]);
     const std::uint32_t t = mesh.vert_tri[v];
-    c.fans.vert_tri.push_back(t == kNoId ? kNoId : local.contains(t) ? local[t] : static_cast<std::uint32_t>(c.slot.size()));
+    c.fans.vert_tri.push_back(t == kNoId          ? kNoId
+                              : local.contains(t) ? local[t]
+                                                  : static_cast<std::uint32_t>(c.slot.size()));
   }
   c.vert_tri = c.fans.vert_tri;
   return c;
