@@ -137,16 +137,7 @@ void delete_vertex_round(DeviceMesh::State& s, const std::uint32_t* active, std:
       [=] __device__(std::size_t i) {
         const std::uint32_t v = active[i], base = offset[i], size = count[i];
         const WorkStatus status = ::cdt::detail::cut_ears(m, h, base, size, m.x[v], m.y[v]);
-        if (hint != nullptr) {
-          std::uint32_t chosen = h.vertex[base];
-          for (std::uint32_t p = base; p < base + size; ++p) {
-            if (leaving == nullptr || leaving[h.vertex[p]] == 0) {
-              chosen = h.vertex[p];
-              break;
-            }
-          }
-          hint[i] = chosen;
-        }
+        if (hint != nullptr) hint[i] = ::cdt::detail::ring_hint(h, base, size, leaving);
         if (status != WorkStatus::ok) failure.record(status);
         m.vert_tri[v] = kNoId;
       },

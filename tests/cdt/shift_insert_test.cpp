@@ -125,9 +125,9 @@ TEST(ShiftInsert, ShuffledQuarterLattice) {
   EXPECT_GT(r.shift.bad, 0u);
 }
 
-// Sites on the hull edges, some between grid points: the fake boundary keeps them interior until it goes, and
-// the removal must leave every one of them on the hull with no zero-area triangle (check_mesh verifies both).
-TEST(FakeBoundary, RemovalKeepsSitesCollinearWithTheHull) {
+/// A 20 x 20 square with points every 0.25 along its sides (straight runs on the hull, between grid
+/// points too) and `inner` random points inside.
+Points square_with_straight_sides(int inner, unsigned seed) {
   Points p;
   for (int k = 0; k <= 80; ++k) {
     const double t = k * 0.25;
@@ -138,12 +138,19 @@ TEST(FakeBoundary, RemovalKeepsSitesCollinearWithTheHull) {
       p.add(20, t);
     }
   }
-  std::mt19937_64 rng(4);
+  std::mt19937_64 rng(seed);
   std::uniform_real_distribution<double> d(0.0, 20.0);
-  for (int i = 0; i < 300; ++i) {
+  for (int i = 0; i < inner; ++i) {
     const double px = d(rng);
     p.add(px, d(rng));
   }
+  return p;
+}
+
+// Sites on the hull edges, some between grid points: the fake boundary keeps them interior until it goes, and
+// the removal must leave every one of them on the hull with no zero-area triangle (check_mesh verifies both).
+TEST(FakeBoundary, RemovalKeepsSitesCollinearWithTheHull) {
+  const Points p = square_with_straight_sides(300, 4);
   for (std::uint32_t fakes : {3u, 4u, 8u, 40u}) {
     Fixture f = fixture(distinct(p), {.cell = 1.0, .fakes = fakes, .delaunay = true});
     CpuExecutor ex(2);
@@ -258,22 +265,7 @@ void write_back(Mesh& mesh, const FansCopy& c) {
 
 TEST(FakeBoundary, RemovalFromACopyOfTheFansMatchesTheWholeMesh) {
   using namespace cdt::detail;
-  Points hull_runs;
-  for (int k = 0; k <= 80; ++k) {
-    const double t = k * 0.25;
-    hull_runs.add(t, 0);
-    hull_runs.add(t, 20);
-    if (k != 0 && k != 80) {
-      hull_runs.add(0, t);
-      hull_runs.add(20, t);
-    }
-  }
-  std::mt19937_64 rng(6);
-  std::uniform_real_distribution<double> d(0.0, 20.0);
-  for (int i = 0; i < 400; ++i) {
-    const double px = d(rng);
-    hull_runs.add(px, d(rng));
-  }
+  const Points hull_runs = square_with_straight_sides(400, 6);
   struct Case {
     Points points;
     FixtureOptions options;

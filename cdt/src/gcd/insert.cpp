@@ -422,7 +422,6 @@ void delete_fake_vertices(Mesh& mesh, std::uint32_t first_fake, CpuExecutor& exe
 void remove_fake_boundary(Mesh& mesh, std::uint32_t first_fake, CpuExecutor& executor,
                           std::vector<std::uint8_t>* changed, bool compact) {
   const std::uint32_t nv = mesh.num_vertices();
-  if (first_fake > nv) throw Error("internal error: remove_fake_boundary: first_fake beyond the vertices");
   // The fake vertices' fans: the holes are filled into these slots.
   if (changed != nullptr) {
     const MeshView m = mesh.view();

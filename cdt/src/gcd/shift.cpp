@@ -151,16 +151,7 @@ void delete_vertex_round(Mesh& mesh, std::span<const std::uint32_t> active, Hole
     WorkStatus s = WorkStatus::ok;
     if (star) {
       s = cut_ears(m, h, base, count, m.x[v], m.y[v]);
-      if (hint != nullptr) {
-        std::uint32_t chosen = h.vertex[base];
-        for (std::uint32_t p = base; p < base + count; ++p) {
-          if (leaving == nullptr || leaving[h.vertex[p]] == 0) {
-            chosen = h.vertex[p];
-            break;
-          }
-        }
-        hint[i] = chosen;
-      }
+      if (hint != nullptr) hint[i] = ring_hint(h, base, count, leaving);
     } else {
       s = fill_pockets(m, h, base, count);
     }

@@ -438,6 +438,15 @@ CDT_HD inline WorkStatus cut_ears(MeshView m, HoleView h, std::uint32_t base, st
   return WorkStatus::ok;
 }
 
+/// A hint for the missing point that a deleted star vertex becomes: the first ring vertex of its hole
+/// that is not leaving (leaving may be null), or the first ring vertex when all are.
+CDT_HD inline std::uint32_t ring_hint(HoleView h, std::uint32_t base, std::uint32_t count,
+                                      const std::uint8_t* leaving) {
+  for (std::uint32_t p = base; p < base + count; ++p)
+    if (leaving == nullptr || leaving[h.vertex[p]] == 0) return h.vertex[p];
+  return h.vertex[base];
+}
+
 /// Section 3.4, fake boundary removal: fills the open hole of a deleted boundary vertex f whose chain of
 /// neighbours c_0..c_m runs counter-clockwise around f. What must be filled is the region between the chain
 /// and its convex hull on f's side, so that the mesh stays convex: a Graham-scan-like walk keeps a stack of
