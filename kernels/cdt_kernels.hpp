@@ -26,6 +26,8 @@ struct ConstraintStats;  // cdt/src/gcd/constraints.hpp
 struct ScreenedPieces;   // cdt/src/gcd/screen.hpp
 struct ConstraintPiece;  // cdt/src/pslg.hpp
 using PieceArray = std::vector<ConstraintPiece, DefaultInitAllocator<ConstraintPiece>>; // as in pslg.hpp
+using MissingArray = std::vector<MissingPoint, DefaultInitAllocator<MissingPoint>>;     // as in shift.hpp
+using FlagArray = std::vector<std::uint8_t, DefaultInitAllocator<std::uint8_t>>;        // as in dualize.hpp
 } // namespace cdt::detail
 
 namespace cdt::gpu {
@@ -78,8 +80,8 @@ public:
   /// DeviceError when the device lacks the memory or CUDA fails.
   DeviceSites(std::span<const Point> vertices, std::span<const std::uint32_t> sites, std::uint32_t m,
               ::cdt::detail::GridMapping& mapping, ::cdt::detail::Box& bounds, IndexArray& site_vertex,
-              IndexArray& site_of_vertex, std::vector<std::uint8_t>& kept,
-              std::vector<::cdt::detail::MissingPoint>& missing, const HostParallelFor& parallel = {});
+              IndexArray& site_of_vertex, ::cdt::detail::FlagArray& kept,
+              ::cdt::detail::MissingArray& missing, const HostParallelFor& parallel = {});
   /// The same in two steps, from the input: this constructor uploads the points and merges their
   /// duplicates on the device, filling duplicate_of (per point the lowest index with identical
   /// coordinates, -0 equal to +0), sites (the points that are their own, increasing) and the pieces
@@ -89,8 +91,8 @@ public:
   DeviceSites(std::span<const Point> points, std::span<const Segment> segments, IndexArray& duplicate_of,
               IndexArray& sites, ::cdt::detail::PieceArray& pieces, const HostParallelFor& parallel = {});
   void prepare(std::uint32_t m, ::cdt::detail::GridMapping& mapping, ::cdt::detail::Box& bounds,
-               IndexArray& site_vertex, IndexArray& site_of_vertex, std::vector<std::uint8_t>& kept,
-               std::vector<::cdt::detail::MissingPoint>& missing, const HostParallelFor& parallel = {});
+               IndexArray& site_vertex, IndexArray& site_of_vertex, ::cdt::detail::FlagArray& kept,
+               ::cdt::detail::MissingArray& missing, const HostParallelFor& parallel = {});
   ~DeviceSites();
   DeviceSites(DeviceSites&&) noexcept;
   DeviceSites& operator=(DeviceSites&&) noexcept;
@@ -283,12 +285,11 @@ public:
 
   /// cdt::detail::shift_to_true_positions: the bad cases are appended to `missing` in the same order.
   ::cdt::detail::ShiftStats shift(std::uint32_t num_sites, std::span<const double> true_x,
-                                  std::span<const double> true_y,
-                                  std::vector<::cdt::detail::MissingPoint>& missing);
+                                  std::span<const double> true_y, ::cdt::detail::MissingArray& missing);
 
   /// The same with the sites' true positions read from `sites` on the device.
   ::cdt::detail::ShiftStats shift(std::uint32_t num_sites, const DeviceSites& sites,
-                                  std::vector<::cdt::detail::MissingPoint>& missing);
+                                  ::cdt::detail::MissingArray& missing);
 
   /// Appends vertices at (x[k], y[k]) after the mesh's own, in no triangle yet (vert_tri kNoId), for
   /// insert() to place.

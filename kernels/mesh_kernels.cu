@@ -35,6 +35,7 @@ using ::cdt::detail::kHoldsU;
 using ::cdt::detail::kNoId;
 using ::cdt::detail::kWins;
 using ::cdt::detail::MeshView;
+using ::cdt::detail::MissingArray;
 using ::cdt::detail::MissingPoint;
 using ::cdt::detail::next3;
 using ::cdt::detail::prev3;
@@ -247,7 +248,7 @@ std::uint32_t sites_in_slot_order(DeviceMesh::State& s, std::uint32_t num_sites,
 
 /// Shifting with the sites' true positions tx, ty on the device (num_sites each).
 ShiftStats shift(DeviceMesh::State& s, std::uint32_t num_sites, const double* tx, const double* ty,
-                 std::vector<MissingPoint>& missing) {
+                 MissingArray& missing) {
   using ::cdt::detail::kBad;
   using ::cdt::detail::kGood;
   using ::cdt::detail::kUnchecked;
@@ -967,7 +968,7 @@ DeviceMesh::DeviceMesh(DeviceMesh&&) noexcept = default;
 DeviceMesh& DeviceMesh::operator=(DeviceMesh&&) noexcept = default;
 
 ShiftStats DeviceMesh::shift(std::uint32_t num_sites, std::span<const double> true_x,
-                             std::span<const double> true_y, std::vector<MissingPoint>& missing) {
+                             std::span<const double> true_y, MissingArray& missing) {
   if (true_x.size() < num_sites || true_y.size() < num_sites)
     throw Error("internal error: shift_to_true_positions: fewer coordinates than sites");
   detail::DeviceBuffer<double> d_tx(num_sites), d_ty(num_sites);
@@ -976,8 +977,7 @@ ShiftStats DeviceMesh::shift(std::uint32_t num_sites, std::span<const double> tr
   return detail::shift(*state_, num_sites, d_tx.data(), d_ty.data(), missing);
 }
 
-ShiftStats DeviceMesh::shift(std::uint32_t num_sites, const DeviceSites& sites,
-                             std::vector<MissingPoint>& missing) {
+ShiftStats DeviceMesh::shift(std::uint32_t num_sites, const DeviceSites& sites, MissingArray& missing) {
   const DeviceSites::State& from = sites.state();
   if (from.n < num_sites)
     throw Error("internal error: shift_to_true_positions: fewer coordinates than sites");

@@ -29,6 +29,7 @@ namespace cdt::gpu {
 
 using ::cdt::detail::GridMapping;
 using ::cdt::detail::kNoId;
+using ::cdt::detail::MissingArray;
 using ::cdt::detail::MissingPoint;
 
 namespace detail {
@@ -296,8 +297,8 @@ void merge_input_on_device(DeviceSites::State& s, std::span<const Point> points,
 /// DeviceSites' preparation (a constructor cannot hold the extended lambdas of its steps), from the
 /// vertices and sites on the device (upload_vertices or merge_input_on_device), which it frees.
 void prepare_sites(DeviceSites::State& s, std::uint32_t m, GridMapping& mapping, ::cdt::detail::Box& bounds,
-                   IndexArray& site_vertex, IndexArray& site_of_vertex, std::vector<std::uint8_t>& kept,
-                   std::vector<MissingPoint>& missing, const HostParallelFor& parallel) {
+                   IndexArray& site_vertex, IndexArray& site_of_vertex, ::cdt::detail::FlagArray& kept,
+                   MissingArray& missing, const HostParallelFor& parallel) {
   const std::size_t nv = s.num_vertices;
   const std::size_t n = s.n;
   if (n == 0 || n > nv || s.vertex_xy.size() != 2 * nv)
@@ -445,8 +446,8 @@ std::size_t sites_device_bytes(std::size_t num_vertices, std::size_t num_sites, 
 
 DeviceSites::DeviceSites(std::span<const Point> vertices, std::span<const std::uint32_t> sites,
                          std::uint32_t m, GridMapping& mapping, ::cdt::detail::Box& bounds,
-                         IndexArray& site_vertex, IndexArray& site_of_vertex, std::vector<std::uint8_t>& kept,
-                         std::vector<MissingPoint>& missing, const HostParallelFor& parallel)
+                         IndexArray& site_vertex, IndexArray& site_of_vertex, ::cdt::detail::FlagArray& kept,
+                         MissingArray& missing, const HostParallelFor& parallel)
     : state_(std::make_unique<State>()) {
   detail::upload_vertices(*state_, vertices, sites, parallel);
   prepare(m, mapping, bounds, site_vertex, site_of_vertex, kept, missing, parallel);
@@ -460,9 +461,8 @@ DeviceSites::DeviceSites(std::span<const Point> points, std::span<const Segment>
 }
 
 void DeviceSites::prepare(std::uint32_t m, GridMapping& mapping, ::cdt::detail::Box& bounds,
-                          IndexArray& site_vertex, IndexArray& site_of_vertex,
-                          std::vector<std::uint8_t>& kept, std::vector<MissingPoint>& missing,
-                          const HostParallelFor& parallel) {
+                          IndexArray& site_vertex, IndexArray& site_of_vertex, ::cdt::detail::FlagArray& kept,
+                          MissingArray& missing, const HostParallelFor& parallel) {
   detail::prepare_sites(*state_, m, mapping, bounds, site_vertex, site_of_vertex, kept, missing, parallel);
 }
 

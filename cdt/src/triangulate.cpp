@@ -169,14 +169,14 @@ void split_screened(detail::PreparedPslg& pslg, const detail::ScreenedPieces& sc
 /// The vertices the PSLG gained from first_added on, numbered after the mesh's vertices (as many as
 /// site_vertex holds) and appended to the vertex maps, as missing points: each starts its walk from a
 /// vertex it is joined to by a piece (through other added vertices, inserted before it, if need be).
-std::vector<detail::MissingPoint> added_vertices(const detail::PreparedPslg& pslg, std::size_t first_added,
-                                                 IndexArray& site_vertex, IndexArray& site_of_vertex,
-                                                 detail::CpuExecutor& executor) {
+detail::MissingArray added_vertices(const detail::PreparedPslg& pslg, std::size_t first_added,
+                                    IndexArray& site_vertex, IndexArray& site_of_vertex,
+                                    detail::CpuExecutor& executor) {
   using namespace detail;
   const std::size_t added = pslg.vertices.size() - first_added;
   const auto first = static_cast<std::uint32_t>(site_vertex.size());
   site_of_vertex.resize(pslg.vertices.size(), kNoId);
-  std::vector<MissingPoint> fresh(added);
+  MissingArray fresh(added);
   for (std::size_t k = 0; k < added; ++k) {
     const auto v = static_cast<std::uint32_t>(first_added + k);
     site_of_vertex[v] = first + static_cast<std::uint32_t>(k);
@@ -338,8 +338,8 @@ Triangulation triangulate_on(std::span<const Point> points, std::span<const Segm
   IndexArray site_of_vertex;          // per vertex, its site (kNoId for duplicates)
   std::vector<double> true_x, true_y; // per site, its true position (CPU executor)
   std::vector<double> x, y;           // per site, its position in the diagram
-  std::vector<std::uint8_t> kept;     // per site, 1 when it owns its grid cell
-  std::vector<MissingPoint> missing;
+  FlagArray kept;                     // per site, 1 when it owns its grid cell
+  MissingArray missing;
   GridSites grid;
   Box bounds; // the box of both positions of every site
   std::vector<std::uint32_t> colour;
@@ -605,8 +605,7 @@ Triangulation triangulate_on(std::span<const Point> points, std::span<const Segm
       return start_again(std::move(pslg));
     }
     if (added > 0) {
-      const std::vector<MissingPoint> fresh =
-          added_vertices(pslg, first_added, site_vertex, site_of_vertex, executor);
+      const MissingArray fresh = added_vertices(pslg, first_added, site_vertex, site_of_vertex, executor);
       try {
 #if defined(TRIXEL_HAVE_CUDA)
         if (on_gpu) placed = insert_added_vertices(*device_mesh, pslg, fresh, site_vertex);

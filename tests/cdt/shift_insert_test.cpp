@@ -23,6 +23,7 @@ namespace {
 
 using cdt::detail::CpuExecutor;
 using cdt::detail::Mesh;
+using cdt::detail::MissingArray;
 using cdt::detail::MissingPoint;
 using shift_test::check_mesh;
 using shift_test::Fixture;
@@ -279,7 +280,7 @@ TEST(FakeBoundary, RemovalFromACopyOfTheFansMatchesTheWholeMesh) {
   for (const Case& c : cases) {
     Fixture f = fixture(c.points, c.options);
     CpuExecutor ex(2);
-    std::vector<MissingPoint> missing = f.missing;
+    MissingArray missing = f.missing;
     shift_to_true_positions(f.mesh, f.num_sites, f.true_x, f.true_y, missing, ex);
     insert_missing_points(f.mesh, missing, ex);
     Mesh whole = f.mesh;
@@ -449,7 +450,7 @@ Mesh square_mesh(std::vector<std::pair<double, double>> extra) {
 TEST(InsertMissing, SplitsOnEdgeAndInsideTriangle) {
   Mesh m = square_mesh({{2, 2}, {3, 1}, {1, 3.5}});
   CpuExecutor ex(1);
-  const std::vector<MissingPoint> missing{{4, 0}, {5, 1}, {6, 3}};
+  const MissingArray missing{{4, 0}, {5, 1}, {6, 3}};
   const auto stats = cdt::detail::insert_missing_points(m, missing, ex);
   EXPECT_EQ(stats.inserted, 3u);
   EXPECT_EQ(check_mesh(m), "");
@@ -462,7 +463,7 @@ TEST(InsertMissing, SplitsOnEdgeAndInsideTriangle) {
 TEST(InsertMissing, PointOnAVertexThrows) {
   Mesh m = square_mesh({{4, 4}});
   CpuExecutor ex(1);
-  const std::vector<MissingPoint> missing{{4, 0}};
+  const MissingArray missing{{4, 0}};
   EXPECT_THROW(cdt::detail::insert_missing_points(m, missing, ex), cdt::Error);
 }
 
@@ -470,7 +471,7 @@ TEST(InsertMissing, PointOnAVertexThrows) {
 TEST(InsertMissing, CyclicHintsThrow) {
   Mesh m = square_mesh({{1, 1}, {3, 1}});
   CpuExecutor ex(1);
-  const std::vector<MissingPoint> missing{{4, 5}, {5, 4}};
+  const MissingArray missing{{4, 5}, {5, 4}};
   EXPECT_THROW(cdt::detail::insert_missing_points(m, missing, ex), cdt::Error);
 }
 

@@ -115,7 +115,7 @@ struct Fixture {
   cdt::detail::Mesh mesh;
   std::uint32_t num_sites = 0;
   std::vector<double> true_x, true_y;
-  std::vector<cdt::detail::MissingPoint> missing; ///< sites sharing a grid cell with a kept site
+  cdt::detail::MissingArray missing; ///< sites sharing a grid cell with a kept site
 };
 
 struct FixtureOptions {
@@ -386,7 +386,7 @@ inline RunResult run_phases(Fixture& f, cdt::detail::CpuExecutor& executor, bool
     r.error = "fixture: " + e;
     return r;
   }
-  std::vector<MissingPoint> missing = f.missing;
+  MissingArray missing = f.missing;
   r.shift = shift_to_true_positions(mesh, f.num_sites, f.true_x, f.true_y, missing, executor);
   if (std::string e = check_mesh(mesh); !e.empty()) {
     r.error = "after shift: " + e;

@@ -239,7 +239,7 @@ TEST_F(MeshGpu, FlipMatchesTheCpuExecutor) {
 struct Phase2 {
   Mesh mesh;
   std::vector<double> true_x, true_y;
-  std::vector<MissingPoint> missing;
+  MissingArray missing;
   std::uint32_t n = 0;
 };
 
@@ -271,8 +271,7 @@ Phase2 phase2(const trixel_gen::Pslg& p, std::uint32_t m, CpuExecutor& executor)
   return out;
 }
 
-void expect_same_missing(const std::vector<MissingPoint>& device, const std::vector<MissingPoint>& host,
-                         const std::string& what) {
+void expect_same_missing(const MissingArray& device, const MissingArray& host, const std::string& what) {
   ASSERT_EQ(device.size(), host.size()) << what;
   for (std::size_t k = 0; k < host.size(); ++k) {
     EXPECT_EQ(device[k].vertex, host[k].vertex) << what << ", missing point " << k;
@@ -302,9 +301,9 @@ TEST_F(MeshGpu, ShiftAndInsertMatchTheCpuExecutor) {
     const Phase2 start = phase2(c.points, c.m, executor);
     ASSERT_GT(start.mesh.num_slots(), 0u) << c.name;
     Mesh host = start.mesh;
-    std::vector<MissingPoint> host_missing = start.missing;
+    MissingArray host_missing = start.missing;
     cdt::gpu::DeviceMesh device(start.mesh);
-    std::vector<MissingPoint> device_missing = start.missing;
+    MissingArray device_missing = start.missing;
 
     const ShiftStats host_shift =
         shift_to_true_positions(host, start.n, start.true_x, start.true_y, host_missing, executor);
@@ -476,7 +475,7 @@ TEST_F(MeshGpu, InsertReportsBadMissingPointsAsTheCpuExecutor) {
   start.x.push_back(1); // vertex 4, not in the mesh yet
   start.y.push_back(1);
   start.vert_tri.push_back(kNoId);
-  const std::vector<std::vector<MissingPoint>> lists = {
+  const std::vector<MissingArray> lists = {
       {{4, 0}, {4, 0}}, // listed twice
       {{4, 0}, {9, 0}}, // out of range
       {{9, 0}, {4, 0}, {4, 0}},

@@ -353,8 +353,8 @@ struct HostSites {
   cdt::detail::GridMapping mapping;
   cdt::IndexArray site_vertex, site_of_vertex;
   std::vector<double> true_x, true_y, x, y;
-  std::vector<std::uint8_t> kept;
-  std::vector<cdt::detail::MissingPoint> missing;
+  cdt::detail::FlagArray kept;
+  cdt::detail::MissingArray missing;
   cdt::detail::Box bounds;
   GridSites grid;
 };
@@ -432,8 +432,8 @@ TEST_F(GpuVoronoi, DeviceSitesMatchTheHostSteps) {
         cdt::detail::GridMapping mapping;
         cdt::detail::Box bounds;
         cdt::IndexArray site_vertex, site_of_vertex;
-        std::vector<std::uint8_t> kept;
-        std::vector<cdt::detail::MissingPoint> missing;
+        cdt::detail::FlagArray kept;
+        cdt::detail::MissingArray missing;
         cdt::gpu::DeviceSites device(vertices, sites, m, mapping, bounds, site_vertex, site_of_vertex, kept,
                                      missing);
         const std::string what =
@@ -474,7 +474,7 @@ TEST_F(GpuVoronoi, DeviceSitesMatchTheHostSteps) {
         // degenerate sites each pass, the same colouring after their removal, the same owners of their
         // cells and the same positions after they are left out.
         std::vector<double> hx = h.x, hy = h.y;
-        std::vector<std::uint8_t> hkept = h.kept;
+        cdt::detail::FlagArray hkept = h.kept;
         for (int pass = 1; pass <= 8; ++pass) {
           const std::string at = what + ", pass " + std::to_string(pass);
           std::vector<std::uint32_t> degenerate, culprits;
@@ -622,8 +622,8 @@ TEST_F(GpuVoronoi, DuplicatesMergeAsOnTheHost) {
     cdt::detail::GridMapping mapping, one_mapping;
     cdt::detail::Box bounds, one_bounds;
     cdt::IndexArray site_vertex, site_of_vertex, one_site_vertex, one_site_of_vertex;
-    std::vector<std::uint8_t> kept, one_kept;
-    std::vector<cdt::detail::MissingPoint> missing, one_missing;
+    cdt::detail::FlagArray kept, one_kept;
+    cdt::detail::MissingArray missing, one_missing;
     device.prepare(m, mapping, bounds, site_vertex, site_of_vertex, kept, missing);
     const cdt::gpu::DeviceSites one_step(c.points, host.sites, m, one_mapping, one_bounds, one_site_vertex,
                                          one_site_of_vertex, one_kept, one_missing);

@@ -8,6 +8,7 @@
 #include <utility>
 #include <vector>
 
+#include "cdt/cdt.hpp"
 #include "cdt/detail/host_device.hpp"
 #include "cdt/detail/predicates.hpp"
 #include "gcd/mesh.hpp"
@@ -22,6 +23,10 @@ struct DualTriangle {
 };
 
 /// Axis-aligned box.
+/// Per site a flag (1: kept in the diagram), with the allocator of the triangulation's large arrays
+/// (cdt.hpp): sized without a zero fill where every flag is then written.
+using FlagArray = std::vector<std::uint8_t, DefaultInitAllocator<std::uint8_t>>;
+
 struct Box {
   double min_x = 0, min_y = 0, max_x = 0, max_y = 0;
 };

@@ -392,7 +392,7 @@ InsertStats insert_missing_points_in_parts(Mesh& mesh, std::span<const MissingPo
       executor.compact(num, [&](std::size_t q) { return inserted[q] == 0; });
   stats.inserted = num - rest.size();
   if (!rest.empty()) {
-    std::vector<MissingPoint> left(rest.size());
+    MissingArray left(rest.size());
     executor.for_each(rest.size(), [&](std::size_t k) { left[k] = missing[rest[k]]; });
     const InsertStats r = insert_missing_points(mesh, left, executor, &dirty);
     stats.rounds += r.rounds;

@@ -169,7 +169,7 @@ void delete_vertex_round(Mesh& mesh, std::span<const std::uint32_t> active, Hole
 }
 
 ShiftStats shift_to_true_positions(Mesh& mesh, std::uint32_t num_sites, std::span<const double> true_x,
-                                   std::span<const double> true_y, std::vector<MissingPoint>& missing,
+                                   std::span<const double> true_y, MissingArray& missing,
                                    CpuExecutor& executor) {
   if (true_x.size() < num_sites || true_y.size() < num_sites || mesh.num_vertices() < num_sites)
     throw Error("internal error: shift_to_true_positions: fewer coordinates than sites");
