@@ -93,6 +93,9 @@ public:
   void prepare(std::uint32_t m, ::cdt::detail::GridMapping& mapping, ::cdt::detail::Box& bounds,
                IndexArray& site_vertex, IndexArray& site_of_vertex, ::cdt::detail::FlagArray& kept,
                ::cdt::detail::MissingArray& missing, const HostParallelFor& parallel = {});
+  /// The largest absolute coordinate of the sites (after prepare): what the split's snap tolerance
+  /// is made from (cdt::detail::split_pieces), known here without a pass over the vertices.
+  double magnitude() const;
   ~DeviceSites();
   DeviceSites(DeviceSites&&) noexcept;
   DeviceSites& operator=(DeviceSites&&) noexcept;
@@ -333,12 +336,17 @@ public:
   /// insert_constraints flipped (none when it was not called).
   FlipResult flip_after_constraints();
 
+  /// Takes over the sites' vertex ids (the site_vertex that `sites` gave the host), so that output()
+  /// uploads only the entries the host appended after them (10^7 sites: 40 MB not sent again).
+  void take_vertex_ids(DeviceSites& sites);
+
   /// Copies the mesh back into `mesh` (every array replaced).
   void download(::cdt::detail::Mesh& mesh) const;
 
   /// cdt::Triangulation's triangles, neighbors and segment_of_edge, made on the device from the live
   /// slots in order (cdt::detail::output_triangle) and copied straight into the arrays (replaced):
-  /// sites mapped to vertex ids through vertex_of, constraint pieces to input segments through
+  /// sites mapped to vertex ids through vertex_of (whose first entries, taken over by take_vertex_ids,
+  /// must be the ones the device holds), constraint pieces to input segments through
   /// segment_of_piece. The mesh itself is not copied back. The copies' host side runs on `parallel`
   /// when given (it writes fresh pages of 36 bytes per triangle).
   void output(std::span<const std::uint32_t> vertex_of, std::span<const std::uint32_t> segment_of_piece,

@@ -65,6 +65,8 @@ struct DeviceMesh::State {
   /// Per slot, 1 where the last insert() split a triangle or made one (for flip_after_insert(); empty
   /// before the first call).
   detail::DeviceBuffer<std::uint8_t> made_by_insert;
+  /// The first entries of output()'s vertex_of, already on the device (take_vertex_ids; else empty).
+  detail::DeviceBuffer<std::uint32_t> vertex_ids;
 
   ::cdt::detail::MeshView view() {
     return ::cdt::detail::MeshView{x.data(),   y.data(),        tri.data(), adj.data(),

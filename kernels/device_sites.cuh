@@ -15,16 +15,18 @@ struct DeviceSites::State {
   /// Declared first: destroyed after the buffers queued on its stream. Mutable: copies to the host
   /// from a const DeviceSites queue on it.
   mutable detail::CudaExecutor executor;
-  std::uint32_t n = 0; ///< sites
-  std::uint32_t m = 0; ///< grid side
+  std::uint32_t n = 0;  ///< sites
+  std::uint32_t m = 0;  ///< grid side
+  double magnitude = 0; ///< the largest absolute coordinate of the sites (after prepare)
   /// Until prepare: the vertices (x, y pairs) and the sites' vertex ids (empty when every vertex is a
   /// site, in order).
   std::size_t num_vertices = 0;
   detail::DeviceBuffer<double> vertex_xy;
   detail::DeviceBuffer<std::uint32_t> site_list;
-  detail::DeviceBuffer<double> true_x, true_y; ///< per site (in the Z order), its true position
-  detail::DeviceBuffer<double> x, y;           ///< per site, its position in the diagram
-  detail::DeviceBuffer<std::uint8_t> kept;     ///< per site, 1 while it is a site of the diagram
+  detail::DeviceBuffer<double> true_x, true_y;     ///< per site (in the Z order), its true position
+  detail::DeviceBuffer<double> x, y;               ///< per site, its position in the diagram
+  detail::DeviceBuffer<std::uint8_t> kept;         ///< per site, 1 while it is a site of the diagram
+  detail::DeviceBuffer<std::uint32_t> site_vertex; ///< per site, its vertex (the host's site_vertex)
   /// Per site its grid cell, and per cell (row-major) its kept site or kNone; DeviceVoronoi takes them.
   detail::DeviceBuffer<std::uint32_t> gx, gy, cell_owner;
 };

@@ -999,6 +999,10 @@ void DeviceMesh::remove_fake_boundary(std::uint32_t first_fake, const RemoveOnHo
   trace.mark("slots compacted");
 }
 
+void DeviceMesh::take_vertex_ids(DeviceSites& sites) {
+  state_->vertex_ids = std::move(sites.state().site_vertex);
+}
+
 void DeviceMesh::output(std::span<const std::uint32_t> vertex_of,
                         std::span<const std::uint32_t> segment_of_piece, TriangleArray& triangles,
                         TriangleArray& neighbors, TriangleArray& segment_of_edge,
@@ -1021,7 +1025,11 @@ void DeviceMesh::output(std::span<const std::uint32_t> vertex_of,
       "index_of_slot");
   detail::DeviceBuffer<std::uint32_t> d_vertex_of(vertex_of.size() + 1);
   detail::DeviceBuffer<std::uint32_t> d_segment_of_piece(segment_of_piece.size() + 1);
-  executor.upload(d_vertex_of.data(), vertex_of.data(), vertex_of.size());
+  const std::size_t known = std::min(s.vertex_ids.size(), vertex_of.size());
+  if (known > 0)
+    CDT_CUDA_CHECK(cudaMemcpyAsync(d_vertex_of.data(), s.vertex_ids.data(), known * sizeof(std::uint32_t),
+                                   cudaMemcpyDeviceToDevice, executor.stream()));
+  executor.upload(d_vertex_of.data() + known, vertex_of.data() + known, vertex_of.size() - known);
   executor.upload(d_segment_of_piece.data(), segment_of_piece.data(), segment_of_piece.size());
   const std::size_t words = 3 * static_cast<std::size_t>(count);
   detail::DeviceBuffer<std::uint32_t> corners(words + 1);

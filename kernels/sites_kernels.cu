@@ -328,6 +328,8 @@ void prepare_sites(DeviceSites::State& s, std::uint32_t m, GridMapping& mapping,
       },
       "site_coordinates");
   const Extent given = box_of(executor, n, x, y);
+  s.magnitude =
+      std::max({std::abs(given.min_x), std::abs(given.max_x), std::abs(given.min_y), std::abs(given.max_y)});
   mapping = ::cdt::detail::grid_mapping_of_box(given.min_x, given.max_x, given.min_y, given.max_y, m);
   trace.mark("coordinates up, grid mapping");
 
@@ -348,8 +350,10 @@ void prepare_sites(DeviceSites::State& s, std::uint32_t m, GridMapping& mapping,
   if (key_bits > 0) executor.sort_pairs(key, order, n, key_bits);
 
   // Renumbering: site k is the vertex at place order[k]; its true position read from the vertices.
-  DeviceBuffer<std::uint32_t> d_site_vertex(n), d_site_of_vertex(nv);
-  std::uint32_t* vertex_of = d_site_vertex.data();
+  // The numbering stays on the device for the output (DeviceMesh::take_vertex_ids).
+  s.site_vertex.resize(n);
+  DeviceBuffer<std::uint32_t> d_site_of_vertex(nv);
+  std::uint32_t* vertex_of = s.site_vertex.data();
   std::uint32_t* site_of = d_site_of_vertex.data();
   s.true_x.resize(n);
   s.true_y.resize(n);
@@ -421,6 +425,10 @@ void prepare_sites(DeviceSites::State& s, std::uint32_t m, GridMapping& mapping,
   site_vertex.resize(n);
   site_of_vertex.resize(nv);
   kept.resize(n);
+  // Room for every site: the dual's degenerate and unreached sites and shifting's bad cases are
+  // appended later, and growing the array would copy it all (5.5 million points, 44 MB, into fresh
+  // pages) for the first of them. The room beyond the missing points is never written unless used.
+  missing.reserve(n);
   missing.resize(num_missing);
   executor.download(site_vertex.data(), vertex_of, n, &parallel);
   executor.download(site_of_vertex.data(), site_of, nv, &parallel);
@@ -465,6 +473,8 @@ void DeviceSites::prepare(std::uint32_t m, GridMapping& mapping, ::cdt::detail::
                           MissingArray& missing, const HostParallelFor& parallel) {
   detail::prepare_sites(*state_, m, mapping, bounds, site_vertex, site_of_vertex, kept, missing, parallel);
 }
+
+double DeviceSites::magnitude() const { return state_->magnitude; }
 
 DeviceSites::~DeviceSites() = default;
 DeviceSites::DeviceSites(DeviceSites&&) noexcept = default;

@@ -1284,7 +1284,8 @@ PieceArray resolve(std::vector<WorkSegment> segs, PointArray& vertices, IndexArr
 
 /// Rounding a crossing point moves it by an ulp or two of the largest coordinate; snapping works at a
 /// few times that.
-double snap_tolerance_of(const Box& box) { return 16.0 * kEpsilon * magnitude(box); }
+double snap_tolerance_of(double magnitude) { return 16.0 * kEpsilon * magnitude; }
+double snap_tolerance_of(const Box& box) { return snap_tolerance_of(magnitude(box)); }
 
 } // namespace
 
@@ -1356,17 +1357,21 @@ void split_pieces(PreparedPslg& pslg, CrossingSegments policy, CpuExecutor& exec
 
 void split_pieces(PreparedPslg& pslg, std::span<const std::uint32_t> suspect_pieces,
                   std::span<const std::uint32_t> suspect_sites, CrossingSegments policy,
-                  CpuExecutor& executor) {
+                  CpuExecutor& executor, double sites_magnitude) {
   if (suspect_pieces.empty()) return;
   StepTrace trace("split");
   // The tolerance of the whole input, so that the suspects are treated as they would be with it.
-  const double tolerance = snap_tolerance_of(bounding_box(pslg.vertices, pslg.sites, executor));
+  const double tolerance = sites_magnitude >= 0.0
+                               ? snap_tolerance_of(sites_magnitude)
+                               : snap_tolerance_of(bounding_box(pslg.vertices, pslg.sites, executor));
+  trace.mark("tolerance");
   std::vector<WorkSegment> segs(suspect_pieces.size());
   executor.for_each(segs.size(), [&](std::size_t k) {
     const ConstraintPiece& p = pslg.pieces[suspect_pieces[k]];
     segs[k] = {p.a, p.b, p.segment, true, false};
   });
   IndexArray sites(suspect_sites.begin(), suspect_sites.end());
+  trace.mark("suspects listed");
   const std::size_t first_added = pslg.vertices.size();
   const PieceArray resolved =
       resolve(std::move(segs), pslg.vertices, sites, pslg.duplicate_of.size(),

@@ -118,9 +118,10 @@ void split_pieces(PreparedPslg& pslg, CrossingSegments policy, CpuExecutor& exec
 /// meet a suspect: for instance every other piece is an edge of a triangulation of the sites, and the
 /// suspects' neighbourhoods in it are suspect too (screen_pieces). Pairs met in the first round are
 /// then exactly those of split_pieces; vertices added later are snapped with the whole input's
-/// tolerance, but only into suspects.
+/// tolerance, but only into suspects. sites_magnitude, when not negative, is the largest absolute
+/// coordinate of pslg.sites, which that tolerance is made from (computed here otherwise).
 void split_pieces(PreparedPslg& pslg, std::span<const std::uint32_t> suspect_pieces,
                   std::span<const std::uint32_t> suspect_sites, CrossingSegments policy,
-                  CpuExecutor& executor);
+                  CpuExecutor& executor, double sites_magnitude = -1.0);
 
 } // namespace cdt::detail

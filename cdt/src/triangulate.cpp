@@ -153,16 +153,18 @@ void mesh_pieces(const detail::PreparedPslg& pslg, const IndexArray& site_of_ver
 
 /// Splits the pieces after the sites are triangulated, given their screen against the Delaunay mesh
 /// (host or device): only the suspects are split (all of them, should the screen have failed).
-/// site_vertex maps mesh vertices to the PSLG's.
+/// site_vertex maps mesh vertices to the PSLG's; sites_magnitude is the largest absolute coordinate of
+/// the sites where known (negative: split_pieces computes it).
 void split_screened(detail::PreparedPslg& pslg, const detail::ScreenedPieces& screen,
-                    const IndexArray& site_vertex, CrossingSegments policy, detail::CpuExecutor& executor) {
+                    const IndexArray& site_vertex, CrossingSegments policy, detail::CpuExecutor& executor,
+                    double sites_magnitude) {
   using namespace detail;
   if (!screen.complete) {
     split_pieces(pslg, policy, executor);
   } else if (!screen.pieces.empty()) {
     std::vector<std::uint32_t> sites(screen.sites.size());
     executor.for_each(sites.size(), [&](std::size_t k) { sites[k] = site_vertex[screen.sites[k]]; });
-    split_pieces(pslg, screen.pieces, sites, policy, executor);
+    split_pieces(pslg, screen.pieces, sites, policy, executor, sites_magnitude);
   }
 }
 
@@ -343,6 +345,7 @@ Triangulation triangulate_on(std::span<const Point> points, std::span<const Segm
   GridSites grid;
   Box bounds; // the box of both positions of every site
   std::vector<std::uint32_t> colour;
+  double sites_magnitude = -1.0; // the largest absolute coordinate of the sites, where the device gives it
 #if defined(TRIXEL_HAVE_CUDA)
   std::optional<gpu::DeviceVoronoi> device_diagram; // Phase 1's colouring stays on the device for Phase 2
   if (on_gpu) {
@@ -353,6 +356,7 @@ Triangulation triangulate_on(std::span<const Point> points, std::span<const Segm
                            missing, parallel);
     }
     trace.mark("device sites");
+    sites_magnitude = device_sites->magnitude();
     device_diagram.emplace(*device_sites);
     trace.mark("digital voronoi");
     timer.end("voronoi").missing = missing.size();
@@ -415,6 +419,7 @@ Triangulation triangulate_on(std::span<const Point> points, std::span<const Segm
           extend(b, part.max_x, part.max_y);
         });
     trace.mark("bounds");
+    missing.reserve(n); // room for the sites appended later (see DeviceSites::prepare)
     missing.resize(grid.missing.size());
     executor.for_each(missing.size(), [&](std::size_t k) {
       missing[k] = {grid.missing[k], grid.missing_owner[k]};
@@ -518,7 +523,8 @@ Triangulation triangulate_on(std::span<const Point> points, std::span<const Segm
 #if defined(TRIXEL_HAVE_CUDA)
   if (on_gpu) {
     shift = device_mesh->shift(n, *device_sites, missing);
-    device_sites.reset(); // its device memory is free for the later phases
+    device_mesh->take_vertex_ids(*device_sites); // for the output, which then uploads only added ones
+    device_sites.reset();                        // its device memory is free for the later phases
   }
 #endif
   if (!on_gpu) shift = shift_to_true_positions(mesh, n, true_x, true_y, missing, executor);
@@ -596,7 +602,7 @@ Triangulation triangulate_on(std::span<const Point> points, std::span<const Segm
     if (!on_gpu) screen = screen_pieces(mesh.view(), pieces, executor);
     trace.mark("screened");
     if (!screen.complete || !screen.pieces.empty()) pieces_stale = true;
-    split_screened(pslg, screen, site_vertex, options.crossings, executor);
+    split_screened(pslg, screen, site_vertex, options.crossings, executor, sites_magnitude);
     trace.mark("split");
     InsertStats placed;
     const std::size_t added = pslg.vertices.size() - first_added;
