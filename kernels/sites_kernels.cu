@@ -287,6 +287,7 @@ void merge_input_on_device(DeviceSites::State& s, std::span<const Point> points,
       nv, [=] __device__(std::size_t i) { return dup[i] == i; }, s.site_list.data());
   s.n = n;
   duplicate_of.resize(nv);
+  sites.reserve(::cdt::detail::vertex_room(nv)); // the split appends the vertices it adds
   sites.resize(n);
   executor.download(duplicate_of.data(), dup, nv, &parallel);
   executor.download(sites.data(), s.site_list.data(), n, &parallel);
@@ -422,7 +423,10 @@ void prepare_sites(DeviceSites::State& s, std::uint32_t m, GridMapping& mapping,
       "missing_points");
   trace.mark("ordered, cells, kept, bounds");
 
+  // Both grow by the vertices the split adds (cdt::triangulate's added_vertices).
+  site_vertex.reserve(::cdt::detail::vertex_room(nv));
   site_vertex.resize(n);
+  site_of_vertex.reserve(::cdt::detail::vertex_room(nv));
   site_of_vertex.resize(nv);
   kept.resize(n);
   // Room for every site: the dual's degenerate and unreached sites and shifting's bad cases are

@@ -1327,7 +1327,7 @@ PreparedPslg merge_input(std::span<const Point> points, std::span<const Segment>
   // Room for the vertices that crossings may add: growing the array would copy every point (30 MB for
   // the coastlines) for the first of them.
   // The copy is made in parallel into unwritten elements (10^7 points: 160 MB).
-  out.vertices.reserve(points.size() + points.size() / 256 + 1024);
+  out.vertices.reserve(vertex_room(points.size()));
   out.vertices.resize(points.size());
   executor.for_each(points.size(), [&](std::size_t k) { out.vertices[k] = points[k]; });
   trace.mark("sites");

@@ -57,6 +57,11 @@ struct PreparedPslg {
 /// the array: a crossing adds two. The device's merge download reserves the same.
 inline std::size_t piece_room(std::size_t n) { return n + n / 256 + 1024; }
 
+/// Room for the vertices (and arrays per vertex or per site) of n input points, with those that
+/// crossings may add: growing such an array would copy it all (10^7 points: 40-160 MB into fresh
+/// pages) for the first vertex added. Room never written costs no memory.
+inline std::size_t vertex_room(std::size_t n) { return n + n / 256 + 1024; }
+
 /// The bits of v with -0 taken as +0, so that equal coordinates give equal bits.
 CDT_HD_INLINE std::uint64_t coordinate_bits(double v) {
   if (v == 0.0) v = 0.0;

@@ -133,7 +133,9 @@ IndexArray spatial_site_order(const detail::GridMapping& mapping, std::span<cons
   std::vector<std::uint32_t> order(n);
   executor.for_each(n, [&](std::size_t s) { order[s] = static_cast<std::uint32_t>(s); });
   executor.sort_pairs_by_key(key, order, 2 * std::bit_width(mapping.m - 1));
-  IndexArray site_vertex(n);
+  IndexArray site_vertex;
+  site_vertex.reserve(detail::vertex_room(n)); // grows by the split's vertices
+  site_vertex.resize(n);
   executor.for_each(n, [&](std::size_t s) { site_vertex[s] = sites[order[s]]; });
   return site_vertex;
 }
@@ -373,6 +375,7 @@ Triangulation triangulate_on(std::span<const Point> points, std::span<const Segm
     mapping = make_grid_mapping(true_x, true_y, m, executor);
     trace.mark("grid mapping");
     site_vertex = spatial_site_order(mapping, true_x, true_y, pslg.sites, executor);
+    site_of_vertex.reserve(vertex_room(pslg.vertices.size())); // grows by the split's vertices
     site_of_vertex.assign(pslg.vertices.size(), kNoId);
     trace.mark("spatial order");
     executor.for_each(n, [&](std::size_t s) {
