@@ -86,6 +86,19 @@ void positions_to_owners(std::span<const std::uint32_t> cell_owner, std::uint32_
 
 // --- Appendix A -----------------------------------------------------------------------------------------
 
+/// One entry of Algorithm A.1's queue: colour `cell` with `site`, at that distance. Ordered by
+/// (distance, site index), the tie rule of Definition 1; the cell only makes the order total.
+struct FloodEntry {
+  std::int64_t distance;
+  std::uint32_t site;
+  std::uint32_t cell;
+  friend bool operator>(const FloodEntry& a, const FloodEntry& b) {
+    if (key_before(b.distance, b.site, a.distance, a.site)) return true;
+    if (key_before(a.distance, a.site, b.distance, b.site)) return false;
+    return a.cell > b.cell;
+  }
+};
+
 /// The orphans among the cells [lo, hi) of row y, written to out; returns how many.
 CDT_HD inline std::uint32_t find_orphans_in_band(const std::uint32_t* site, std::uint32_t m, std::uint32_t y,
                                                  std::uint32_t lo, std::uint32_t hi, std::uint32_t* out) {
@@ -229,6 +242,38 @@ std::vector<std::uint32_t> remove_sites_from_colouring(std::vector<std::uint32_t
         return std::array<std::uint32_t, 2>{sites.gx[j], sites.gy[j]};
       });
   return cleared;
+}
+
+void flood_cleared_cells(std::span<const std::uint32_t> cleared, std::uint32_t m,
+                         const std::function<std::uint32_t&(std::uint32_t cell)>& colour,
+                         const std::function<std::array<std::uint32_t, 2>(std::uint32_t site)>& site_cell) {
+  const auto distance = [&](std::uint32_t x, std::uint32_t y, std::uint32_t j) {
+    const auto [sx, sy] = site_cell(j);
+    const std::int64_t dx = static_cast<std::int64_t>(x) - sx;
+    const std::int64_t dy = static_cast<std::int64_t>(y) - sy;
+    return dx * dx + dy * dy;
+  };
+  // Algorithm A.1 without its "closer to the own site" condition at the seeds: a cleared region's
+  // border need not be. The queue's order is total, so the result does not depend on the order of
+  // `cleared`.
+  std::priority_queue<FloodEntry, std::vector<FloodEntry>, std::greater<>> queue;
+  for (const std::uint32_t a : cleared) {
+    for_each_neighbour(m, a % m, a / m, [&](std::uint32_t x, std::uint32_t y) {
+      const std::uint32_t j = colour(y * m + x);
+      if (j != kNone) queue.push({distance(a % m, a / m, j), j, a});
+    });
+  }
+  while (!queue.empty()) {
+    const FloodEntry e = queue.top();
+    queue.pop();
+    std::uint32_t& here = colour(e.cell);
+    if (here != kNone) continue;
+    here = e.site;
+    for_each_neighbour(m, e.cell % m, e.cell / m, [&](std::uint32_t x, std::uint32_t y) {
+      const std::uint32_t c = y * m + x;
+      if (colour(c) == kNone) queue.push({distance(x, y, e.site), e.site, c});
+    });
+  }
 }
 
 std::vector<std::uint32_t> compute_digital_voronoi(const GridSites& sites, std::uint32_t m,

@@ -13,7 +13,6 @@
 #include <cstddef>
 #include <cstdint>
 #include <functional>
-#include <queue>
 #include <span>
 #include <vector>
 
@@ -57,11 +56,9 @@ std::vector<std::uint32_t> remove_sites_from_colouring(std::vector<std::uint32_t
 /// site_cell(j) site j's grid cell (x, y). Only the cleared cells and their 4-neighbours are read or
 /// written, and only the sites colouring those neighbours asked for, so a caller may hold just those
 /// (the CUDA executor does). Every cleared cell next to a coloured one ends coloured.
-/// A template (defined below), so that the two accessors are inlined: a flood reads them a few times
-/// per cell, and 10^7 points leave tens of thousands of cleared cells.
-template <class Colour, class SiteCell>
-void flood_cleared_cells(std::span<const std::uint32_t> cleared, std::uint32_t m, Colour&& colour,
-                         SiteCell&& site_cell);
+void flood_cleared_cells(std::span<const std::uint32_t> cleared, std::uint32_t m,
+                         const std::function<std::uint32_t&(std::uint32_t cell)>& colour,
+                         const std::function<std::array<std::uint32_t, 2>(std::uint32_t site)>& site_cell);
 
 /// Algorithm A.1 on a Euclidean colouring of sites, in place: the debris (cells that no 4-connected
 /// path of their own colour reaches from their site; see voronoi.cpp for the exact test) are
@@ -553,59 +550,6 @@ CDT_HD inline std::uint32_t flood_colour(const FloodView& v, std::uint32_t x, st
   return best;
 }
 
-/// One entry of Algorithm A.1's queue: colour `cell` with `site`, at that distance. Ordered by
-/// (distance, site index), the tie rule of Definition 1; the cell only makes the order total.
-struct FloodEntry {
-  std::int64_t distance;
-  std::uint32_t site;
-  std::uint32_t cell;
-  friend bool operator>(const FloodEntry& a, const FloodEntry& b) {
-    if (key_before(b.distance, b.site, a.distance, a.site)) return true;
-    if (key_before(a.distance, a.site, b.distance, b.site)) return false;
-    return a.cell > b.cell;
-  }
-};
-
 } // namespace amend
-
-template <class Colour, class SiteCell>
-void flood_cleared_cells(std::span<const std::uint32_t> cleared, std::uint32_t m, Colour&& colour,
-                         SiteCell&& site_cell) {
-  using amend::FloodEntry;
-  // amend::for_each_neighbour's order, on the host alone (the accessors are host code).
-  const auto for_each_neighbour = [](std::uint32_t side, std::uint32_t x, std::uint32_t y, auto&& f) {
-    if (x > 0) f(x - 1, y);
-    if (x + 1 < side) f(x + 1, y);
-    if (y > 0) f(x, y - 1);
-    if (y + 1 < side) f(x, y + 1);
-  };
-  const auto distance = [&](std::uint32_t x, std::uint32_t y, std::uint32_t j) {
-    const auto [sx, sy] = site_cell(j);
-    const std::int64_t dx = static_cast<std::int64_t>(x) - sx;
-    const std::int64_t dy = static_cast<std::int64_t>(y) - sy;
-    return dx * dx + dy * dy;
-  };
-  // Algorithm A.1 without its "closer to the own site" condition at the seeds: a cleared region's
-  // border need not be. The queue's order is total, so the result does not depend on the order of
-  // `cleared`.
-  std::priority_queue<FloodEntry, std::vector<FloodEntry>, std::greater<>> queue;
-  for (const std::uint32_t a : cleared) {
-    for_each_neighbour(m, a % m, a / m, [&](std::uint32_t x, std::uint32_t y) {
-      const std::uint32_t j = colour(y * m + x);
-      if (j != kNone) queue.push({distance(a % m, a / m, j), j, a});
-    });
-  }
-  while (!queue.empty()) {
-    const FloodEntry e = queue.top();
-    queue.pop();
-    std::uint32_t& here = colour(e.cell);
-    if (here != kNone) continue;
-    here = e.site;
-    for_each_neighbour(m, e.cell % m, e.cell / m, [&](std::uint32_t x, std::uint32_t y) {
-      const std::uint32_t c = y * m + x;
-      if (colour(c) == kNone) queue.push({distance(x, y, e.site), e.site, c});
-    });
-  }
-}
 
 } // namespace cdt::detail
