@@ -22,11 +22,11 @@ struct DualTriangle {
   std::uint32_t a, b, c;
 };
 
-/// Axis-aligned box.
 /// Per site a flag (1: kept in the diagram), with the allocator of the triangulation's large arrays
 /// (cdt.hpp): sized without a zero fill where every flag is then written.
 using FlagArray = std::vector<std::uint8_t, DefaultInitAllocator<std::uint8_t>>;
 
+/// Axis-aligned box.
 struct Box {
   double min_x = 0, min_y = 0, max_x = 0, max_y = 0;
 };
