@@ -2,7 +2,8 @@
 // parallel Lawson flipping in rounds. The per-element work is cdt/src/gcd/flip.hpp's
 // (delaunay_flip_candidate, flip_pair_contents, relink_flipped_pair), and the driver below runs the
 // same steps as the CPU executor's flip_to_delaunay (cdt/src/gcd/flip.cpp) in the same order, with the
-// same compactions, so both flip the same pairs in every round and end with the same mesh.
+// same compactions, so both flip the same pairs in every round and end with the same mesh. The last
+// rounds, on short lists, run in one thread block (flip_rounds_in_block, the same steps).
 
 #include <chrono>
 #include <cstddef>
@@ -10,6 +11,7 @@
 #include <string>
 #include <utility>
 
+#include "block_steps.cuh"
 #include "cdt_kernels.hpp"
 #include "cuda_check.cuh"
 #include "cuda_executor.cuh"
@@ -86,6 +88,150 @@ void apply_flips(CudaExecutor& executor, DeviceFlipBatch& batch, const MeshView&
   }
 }
 
+/// Lists of at most this many triangles are flipped by flip_rounds_in_block: its rounds take 10-30
+/// microseconds, against 100-150 as separate launches (each a few microseconds of the host's time, and
+/// three waits for counts).
+constexpr std::uint32_t kFlipBlockLimit = 4096;
+
+/// flip_mesh's buffers and state, for flip_rounds_in_block.
+struct FlipRounds {
+  MeshView m;
+  std::uint32_t first_fake;
+  std::uint32_t* list;
+  std::uint32_t* next;
+  std::uint32_t n;
+  std::uint8_t* active_flag;
+  std::uint32_t* marks;
+  std::uint32_t* partner;
+  std::uint32_t* last;
+  std::uint32_t num_last;
+  std::uint8_t* fix;
+  std::uint32_t* cand;
+  std::uint32_t* nbr;
+  std::uint8_t* own;
+  std::uint32_t* winners;
+  std::uint32_t* waiting;
+};
+
+/// What flip_rounds_in_block leaves for the host.
+struct FlipRoundsEnd {
+  std::uint32_t n;        ///< the list's length (0: done, else above the limit)
+  std::uint32_t in_next;  ///< 1 when the list is in `next`
+  std::uint32_t num_last; ///< the last batch's slots
+  std::uint32_t rounds;
+  unsigned long long flips;
+  std::uint32_t error;      ///< 0, kLostLink or kNoPair
+  std::uint32_t error_edge; ///< with kLostLink: the flipped pair's edge
+};
+constexpr std::uint32_t kLostLink = 1;
+constexpr std::uint32_t kNoPair = 2;
+
+/// flip_mesh's rounds, the same steps in the same order, by one block of kBlockRoundThreads threads
+/// while the list has at most kFlipBlockLimit triangles.
+__global__ void __launch_bounds__(kBlockRoundThreads) flip_rounds_in_block(FlipRounds a, FlipRoundsEnd* end) {
+  __shared__ BlockCompactStorage storage;
+  __shared__ std::uint32_t failed;
+  const MeshView m = a.m;
+  std::uint32_t* list = a.list;
+  std::uint32_t* next = a.next;
+  std::uint32_t n = a.n;
+  std::uint32_t num_last = a.num_last;
+  std::uint32_t rounds = 0, in_next = 0, error = 0, error_edge = kNoId;
+  unsigned long long flips = 0;
+  while (n > 0 && n <= kFlipBlockLimit) {
+    ++rounds;
+    block_for_each(n, [&](std::uint32_t k) {
+      const std::uint32_t t = list[k];
+      const std::uint32_t e = a.first_fake == kNoId
+                                  ? ::cdt::detail::delaunay_flip_candidate(m, a.active_flag, a.partner, t)
+                                  : ::cdt::detail::fake_fan_candidate(m, a.active_flag, t, a.first_fake);
+      a.cand[k] = e;
+      a.nbr[k] = kNoId;
+      if (e == kNoId) return;
+      const std::uint32_t u = edge_tri(m.adj[e]);
+      a.nbr[k] = u;
+      atomicMin(a.marks + t, t);
+      atomicMin(a.marks + u, t);
+    });
+    __syncthreads();
+    block_for_each(n, [&](std::uint32_t k) {
+      if (a.cand[k] == kNoId) {
+        a.own[k] = 0;
+        return;
+      }
+      const std::uint32_t t = list[k];
+      a.own[k] = static_cast<std::uint8_t>((a.marks[t] == t ? 1u : 0u) | (a.marks[a.nbr[k]] == t ? 2u : 0u));
+    });
+    __syncthreads();
+    const std::uint32_t num_winners = block_compact(
+        n, [&](std::uint32_t k) { return a.own[k] == 3; }, a.winners, storage);
+    if (num_winners == 0) {
+      // The lowest proposer always holds both of its claims, so no winner means no proposal.
+      if (block_compact(
+              n, [&](std::uint32_t k) { return a.cand[k] != kNoId; }, a.waiting, storage) != 0)
+        error = kNoPair;
+      n = 0;
+      break;
+    }
+    // The batch's flips, as apply_flips makes them.
+    block_for_each(num_last, [&](std::uint32_t k) { a.partner[a.last[k]] = kNoId; });
+    if (threadIdx.x == 0) failed = kNoId;
+    __syncthreads();
+    block_for_each(num_winners, [&](std::uint32_t k) {
+      const std::uint32_t e = a.cand[a.winners[k]];
+      const std::uint32_t t = edge_tri(e);
+      const std::uint32_t u = edge_tri(m.adj[e]);
+      a.partner[t] = u;
+      a.partner[u] = t;
+      a.last[2 * k] = t;
+      a.last[2 * k + 1] = u;
+    });
+    num_last = 2 * num_winners;
+    __syncthreads();
+    block_for_each(num_winners, [&](std::uint32_t k) {
+      a.fix[k] = ::cdt::detail::flip_pair_contents(m, a.cand[a.winners[k]]);
+    });
+    __syncthreads();
+    block_for_each(num_winners, [&](std::uint32_t k) {
+      if (!::cdt::detail::relink_flipped_pair(m, a.partner, edge_tri(a.cand[a.winners[k]]), a.fix[k]))
+        atomicMin(&failed, k);
+    });
+    __syncthreads();
+    if (failed != kNoId) {
+      error = kLostLink;
+      error_edge = a.cand[a.winners[failed]];
+      n = 0;
+      break;
+    }
+    flips += num_winners;
+    block_for_each(n, [&](std::uint32_t k) {
+      if (a.own[k] & 1u) a.marks[list[k]] = kNoId;
+      if (a.own[k] & 2u) a.marks[a.nbr[k]] = kNoId;
+    });
+    // Next round: proposers that could not flip yet, plus both new triangles of every flip.
+    const std::uint32_t num_waiting = block_compact(
+        n, [&](std::uint32_t k) { return a.cand[k] != kNoId && a.partner[list[k]] == kNoId; }, a.waiting,
+        storage);
+    block_for_each(num_waiting, [&](std::uint32_t k) { next[k] = list[a.waiting[k]]; });
+    block_for_each(num_winners, [&](std::uint32_t k) {
+      const std::uint32_t t = list[a.winners[k]];
+      next[num_waiting + 2 * k] = t;
+      next[num_waiting + 2 * k + 1] = a.partner[t];
+    });
+    block_for_each(n, [&](std::uint32_t k) { a.active_flag[list[k]] = 0; });
+    __syncthreads();
+    const std::uint32_t num_next = num_waiting + 2 * num_winners;
+    block_for_each(num_next, [&](std::uint32_t k) { a.active_flag[next[k]] = 1; });
+    __syncthreads();
+    std::uint32_t* const swap = list;
+    list = next;
+    next = swap;
+    in_next ^= 1u;
+    n = num_next;
+  }
+  if (threadIdx.x == 0) *end = FlipRoundsEnd{n, in_next, num_last, rounds, flips, error, error_edge};
+}
+
 /// The flips on a mesh on the device: flip_to_delaunay's rounds, the first over the live slots t with
 /// only[t] != 0 when only is given. With first_fake given, the fake fans' flips instead
 /// (fake_fan_candidate), the first round over the live slots with a fake corner.
@@ -134,7 +280,27 @@ FlipResult flip_mesh(DeviceMesh::State& s, const std::uint8_t* only, std::uint32
   std::uint32_t* winner_edges = d_winner_edges.data();
   std::uint32_t* waiting = d_waiting.data();
 
+  DeviceBuffer<FlipRoundsEnd> d_end(1);
   while (n > 0) {
+    if (n <= kFlipBlockLimit) {
+      flip_rounds_in_block<<<1, kBlockRoundThreads, 0, executor.stream()>>>(
+          FlipRounds{m, first_fake, list, next, n, active_flag, marks, batch.partner.data(),
+                     batch.last.data(), batch.num_last, batch.fix.data(), cand, nbr, own, winners, waiting},
+          d_end.data());
+      check_launch("flip_rounds_in_block", __FILE__, __LINE__);
+      FlipRoundsEnd end{};
+      executor.download(&end, d_end.data(), 1);
+      result.rounds += end.rounds;
+      result.flips += end.flips;
+      batch.num_last = end.num_last;
+      if (end.in_next != 0) std::swap(list, next);
+      if (end.error == kLostLink)
+        throw Error("internal error: flipped pair at edge " + std::to_string(end.error_edge) +
+                    " lost a neighbour link (the triangulation was not valid)");
+      if (end.error == kNoPair) throw Error("internal error: a flipping round claimed no pair");
+      n = end.n;
+      continue;
+    }
     ++result.rounds;
     const std::uint32_t* l = list;
     // Propose and claim: the proposer's slot index is its label, so the lowest proposer wins.

@@ -4,6 +4,7 @@
 // steps as its CPU executor twin (cdt/src/gcd/shift.cpp, insert.cpp) in the same order with the same
 // ordered compactions, so both executors leave the same mesh slot for slot. The fake boundary's removal
 // is the exception: its fans go to the host, whose edits come back (DeviceMesh::remove_fake_boundary).
+// The deletions' and insertions' last rounds, on short lists, run in one thread block (block_steps.cuh).
 
 #include <algorithm>
 #include <array>
@@ -13,6 +14,7 @@
 #include <utility>
 #include <vector>
 
+#include "block_steps.cuh"
 #include "cdt/detail/trace.hpp"
 #include "cdt_kernels.hpp"
 #include "cuda_check.cuh"
@@ -159,6 +161,152 @@ void delete_vertex_round(DeviceMesh::State& s, const std::uint32_t* active, std:
       "release_slot_marks");
 }
 
+/// Lists of at most this many vertices are deleted by delete_rounds_in_block (see flip_kernels.cu).
+constexpr std::uint32_t kDeleteBlockLimit = 4096;
+/// The holes of a round in delete_rounds_in_block have room for this many ring positions per vertex
+/// of the list it starts with; a round that needs more goes back to the launches.
+constexpr std::uint32_t kDeleteBlockRingRoom = 16;
+
+/// delete_vertices' buffers and state, for delete_rounds_in_block.
+struct DeleteRounds {
+  MeshView m;
+  std::uint32_t* list;
+  std::uint32_t* rest;
+  std::uint32_t n;
+  std::uint8_t* leaving;
+  std::uint8_t* now;
+  std::uint32_t* picked;
+  std::uint32_t* active;
+  std::uint32_t* hint;
+  std::uint32_t* count;
+  std::uint32_t* offset;
+  HoleView h;
+  std::uint32_t ring_capacity;
+  std::uint32_t* slot_pos;
+  const double* true_x; ///< null: no stars to report
+  const double* true_y;
+  MissingPoint* out;
+  std::uint32_t written;
+};
+
+/// Which step of delete_rounds_in_block failed.
+enum class DeleteStep : std::uint32_t { none, independence, fan_sizes, ear_cutting, stuck };
+
+/// What delete_rounds_in_block leaves for the host.
+struct DeleteRoundsEnd {
+  std::uint32_t n;       ///< vertices left to delete
+  std::uint32_t in_rest; ///< 1 when the list is in `rest`
+  std::uint32_t rounds;
+  std::uint32_t written;
+  std::uint32_t room;   ///< 1 when the last round's holes needed more room than the block has
+  DeleteStep step;      ///< the failed step, with its status
+  std::uint32_t status; ///< a WorkStatus
+};
+
+/// delete_vertices' rounds (with delete_vertex_round's steps), the same steps in the same order, by one
+/// block while the list has at most kDeleteBlockLimit vertices and the holes fit its ring room.
+__global__ void __launch_bounds__(kBlockRoundThreads)
+    delete_rounds_in_block(DeleteRounds a, DeleteRoundsEnd* end) {
+  __shared__ BlockCompactStorage storage;
+  __shared__ std::uint32_t failure;
+  const MeshView m = a.m;
+  const HoleView h = a.h;
+  std::uint32_t* list = a.list;
+  std::uint32_t* rest = a.rest;
+  std::uint32_t n = a.n;
+  std::uint32_t rounds = 0, in_rest = 0, room = 0, written = a.written;
+  DeleteStep step = DeleteStep::none;
+  const auto record = [&](WorkStatus status) { atomicCAS(&failure, 0u, static_cast<std::uint32_t>(status)); };
+  const auto failed = [&](DeleteStep at) { // after a barrier that follows the recording step
+    if (failure == 0) return false;
+    step = at;
+    return true;
+  };
+  while (n > 0 && n <= kDeleteBlockLimit) {
+    if (threadIdx.x == 0) failure = 0;
+    __syncthreads();
+    block_for_each(n, [&](std::uint32_t i) {
+      bool go = false;
+      const WorkStatus status = ::cdt::detail::may_delete_now(m, list[i], a.leaving, go);
+      if (status != WorkStatus::ok) record(status);
+      a.now[i] = go ? 1 : 0;
+    });
+    __syncthreads();
+    if (failed(DeleteStep::independence)) break;
+    const std::uint32_t num_active = block_compact(
+        n, [&](std::uint32_t i) { return a.now[i] != 0; }, a.picked, storage);
+    if (num_active == 0) {
+      step = DeleteStep::stuck;
+      break;
+    }
+    block_for_each(num_active, [&](std::uint32_t i) {
+      const std::uint32_t v = list[a.picked[i]];
+      a.active[i] = v;
+      bool closed = false;
+      const std::uint32_t size = ::cdt::detail::ring_size(m, v, closed);
+      if (size == 0)
+        record(WorkStatus::broken_fan);
+      else if (!closed)
+        record(WorkStatus::open_star);
+      a.count[i] = size;
+    });
+    __syncthreads();
+    if (failed(DeleteStep::fan_sizes)) break;
+    const std::uint32_t total = block_exclusive_scan(a.count, a.offset, num_active, storage);
+    if (total > a.ring_capacity) { // nothing changed yet: the launches redo this round
+      room = 1;
+      break;
+    }
+    ++rounds;
+    block_for_each(num_active, [&](std::uint32_t i) {
+      ::cdt::detail::collect_ring(m, a.active[i], h, a.offset[i], a.count[i], a.slot_pos);
+    });
+    __syncthreads();
+    block_for_each(num_active, [&](std::uint32_t i) {
+      ::cdt::detail::mark_owned_vertices(m, h, a.offset[i], a.count[i], a.slot_pos);
+    });
+    __syncthreads();
+    block_for_each(num_active, [&](std::uint32_t i) {
+      const std::uint32_t v = a.active[i], base = a.offset[i], size = a.count[i];
+      const WorkStatus status = ::cdt::detail::cut_ears(m, h, base, size, m.x[v], m.y[v]);
+      a.hint[i] = ::cdt::detail::ring_hint(h, base, size, a.leaving);
+      if (status != WorkStatus::ok) record(status);
+      m.vert_tri[v] = kNoId;
+    });
+    __syncthreads();
+    if (failed(DeleteStep::ear_cutting)) break;
+    block_for_each(num_active, [&](std::uint32_t i) {
+      ::cdt::detail::relink_hole(m, h, a.offset[i], a.count[i], true, a.slot_pos);
+    });
+    __syncthreads();
+    block_for_each(num_active, [&](std::uint32_t i) {
+      for (std::uint32_t p = a.offset[i]; p < a.offset[i] + a.count[i]; ++p)
+        if (h.slot[p] != kNoId) a.slot_pos[h.slot[p]] = kNoId;
+    });
+    __syncthreads();
+    block_for_each(num_active, [&](std::uint32_t i) {
+      const std::uint32_t v = a.active[i];
+      a.leaving[v] = 0;
+      if (a.true_x == nullptr) return;
+      m.x[v] = a.true_x[v];
+      m.y[v] = a.true_y[v];
+      a.out[written + i] = MissingPoint{v, a.hint[i]};
+    });
+    if (a.true_x != nullptr) written += num_active;
+    const std::uint32_t num_rest = block_compact(
+        n, [&](std::uint32_t i) { return a.now[i] == 0; }, a.picked, storage);
+    block_for_each(num_rest, [&](std::uint32_t i) { rest[i] = list[a.picked[i]]; });
+    __syncthreads();
+    std::uint32_t* const swap = list;
+    list = rest;
+    rest = swap;
+    in_rest ^= 1u;
+    n = num_rest;
+  }
+  if (threadIdx.x == 0)
+    *end = DeleteRoundsEnd{n, in_rest, rounds, written, room, step, step == DeleteStep::none ? 0u : failure};
+}
+
 /// cdt::detail::delete_vertices on the device for star holes: deletes the n vertices of `pending`
 /// (leaving[v] set for each) in rounds of pairwise non-adjacent vertices, reporting to `stars` when
 /// given. Returns the rounds.
@@ -170,7 +318,67 @@ std::uint64_t delete_vertices(DeviceMesh::State& s, DeviceBuffer<std::uint32_t>&
   DeviceBuffer<std::uint32_t> picked(n), active(n), hints(n), rest(n);
   std::uint8_t* now = now_flags.data();
   std::uint64_t rounds = 0;
+  DeviceBuffer<DeleteRoundsEnd> d_end(1);
+  bool in_block = true; // false for one round after the block's holes ran out of room
   while (n > 0) {
+    if (in_block && n <= kDeleteBlockLimit) {
+      if (s.num_slots >= ::cdt::detail::kBoundaryRef / 3)
+        throw Error("internal error: too many triangle slots");
+      if (ws.slot_pos.size() < s.num_slots) {
+        ws.slot_pos.resize(s.num_slots);
+        executor.fill_bytes(ws.slot_pos.data(), 0xFF, s.num_slots);
+      }
+      ws.count.resize(n);
+      ws.offset.resize(n);
+      const std::size_t ring = std::max<std::size_t>(ws.vertex.size(), kDeleteBlockRingRoom * std::size_t{n});
+      ws.resize_ring(ring);
+      const DeleteRounds args{s.view(),
+                              pending.data(),
+                              rest.data(),
+                              n,
+                              leaving,
+                              now,
+                              picked.data(),
+                              active.data(),
+                              hints.data(),
+                              ws.count.data(),
+                              ws.offset.data(),
+                              ws.view(),
+                              static_cast<std::uint32_t>(ring),
+                              ws.slot_pos.data(),
+                              stars != nullptr ? stars->true_x : nullptr,
+                              stars != nullptr ? stars->true_y : nullptr,
+                              stars != nullptr ? stars->out : nullptr,
+                              stars != nullptr ? stars->written : 0};
+      delete_rounds_in_block<<<1, kBlockRoundThreads, 0, executor.stream()>>>(args, d_end.data());
+      check_launch("delete_rounds_in_block", __FILE__, __LINE__);
+      DeleteRoundsEnd end{};
+      executor.download(&end, d_end.data(), 1);
+      const auto status_message = [&] {
+        return ::cdt::detail::work_status_message(static_cast<WorkStatus>(end.status));
+      };
+      switch (end.step) {
+      case DeleteStep::none:
+        break;
+      case DeleteStep::independence:
+        throw Error(std::string("internal error: deleting vertices (Algorithm 2, independence): ") +
+                    status_message());
+      case DeleteStep::fan_sizes:
+        throw Error(std::string("internal error: deleting vertices (fan sizes): ") + status_message());
+      case DeleteStep::ear_cutting:
+        throw Error(std::string("internal error: deleting bad cases (ear cutting): ") + status_message());
+      case DeleteStep::stuck:
+        throw Error(std::string("internal error: deleting vertices (Algorithm 2): ") +
+                    ::cdt::detail::work_status_message(WorkStatus::stuck));
+      }
+      rounds += end.rounds;
+      if (stars != nullptr) stars->written = end.written;
+      if (end.in_rest != 0) std::swap(pending, rest);
+      n = end.n;
+      in_block = end.room == 0;
+      continue;
+    }
+    in_block = true;
     ++rounds;
     const MeshView m = s.view();
     const std::uint32_t* list = pending.data();
@@ -388,6 +596,180 @@ ShiftStats shift(DeviceMesh::State& s, std::uint32_t num_sites, const double* tx
   return stats;
 }
 
+/// Lists of at most this many missing points are inserted by insert_rounds_in_block.
+constexpr std::uint32_t kInsertBlockLimit = 4096;
+
+/// insert's buffers and state, for insert_rounds_in_block.
+struct InsertRounds {
+  MeshView m;
+  const MissingPoint* points;
+  std::uint32_t* remaining;
+  std::uint32_t* rest;
+  std::uint32_t n;
+  std::uint32_t* start;
+  std::uint32_t* pending;
+  std::uint32_t fallback;
+  std::uint8_t* made;
+  const std::uint32_t* free_slots;
+  std::uint32_t num_free;
+  std::uint32_t cursor;
+  std::uint32_t *loc_t, *loc_e, *loc_u, *loc_j, *new0, *new1, *mark;
+  std::uint8_t* flags;
+  std::uint8_t* own;
+  std::uint32_t* picked;
+  std::uint32_t* winners;
+};
+
+/// Which step of insert_rounds_in_block failed.
+enum class InsertStep : std::uint32_t { none, location, stuck, slots };
+
+/// What insert_rounds_in_block leaves for the host.
+struct InsertRoundsEnd {
+  std::uint32_t n;       ///< points left
+  std::uint32_t in_rest; ///< 1 when the list is in `rest`
+  std::uint32_t rounds;
+  std::uint32_t cursor; ///< free slots used
+  std::uint32_t inserted;
+  InsertStep step;
+  std::uint32_t status; ///< with InsertStep::location: a WorkStatus
+};
+
+/// insert's rounds (Algorithm 3), the same steps in the same order, by one block while the list has at
+/// most kInsertBlockLimit points.
+__global__ void __launch_bounds__(kBlockRoundThreads)
+    insert_rounds_in_block(InsertRounds a, InsertRoundsEnd* end) {
+  __shared__ BlockCompactStorage storage;
+  __shared__ std::uint32_t failure;
+  const MeshView m = a.m;
+  const std::uint32_t nv = m.num_vertices;
+  std::uint32_t* remaining = a.remaining;
+  std::uint32_t* rest = a.rest;
+  std::uint32_t n = a.n, cursor = a.cursor;
+  std::uint32_t rounds = 0, in_rest = 0, inserted = 0;
+  InsertStep step = InsertStep::none;
+  const ::cdt::detail::InsertRound round{a.loc_t, a.loc_e, a.loc_u, a.loc_j, a.new0, a.new1, a.mark, a.flags};
+  while (n > 0 && n <= kInsertBlockLimit) {
+    ++rounds;
+    if (threadIdx.x == 0) failure = 0;
+    __syncthreads();
+    // Lines 2-5: locate and mark the containers.
+    block_for_each(n, [&](std::uint32_t r) {
+      const std::uint32_t q = remaining[r];
+      a.flags[q] = 0;
+      a.loc_t[q] = kNoId;
+      std::uint32_t o = a.start[q];
+      if (o >= nv || m.vert_tri[o] == kNoId) {
+        if (o < nv && a.pending[o] != 0) return; // the paper's delay: the hint is itself waiting
+        o = a.fallback;
+        a.start[q] = o;
+      }
+      const std::uint32_t v = a.points[q].vertex;
+      const ::cdt::detail::MissingPointPlace at = ::cdt::detail::place_missing_point(m, o, m.x[v], m.y[v]);
+      if (at.status != WorkStatus::ok) {
+        atomicCAS(&failure, 0u, static_cast<std::uint32_t>(at.status));
+        return;
+      }
+      a.loc_t[q] = at.tri;
+      a.loc_e[q] = at.edge;
+      a.loc_u[q] = at.u;
+      a.loc_j[q] = at.j;
+      const std::uint32_t key = ::cdt::detail::claim_key(q);
+      atomicMin(a.mark + at.tri, key);
+      if (at.u != kNoId) atomicMin(a.mark + at.u, key);
+    });
+    __syncthreads();
+    if (failure != 0) {
+      step = InsertStep::location;
+      break;
+    }
+    // Lines 6-13: winners, and a start for the losers next round.
+    block_for_each(n, [&](std::uint32_t r) {
+      const std::uint32_t q = remaining[r];
+      const std::uint32_t t = a.loc_t[q], u = a.loc_u[q];
+      if (t == kNoId) return;
+      const std::uint32_t key = ::cdt::detail::claim_key(q);
+      const bool holds_t = a.mark[t] == key;
+      const bool holds_u = u != kNoId && a.mark[u] == key;
+      const bool wins = holds_t && (u == kNoId || holds_u);
+      a.flags[q] =
+          static_cast<std::uint8_t>((holds_t ? kHoldsT : 0) | (holds_u ? kHoldsU : 0) | (wins ? kWins : 0));
+      if (!wins) a.start[q] = m.tri[3 * t];
+    });
+    __syncthreads();
+    block_for_each(n, [&](std::uint32_t r) {
+      const std::uint32_t q = remaining[r];
+      if (a.loc_t[q] == kNoId || (a.flags[q] & kWins) != 0) return;
+      const std::uint32_t containers[2] = {a.loc_t[q], a.loc_u[q]};
+      for (const std::uint32_t c : containers) {
+        if (c == kNoId) continue;
+        const std::uint32_t w = ::cdt::detail::claim_holder(a.mark[c]);
+        if (w != kNoId && (a.flags[w] & kWins) != 0) {
+          a.start[q] = a.points[w].vertex;
+          return;
+        }
+      }
+    });
+    __syncthreads();
+    const std::uint32_t num_winners = block_compact(
+        n, [&](std::uint32_t r) { return (a.flags[remaining[r]] & kWins) != 0; }, a.picked, storage);
+    if (num_winners == 0) {
+      step = InsertStep::stuck;
+      break;
+    }
+    if (cursor + 2 * static_cast<std::size_t>(num_winners) > a.num_free) {
+      step = InsertStep::slots;
+      break;
+    }
+    block_for_each(num_winners, [&](std::uint32_t r) { a.winners[r] = remaining[a.picked[r]]; });
+    __syncthreads();
+    // Lines 14-16: slots by rank, and who rewrites each corner's vert_tri.
+    block_for_each(num_winners, [&](std::uint32_t r) {
+      const std::uint32_t q = a.winners[r];
+      a.new0[q] = a.free_slots[cursor + 2 * r];
+      a.new1[q] = a.free_slots[cursor + 2 * r + 1];
+      a.own[q] = ::cdt::detail::split_corner_owners(m, round, q);
+    });
+    __syncthreads();
+    // Lines 17-19: split the containers.
+    block_for_each(num_winners, [&](std::uint32_t r) {
+      const std::uint32_t q = a.winners[r];
+      const std::uint32_t v = a.points[q].vertex;
+      if (a.loc_e[q] == 3)
+        ::cdt::detail::split_triangle(m, v, a.loc_t[q], a.new0[q], a.new1[q], a.own[q]);
+      else
+        ::cdt::detail::split_edge(m, v, a.loc_t[q], a.loc_e[q], a.loc_u[q], a.loc_j[q], a.new0[q], a.new1[q],
+                                  a.own[q]);
+      a.pending[v] = 0;
+      a.made[a.loc_t[q]] = a.made[a.new0[q]] = a.made[a.new1[q]] = 1;
+      if (a.loc_u[q] != kNoId) a.made[a.loc_u[q]] = 1;
+    });
+    __syncthreads();
+    // Lines 20-22: outer links.
+    block_for_each(num_winners,
+                   [&](std::uint32_t r) { ::cdt::detail::link_split_outer_edges(m, round, a.winners[r]); });
+    __syncthreads();
+    block_for_each(n, [&](std::uint32_t r) {
+      const std::uint32_t q = remaining[r];
+      if (a.flags[q] & kHoldsT) a.mark[a.loc_t[q]] = kNoId;
+      if (a.flags[q] & kHoldsU) a.mark[a.loc_u[q]] = kNoId;
+    });
+    cursor += 2 * num_winners;
+    inserted += num_winners;
+    const std::uint32_t num_rest = block_compact(
+        n, [&](std::uint32_t r) { return (a.flags[remaining[r]] & kWins) == 0; }, a.picked, storage);
+    block_for_each(num_rest, [&](std::uint32_t r) { rest[r] = remaining[a.picked[r]]; });
+    __syncthreads();
+    std::uint32_t* const swap = remaining;
+    remaining = rest;
+    rest = swap;
+    in_rest ^= 1u;
+    n = num_rest;
+  }
+  if (threadIdx.x == 0)
+    *end = InsertRoundsEnd{
+        n, in_rest, rounds, cursor, inserted, step, step == InsertStep::location ? failure : 0u};
+}
+
 InsertStats insert(DeviceMesh::State& s, std::span<const MissingPoint> missing) {
   using ::cdt::detail::PointLocation;
   InsertStats stats;
@@ -497,7 +879,56 @@ InsertStats insert(DeviceMesh::State& s, std::span<const MissingPoint> missing) 
   std::uint32_t n = num;
   std::size_t cursor = 0;
 
+  DeviceBuffer<InsertRoundsEnd> d_end(1);
   while (n > 0) {
+    if (n <= kInsertBlockLimit) {
+      const InsertRounds args{m,
+                              points,
+                              d_remaining.data(),
+                              d_rest.data(),
+                              n,
+                              start,
+                              pending,
+                              fallback,
+                              made,
+                              free_slots,
+                              num_free,
+                              static_cast<std::uint32_t>(cursor),
+                              loc_t,
+                              loc_e,
+                              loc_u,
+                              loc_j,
+                              new0,
+                              new1,
+                              mark,
+                              flags,
+                              own,
+                              d_picked.data(),
+                              d_winners.data()};
+      insert_rounds_in_block<<<1, kBlockRoundThreads, 0, executor.stream()>>>(args, d_end.data());
+      check_launch("insert_rounds_in_block", __FILE__, __LINE__);
+      InsertRoundsEnd end{};
+      executor.download(&end, d_end.data(), 1);
+      switch (end.step) {
+      case InsertStep::none:
+        break;
+      case InsertStep::location:
+        throw Error(std::string("internal error: inserting missing points (Algorithm 3, point location): ") +
+                    ::cdt::detail::work_status_message(static_cast<WorkStatus>(end.status)));
+      case InsertStep::stuck:
+        throw Error(std::string("internal error: inserting missing points (Algorithm 3; hints may form a "
+                                "cycle): ") +
+                    ::cdt::detail::work_status_message(WorkStatus::stuck));
+      case InsertStep::slots:
+        throw Error("internal error: out of free triangle slots");
+      }
+      stats.rounds += end.rounds;
+      stats.inserted += end.inserted;
+      cursor = end.cursor;
+      if (end.in_rest != 0) std::swap(d_remaining, d_rest);
+      n = end.n;
+      continue;
+    }
     ++stats.rounds;
     const std::uint32_t* remaining = d_remaining.data();
     // Lines 2-5: locate and mark the containers.
