@@ -454,6 +454,95 @@ std::uint32_t sites_in_slot_order(DeviceMesh::State& s, std::uint32_t num_sites,
   return n;
 }
 
+/// Lists of at most this many unchecked points are shifted by shift_rounds_in_block.
+constexpr std::uint32_t kShiftBlockLimit = 4096;
+
+/// shift's buffers and state, for shift_rounds_in_block.
+struct ShiftRounds {
+  MeshView m;
+  const double* tx;
+  const double* ty;
+  std::uint8_t* state;
+  const std::uint32_t* lower;
+  std::uint8_t* ready;
+  std::uint32_t* rest;
+  std::uint32_t *list, *cursor, *end;                ///< the unchecked points, their neighbour lists
+  std::uint32_t *next_list, *next_cursor, *next_end; ///< the next round's
+  std::uint32_t n;
+};
+
+/// What shift_rounds_in_block leaves for the host.
+struct ShiftRoundsEnd {
+  std::uint32_t n;       ///< points left unchecked
+  std::uint32_t in_next; ///< 1 when the lists are in the next_ arrays
+  std::uint32_t rounds;
+  std::uint32_t status; ///< a WorkStatus: a failure of the good cases, or ok
+  std::uint32_t stuck;  ///< 1 when a round checked no point
+};
+
+/// shift's rounds (Algorithm 1), the same steps in the same order, by one block while at most
+/// kShiftBlockLimit points are unchecked.
+__global__ void __launch_bounds__(kBlockRoundThreads)
+    shift_rounds_in_block(ShiftRounds a, ShiftRoundsEnd* end) {
+  using ::cdt::detail::kBad;
+  using ::cdt::detail::kGood;
+  __shared__ BlockCompactStorage storage;
+  __shared__ std::uint32_t failure;
+  const MeshView m = a.m;
+  std::uint32_t *list = a.list, *cursor = a.cursor, *ends = a.end;
+  std::uint32_t *next_list = a.next_list, *next_cursor = a.next_cursor, *next_end = a.next_end;
+  std::uint32_t n = a.n, rounds = 0, in_next = 0, status = 0, stuck = 0;
+  while (n > 0 && n <= kShiftBlockLimit) {
+    ++rounds;
+    if (threadIdx.x == 0) failure = 0;
+    block_for_each(n, [&](std::uint32_t i) {
+      a.ready[i] = ::cdt::detail::shift_ready(a.lower, cursor[i], ends[i], a.state) ? 1 : 0;
+    });
+    __syncthreads();
+    block_for_each(n, [&](std::uint32_t i) {
+      if (!a.ready[i]) return;
+      const std::uint32_t v = list[i];
+      bool good = false;
+      const WorkStatus s = ::cdt::detail::shift_is_good(m, v, a.tx[v], a.ty[v], good);
+      if (s != WorkStatus::ok) atomicCAS(&failure, 0u, static_cast<std::uint32_t>(s));
+      if (good) {
+        m.x[v] = a.tx[v];
+        m.y[v] = a.ty[v];
+      }
+      a.state[v] = good ? kGood : kBad;
+    });
+    __syncthreads();
+    if (failure != 0) {
+      status = failure;
+      break;
+    }
+    // The lowest-priority unchecked point is always ready, so every round checks at least one point.
+    const std::uint32_t num_rest = block_compact(
+        n, [&](std::uint32_t i) { return a.ready[i] == 0; }, a.rest, storage);
+    if (num_rest == n) {
+      stuck = 1;
+      break;
+    }
+    block_for_each(num_rest, [&](std::uint32_t r) {
+      next_list[r] = list[a.rest[r]];
+      next_cursor[r] = cursor[a.rest[r]];
+      next_end[r] = ends[a.rest[r]];
+    });
+    __syncthreads();
+    const auto swap = [](std::uint32_t*& x, std::uint32_t*& y) {
+      std::uint32_t* const z = x;
+      x = y;
+      y = z;
+    };
+    swap(list, next_list);
+    swap(cursor, next_cursor);
+    swap(ends, next_end);
+    in_next ^= 1u;
+    n = num_rest;
+  }
+  if (threadIdx.x == 0) *end = ShiftRoundsEnd{n, in_next, rounds, status, stuck};
+}
+
 /// Shifting with the sites' true positions tx, ty on the device (num_sites each).
 ShiftStats shift(DeviceMesh::State& s, std::uint32_t num_sites, const double* tx, const double* ty,
                  MissingArray& missing) {
@@ -523,7 +612,42 @@ ShiftStats shift(DeviceMesh::State& s, std::uint32_t num_sites, const double* tx
   DeviceBuffer<std::uint32_t> d_next_unchecked(num), d_next_cursor(num), d_next_end(num);
   const std::uint32_t* lower = d_lower.data();
   std::uint8_t* ready = d_ready.data();
+  DeviceBuffer<ShiftRoundsEnd> d_block_end(1);
   while (num > 0) {
+    if (num <= kShiftBlockLimit) {
+      const ShiftRounds args{m,
+                             tx,
+                             ty,
+                             state,
+                             lower,
+                             ready,
+                             d_scratch.data(),
+                             d_unchecked.data(),
+                             d_cursor.data(),
+                             d_end.data(),
+                             d_next_unchecked.data(),
+                             d_next_cursor.data(),
+                             d_next_end.data(),
+                             num};
+      shift_rounds_in_block<<<1, kBlockRoundThreads, 0, executor.stream()>>>(args, d_block_end.data());
+      check_launch("shift_rounds_in_block", __FILE__, __LINE__);
+      ShiftRoundsEnd end{};
+      executor.download(&end, d_block_end.data(), 1);
+      if (end.stuck != 0)
+        throw Error(std::string("internal error: shifting (Algorithm 1): ") +
+                    ::cdt::detail::work_status_message(WorkStatus::stuck));
+      if (end.status != 0)
+        throw Error(std::string("internal error: shifting (Algorithm 1, good cases): ") +
+                    ::cdt::detail::work_status_message(static_cast<WorkStatus>(end.status)));
+      stats.rounds += end.rounds;
+      if (end.in_next != 0) {
+        std::swap(d_unchecked, d_next_unchecked);
+        std::swap(d_cursor, d_next_cursor);
+        std::swap(d_end, d_next_end);
+      }
+      num = end.n;
+      continue;
+    }
     ++stats.rounds;
     const std::uint32_t* list = d_unchecked.data();
     std::uint32_t* cursor = d_cursor.data();
