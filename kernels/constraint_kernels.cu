@@ -2,13 +2,16 @@
 // by flipping on a mesh that stays on the device. The per-element work is cdt/src/gcd/constraints.hpp's
 // (walk_piece, propose_constraint_flip, mark_after_flip) and the flips are FlipBatch's; the driver runs
 // the same steps as the CPU executor's insert_constraints (cdt/src/gcd/constraints.cpp) in the same
-// order with the same ordered compactions, so both insert the pieces by the same flips.
+// order with the same ordered compactions, so both insert the pieces by the same flips. Inner iterations
+// on short lists run in one thread block (constraint_rounds_in_block, the same steps).
 
+#include <algorithm>
 #include <cstddef>
 #include <cstdint>
 #include <string>
 #include <utility>
 
+#include "block_steps.cuh"
 #include "cdt_kernels.hpp"
 #include "cuda_check.cuh"
 #include "cuda_executor.cuh"
@@ -43,6 +46,176 @@ __device__ bool is_error(ConstraintStatus s) { return s >= ConstraintStatus::ver
   const ConstraintPiece2& p = pieces[piece_index];
   throw Error("internal error: constraint piece " + std::to_string(piece_index) + " (" + std::to_string(p.a) +
               ", " + std::to_string(p.b) + "): " + ::cdt::detail::constraint_status_message(status));
+}
+
+/// Lists of at most this many marked triangles run their inner iterations in constraint_rounds_in_block.
+constexpr std::uint32_t kConstraintBlockLimit = 4096;
+
+/// insert_constraints' buffers and state, for constraint_rounds_in_block.
+struct ConstraintRounds {
+  MeshView m;
+  const ConstraintPiece2* piece;
+  std::uint32_t* cmark;
+  std::uint32_t* claim;
+  std::uint8_t* flipped;
+  std::uint32_t* partner;
+  std::uint32_t* last;
+  std::uint32_t num_last;
+  std::uint8_t* fix;
+  std::uint32_t* active;
+  std::uint32_t* next_active;
+  std::uint32_t na;
+  std::uint32_t iterations_left; ///< of this outer iteration's inner limit
+  std::uint32_t allowed;         ///< inner iterations before the bound of the whole insertion
+  ConstraintStatus* status;
+  std::uint32_t *edge, *next_tri, *prev_tri, *label, *picked;
+  std::uint8_t* own;
+};
+
+/// Why constraint_rounds_in_block stopped, besides the list's length or the inner limit.
+enum class ConstraintStop : std::uint32_t { none, no_winners, stalled, proposal_error, lost_link, too_many };
+
+/// What constraint_rounds_in_block leaves for the host.
+struct ConstraintRoundsEnd {
+  std::uint32_t na;         ///< marked triangles left in the list
+  std::uint32_t in_next;    ///< 1 when the list is in `next_active`
+  std::uint32_t iterations; ///< inner iterations run
+  std::uint32_t num_last;   ///< the last batch's slots
+  unsigned long long flips;
+  ConstraintStop stop;
+  std::uint32_t error_at;    ///< with proposal_error: the element
+  std::uint32_t error_piece; ///< and its piece; with lost_link: the flipped pair's edge
+};
+
+/// insert_constraints' inner iterations (Algorithm 5), the same steps in the same order, by one block
+/// while the list has at most kConstraintBlockLimit triangles.
+__global__ void __launch_bounds__(kBlockRoundThreads)
+    constraint_rounds_in_block(ConstraintRounds a, ConstraintRoundsEnd* end) {
+  __shared__ BlockCompactStorage storage;
+  __shared__ std::uint32_t first;
+  const MeshView m = a.m;
+  std::uint32_t* act = a.active;
+  std::uint32_t* next = a.next_active;
+  std::uint32_t na = a.na, num_last = a.num_last, iterations = 0, in_next = 0;
+  std::uint32_t error_at = kNoId, error_piece = kNoId;
+  unsigned long long flips = 0;
+  ConstraintStop stop = ConstraintStop::none;
+  while (na > 0 && na <= kConstraintBlockLimit && iterations < a.iterations_left) {
+    if (iterations == a.allowed) {
+      stop = ConstraintStop::too_many;
+      break;
+    }
+    ++iterations;
+    if (threadIdx.x == 0) first = kNoId;
+    __syncthreads();
+    // Algorithm 5, lines 2-11: cases, then claims by atomic minimum of the label.
+    block_for_each(na, [&](std::uint32_t k) {
+      const std::uint32_t A = act[k];
+      FlipProposal proposal;
+      a.status[k] = ::cdt::detail::propose_constraint_flip(m, a.cmark, a.piece, A, proposal);
+      if (is_error(a.status[k])) atomicMin(&first, k);
+      a.edge[k] = proposal.edge;
+      a.prev_tri[k] = proposal.prev;
+      a.next_tri[k] = kNoId;
+      if (proposal.flip_case == FlipCase::none) return;
+      const std::uint32_t C = edge_tri(m.adj[proposal.edge]);
+      a.next_tri[k] = C;
+      a.label[k] = ::cdt::detail::constraint_flip_label(proposal.flip_case, A);
+      atomicMin(a.claim + A, a.label[k]);
+      atomicMin(a.claim + C, a.label[k]);
+      if (proposal.prev != kNoId) atomicMin(a.claim + proposal.prev, a.label[k]);
+    });
+    __syncthreads();
+    if (first != kNoId) {
+      stop = ConstraintStop::proposal_error;
+      error_at = first;
+      error_piece = a.cmark[act[first]];
+      break;
+    }
+    // Algorithm 5, line 13: flip only where every claim held.
+    block_for_each(na, [&](std::uint32_t k) {
+      if (a.next_tri[k] == kNoId) {
+        a.own[k] = 0;
+        return;
+      }
+      const std::uint32_t mine = a.label[k];
+      a.own[k] = static_cast<std::uint8_t>(
+          (a.claim[act[k]] == mine ? 1u : 0u) | (a.claim[a.next_tri[k]] == mine ? 2u : 0u) |
+          (a.prev_tri[k] != kNoId && a.claim[a.prev_tri[k]] == mine ? 4u : 0u));
+    });
+    __syncthreads();
+    std::uint32_t* winners = a.picked;
+    const std::uint32_t num_winners = block_compact(
+        na,
+        [&](std::uint32_t k) {
+          return a.next_tri[k] != kNoId && a.own[k] == (a.prev_tri[k] != kNoId ? 7u : 3u);
+        },
+        winners, storage);
+    block_for_each(na, [&](std::uint32_t k) {
+      if (a.own[k] & 1u) a.claim[act[k]] = kNoId;
+      if (a.own[k] & 2u) a.claim[a.next_tri[k]] = kNoId;
+      if (a.own[k] & 4u) a.claim[a.prev_tri[k]] = kNoId;
+    });
+    __syncthreads();
+    if (num_winners == 0) { // the lowest label holds all its claims: nothing was flippable
+      stop = ConstraintStop::no_winners;
+      break;
+    }
+    // The batch's flips, as apply_flips makes them.
+    block_for_each(num_last, [&](std::uint32_t k) { a.partner[a.last[k]] = kNoId; });
+    if (threadIdx.x == 0) first = kNoId;
+    __syncthreads();
+    block_for_each(num_winners, [&](std::uint32_t k) {
+      const std::uint32_t e = a.edge[winners[k]];
+      const std::uint32_t t = edge_tri(e);
+      const std::uint32_t u = edge_tri(m.adj[e]);
+      a.partner[t] = u;
+      a.partner[u] = t;
+      a.last[2 * k] = t;
+      a.last[2 * k + 1] = u;
+    });
+    num_last = 2 * num_winners;
+    __syncthreads();
+    block_for_each(num_winners, [&](std::uint32_t k) {
+      a.fix[k] = ::cdt::detail::flip_pair_contents(m, a.edge[winners[k]]);
+    });
+    __syncthreads();
+    block_for_each(num_winners, [&](std::uint32_t k) {
+      if (!::cdt::detail::relink_flipped_pair(m, a.partner, edge_tri(a.edge[winners[k]]), a.fix[k]))
+        atomicMin(&first, k);
+    });
+    __syncthreads();
+    if (first != kNoId) {
+      stop = ConstraintStop::lost_link;
+      error_piece = a.edge[winners[first]];
+      break;
+    }
+    block_for_each(num_winners, [&](std::uint32_t k) {
+      const std::uint32_t A = act[winners[k]];
+      ::cdt::detail::mark_after_flip(m, a.cmark, a.piece, A, a.partner[A], a.cmark[A]);
+      a.flipped[A] = a.flipped[a.partner[A]] = 1;
+    });
+    __syncthreads();
+    flips += num_winners;
+    // The stalled rule of constraints.cpp: marking again beats proposing over stuck triangles.
+    const bool stalled = static_cast<std::uint64_t>(num_winners) * kStalledShare < na;
+    std::uint32_t* still = a.picked;
+    const std::uint32_t num_still = block_compact(
+        na, [&](std::uint32_t k) { return a.cmark[act[k]] != kNoId; }, still, storage);
+    block_for_each(num_still, [&](std::uint32_t k) { next[k] = act[still[k]]; });
+    __syncthreads();
+    std::uint32_t* const swap = act;
+    act = next;
+    next = swap;
+    in_next ^= 1u;
+    na = num_still;
+    if (stalled) {
+      stop = ConstraintStop::stalled;
+      break;
+    }
+  }
+  if (threadIdx.x == 0)
+    *end = ConstraintRoundsEnd{na, in_next, iterations, num_last, flips, stop, error_at, error_piece};
 }
 
 } // namespace
@@ -168,7 +341,56 @@ ConstraintStats insert_constraints(DeviceMesh::State& s, std::span<const Constra
     std::uint32_t na = executor.compact(
         slots, [=] __device__(std::size_t t) { return cmark[t] != kNoId; }, d_active.data());
     std::uint64_t outer_flips = 0;
-    for (unsigned iteration = 0; iteration < inner_limit && na > 0; ++iteration) {
+    DeviceBuffer<ConstraintRoundsEnd> d_block_end(1);
+    unsigned iteration = 0;
+    while (iteration < inner_limit && na > 0) {
+      if (na <= kConstraintBlockLimit) {
+        const std::uint64_t allowed =
+            max_inner_iterations - std::min(max_inner_iterations, stats.inner_iterations);
+        const ConstraintRounds args{m,
+                                    piece,
+                                    cmark,
+                                    claim,
+                                    flipped,
+                                    batch.partner.data(),
+                                    batch.last.data(),
+                                    batch.num_last,
+                                    batch.fix.data(),
+                                    d_active.data(),
+                                    d_next_active.data(),
+                                    na,
+                                    inner_limit - iteration,
+                                    static_cast<std::uint32_t>(std::min<std::uint64_t>(allowed, kNoId)),
+                                    d_prop_status.data(),
+                                    d_edge.data(),
+                                    d_next_tri.data(),
+                                    d_prev_tri.data(),
+                                    d_label.data(),
+                                    d_picked.data(),
+                                    d_own.data()};
+        constraint_rounds_in_block<<<1, kBlockRoundThreads, 0, executor.stream()>>>(args, d_block_end.data());
+        check_launch("constraint_rounds_in_block", __FILE__, __LINE__);
+        ConstraintRoundsEnd end{};
+        executor.download(&end, d_block_end.data(), 1);
+        iteration += end.iterations;
+        stats.inner_iterations += end.iterations;
+        if (end.stop == ConstraintStop::too_many)
+          throw Error("internal error: constraint insertion did not finish within " +
+                      std::to_string(max_inner_iterations) + " inner iterations");
+        if (end.stop == ConstraintStop::proposal_error)
+          fail(executor, d_prop_status.data(), end.error_at, end.error_piece, host_pieces);
+        if (end.stop == ConstraintStop::lost_link) // as apply_flips reports it
+          throw Error("internal error: flipped pair at edge " + std::to_string(end.error_piece) +
+                      " lost a neighbour link (the triangulation was not valid)");
+        stats.flips += end.flips;
+        outer_flips += end.flips;
+        batch.num_last = end.num_last;
+        if (end.in_next != 0) std::swap(d_active, d_next_active);
+        na = end.na;
+        if (end.stop != ConstraintStop::none) break; // no winners, or stalled: mark again
+        continue;
+      }
+      ++iteration;
       if (++stats.inner_iterations > max_inner_iterations) {
         throw Error("internal error: constraint insertion did not finish within " +
                     std::to_string(max_inner_iterations) + " inner iterations");
