@@ -161,33 +161,12 @@ __global__ void __launch_bounds__(kBlockRoundThreads)
       stop = ConstraintStop::no_winners;
       break;
     }
-    // The batch's flips, as apply_flips makes them.
-    block_for_each(num_last, [&](std::uint32_t k) { a.partner[a.last[k]] = kNoId; });
-    if (threadIdx.x == 0) first = kNoId;
-    __syncthreads();
-    block_for_each(num_winners, [&](std::uint32_t k) {
-      const std::uint32_t e = a.edge[winners[k]];
-      const std::uint32_t t = edge_tri(e);
-      const std::uint32_t u = edge_tri(m.adj[e]);
-      a.partner[t] = u;
-      a.partner[u] = t;
-      a.last[2 * k] = t;
-      a.last[2 * k + 1] = u;
-    });
-    num_last = 2 * num_winners;
-    __syncthreads();
-    block_for_each(num_winners, [&](std::uint32_t k) {
-      a.fix[k] = ::cdt::detail::flip_pair_contents(m, a.edge[winners[k]]);
-    });
-    __syncthreads();
-    block_for_each(num_winners, [&](std::uint32_t k) {
-      if (!::cdt::detail::relink_flipped_pair(m, a.partner, edge_tri(a.edge[winners[k]]), a.fix[k]))
-        atomicMin(&first, k);
-    });
-    __syncthreads();
-    if (first != kNoId) {
+    const std::uint32_t lost = block_apply_flips(
+        m, a.partner, a.last, num_last, a.fix, num_winners,
+        [&](std::uint32_t k) { return a.edge[winners[k]]; }, first);
+    if (lost != kNoId) {
       stop = ConstraintStop::lost_link;
-      error_piece = a.edge[winners[first]];
+      error_piece = a.edge[winners[lost]];
       break;
     }
     block_for_each(num_winners, [&](std::uint32_t k) {

@@ -130,7 +130,7 @@ constexpr std::uint32_t kNoPair = 2;
 /// while the list has at most kFlipBlockLimit triangles.
 __global__ void __launch_bounds__(kBlockRoundThreads) flip_rounds_in_block(FlipRounds a, FlipRoundsEnd* end) {
   __shared__ BlockCompactStorage storage;
-  __shared__ std::uint32_t failed;
+  __shared__ std::uint32_t lost;
   const MeshView m = a.m;
   std::uint32_t* list = a.list;
   std::uint32_t* next = a.next;
@@ -173,30 +173,9 @@ __global__ void __launch_bounds__(kBlockRoundThreads) flip_rounds_in_block(FlipR
       n = 0;
       break;
     }
-    // The batch's flips, as apply_flips makes them.
-    block_for_each(num_last, [&](std::uint32_t k) { a.partner[a.last[k]] = kNoId; });
-    if (threadIdx.x == 0) failed = kNoId;
-    __syncthreads();
-    block_for_each(num_winners, [&](std::uint32_t k) {
-      const std::uint32_t e = a.cand[a.winners[k]];
-      const std::uint32_t t = edge_tri(e);
-      const std::uint32_t u = edge_tri(m.adj[e]);
-      a.partner[t] = u;
-      a.partner[u] = t;
-      a.last[2 * k] = t;
-      a.last[2 * k + 1] = u;
-    });
-    num_last = 2 * num_winners;
-    __syncthreads();
-    block_for_each(num_winners, [&](std::uint32_t k) {
-      a.fix[k] = ::cdt::detail::flip_pair_contents(m, a.cand[a.winners[k]]);
-    });
-    __syncthreads();
-    block_for_each(num_winners, [&](std::uint32_t k) {
-      if (!::cdt::detail::relink_flipped_pair(m, a.partner, edge_tri(a.cand[a.winners[k]]), a.fix[k]))
-        atomicMin(&failed, k);
-    });
-    __syncthreads();
+    const std::uint32_t failed = block_apply_flips(
+        m, a.partner, a.last, num_last, a.fix, num_winners,
+        [&](std::uint32_t k) { return a.cand[a.winners[k]]; }, lost);
     if (failed != kNoId) {
       error = kLostLink;
       error_edge = a.cand[a.winners[failed]];
