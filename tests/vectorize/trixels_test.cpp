@@ -115,6 +115,88 @@ TEST(TrixelColours, EveryPixelCountedOnceWhenEveryCentreIsAVertex) {
   expect_each_pixel_once(9, 7, triangulate_rectangle(9, 7, centres));
 }
 
+// The owner the header's fill rule names, found by trying every triangle: the interior contains the
+// centre moved by an infinitesimal eps right and eps^2 down (a zero orientation on edge s->e is decided
+// by -(e.y - s.y), then by e.x - s.x).
+std::uint32_t brute_force_owner(const cdt::Triangulation& t, double px, double py) {
+  std::uint32_t found = cdt::kNone;
+  for (std::uint32_t tri = 0; tri < t.triangles.size(); ++tri) {
+    bool inside = true;
+    for (int i = 0; i < 3 && inside; ++i) {
+      const cdt::Point& s = t.vertices[t.triangles[tri][i]];
+      const cdt::Point& e = t.vertices[t.triangles[tri][(i + 1) % 3]];
+      const int o = cdt::detail::orient2d(s.x, s.y, e.x, e.y, px, py);
+      inside = o > 0 || (o == 0 && (e.y < s.y || (e.y == s.y && e.x > s.x)));
+    }
+    if (!inside) continue;
+    EXPECT_EQ(found, cdt::kNone) << "two owners of " << px << "," << py;
+    found = tri;
+  }
+  return found;
+}
+
+// Points a hair away from pixel centres and from the rows and columns of centres: the row's crossings
+// then fall within rounding distance of a centre, where only the exact test may decide.
+std::vector<cdt::Point> near_centre_points(int width, int height, int count, unsigned seed) {
+  std::mt19937 rng(seed);
+  std::uniform_int_distribution<int> x(0, width - 1);
+  std::uniform_int_distribution<int> y(0, height - 1);
+  std::uniform_int_distribution<int> pick(0, 6);
+  // A few units in the last place either way, or a small distance.
+  const auto nudge = [&](double v) {
+    switch (pick(rng)) {
+    case 0:
+      return v;
+    case 1:
+      return std::nextafter(v, 0.0);
+    case 2:
+      return std::nextafter(std::nextafter(v, 1e9), 1e9);
+    case 3:
+      return v + 1e-12;
+    case 4:
+      return v - 3e-10;
+    case 5:
+      return v + 2e-9;
+    default:
+      return std::nextafter(v, 1e9);
+    }
+  };
+  std::vector<cdt::Point> points;
+  for (int i = 0; i < count; ++i) points.push_back({nudge(x(rng) + 0.5), nudge(y(rng) + 0.5)});
+  return points;
+}
+
+// Points on a grid of sixteenths of a pixel (the exact half-plane path), many of them on the rows and
+// columns of centres.
+std::vector<cdt::Point> sixteenth_points(int width, int height, int count, unsigned seed) {
+  std::mt19937 rng(seed);
+  std::uniform_int_distribution<int> x(1, 16 * width - 1);
+  std::uniform_int_distribution<int> y(1, 16 * height - 1);
+  std::vector<cdt::Point> points;
+  for (int i = 0; i < count; ++i) points.push_back({x(rng) / 16.0, y(rng) / 16.0});
+  return points;
+}
+
+// owner_of_pixels() (and so colour_trixels(), which walks the same runs) against the fill rule applied
+// to every pixel and every triangle.
+TEST(TrixelColours, OwnersFollowTheFillRuleExactly) {
+  for (unsigned seed = 1; seed <= 12; ++seed) {
+    SCOPED_TRACE(seed);
+    const int width = 21 + static_cast<int>(seed);
+    const int height = 13;
+    for (const auto& points :
+         {random_points(width, height, 120, seed), lattice_points(width, height, 90, seed),
+          near_centre_points(width, height, 90, seed), sixteenth_points(width, height, 120, seed)}) {
+      const cdt::Triangulation t = triangulate_rectangle(width, height, points);
+      const auto owner = vectorize::owner_of_pixels(width, height, t);
+      for (int y = 0; y < height; ++y)
+        for (int x = 0; x < width; ++x)
+          ASSERT_EQ(owner[static_cast<std::size_t>(y) * width + x], brute_force_owner(t, x + 0.5, y + 0.5))
+              << "pixel " << x << "," << y;
+    }
+  }
+}
+
 TEST(TrixelColours, MeanOfOwnedPixelsAndAreas) {
   const int width = 24;
   const int height = 16;

@@ -5,6 +5,7 @@
 #include "vectorize/trixels.hpp"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <cstddef>
 #include <cstdint>
@@ -34,10 +35,60 @@ bool owns(const cdt::Point& a, const cdt::Point& b, const cdt::Point& c, double 
   return true;
 }
 
+// Coordinates that are multiples of 1/16 below 2^20 in magnitude: differences of them and of pixel
+// centres have at most 25 significant bits, so an edge function (a difference of two products of such
+// differences) is exact in double arithmetic. Pixel centres, corners and the points placed on outlines
+// of hard-edged shapes are such coordinates.
+bool on_fine_grid(double v) {
+  const double scaled = v * 16.0;
+  return std::abs(v) < 1048576.0 && scaled == std::floor(scaled);
+}
+
+// One edge s->e of a triangle as a half-plane over the pixel centres (i + 0.5, yc) of a row: the
+// centre is owned (as far as this edge decides) when the edge function
+// E = (e.x - s.x)(yc - s.y) - (e.y - s.y)(cx - s.x) is positive, or zero and the fill rule's tie-break
+// (e.y < s.y, or e.y == s.y and e.x > s.x) says so. Exact for fine-grid coordinates (on_fine_grid).
+struct EdgeHalfPlane {
+  double sx;
+  double sy;
+  double dx;
+  double dy;
+  double inverse_slope; // dx / dy, for the estimate of the crossing; unused when dy == 0
+
+  double at(double yc, int i) const { return dx * (yc - sy) - dy * (i + 0.5 - sx); }
+};
+
+// Narrows the run [begin, end) of owned centres of row yc to the edge's half-plane. With dy < 0 the
+// function grows with x and the edge bounds the run from the left (ties owned); with dy > 0 it falls
+// and bounds it from the right (ties not owned); a horizontal edge owns the whole row or none of it.
+// The crossing is estimated in floating point, then the bound is settled by exact evaluations, one or
+// two steps from the estimate.
+void narrow_run(const EdgeHalfPlane& h, double yc, int width, int& begin, int& end) {
+  if (h.dy == 0.0) {
+    const double e = h.dx * (yc - h.sy);
+    if (!(e > 0.0 || (e == 0.0 && h.dx > 0.0))) end = begin;
+    return;
+  }
+  const double crossing = h.sx + (yc - h.sy) * h.inverse_slope;
+  int i = static_cast<int>(std::clamp(std::ceil(crossing - 0.5), 0.0, static_cast<double>(width)));
+  if (h.dy < 0.0) { // first i with E >= 0
+    while (i > 0 && h.at(yc, i - 1) >= 0.0) --i;
+    while (i < width && h.at(yc, i) < 0.0) ++i;
+    begin = std::max(begin, i);
+  } else { // first i with E <= 0
+    while (i > 0 && h.at(yc, i - 1) <= 0.0) --i;
+    while (i < width && h.at(yc, i) > 0.0) ++i;
+    end = std::min(end, i);
+  }
+}
+
 // Calls visit(triangle, row, x_begin, x_end) for each run of pixels [x_begin, x_end) of a row whose
-// centres the triangle owns. Rows and runs are first estimated in floating point, then every candidate
-// is decided exactly; the estimate is off by far less than a pixel, so probing one pixel beyond each
-// end finds the exact run (a convex set meets a row of centres in one run).
+// centres the triangle owns. A triangle with fine-grid coordinates (nearly all of them: vertices at
+// pixel centres) is the intersection of its edges' half-planes, each settled exactly with a few
+// multiplications (narrow_run). Otherwise rows and runs are first estimated in floating point, then
+// every candidate is decided exactly with orient2d; the estimate is off by far less than a pixel, so
+// probing one pixel beyond each end finds the exact run (a convex set meets a row of centres in one
+// run).
 template <class Visit>
 void for_each_run(int width, int height, const cdt::Triangulation& t, Visit&& visit,
                   std::size_t tri_begin = 0, std::size_t tri_end = SIZE_MAX) {
@@ -47,6 +98,34 @@ void for_each_run(int width, int height, const cdt::Triangulation& t, Visit&& vi
     const cdt::Point& a = t.vertices[t.triangles[tri][0]];
     const cdt::Point& b = t.vertices[t.triangles[tri][1]];
     const cdt::Point& c = t.vertices[t.triangles[tri][2]];
+    if (on_fine_grid(a.x) && on_fine_grid(a.y) && on_fine_grid(b.x) && on_fine_grid(b.y) &&
+        on_fine_grid(c.x) && on_fine_grid(c.y)) {
+      std::array<EdgeHalfPlane, 3> edges;
+      const cdt::Point* v[3] = {&a, &b, &c};
+      for (int i = 0; i < 3; ++i) {
+        const cdt::Point& s = *v[i];
+        const cdt::Point& e = *v[(i + 1) % 3];
+        const double dx = e.x - s.x;
+        const double dy = e.y - s.y;
+        edges[i] = {s.x, s.y, dx, dy, dy != 0.0 ? dx / dy : 0.0};
+      }
+      // Rows whose centres lie within [y_min, y_max]; the half-planes settle the rest exactly.
+      const int row_lo = static_cast<int>(
+          std::clamp(std::ceil(std::min({a.y, b.y, c.y}) - 0.5), 0.0, static_cast<double>(height)));
+      const int row_hi = static_cast<int>(
+          std::clamp(std::floor(std::max({a.y, b.y, c.y}) - 0.5), -1.0, static_cast<double>(height - 1)));
+      for (int row = row_lo; row <= row_hi; ++row) {
+        const double yc = row + 0.5;
+        int begin = 0;
+        int end = width;
+        for (const EdgeHalfPlane& h : edges) {
+          narrow_run(h, yc, width, begin, end);
+          if (begin >= end) break;
+        }
+        if (begin < end) visit(tri, row, begin, end);
+      }
+      continue;
+    }
     const double y_min = std::min({a.y, b.y, c.y});
     const double y_max = std::max({a.y, b.y, c.y});
     // One row of slack on each side absorbs the rounding of y - 0.5.
