@@ -115,6 +115,28 @@ TEST(Simplify, StraightRunCollapsesToItsEnds) {
   EXPECT_EQ(out[0].points[1], (PixelPoint{50, 3}));
 }
 
+// A point of a straight run that another chain ends on stays: removing it would leave that end on the
+// middle of the new segment.
+TEST(Simplify, StraightRunKeepsThePointAnotherChainEndsOn) {
+  std::vector<PixelPoint> run;
+  for (int x = 0; x <= 10; ++x) run.push_back({x, 3});
+  std::vector<PixelPoint> spur;
+  for (int y = 3; y <= 8; ++y) spur.push_back({5, y});
+  const auto out = vectorize::simplify_chains({open_chain(run), open_chain(spur)}, 0.0);
+  EXPECT_EQ(out[0].points, (std::vector<PixelPoint>{{0, 3}, {5, 3}, {10, 3}}));
+  EXPECT_EQ(out[1].points, (std::vector<PixelPoint>{{5, 3}, {5, 8}}));
+}
+
+// A segment between points far apart passes through a centre of the straight run (the chains touch
+// already): no segment of the run next to that contact may change, whatever the run's straightness.
+TEST(Simplify, RunTouchedByALongSegmentStaysAsGiven) {
+  const Chain run = open_chain({{0, 3}, {1, 3}, {2, 3}, {3, 3}, {4, 3}});
+  const Chain across = open_chain({{2, 0}, {2, 6}});
+  const auto out = vectorize::simplify_chains({run, across}, 0.0);
+  EXPECT_EQ(out[0].points, run.points);
+  EXPECT_EQ(out[1].points, across.points);
+}
+
 TEST(Simplify, ZeroToleranceKeepsCorners) {
   const Chain l = open_chain({{0, 0}, {1, 0}, {2, 0}, {3, 0}, {3, 1}, {3, 2}, {3, 3}});
   const auto out = vectorize::simplify_chains({l}, 0.0);

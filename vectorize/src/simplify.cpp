@@ -304,6 +304,66 @@ ChainState place_chain(const Chain& chain, const PointPlacement& placement) {
   return s;
 }
 
+// Removes the middle points of exactly straight runs before the greedy removal, where that provably
+// changes nothing it would check: when every point sits at its pixel centre and consecutive points are
+// 8-adjacent (so segments between them pass through no other centre), a point v strictly between its
+// collinear neighbours u and w whose pixel no other chain point uses can go, because u-w covers exactly
+// the points u-v and v-w covered: nothing new is touched, nothing swept, the deviation is zero. The
+// greedy pass would remove these first too (cost zero), each at the price of a grid query and two queue
+// entries; pixel chains from an image are about half such points.
+void drop_straight_run_points(std::vector<ChainState>& states) {
+  int x0 = std::numeric_limits<int>::max();
+  int y0 = x0;
+  int x1 = std::numeric_limits<int>::min();
+  int y1 = x1;
+  for (const ChainState& s : states) {
+    const auto n = s.pixels.size();
+    for (std::size_t i = 0; i < n; ++i) {
+      const PixelPoint p = s.pixels[i];
+      if (s.points[i] != Vec{p.x + 0.5, p.y + 0.5}) return;
+      if (i + 1 < n || s.closed) {
+        const PixelPoint q = s.pixels[i + 1 < n ? i + 1 : 0];
+        if (std::abs(q.x - p.x) > 1 || std::abs(q.y - p.y) > 1) return;
+      }
+      x0 = std::min(x0, p.x);
+      y0 = std::min(y0, p.y);
+      x1 = std::max(x1, p.x);
+      y1 = std::max(y1, p.y);
+    }
+  }
+  if (x0 > x1) return;
+  const auto width = static_cast<std::size_t>(static_cast<std::int64_t>(x1) - x0 + 1);
+  const auto height = static_cast<std::size_t>(static_cast<std::int64_t>(y1) - y0 + 1);
+  if (width * height > std::size_t{1} << 30) return; // far-flung input: no pixel table
+  std::vector<std::uint8_t> uses(width * height, 0); // 0, 1, or 2 for more
+  const auto index = [&](PixelPoint p) {
+    return static_cast<std::size_t>(p.y - y0) * width + static_cast<std::size_t>(p.x - x0);
+  };
+  for (const ChainState& s : states)
+    for (const PixelPoint& p : s.pixels)
+      uses[index(p)] = static_cast<std::uint8_t>(std::min(2, uses[index(p)] + 1));
+
+  for (ChainState& s : states) {
+    const int n = static_cast<int>(s.points.size());
+    for (int v = 0; v < n; ++v) {
+      if (s.num_alive <= s.min_alive) break;
+      if (s.closed ? n < 3 : v == 0 || v + 1 == n) continue;
+      if (uses[index(s.pixels[v])] != 1) continue;
+      const int u = s.prev[v];
+      const int w = s.next[v];
+      if (s.pixels[u] == s.pixels[w]) continue;
+      const Vec& a = s.points[u];
+      const Vec& b = s.points[v];
+      const Vec& c = s.points[w];
+      if (orient(a, b, c) != 0 || (b.x - a.x) * (c.x - b.x) + (b.y - a.y) * (c.y - b.y) <= 0.0) continue;
+      s.alive[v] = 0;
+      --s.num_alive;
+      s.next[u] = w;
+      s.prev[w] = u;
+    }
+  }
+}
+
 // Calls f(i) for each live point i of the chain that starts a live segment (to next[i]).
 template <class F>
 void for_each_segment_start(const ChainState& s, F&& f) {
@@ -525,6 +585,7 @@ std::vector<Polyline> simplify_chains(const std::vector<Chain>& chains, double t
   std::vector<ChainState> states;
   states.reserve(chains.size());
   for (const Chain& chain : chains) states.push_back(place_chain(chain, placement));
+  drop_straight_run_points(states);
 
   const auto [left, right, across] = split_at_median(states);
   const auto simplify = [&](const std::vector<std::uint32_t>& own, const std::vector<std::uint32_t>& fixed) {
