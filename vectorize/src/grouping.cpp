@@ -27,16 +27,17 @@ double colour_distance(const std::array<double, 3>& lab1, float alpha1, const st
 // Union-find whose roots carry the region's running totals.
 class RegionForest {
 public:
-  RegionForest(const TrixelColours& trixels, unsigned threads)
+  // lab[t]: the CIELAB of trixel t's colour.
+  RegionForest(const TrixelColours& trixels, const std::vector<std::array<double, 3>>& lab, unsigned threads)
       : parent_(trixels.size()), totals_(trixels.size()) {
     std::iota(parent_.begin(), parent_.end(), 0u);
     for_each_part(trixels.size(), threads, [&](std::size_t first, std::size_t last, unsigned) {
-      for (auto t = static_cast<std::uint32_t>(first); t < last; ++t) init(trixels, t);
+      for (auto t = static_cast<std::uint32_t>(first); t < last; ++t) init(trixels, lab, t);
     });
   }
 
   // Triangle t as a region of its own.
-  void init(const TrixelColours& trixels, std::uint32_t t) {
+  void init(const TrixelColours& trixels, const std::vector<std::array<double, 3>>& lab, std::uint32_t t) {
     Totals& r = totals_[t];
     r.area = trixels[t].area;
     for (int c = 0; c < 3; ++c) r.weighted_rgb[c] = trixels[t].area * trixels[t].rgba[c];
@@ -45,7 +46,12 @@ public:
     r.covers_solid = trixels[t].covers_solid;
     r.first_triangle = t;
     r.transparent = trixels[t].transparent();
-    r.lab = srgb_to_lab(rgb(t));
+    // The mean of one triangle is its own colour again (area * c / area rounds back to the float c),
+    // whose CIELAB is known; the check keeps the result exact should it not be.
+    const std::array<float, 3> mean = rgb(t);
+    r.lab = mean == std::array<float, 3>{trixels[t].rgba[0], trixels[t].rgba[1], trixels[t].rgba[2]}
+                ? lab[t]
+                : srgb_to_lab(mean);
   }
 
   std::uint32_t find(std::uint32_t x) {
@@ -218,12 +224,12 @@ Regions group_trixels(const cdt::Triangulation& t, const TrixelColours& trixels,
   // Each thread takes a contiguous run of triangles; two per thread at the least, or it is not worth it.
   const auto parts = static_cast<unsigned>(
       std::min<std::size_t>(resolve_threads(threads), std::max<std::size_t>(1, n / 8192)));
-  RegionForest forest(trixels, parts);
   std::vector<std::array<double, 3>> lab(n);
   for_each_part(n, parts, [&](std::size_t first, std::size_t last, unsigned) {
     for (std::size_t tri = first; tri < last; ++tri)
       lab[tri] = srgb_to_lab({trixels[tri].rgba[0], trixels[tri].rgba[1], trixels[tri].rgba[2]});
   });
+  RegionForest forest(trixels, lab, parts);
 
   // Transparent trixels join each other, in triangle order.
   for (std::uint32_t tri = 0; tri < n; ++tri) {

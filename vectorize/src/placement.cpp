@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <cstddef>
 
 namespace vectorize {
 namespace {
@@ -62,10 +63,15 @@ private:
 
 } // namespace
 
+PointPlacement::PointPlacement(const Image& image) : image_(image.rgba.empty() ? nullptr : &image) {
+  for (std::size_t i = 3; i < image.rgba.size() && !has_outline_; i += 4) has_outline_ = image.rgba[i] < 0.5f;
+}
+
 Placement PointPlacement::place(PixelPoint p) const {
   Placement out;
   out.at = {p.x + 0.5, p.y + 0.5};
-  if (image_ == nullptr) return out;
+  // Without a no-shape pixel no shape pixel has an outline (crossing_shift finds no contact).
+  if (image_ == nullptr || !has_outline_) return out;
   const AlphaField field(*image_);
   if (!field.shape(p.x, p.y)) return out;
   Contact contact = Contact::none;

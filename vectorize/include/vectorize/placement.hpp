@@ -40,8 +40,9 @@ class PointPlacement {
 public:
   /// Every point at its pixel's centre.
   PointPlacement() = default;
-  /// Outline pixels of `image` moved as described; the image must outlive the placement.
-  explicit PointPlacement(const Image& image) : image_(image.rgba.empty() ? nullptr : &image) {}
+  /// Outline pixels of `image` moved as described; the image must outlive the placement. Reads the
+  /// alpha of every pixel once: an image with no no-shape pixel has no outline to move points to.
+  explicit PointPlacement(const Image& image);
 
   /// The point of pixel p (inside the image).
   Placement place(PixelPoint p) const;
@@ -52,6 +53,7 @@ public:
 
 private:
   const Image* image_ = nullptr;
+  bool has_outline_ = false; // some pixel is no shape (alpha < 1/2)
 };
 
 } // namespace vectorize
