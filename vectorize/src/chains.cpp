@@ -5,6 +5,7 @@
 #include "vectorize/chains.hpp"
 
 #include <array>
+#include <bit>
 #include <cstddef>
 #include <cstdint>
 #include <stdexcept>
@@ -16,47 +17,77 @@ namespace {
 constexpr std::array<int, 8> kDx = {1, 1, 0, -1, -1, -1, 0, 1};
 constexpr std::array<int, 8> kDy = {0, -1, -1, -1, 0, 1, 1, 1};
 
+// Per ring of 8 neighbours (bit k: direction k on): Yokoi's simple-pixel test and the m-adjacency links.
+struct RingTables {
+  std::array<std::uint8_t, 256> simple{};
+  std::array<std::uint8_t, 256> links{};
+};
+
+constexpr RingTables make_ring_tables() {
+  RingTables t;
+  for (int mask = 0; mask < 256; ++mask) {
+    const auto bit = [&](int k) { return (mask >> (k % 8)) & 1; };
+    int n = 0;
+    for (int k = 0; k < 8; k += 2) {
+      const int off0 = 1 - bit(k);
+      n += off0 - off0 * (1 - bit(k + 1)) * (1 - bit(k + 2));
+    }
+    t.simple[mask] = n == 1 ? 1 : 0;
+    int links = 0;
+    for (int k = 0; k < 8; ++k)
+      if (bit(k) != 0 && (k % 2 == 0 || (bit(k + 7) == 0 && bit(k + 1) == 0))) links |= 1 << k;
+    t.links[mask] = static_cast<std::uint8_t>(links);
+  }
+  return t;
+}
+constexpr RingTables kTables = make_ring_tables();
+
+// The edge pixels with a border of clear pixels around them, so that a pixel's neighbours are read
+// without bounds checks: on(x, y) for -1 <= x <= width, -1 <= y <= height.
 class Grid {
 public:
-  explicit Grid(const EdgeMap& edges) : width_(edges.width), height_(edges.height), on_(edges.on) {}
+  explicit Grid(const EdgeMap& edges)
+      : width_(edges.width), height_(edges.height), stride_(static_cast<std::size_t>(edges.width) + 2),
+        on_(stride_ * (static_cast<std::size_t>(edges.height) + 2), 0) {
+    for (int y = 0; y < height_; ++y)
+      for (int x = 0; x < width_; ++x)
+        on_[index(x, y)] = edges.on[static_cast<std::size_t>(y) * width_ + x] != 0 ? 1 : 0;
+  }
   int width() const { return width_; }
   int height() const { return height_; }
-  bool on(int x, int y) const {
-    return x >= 0 && y >= 0 && x < width_ && y < height_ && on_[index(x, y)] != 0;
-  }
+  bool on(int x, int y) const { return on_[index(x, y)] != 0; }
   void clear(int x, int y) { on_[index(x, y)] = 0; }
-  std::size_t index(int x, int y) const { return static_cast<std::size_t>(y) * width_ + x; }
+  std::size_t index(int x, int y) const {
+    return static_cast<std::size_t>(y + 1) * stride_ + static_cast<std::size_t>(x + 1);
+  }
+  // Row y's flags, x = 0 first (x = -1 and x = width readable).
+  const std::uint8_t* row(int y) const { return on_.data() + index(0, y); }
+  std::size_t size() const { return on_.size(); }
+
+  // Bit k set when the neighbour in direction k is on.
+  std::uint8_t ring(int x, int y) const {
+    const std::uint8_t* above = row(y - 1) + x;
+    const std::uint8_t* here = row(y) + x;
+    const std::uint8_t* below = row(y + 1) + x;
+    return static_cast<std::uint8_t>(here[1] | above[1] << 1 | above[0] << 2 | above[-1] << 3 |
+                                     here[-1] << 4 | below[-1] << 5 | below[0] << 6 | below[1] << 7);
+  }
 
   // Yokoi's 8-connectivity number: 1 exactly when removing the pixel changes no connectivity of the
   // set pixels (8-connected) or of the background (4-connected).
-  bool simple(int x, int y) const {
-    std::array<int, 9> off{};
-    for (int k = 0; k < 8; ++k) off[k] = on(x + kDx[k], y + kDy[k]) ? 0 : 1;
-    off[8] = off[0];
-    int n = 0;
-    for (int k = 0; k < 8; k += 2) n += off[k] - off[k] * off[k + 1] * off[(k + 2) % 8];
-    return n == 1;
-  }
+  bool simple(int x, int y) const { return kTables.simple[ring(x, y)] != 0; }
 
   // m-adjacency: the diagonal link is dropped when the two pixels are also joined through a shared
   // 4-neighbour, which would otherwise make a triangle of links (a false junction).
-  bool linked(int x, int y, int k) const {
-    const int nx = x + kDx[k];
-    const int ny = y + kDy[k];
-    if (!on(nx, ny)) return false;
-    if (k % 2 == 0) return true;
-    return !on(nx, y) && !on(x, ny);
-  }
-
-  int degree(int x, int y) const {
-    int d = 0;
-    for (int k = 0; k < 8; ++k) d += linked(x, y, k) ? 1 : 0;
-    return d;
-  }
+  bool linked(int x, int y, int k) const { return (kTables.links[ring(x, y)] >> k & 1) != 0; }
+  // The links of pixel (x, y) as bits by direction.
+  std::uint8_t links(int x, int y) const { return kTables.links[ring(x, y)]; }
+  int degree(int x, int y) const { return std::popcount(links(x, y)); }
 
 private:
   int width_;
   int height_;
+  std::size_t stride_;
   std::vector<std::uint8_t> on_;
 };
 
@@ -67,9 +98,11 @@ void thin_blocks(Grid& grid) {
   bool changed = true;
   while (changed) {
     changed = false;
-    for (int y = 0; y + 1 < grid.height(); ++y)
+    for (int y = 0; y + 1 < grid.height(); ++y) {
+      const std::uint8_t* upper = grid.row(y);
+      const std::uint8_t* lower = grid.row(y + 1);
       for (int x = 0; x + 1 < grid.width(); ++x) {
-        if (!(grid.on(x, y) && grid.on(x + 1, y) && grid.on(x, y + 1) && grid.on(x + 1, y + 1))) continue;
+        if ((upper[x] & upper[x + 1] & lower[x] & lower[x + 1]) == 0) continue;
         for (const auto& [px, py] :
              {std::array{x, y}, std::array{x + 1, y}, std::array{x, y + 1}, std::array{x + 1, y + 1}}) {
           if (grid.simple(px, py)) {
@@ -79,6 +112,7 @@ void thin_blocks(Grid& grid) {
           }
         }
       }
+    }
   }
 }
 
@@ -109,7 +143,7 @@ std::vector<Chain> trace_chains(const EdgeMap& edges) {
 
   const int w = grid.width();
   const int h = grid.height();
-  std::vector<std::uint8_t> degree(static_cast<std::size_t>(w) * h, 0);
+  std::vector<std::uint8_t> degree(grid.size(), 0);
   for (int y = 0; y < h; ++y)
     for (int x = 0; x < w; ++x)
       if (grid.on(x, y)) degree[grid.index(x, y)] = static_cast<std::uint8_t>(grid.degree(x, y));
@@ -137,9 +171,9 @@ std::vector<Chain> trace_chains(const EdgeMap& edges) {
       chain.points.push_back({x, y});
       if (!closed && is_node(x, y)) break;
       const int back = (k + 4) % 8;
-      int next = -1;
-      for (int j = 0; j < 8; ++j)
-        if (j != back && grid.linked(x, y, j)) next = j;
+      // The highest other link.
+      const unsigned others = grid.links(x, y) & ~(1u << back) & 0xffu;
+      const int next = others == 0 ? -1 : std::bit_width(others) - 1;
       if (next < 0 || (walked[grid.index(x, y)] & (1u << next))) break; // cannot happen on a valid map
       k = next;
     }
@@ -149,8 +183,9 @@ std::vector<Chain> trace_chains(const EdgeMap& edges) {
   for (int y = 0; y < h; ++y)
     for (int x = 0; x < w; ++x) {
       if (!grid.on(x, y) || !is_node(x, y)) continue;
+      const std::uint8_t links = grid.links(x, y);
       for (int k = 0; k < 8; ++k)
-        if (grid.linked(x, y, k) && !(walked[grid.index(x, y)] & (1u << k))) walk(x, y, k, false);
+        if ((links >> k & 1) != 0 && !(walked[grid.index(x, y)] & (1u << k))) walk(x, y, k, false);
     }
   // What is left unwalked are loops of two-link pixels.
   for (int y = 0; y < h; ++y)
