@@ -98,6 +98,30 @@ inline PredicateCases make_predicate_cases(int scale = 1) {
     add_incircle(t + 1.0, t, t, t + 1.0, t - 1.0, t, t, t + dy, (k > 0) - (k < 0));
     add_incircle(1.0, 0.0, 0.0, 1.0, -1.0, 0.0, 0.0, dy, (k > 0) - (k < 0));
   }
+
+  // 4. Lattices of halves and sixteenths at spans around incircle's exact-in-double limit (5200
+  //    lattice units) and far beyond it: three corners of an axis-aligned rectangle and the fourth,
+  //    exactly on their circle or one unit off it. Beyond the limit a plain double evaluation of the
+  //    cocircular case rounds to a nonzero value. The oracle is the integer determinant, whose sign the
+  //    division by the lattice unit keeps.
+  for (const double unit : {2.0, 16.0}) {
+    for (const std::int64_t span : {1300ll, 2600ll, 2700ll, 40000ll, 1ll << 20}) {
+      for (int i = 0; i < 1000 * scale; ++i) {
+        const std::int64_t x0 = rng.range(-span, span), x1 = rng.range(-span, span);
+        const std::int64_t y0 = rng.range(-span, span), y1 = rng.range(-span, span);
+        std::int64_t corners[4][2] = {{x0, y0}, {x1, y0}, {x1, y1}, {x0, y1}};
+        const int rotate = static_cast<int>(rng.range(0, 3));
+        std::int64_t v[8];
+        for (int k = 0; k < 4; ++k) {
+          v[2 * k] = corners[(k + rotate) % 4][0];
+          v[2 * k + 1] = corners[(k + rotate) % 4][1];
+        }
+        v[6 + rng.range(0, 1)] += rng.range(-1, 1) * rng.range(0, 1); // mostly exactly on the circle
+        add_incircle(v[0] / unit, v[1] / unit, v[2] / unit, v[3] / unit, v[4] / unit, v[5] / unit, v[6] / unit,
+                     v[7] / unit, incircle_int(v[0], v[1], v[2], v[3], v[4], v[5], v[6], v[7]));
+      }
+    }
+  }
   return cases;
 }
 

@@ -286,6 +286,26 @@ CDT_HD inline int incircle_exact(double ax, double ay, double bx, double by, dou
 
 /// Sign of incircle: +1 when d lies strictly inside the circle through the counter-clockwise triangle
 /// (a, b, c), -1 strictly outside, 0 on it (the sign flips for a clockwise triangle). Exact.
+/// Whether v * scale (scale a power of two) is an integer of magnitude below 2^52.
+CDT_HD_INLINE bool scaled_integer(double v, double scale) {
+  const double t = fmul(v, scale);
+  return fabs_(t) < 4503599627370496.0 && t == static_cast<double>(static_cast<long long>(t));
+}
+
+/// Whether incircle's floating-point determinant is exact: every coordinate times scale (a power of two)
+/// is an integer below 2^52, so the differences are exact integers (in units of 1/scale), and each
+/// difference is at most 5200 units, so that every product and sum of the determinant is an integer
+/// below 12 * 5200^4 < 2^53, exact in double arithmetic. Pixel-lattice points (half-integers, scale 2)
+/// are such coordinates; their cocircular quadruples are exactly where the filter cannot decide.
+CDT_HD_INLINE bool incircle_is_exact_in_double(const double* c, const double* d, double scale) {
+  constexpr double kLimit = 5200.0;
+  for (int k = 0; k < 8; ++k)
+    if (!scaled_integer(c[k], scale)) return false;
+  for (int k = 0; k < 6; ++k)
+    if (fabs_(fmul(d[k], scale)) > kLimit) return false;
+  return true;
+}
+
 CDT_HD inline int incircle(double ax, double ay, double bx, double by, double cx, double cy, double dx,
                            double dy) {
   const double adx = fsub(ax, dx);
@@ -313,6 +333,11 @@ CDT_HD inline int incircle(double ax, double ay, double bx, double by, double cx
   const double bound = fmul(kIncircleBound, permanent);
   if (det > bound) return 1;
   if (-det > bound) return -1;
+  // Undecided: degenerate or nearly so. On a fine lattice the determinant above was exact.
+  const double coords[8] = {ax, ay, bx, by, cx, cy, dx, dy};
+  const double diffs[6] = {adx, ady, bdx, bdy, cdx, cdy};
+  if (incircle_is_exact_in_double(coords, diffs, 2.0) || incircle_is_exact_in_double(coords, diffs, 16.0))
+    return (det > 0.0) - (det < 0.0);
   return incircle_exact(ax, ay, bx, by, cx, cy, dx, dy);
 }
 
