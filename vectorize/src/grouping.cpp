@@ -6,12 +6,15 @@
 
 #include <algorithm>
 #include <array>
+#include <bit>
 #include <cmath>
 #include <cstddef>
 #include <functional>
 #include <numeric>
 #include <queue>
+#include <span>
 #include <tuple>
+#include <utility>
 
 #include "parallel.hpp"
 
@@ -21,7 +24,7 @@ namespace {
 double colour_distance(const std::array<double, 3>& lab1, float alpha1, const std::array<double, 3>& lab2,
                        float alpha2) {
   const double da = 100.0 * (static_cast<double>(alpha1) - alpha2);
-  return std::hypot(lab1[0] - lab2[0], lab1[1] - lab2[1], lab1[2] - lab2[2]) + std::abs(da);
+  return delta_e(lab1, lab2) + std::abs(da);
 }
 
 // Union-find whose roots carry the region's running totals.
@@ -141,19 +144,62 @@ double lab_f(double t) {
   return t > delta * delta * delta ? std::cbrt(t) : t / (3 * delta * delta) + 4.0 / 29.0;
 }
 
+// A candidate join: the edge `edge` of `triangle` and the colour distance across it.
+struct Candidate {
+  double distance;
+  std::uint32_t triangle;
+  std::uint32_t edge;
+};
+
+// Sorts by distance, stably: a least-significant-digit radix sort on the distance's bits (a distance is
+// finite and >= 0, so its bits order as the number does), 11 bits a pass, skipping a pass whose digit
+// is the same for every element. Several times faster than a comparison sort on tens of thousands.
+void sort_by_distance(std::vector<Candidate>& items) {
+  constexpr int kBits = 11;
+  constexpr std::size_t kBuckets = std::size_t{1} << kBits;
+  std::vector<Candidate> spare(items.size());
+  std::vector<std::size_t> start(kBuckets);
+  for (int shift = 0; shift < 64; shift += kBits) {
+    const auto digit = [shift](const Candidate& c) {
+      return static_cast<std::size_t>(std::bit_cast<std::uint64_t>(c.distance) >> shift) & (kBuckets - 1);
+    };
+    std::fill(start.begin(), start.end(), 0);
+    for (const Candidate& c : items) ++start[digit(c)];
+    if (std::find(start.begin(), start.end(), items.size()) != start.end()) continue; // one digit
+    std::size_t sum = 0;
+    for (std::size_t& s : start) sum += std::exchange(s, sum);
+    for (const Candidate& c : items) spare[start[digit(c)]++] = c;
+    items.swap(spare);
+  }
+}
+
 // Merges every region smaller than min_area into its closest-colour neighbour of the same transparency.
+//
+// Only a region below min_area is ever taken from the queue, so only such regions need their neighbour
+// lists: the lists of the regions small at the start are slices of one array, and a merged region that
+// is still small gets the two lists it joins appended at the end of it (both short: both regions are
+// small). Entries go stale (non-roots, duplicates) and are cleaned when read.
 void merge_small_regions(const cdt::Triangulation& t, RegionForest& forest, double min_area) {
   const std::size_t n = t.triangles.size();
-  // Neighbour lists per root; entries may go stale (non-roots, duplicates) and are cleaned when read.
-  std::vector<std::vector<std::uint32_t>> adjacent(n);
+  // (small root, neighbouring root) for every triangle edge between two regions.
+  std::vector<std::pair<std::uint32_t, std::uint32_t>> pairs;
+  std::vector<std::uint32_t> begin(n + 1, 0);
   for (std::uint32_t tri = 0; tri < n; ++tri)
     for (int i = 0; i < 3; ++i) {
       const std::uint32_t other = t.neighbors[tri][i];
       if (other == cdt::kNone) continue;
       const std::uint32_t a = forest.find(tri);
+      if (forest.area(a) >= min_area) continue;
       const std::uint32_t b = forest.find(other);
-      if (a != b) adjacent[a].push_back(b);
+      if (a == b) continue;
+      pairs.emplace_back(a, b);
+      ++begin[a + 1];
     }
+  for (std::size_t r = 0; r < n; ++r) begin[r + 1] += begin[r];
+  std::vector<std::uint32_t> size(n, 0);
+  std::vector<std::uint32_t> store(pairs.size());
+  for (const auto& [a, b] : pairs) store[begin[a] + size[a]++] = b;
+  pairs = {};
 
   using Entry = std::tuple<double, std::uint32_t, std::uint32_t>; // area, first triangle, root
   std::priority_queue<Entry, std::vector<Entry>, std::greater<>> smallest;
@@ -161,22 +207,24 @@ void merge_small_regions(const cdt::Triangulation& t, RegionForest& forest, doub
     if (forest.find(tri) == tri && forest.area(tri) < min_area)
       smallest.emplace(forest.area(tri), forest.first_triangle(tri), tri);
 
+  std::vector<std::uint32_t> joined;
   while (!smallest.empty()) {
     const auto [area, first, root] = smallest.top();
     smallest.pop();
     // Stale entries: the region was merged away or has grown since it was queued.
     if (forest.find(root) != root || forest.area(root) != area) continue;
 
-    std::vector<std::uint32_t>& list = adjacent[root];
+    const auto list = std::span(store).subspan(begin[root], size[root]);
     for (std::uint32_t& r : list) r = forest.find(r);
     std::sort(list.begin(), list.end());
-    list.erase(std::unique(list.begin(), list.end()), list.end());
-    std::erase(list, root);
+    auto end = std::unique(list.begin(), list.end());
+    end = std::remove(list.begin(), end, root);
+    size[root] = static_cast<std::uint32_t>(end - list.begin());
 
     const auto lab = forest.lab(root);
     std::uint32_t best = cdt::kNone;
     double best_distance = 0.0;
-    for (std::uint32_t r : list) {
+    for (const std::uint32_t r : list.first(size[root])) {
       if (forest.transparent(r) != forest.transparent(root)) continue;
       const double d = colour_distance(lab, forest.alpha(root), forest.lab(r), forest.alpha(r));
       if (best == cdt::kNone || d < best_distance ||
@@ -188,13 +236,15 @@ void merge_small_regions(const cdt::Triangulation& t, RegionForest& forest, doub
     if (best == cdt::kNone) continue; // e.g. an opaque speck surrounded by transparency
 
     const std::uint32_t merged = forest.unite(root, best);
-    const std::uint32_t absorbed = merged == root ? best : root;
-    // Append the shorter list to the longer one so that each entry moves O(log n) times.
-    if (adjacent[merged].size() < adjacent[absorbed].size()) std::swap(adjacent[merged], adjacent[absorbed]);
-    adjacent[merged].insert(adjacent[merged].end(), adjacent[absorbed].begin(), adjacent[absorbed].end());
-    adjacent[absorbed] = {};
-    if (forest.area(merged) < min_area)
-      smallest.emplace(forest.area(merged), forest.first_triangle(merged), merged);
+    if (forest.area(merged) >= min_area) continue; // never taken from the queue again
+    // Both were small, so both have lists.
+    joined.clear();
+    for (const std::uint32_t r : {root, best})
+      joined.insert(joined.end(), store.begin() + begin[r], store.begin() + begin[r] + size[r]);
+    begin[merged] = static_cast<std::uint32_t>(store.size());
+    size[merged] = static_cast<std::uint32_t>(joined.size());
+    store.insert(store.end(), joined.begin(), joined.end());
+    smallest.emplace(forest.area(merged), forest.first_triangle(merged), merged);
   }
 }
 
@@ -214,8 +264,13 @@ std::array<double, 3> srgb_to_lab(const std::array<float, 3>& rgb) {
   return {116.0 * fy - 16.0, 500.0 * (fx - fy), 200.0 * (fy - fz)};
 }
 
+// A plain square root of the sum of squares: CIELAB differences are far from overflow or underflow,
+// and std::hypot's scaling costs several divisions per call, at every candidate edge.
 double delta_e(const std::array<double, 3>& lab1, const std::array<double, 3>& lab2) {
-  return std::hypot(lab1[0] - lab2[0], lab1[1] - lab2[1], lab1[2] - lab2[2]);
+  const double dl = lab1[0] - lab2[0];
+  const double da = lab1[1] - lab2[1];
+  const double db = lab1[2] - lab2[2];
+  return std::sqrt(dl * dl + da * da + db * db);
 }
 
 Regions group_trixels(const cdt::Triangulation& t, const TrixelColours& trixels,
@@ -243,16 +298,9 @@ Regions group_trixels(const cdt::Triangulation& t, const TrixelColours& trixels,
     }
   }
 
-  // The candidate edges between opaque trixels, each interior edge once, sorted by Delta E: per thread
-  // a run of triangles, sorted, then merged (the order is total, so the result is the same).
-  struct Candidate {
-    double distance;
-    std::uint32_t triangle;
-    std::uint32_t edge;
-  };
-  const auto before = [](const Candidate& x, const Candidate& y) {
-    return std::tie(x.distance, x.triangle, x.edge) < std::tie(y.distance, y.triangle, y.edge);
-  };
+  // The candidate edges between opaque trixels, each interior edge once, sorted by Delta E, ties in
+  // (triangle, edge) order: listed per thread for a run of triangles, the runs joined in order, then
+  // sorted stably by distance.
   std::vector<std::vector<Candidate>> runs(parts);
   for_each_part(n, parts, [&](std::size_t first, std::size_t last, unsigned k) {
     std::vector<Candidate>& run = runs[k];
@@ -266,14 +314,10 @@ Regions group_trixels(const cdt::Triangulation& t, const TrixelColours& trixels,
         run.push_back(
             {colour_distance(lab[tri], trixels[tri].rgba[3], lab[other], trixels[other].rgba[3]), tri, i});
       }
-    std::sort(run.begin(), run.end(), before);
   });
   std::vector<Candidate> candidates = std::move(runs[0]);
-  for (unsigned k = 1; k < parts; ++k) {
-    std::vector<Candidate> merged(candidates.size() + runs[k].size());
-    std::merge(candidates.begin(), candidates.end(), runs[k].begin(), runs[k].end(), merged.begin(), before);
-    candidates = std::move(merged);
-  }
+  for (unsigned k = 1; k < parts; ++k) candidates.insert(candidates.end(), runs[k].begin(), runs[k].end());
+  sort_by_distance(candidates);
   for (const Candidate& c : candidates) {
     const std::uint32_t a = forest.find(c.triangle);
     const std::uint32_t b = forest.find(t.neighbors[c.triangle][c.edge]);
