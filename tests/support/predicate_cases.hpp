@@ -117,8 +117,8 @@ inline PredicateCases make_predicate_cases(int scale = 1) {
           v[2 * k + 1] = corners[(k + rotate) % 4][1];
         }
         v[6 + rng.range(0, 1)] += rng.range(-1, 1) * rng.range(0, 1); // mostly exactly on the circle
-        add_incircle(v[0] / unit, v[1] / unit, v[2] / unit, v[3] / unit, v[4] / unit, v[5] / unit, v[6] / unit,
-                     v[7] / unit, incircle_int(v[0], v[1], v[2], v[3], v[4], v[5], v[6], v[7]));
+        add_incircle(v[0] / unit, v[1] / unit, v[2] / unit, v[3] / unit, v[4] / unit, v[5] / unit,
+                     v[6] / unit, v[7] / unit, incircle_int(v[0], v[1], v[2], v[3], v[4], v[5], v[6], v[7]));
       }
     }
   }
