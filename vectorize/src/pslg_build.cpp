@@ -11,7 +11,6 @@
 #include <cstdint>
 #include <limits>
 #include <stdexcept>
-#include <unordered_map>
 #include <unordered_set>
 #include <utility>
 #include <vector>
@@ -21,6 +20,51 @@ namespace {
 
 constexpr double kCentre = 0.5; // offset of a pixel's centre from its top-left corner
 
+// A set of 64-bit keys (never all ones) with a 32-bit value each, by open addressing with linear
+// probing in a power-of-two table kept at most half full: one flat array instead of a node per key.
+class FlatMap {
+public:
+  // The value of key, inserting `value` for it when absent; second is true when it was inserted.
+  std::pair<std::uint32_t, bool> try_emplace(std::uint64_t key, std::uint32_t value) {
+    if (2 * (size_ + 1) > slots_.size()) grow();
+    const std::size_t mask = slots_.size() - 1;
+    for (std::size_t i = hash(key) & mask;; i = (i + 1) & mask) {
+      Slot& slot = slots_[i];
+      if (slot.key == key) return {slot.value, false};
+      if (slot.key == kEmpty) {
+        slot = {key, value};
+        ++size_;
+        return {value, true};
+      }
+    }
+  }
+
+private:
+  static constexpr std::uint64_t kEmpty = std::numeric_limits<std::uint64_t>::max();
+  struct Slot {
+    std::uint64_t key = kEmpty;
+    std::uint32_t value = 0;
+  };
+  static std::size_t hash(std::uint64_t key) {
+    key ^= key >> 33; // a 64-bit finaliser (MurmurHash3's fmix64)
+    key *= 0xff51afd7ed558ccdULL;
+    key ^= key >> 33;
+    key *= 0xc4ceb9fe1a85ec53ULL;
+    key ^= key >> 33;
+    return static_cast<std::size_t>(key);
+  }
+  void grow() {
+    std::vector<Slot> old = std::move(slots_);
+    slots_.assign(std::max<std::size_t>(64, 2 * old.size()), Slot{});
+    size_ = 0;
+    for (const Slot& slot : old)
+      if (slot.key != kEmpty) try_emplace(slot.key, slot.value);
+  }
+
+  std::vector<Slot> slots_;
+  std::size_t size_ = 0;
+};
+
 class Builder {
 public:
   explicit Builder(PointPlacement placement) : placement_(placement) {}
@@ -28,13 +72,13 @@ public:
   std::uint32_t pixel_point(const PixelPoint& p) {
     const std::uint64_t key =
         (static_cast<std::uint64_t>(static_cast<std::uint32_t>(p.y)) << 32) | static_cast<std::uint32_t>(p.x);
-    const auto [it, inserted] =
+    const auto [index, inserted] =
         pixel_index_.try_emplace(key, static_cast<std::uint32_t>(pslg_.points.size()));
     if (inserted) {
       const Position at = placement_.position(p);
       pslg_.points.push_back({at.x, at.y});
     }
-    return it->second;
+    return index;
   }
 
   std::uint32_t free_point(double x, double y) {
@@ -45,7 +89,7 @@ public:
   void segment(std::uint32_t a, std::uint32_t b) {
     if (a == b) return;
     const std::uint64_t key = (static_cast<std::uint64_t>(std::min(a, b)) << 32) | std::max(a, b);
-    if (!segment_keys_.insert(key).second) return;
+    if (!segment_keys_.try_emplace(key, 0).second) return;
     pslg_.segments.push_back({a, b});
     if (degree_.size() < pslg_.points.size()) degree_.resize(pslg_.points.size() * 2, 0);
     ++degree_[a];
@@ -58,8 +102,9 @@ public:
 private:
   PointPlacement placement_;
   Pslg pslg_;
-  std::unordered_map<std::uint64_t, std::uint32_t> pixel_index_;
-  std::unordered_set<std::uint64_t> segment_keys_;
+  FlatMap pixel_index_;  // pixel (y << 32 | x) -> point
+  FlatMap segment_keys_; // (lower << 32 | higher) point ids of the segments made
+
   std::vector<std::uint32_t> degree_;
 };
 

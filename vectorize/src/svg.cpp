@@ -5,7 +5,9 @@
 #include "vectorize/svg.hpp"
 
 #include <algorithm>
+#include <charconv>
 #include <cmath>
+#include <cstring>
 #include <numeric>
 #include <stdexcept>
 #include <string>
@@ -13,6 +15,40 @@
 
 namespace vectorize {
 namespace {
+
+// A sign, a point and up to 20 digits (decimals <= 18: zeros before a small value stay within them).
+constexpr std::size_t kCompactDecimalChars = 48;
+
+// compact_decimal() written into out (kCompactDecimalChars at least), without allocating: the path data
+// of an image has hundreds of thousands of numbers. Returns the length.
+std::size_t write_compact_decimal(std::int64_t units, int decimals, char* out) {
+  decimals = std::clamp(decimals, 0, 18);
+  char digits[kCompactDecimalChars];
+  const std::uint64_t magnitude =
+      units < 0 ? -static_cast<std::uint64_t>(units) : static_cast<std::uint64_t>(units);
+  auto count = static_cast<std::size_t>(std::to_chars(digits, digits + 24, magnitude).ptr - digits);
+  const auto places = static_cast<std::size_t>(decimals);
+  if (count <= places) { // leading zeros, so that a digit stands before the point
+    std::memmove(digits + places + 1 - count, digits, count);
+    std::memset(digits, '0', places + 1 - count);
+    count = places + 1;
+  }
+  std::size_t whole = count - places;
+  std::size_t fraction = places;
+  while (fraction > 0 && digits[whole + fraction - 1] == '0') --fraction;
+  std::size_t length = 0;
+  if (units < 0) out[length++] = '-';
+  if (!(whole == 1 && digits[0] == '0' && fraction > 0)) { // ".5" is a valid SVG number
+    std::memcpy(out + length, digits, whole);
+    length += whole;
+  }
+  if (fraction > 0) {
+    out[length++] = '.';
+    std::memcpy(out + length, digits + whole, fraction);
+    length += fraction;
+  }
+  return length;
+}
 
 // Appends path commands and numbers, leaving out every separator the SVG path grammar can do without.
 class PathData {
@@ -30,12 +66,13 @@ public:
   }
 
   void number(std::int64_t units) {
-    const std::string n = compact_decimal(units, decimals_);
+    char buffer[kCompactDecimalChars];
+    const std::string_view n(buffer, write_compact_decimal(units, decimals_, buffer));
     const bool needs_separator =
         !after_command_ && n.front() != '-' && !(n.front() == '.' && previous_had_point_);
     if (needs_separator) text_ += ' ';
     text_ += n;
-    previous_had_point_ = n.find('.') != std::string::npos;
+    previous_had_point_ = n.find('.') != std::string_view::npos;
     after_command_ = false;
   }
 
@@ -114,17 +151,8 @@ std::string opacity_attribute(const Region& region) {
 } // namespace
 
 std::string compact_decimal(std::int64_t units, int decimals) {
-  std::string digits = std::to_string(units < 0 ? -static_cast<std::uint64_t>(units) : units);
-  if (static_cast<int>(digits.size()) <= decimals)
-    digits.insert(0, static_cast<std::size_t>(decimals) + 1 - digits.size(), '0');
-  std::string whole = digits.substr(0, digits.size() - static_cast<std::size_t>(decimals));
-  std::string fraction = digits.substr(whole.size());
-  while (!fraction.empty() && fraction.back() == '0') fraction.pop_back();
-  if (whole == "0" && !fraction.empty()) whole.clear(); // ".5" is a valid SVG number
-  std::string out = units < 0 ? "-" : "";
-  out += whole;
-  if (!fraction.empty()) out += "." + fraction;
-  return out;
+  char text[kCompactDecimalChars];
+  return {text, write_compact_decimal(units, decimals, text)};
 }
 
 Seams parse_seams(std::string_view name) {
