@@ -8,8 +8,10 @@
 #include <opencv2/imgproc.hpp>
 
 #include <algorithm>
+#include <bit>
 #include <cmath>
 #include <cstddef>
+#include <cstdint>
 #include <stdexcept>
 #include <vector>
 
@@ -140,12 +142,26 @@ struct GradientBand {
   }
 };
 
-// The q-quantile of the values (q in (0, 1)); 0 for no values.
-double quantile(std::vector<float>& values, double q) {
+// The q-quantile of the values (q in (0, 1)), all finite and >= 0: the k-th smallest for
+// k = floor(q * (n - 1)); 0 for no values. A non-negative float's bits order as the number does, so a
+// histogram of their top 16 bits finds the bucket of the k-th value in one pass, and a selection among
+// that bucket's values (a small share of an image's) finds the value itself.
+double quantile(const std::vector<float>& values, double q) {
   if (values.empty()) return 0.0;
   const auto k = static_cast<std::size_t>(q * static_cast<double>(values.size() - 1));
-  std::nth_element(values.begin(), values.begin() + static_cast<std::ptrdiff_t>(k), values.end());
-  return values[k];
+  const auto bucket = [](float v) { return std::bit_cast<std::uint32_t>(v) >> 16; };
+  std::vector<std::size_t> count(std::size_t{1} << 16, 0);
+  for (const float v : values) ++count[bucket(v)];
+  std::uint32_t target = 0;
+  std::size_t before = 0;
+  while (before + count[target] <= k) before += count[target++];
+  std::vector<float> in_bucket;
+  in_bucket.reserve(count[target]);
+  for (const float v : values)
+    if (bucket(v) == target) in_bucket.push_back(v);
+  const auto nth = in_bucket.begin() + static_cast<std::ptrdiff_t>(k - before);
+  std::nth_element(in_bucket.begin(), nth, in_bucket.end());
+  return *nth;
 }
 
 } // namespace
