@@ -199,6 +199,19 @@ private:
     }
     const int r0 = row(ymin - margin);
     const int r1 = row(ymax + margin);
+    if (r0 == r1) { // most polygons of image chains lie within one cell
+      double xmin = poly[0].x;
+      double xmax = poly[0].x;
+      for (int i = 1; i < n; ++i) {
+        xmin = std::min(xmin, poly[i].x);
+        xmax = std::max(xmax, poly[i].x);
+      }
+      const int c0 = col(xmin - margin);
+      if (c0 == col(xmax + margin)) {
+        f(cells_[static_cast<std::size_t>(r0) * nx_ + c0]);
+        return;
+      }
+    }
     for (int r = r0; r <= r1; ++r) {
       const double band_lo = std::max(ymin, lo_.y + r * cell_ - margin);
       const double band_hi = std::min(ymax, lo_.y + (r + 1) * cell_ + margin);

@@ -63,7 +63,8 @@ struct EdgeHalfPlane {
 // and bounds it from the right (ties not owned); a horizontal edge owns the whole row or none of it.
 // The crossing is estimated in floating point, then the bound is settled by exact evaluations, one or
 // two steps from the estimate.
-void narrow_run(const EdgeHalfPlane& h, double yc, int width, int& begin, int& end) {
+[[gnu::always_inline]] inline void narrow_run(const EdgeHalfPlane& h, double yc, int width, int& begin,
+                                              int& end) {
   if (h.dy == 0.0) {
     const double e = h.dx * (yc - h.sy);
     if (!(e > 0.0 || (e == 0.0 && h.dx > 0.0))) end = begin;
