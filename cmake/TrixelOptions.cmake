@@ -13,6 +13,8 @@ set(TRIXEL_IMAGE_IO oiio CACHE STRING
     "Image reader of the vectorize pipeline: oiio (OpenImageIO: PNG, JPEG, TIFF, BMP, WebP, ...) or png (libpng only, for machines without OpenImageIO)")
 set_property(CACHE TRIXEL_IMAGE_IO PROPERTY STRINGS oiio png)
 
+set(TRIXEL_CPU_LEVEL x86-64-v2 CACHE STRING
+    "Instruction set of host code on x86-64 (-march=...): x86-64-v2 (SSE4.2 and POPCNT, every x86-64 CPU since about 2010; inline rounding for the per-pixel loops), x86-64-v3, native, or none for the compiler's default")
 option(TRIXEL_BUILD_TESTS "Build the GoogleTest suites" ${TRIXEL_TOP_LEVEL})
 option(TRIXEL_BUILD_BENCHMARKS "Build the benchmark programs" ${TRIXEL_TOP_LEVEL})
 option(TRIXEL_WERROR "Treat compiler warnings as errors (CI turns this on)" OFF)
