@@ -54,6 +54,11 @@ struct EdgeHalfPlane {
   double dx;
   double dy;
   double inverse_slope; // dx / dy, for the estimate of the crossing; unused when dy == 0
+  double ey;            // sy + dy
+
+  // Whether the edge's ends lie strictly on one side of row yc. The other two edges then meet the row
+  // where the triangle does, at points strictly inside this edge's half-plane: it decides nothing.
+  bool clear_of_row(double yc) const { return (yc - sy) * (yc - ey) > 0.0; }
 
   double at(double yc, int i) const { return dx * (yc - sy) - dy * (i + 0.5 - sx); }
 };
@@ -108,7 +113,7 @@ void for_each_run(int width, int height, const cdt::Triangulation& t, Visit&& vi
         const cdt::Point& e = *v[(i + 1) % 3];
         const double dx = e.x - s.x;
         const double dy = e.y - s.y;
-        edges[i] = {s.x, s.y, dx, dy, dy != 0.0 ? dx / dy : 0.0};
+        edges[i] = {s.x, s.y, dx, dy, dy != 0.0 ? dx / dy : 0.0, e.y};
       }
       // Rows whose centres lie within [y_min, y_max]; the half-planes settle the rest exactly.
       const int row_lo = static_cast<int>(
@@ -120,6 +125,7 @@ void for_each_run(int width, int height, const cdt::Triangulation& t, Visit&& vi
         int begin = 0;
         int end = width;
         for (const EdgeHalfPlane& h : edges) {
+          if (h.clear_of_row(yc)) continue;
           narrow_run(h, yc, width, begin, end);
           if (begin >= end) break;
         }
