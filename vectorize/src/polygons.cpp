@@ -68,6 +68,8 @@ std::vector<RegionPolygon> trace_polygons(const cdt::Triangulation& t, const Reg
 
   const Tracer tracer(t, region_of);
   std::vector<std::array<bool, 3>> visited(t.triangles.size(), {false, false, false});
+  std::vector<std::uint32_t> walked; // a ring's vertices, collected here and then copied at their size
+
   for (std::uint32_t tri = 0; tri < t.triangles.size(); ++tri) {
     const std::uint32_t r = region_of[tri];
     if (transparent == TransparentRegions::skip && regions.regions[r].transparent) continue;
@@ -76,11 +78,13 @@ std::vector<RegionPolygon> trace_polygons(const cdt::Triangulation& t, const Reg
       Ring ring;
       std::uint32_t cur_tri = tri;
       std::uint32_t cur_edge = edge;
+      walked.clear();
       do {
         visited[cur_tri][cur_edge] = true;
-        ring.vertices.push_back(t.triangles[cur_tri][(cur_edge + 1) % 3]);
+        walked.push_back(t.triangles[cur_tri][(cur_edge + 1) % 3]);
         std::tie(cur_tri, cur_edge) = tracer.next(cur_tri, cur_edge);
       } while (cur_tri != tri || cur_edge != edge);
+      ring.vertices.assign(walked.begin(), walked.end());
 
       ring.points.reserve(ring.vertices.size());
       for (std::uint32_t v : ring.vertices) ring.points.push_back(t.vertices[v]);
