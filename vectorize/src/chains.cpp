@@ -8,6 +8,7 @@
 #include <bit>
 #include <cstddef>
 #include <cstdint>
+#include <cstring>
 #include <stdexcept>
 
 namespace vectorize {
@@ -91,6 +92,21 @@ private:
   std::vector<std::uint8_t> on_;
 };
 
+// The first x in [from, width) whose flag in `row` is set, or width: eight flags at a time over the
+// empty stretches (most of an edge map is empty).
+int next_set(const std::uint8_t* row, int from, int width) {
+  int x = from;
+  if constexpr (std::endian::native == std::endian::little) {
+    for (; x + 8 <= width; x += 8) {
+      std::uint64_t word = 0;
+      std::memcpy(&word, row + x, sizeof word);
+      if (word != 0) return x + std::countr_zero(word) / 8;
+    }
+  }
+  while (x < width && row[x] == 0) ++x;
+  return x;
+}
+
 // Removes simple pixels from fully set 2x2 blocks until none is left (a sequential thinning restricted
 // to the blocks, so lines keep their corners and T junctions keep their centre). Every removal keeps
 // the topology, so a block whose four pixels each carry a branch stays (as a small loop).
@@ -101,7 +117,8 @@ void thin_blocks(Grid& grid) {
     for (int y = 0; y + 1 < grid.height(); ++y) {
       const std::uint8_t* upper = grid.row(y);
       const std::uint8_t* lower = grid.row(y + 1);
-      for (int x = 0; x + 1 < grid.width(); ++x) {
+      for (int x = next_set(upper, 0, grid.width()); x + 1 < grid.width();
+           x = next_set(upper, x + 1, grid.width())) {
         if ((upper[x] & upper[x + 1] & lower[x] & lower[x + 1]) == 0) continue;
         for (const auto& [px, py] :
              {std::array{x, y}, std::array{x + 1, y}, std::array{x, y + 1}, std::array{x + 1, y + 1}}) {
@@ -121,8 +138,9 @@ void thin_blocks(Grid& grid) {
 // the line at a false junction. One pass only, so that longer branches stay.
 void prune_spurs(Grid& grid) {
   for (int y = 0; y < grid.height(); ++y)
-    for (int x = 0; x < grid.width(); ++x) {
-      if (!grid.on(x, y) || grid.degree(x, y) != 1 || !grid.simple(x, y)) continue;
+    for (int x = next_set(grid.row(y), 0, grid.width()); x < grid.width();
+         x = next_set(grid.row(y), x + 1, grid.width())) {
+      if (grid.degree(x, y) != 1 || !grid.simple(x, y)) continue;
       for (int k = 0; k < 8; ++k)
         if (grid.linked(x, y, k) && grid.degree(x + kDx[k], y + kDy[k]) >= 3) {
           grid.clear(x, y);
@@ -145,8 +163,8 @@ std::vector<Chain> trace_chains(const EdgeMap& edges) {
   const int h = grid.height();
   std::vector<std::uint8_t> degree(grid.size(), 0);
   for (int y = 0; y < h; ++y)
-    for (int x = 0; x < w; ++x)
-      if (grid.on(x, y)) degree[grid.index(x, y)] = static_cast<std::uint8_t>(grid.degree(x, y));
+    for (int x = next_set(grid.row(y), 0, w); x < w; x = next_set(grid.row(y), x + 1, w))
+      degree[grid.index(x, y)] = static_cast<std::uint8_t>(grid.degree(x, y));
   // Bit k: the link in direction k has been walked.
   std::vector<std::uint8_t> walked(degree.size(), 0);
   auto mark = [&](int x, int y, int k) {
@@ -181,16 +199,16 @@ std::vector<Chain> trace_chains(const EdgeMap& edges) {
   };
 
   for (int y = 0; y < h; ++y)
-    for (int x = 0; x < w; ++x) {
-      if (!grid.on(x, y) || !is_node(x, y)) continue;
+    for (int x = next_set(grid.row(y), 0, w); x < w; x = next_set(grid.row(y), x + 1, w)) {
+      if (!is_node(x, y)) continue;
       const std::uint8_t links = grid.links(x, y);
       for (int k = 0; k < 8; ++k)
         if ((links >> k & 1) != 0 && !(walked[grid.index(x, y)] & (1u << k))) walk(x, y, k, false);
     }
   // What is left unwalked are loops of two-link pixels.
   for (int y = 0; y < h; ++y)
-    for (int x = 0; x < w; ++x) {
-      if (!grid.on(x, y) || degree[grid.index(x, y)] != 2 || walked[grid.index(x, y)] != 0) continue;
+    for (int x = next_set(grid.row(y), 0, w); x < w; x = next_set(grid.row(y), x + 1, w)) {
+      if (degree[grid.index(x, y)] != 2 || walked[grid.index(x, y)] != 0) continue;
       for (int k = 0; k < 8; ++k)
         if (grid.linked(x, y, k)) {
           walk(x, y, k, true);
