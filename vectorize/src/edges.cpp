@@ -237,6 +237,14 @@ EdgeMap detect_edges(const Image& image, const EdgeOptions& options, unsigned th
   cv::Mat edges;
   cv::Canny(dx, dy, edges, low, high, /*L2gradient=*/true);
 
+  if (num_shape == image.width * image.height) { // no outline: the edges are Canny's
+    for (int y = 0; y < image.height; ++y) {
+      const auto* e = edges.ptr<std::uint8_t>(y);
+      std::uint8_t* on = map.on.data() + static_cast<std::size_t>(y) * image.width;
+      for (int x = 0; x < image.width; ++x) on[x] = e[x] != 0 ? 1 : 0;
+    }
+    return map;
+  }
   for (int y = 0; y < image.height; ++y) {
     const auto* e = edges.ptr<std::uint8_t>(y);
     const auto* shape = shape_mask.ptr<std::uint8_t>(y);
