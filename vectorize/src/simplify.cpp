@@ -144,7 +144,10 @@ public:
     const Entry entry{id, round_down(std::min(a.x, b.x)), round_up(std::max(a.x, b.x)),
                       round_down(std::min(a.y, b.y)), round_up(std::max(a.y, b.y))};
     const std::array<Vec, 3> poly = {a, b, b};
-    for_cells(poly, 2, [&](std::vector<Entry>& cell) { cell.push_back(entry); });
+    for_cells(poly, 2, [&](std::vector<Entry>& cell) {
+      if (cell.capacity() == 0) cell.reserve(8); // one allocation for what a cell typically holds
+      cell.push_back(entry);
+    });
   }
 
   // Calls f(id) once for every live segment in the cells met by the polygon (2 or 3 points, convex)
