@@ -50,6 +50,18 @@ TEST(PointPlacement, OpaqueImageKeepsCentres) {
     for (int x = 0; x < 5; ++x) EXPECT_EQ(placement.position({x, y}), (Position{x + 0.5, y + 0.5}));
 }
 
+// An alpha that is not a number counts as no shape (it is not >= 1/2), as an alpha below 1/2 does:
+// the pixels beside it are on an outline even when every other pixel is opaque.
+TEST(PointPlacement, NotANumberAlphaIsNoShape) {
+  Image image = blank(5, 5);
+  for (std::size_t i = 3; i < image.rgba.size(); i += 4) image.rgba[i] = 1.0f;
+  set_alpha(image, 2, 2, std::nanf(""));
+  const PointPlacement placement(image);
+  EXPECT_TRUE(placement.place({1, 2}).outline);
+  EXPECT_NE(placement.position({1, 2}), (Position{1.5, 2.5}));
+  EXPECT_FALSE(placement.place({0, 0}).outline);
+}
+
 // A hard edge: the outline pixel's point lies on the boundary it shares with the transparent
 // neighbour, so the polygon covers the whole pixel; a corner pixel's point is its outer corner.
 TEST(PointPlacement, HardEdgeLandsOnThePixelBoundary) {

@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <random>
 #include <stdexcept>
 #include <utility>
@@ -135,6 +136,46 @@ TEST(Simplify, RunTouchedByALongSegmentStaysAsGiven) {
   const auto out = vectorize::simplify_chains({run, across}, 0.0);
   EXPECT_EQ(out[0].points, run.points);
   EXPECT_EQ(out[1].points, across.points);
+}
+
+// Two diagonals of one 2 x 2 block cross without sharing a pixel: the run through the crossing keeps
+// its middle point, as the greedy pass keeps any removal that would touch another segment.
+TEST(Simplify, DiagonalRunCrossedByAnotherDiagonalKeepsItsMiddle) {
+  const Chain run = open_chain({{0, 0}, {1, 1}, {2, 2}});
+  const Chain across = open_chain({{1, 0}, {0, 1}});
+  const auto out = vectorize::simplify_chains({run, across}, 0.0);
+  EXPECT_EQ(out[0].points, run.points);
+  EXPECT_EQ(out[1].points, across.points);
+}
+
+// Chains at the far ends of the int range: no overflow in the straight-run pass (a crash or a
+// sanitizer report otherwise).
+TEST(Simplify, FarApartPointsAreHandled) {
+  constexpr int lo = std::numeric_limits<int>::min();
+  constexpr int hi = std::numeric_limits<int>::max();
+  const auto out = vectorize::simplify_chains(
+      {open_chain({{lo, lo}}), open_chain({{hi, hi}}), open_chain({{lo, 0}, {1, 0}})}, 1.0);
+  ASSERT_EQ(out.size(), 3u);
+  EXPECT_EQ(out[2].points.size(), 2u);
+}
+
+// A solid line one pixel thick between transparent rows: its points stay at their centres (the moves
+// up and down cancel) but are outline points, and a segment skipping one would cut through that solid
+// pixel. Every point stays, whatever the tolerance.
+TEST(Simplify, SolidThinLineKeepsEveryPoint) {
+  vectorize::Image image;
+  image.width = 10;
+  image.height = 3;
+  image.rgba.assign(10 * 3 * 4, 0.0f);
+  for (int x = 0; x < 10; ++x) image.pixel(x, 1)[3] = 1.0f;
+  std::vector<PixelPoint> line;
+  for (int x = 0; x < 10; ++x) line.push_back({x, 1});
+  const vectorize::PointPlacement placement(image);
+  ASSERT_EQ(placement.position({4, 1}), (vectorize::Position{4.5, 1.5}));
+  for (const double tolerance : {0.0, 1.0}) {
+    const auto out = vectorize::simplify_chains({open_chain(line)}, tolerance, placement);
+    EXPECT_EQ(out[0].points, line) << "tolerance " << tolerance;
+  }
 }
 
 TEST(Simplify, ZeroToleranceKeepsCorners) {

@@ -175,15 +175,16 @@ void sort_by_distance(std::vector<Candidate>& items) {
 
 // Merges every region smaller than min_area into its closest-colour neighbour of the same transparency.
 //
-// Only a region below min_area is ever taken from the queue, so only such regions need their neighbour
-// lists: the lists of the regions small at the start are slices of one array, and a merged region that
-// is still small gets the two lists it joins appended at the end of it (both short: both regions are
-// small). Entries go stale (non-roots, duplicates) and are cleaned when read.
+// Only a region below min_area is ever taken from the queue, so only such regions need neighbour lists:
+// at the start they are slices of one array (one allocation for all), and when a merged region is still
+// small its list is the longer of the two joined with the shorter appended (moved out of the array the
+// first time), so that each entry moves O(log n) times. Entries go stale (non-roots, duplicates) and are
+// cleaned when read.
 void merge_small_regions(const cdt::Triangulation& t, RegionForest& forest, double min_area) {
   const std::size_t n = t.triangles.size();
   // (small root, neighbouring root) for every triangle edge between two regions.
   std::vector<std::pair<std::uint32_t, std::uint32_t>> pairs;
-  std::vector<std::uint32_t> begin(n + 1, 0);
+  std::vector<std::size_t> begin(n + 1, 0);
   for (std::uint32_t tri = 0; tri < n; ++tri)
     for (int i = 0; i < 3; ++i) {
       const std::uint32_t other = t.neighbors[tri][i];
@@ -196,10 +197,16 @@ void merge_small_regions(const cdt::Triangulation& t, RegionForest& forest, doub
       ++begin[a + 1];
     }
   for (std::size_t r = 0; r < n; ++r) begin[r + 1] += begin[r];
-  std::vector<std::uint32_t> size(n, 0);
+  std::vector<std::size_t> size(n, 0);
   std::vector<std::uint32_t> store(pairs.size());
   for (const auto& [a, b] : pairs) store[begin[a] + size[a]++] = b;
   pairs = {};
+  // Lists that outgrew their slice; owns[r] says which holds region r's list.
+  std::vector<std::vector<std::uint32_t>> grown(n);
+  std::vector<std::uint8_t> owns(n, 0);
+  const auto list_of = [&](std::uint32_t r) {
+    return owns[r] != 0 ? std::span<std::uint32_t>(grown[r]) : std::span(store).subspan(begin[r], size[r]);
+  };
 
   using Entry = std::tuple<double, std::uint32_t, std::uint32_t>; // area, first triangle, root
   std::priority_queue<Entry, std::vector<Entry>, std::greater<>> smallest;
@@ -207,24 +214,27 @@ void merge_small_regions(const cdt::Triangulation& t, RegionForest& forest, doub
     if (forest.find(tri) == tri && forest.area(tri) < min_area)
       smallest.emplace(forest.area(tri), forest.first_triangle(tri), tri);
 
-  std::vector<std::uint32_t> joined;
   while (!smallest.empty()) {
     const auto [area, first, root] = smallest.top();
     smallest.pop();
     // Stale entries: the region was merged away or has grown since it was queued.
     if (forest.find(root) != root || forest.area(root) != area) continue;
 
-    const auto list = std::span(store).subspan(begin[root], size[root]);
+    const std::span<std::uint32_t> list = list_of(root);
     for (std::uint32_t& r : list) r = forest.find(r);
     std::sort(list.begin(), list.end());
     auto end = std::unique(list.begin(), list.end());
     end = std::remove(list.begin(), end, root);
-    size[root] = static_cast<std::uint32_t>(end - list.begin());
+    const auto kept = static_cast<std::size_t>(end - list.begin());
+    if (owns[root] != 0)
+      grown[root].resize(kept);
+    else
+      size[root] = kept;
 
     const auto lab = forest.lab(root);
     std::uint32_t best = cdt::kNone;
     double best_distance = 0.0;
-    for (const std::uint32_t r : list.first(size[root])) {
+    for (const std::uint32_t r : list.first(kept)) {
       if (forest.transparent(r) != forest.transparent(root)) continue;
       const double d = colour_distance(lab, forest.alpha(root), forest.lab(r), forest.alpha(r));
       if (best == cdt::kNone || d < best_distance ||
@@ -236,15 +246,26 @@ void merge_small_regions(const cdt::Triangulation& t, RegionForest& forest, doub
     if (best == cdt::kNone) continue; // e.g. an opaque speck surrounded by transparency
 
     const std::uint32_t merged = forest.unite(root, best);
-    if (forest.area(merged) >= min_area) continue; // never taken from the queue again
-    // Both were small, so both have lists.
-    joined.clear();
-    for (const std::uint32_t r : {root, best})
-      joined.insert(joined.end(), store.begin() + begin[r], store.begin() + begin[r] + size[r]);
-    begin[merged] = static_cast<std::uint32_t>(store.size());
-    size[merged] = static_cast<std::uint32_t>(joined.size());
-    store.insert(store.end(), joined.begin(), joined.end());
-    smallest.emplace(forest.area(merged), forest.first_triangle(merged), merged);
+    const std::uint32_t absorbed = merged == root ? best : root;
+    if (forest.area(merged) < min_area) { // taken from the queue again: both were small, both have lists
+      const std::uint32_t longer = list_of(merged).size() >= list_of(absorbed).size() ? merged : absorbed;
+      const std::uint32_t shorter = longer == merged ? absorbed : merged;
+      std::vector<std::uint32_t> joined;
+      if (owns[longer] != 0) {
+        joined = std::move(grown[longer]);
+      } else {
+        const auto slice = list_of(longer);
+        joined.assign(slice.begin(), slice.end());
+      }
+      const auto other = list_of(shorter);
+      joined.insert(joined.end(), other.begin(), other.end());
+      grown[merged] = std::move(joined);
+      owns[merged] = 1;
+      smallest.emplace(forest.area(merged), forest.first_triangle(merged), merged);
+    }
+    grown[absorbed] = {};
+    owns[absorbed] = 0;
+    size[absorbed] = 0;
   }
 }
 

@@ -71,7 +71,7 @@ PointPlacement::PointPlacement(const Image& image) : image_(image.rgba.empty() ?
   for (std::size_t first = 0; first < pixels && !has_outline_; first += kBlock) {
     const std::size_t last = std::min(pixels, first + kBlock);
     unsigned clear = 0;
-    for (std::size_t i = first; i < last; ++i) clear |= rgba[4 * i + 3] < 0.5f ? 1u : 0u;
+    for (std::size_t i = first; i < last; ++i) clear |= !(rgba[4 * i + 3] >= 0.5f) ? 1u : 0u; // NaN too
     has_outline_ = clear != 0;
   }
 }

@@ -320,13 +320,17 @@ ChainState place_chain(const Chain& chain, const PointPlacement& placement) {
   return s;
 }
 
-// Removes the middle points of exactly straight runs before the greedy removal, where that provably
-// changes nothing it would check: when every point sits at its pixel centre and consecutive points are
-// 8-adjacent (so segments between them pass through no other centre), a point v strictly between its
-// collinear neighbours u and w whose pixel no other chain point uses can go, because u-w covers exactly
-// the points u-v and v-w covered: nothing new is touched, nothing swept, the deviation is zero. The
-// greedy pass would remove these first too (cost zero), each at the price of a grid query and two queue
-// entries; pixel chains from an image are about half such points.
+// Removes the middle points of exactly straight runs before the greedy removal, where that changes
+// nothing it would check: when every point sits at its pixel centre and consecutive points are
+// 8-adjacent (so that a segment between them passes through no other centre), a point v strictly
+// between its collinear neighbours u and w can go if
+// - its pixel is no other chain point's (no segment of another chain ends on u-w),
+// - neither of its two steps is a diagonal crossed by the other diagonal of its 2 x 2 block (the only
+//   way two such segments meet away from their ends; both other pixels in use stands for it), and
+// - it is not on a shape's outline (whose solid pixels the greedy pass keeps clear of),
+// because u-w then covers exactly the points u-v and v-w covered: nothing is touched or swept, the
+// deviation is zero. The greedy pass would remove these first too (cost zero), each at the price of a
+// grid query and two queue entries; pixel chains from an image are about half such points.
 void drop_straight_run_points(std::vector<ChainState>& states) {
   int x0 = std::numeric_limits<int>::max();
   int y0 = x0;
@@ -339,7 +343,7 @@ void drop_straight_run_points(std::vector<ChainState>& states) {
       if (s.points[i] != Vec{p.x + 0.5, p.y + 0.5}) return;
       if (i + 1 < n || s.closed) {
         const PixelPoint q = s.pixels[i + 1 < n ? i + 1 : 0];
-        if (std::abs(q.x - p.x) > 1 || std::abs(q.y - p.y) > 1) return;
+        if (std::abs(std::int64_t{q.x} - p.x) > 1 || std::abs(std::int64_t{q.y} - p.y) > 1) return;
       }
       x0 = std::min(x0, p.x);
       y0 = std::min(y0, p.y);
@@ -348,23 +352,33 @@ void drop_straight_run_points(std::vector<ChainState>& states) {
     }
   }
   if (x0 > x1) return;
-  const auto width = static_cast<std::size_t>(static_cast<std::int64_t>(x1) - x0 + 1);
-  const auto height = static_cast<std::size_t>(static_cast<std::int64_t>(y1) - y0 + 1);
-  if (width * height > std::size_t{1} << 30) return; // far-flung input: no pixel table
+  constexpr std::size_t kMaxTable = std::size_t{1} << 30; // far-flung input: no pixel table
+  const auto width = static_cast<std::size_t>(std::int64_t{x1} - x0 + 1);
+  const auto height = static_cast<std::size_t>(std::int64_t{y1} - y0 + 1);
+  if (width > kMaxTable || height > kMaxTable || width * height > kMaxTable) return;
   std::vector<std::uint8_t> uses(width * height, 0); // 0, 1, or 2 for more
   const auto index = [&](PixelPoint p) {
-    return static_cast<std::size_t>(p.y - y0) * width + static_cast<std::size_t>(p.x - x0);
+    return static_cast<std::size_t>(std::int64_t{p.y} - y0) * width +
+           static_cast<std::size_t>(std::int64_t{p.x} - x0);
   };
   for (const ChainState& s : states)
     for (const PixelPoint& p : s.pixels)
       uses[index(p)] = static_cast<std::uint8_t>(std::min(2, uses[index(p)] + 1));
+  // Whether the step p -> q (8-adjacent) is a diagonal whose block's other two pixels are both in use.
+  const auto maybe_crossed = [&](PixelPoint p, PixelPoint q) {
+    return p.x != q.x && p.y != q.y && uses[index({q.x, p.y})] != 0 && uses[index({p.x, q.y})] != 0;
+  };
 
   for (ChainState& s : states) {
     const int n = static_cast<int>(s.points.size());
     for (int v = 0; v < n; ++v) {
       if (s.num_alive <= s.min_alive) break;
       if (s.closed ? n < 3 : v == 0 || v + 1 == n) continue;
-      if (uses[index(s.pixels[v])] != 1) continue;
+      if (uses[index(s.pixels[v])] != 1 || s.outline[v] != 0) continue;
+      // v's own steps; those of the points removed before it between u and w were checked with them.
+      const PixelPoint before = s.pixels[v == 0 ? n - 1 : v - 1];
+      const PixelPoint after = s.pixels[v + 1 == n ? 0 : v + 1];
+      if (maybe_crossed(before, s.pixels[v]) || maybe_crossed(s.pixels[v], after)) continue;
       const int u = s.prev[v];
       const int w = s.next[v];
       if (s.pixels[u] == s.pixels[w]) continue;

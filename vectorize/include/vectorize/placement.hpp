@@ -53,7 +53,7 @@ public:
 
 private:
   const Image* image_ = nullptr;
-  bool has_outline_ = false; // some pixel is no shape (alpha < 1/2)
+  bool has_outline_ = false; // some pixel is no shape (alpha not >= 1/2)
 };
 
 } // namespace vectorize

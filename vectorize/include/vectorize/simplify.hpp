@@ -32,8 +32,9 @@ struct Polyline {
 /// exactly (orient2d) against the segments found in a uniform grid, so the time is near-linear in the
 /// number of points for chains from an image. Consecutive duplicate points are dropped first, then
 /// (when every point is at its pixel centre and consecutive points are 8-adjacent, as traced chains
-/// are) the middle points of exactly straight runs that no other chain point shares: the greedy pass
-/// would remove them first anyway, and the segments keep covering the same points.
+/// are) the middle points of exactly straight runs that no other chain point shares, that lie on no
+/// outline and whose steps no other diagonal may cross: the greedy pass would remove them first
+/// anyway, and the segments keep covering the same points.
 /// The chains left of the median x of all points and those right of it are simplified apart, on two
 /// threads when `threads` allows (0: every hardware thread), then the chains across it; the result is
 /// the same for any number of threads.

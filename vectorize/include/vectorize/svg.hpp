@@ -58,7 +58,7 @@ void write_svg(std::ostream& out, const std::vector<RegionPolygon>& polygons, co
                int width, int height, const SvgOptions& options = {});
 
 /// The compact decimal form of units * 10^-decimals as write_svg() writes numbers: "-1.5", ".25", "3",
-/// "0". decimals in 0..18.
+/// "0". decimals in 0..18 (others are clamped to that range).
 std::string compact_decimal(std::int64_t units, int decimals);
 
 /// A colour as "#rrggbb", or "#rgb" when that says the same; channels in [0, 1], clamped, rounded.
