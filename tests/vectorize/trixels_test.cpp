@@ -35,15 +35,20 @@ std::vector<cdt::Point> random_points(int width, int height, int count, unsigned
   return points;
 }
 
+// Points on a grid of 1/steps of a pixel, inside the image.
+std::vector<cdt::Point> grid_points(int width, int height, int count, unsigned seed, int steps) {
+  std::mt19937 rng(seed);
+  std::uniform_int_distribution<int> x(1, steps * width - 1);
+  std::uniform_int_distribution<int> y(1, steps * height - 1);
+  std::vector<cdt::Point> points;
+  for (int i = 0; i < count; ++i) points.push_back({x(rng) / double(steps), y(rng) / double(steps)});
+  return points;
+}
+
 // Pixel centres, pixel corners and half-way points: edges and vertices right on pixel centres, with
 // horizontal and vertical edges through rows and columns of centres.
 std::vector<cdt::Point> lattice_points(int width, int height, int count, unsigned seed) {
-  std::mt19937 rng(seed);
-  std::uniform_int_distribution<int> x(1, 2 * width - 1);
-  std::uniform_int_distribution<int> y(1, 2 * height - 1);
-  std::vector<cdt::Point> points;
-  for (int i = 0; i < count; ++i) points.push_back({x(rng) * 0.5, y(rng) * 0.5});
-  return points;
+  return grid_points(width, height, count, seed, 2);
 }
 
 vectorize::Image make_image(int width, int height, float (*channel)(int x, int y, int c)) {
@@ -169,12 +174,7 @@ std::vector<cdt::Point> near_centre_points(int width, int height, int count, uns
 // Points on a grid of sixteenths of a pixel (the exact half-plane path), many of them on the rows and
 // columns of centres.
 std::vector<cdt::Point> sixteenth_points(int width, int height, int count, unsigned seed) {
-  std::mt19937 rng(seed);
-  std::uniform_int_distribution<int> x(1, 16 * width - 1);
-  std::uniform_int_distribution<int> y(1, 16 * height - 1);
-  std::vector<cdt::Point> points;
-  for (int i = 0; i < count; ++i) points.push_back({x(rng) / 16.0, y(rng) / 16.0});
-  return points;
+  return grid_points(width, height, count, seed, 16);
 }
 
 // owner_of_pixels() (and so colour_trixels(), which walks the same runs) against the fill rule applied
