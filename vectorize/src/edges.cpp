@@ -237,23 +237,18 @@ EdgeMap detect_edges(const Image& image, const EdgeOptions& options, unsigned th
   cv::Mat edges;
   cv::Canny(dx, dy, edges, low, high, /*L2gradient=*/true);
 
-  if (num_shape == image.width * image.height) { // no outline: the edges are Canny's
-    for (int y = 0; y < image.height; ++y) {
-      const auto* e = edges.ptr<std::uint8_t>(y);
-      std::uint8_t* on = map.on.data() + static_cast<std::size_t>(y) * image.width;
-      for (int x = 0; x < image.width; ++x) on[x] = e[x] != 0 ? 1 : 0;
-    }
-    return map;
-  }
+  // Without a no-shape pixel there is no outline, and the edges are Canny's.
+  const bool has_outline = num_shape < image.width * image.height;
   for (int y = 0; y < image.height; ++y) {
     const auto* e = edges.ptr<std::uint8_t>(y);
     const auto* shape = shape_mask.ptr<std::uint8_t>(y);
     for (int x = 0; x < image.width; ++x) {
       if (!shape[x]) continue;
       // The inside of the shape's outline; the image border is not an outline.
-      const bool outline = (x > 0 && !shape[x - 1]) || (x + 1 < image.width && !shape[x + 1]) ||
-                           (y > 0 && !shape_mask.at<std::uint8_t>(y - 1, x)) ||
-                           (y + 1 < image.height && !shape_mask.at<std::uint8_t>(y + 1, x));
+      const bool outline =
+          has_outline && ((x > 0 && !shape[x - 1]) || (x + 1 < image.width && !shape[x + 1]) ||
+                          (y > 0 && !shape_mask.at<std::uint8_t>(y - 1, x)) ||
+                          (y + 1 < image.height && !shape_mask.at<std::uint8_t>(y + 1, x)));
       if (outline || e[x]) map.on[static_cast<std::size_t>(y) * image.width + x] = 1;
     }
   }
