@@ -6,6 +6,7 @@ set -euo pipefail
 packages=(
   build-essential cmake ninja-build pkg-config git   # toolchain
   libopencv-dev libopenimageio-dev libcairo2-dev     # vectorize: edges, image I/O, overlays
+  libpng-dev libdeflate-dev                          # vectorize: PNG reading
   libcli11-dev                                       # command-line parsing
   libgtest-dev libcgal-dev                           # tests; CGAL is a test and benchmark oracle only
   clang-format                                       # the format check of the test suite

@@ -5,13 +5,17 @@
 #include <dlfcn.h>
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cstdint>
+#include <cstdlib>
 #include <fstream>
+#include <random>
 #include <stdexcept>
 #include <string>
 #include <vector>
 
 #include "../../vectorize/src/oiio_module.hpp"
+#include "../../vectorize/src/png_direct.hpp"
 #include "../test_util.hpp"
 #include "vectorize/errors.hpp"
 #include "vectorize/image.hpp"
@@ -44,43 +48,112 @@ void chunk(std::vector<std::uint8_t>& out, const char* type, const std::vector<s
   put32(out, crc32(out.data() + start, out.size() - start));
 }
 
-// A PNG written by hand (uncompressed deflate blocks), so the tests can make layouts that the
-// OpenImageIO writer does not produce: palettes, 1-bit grey, transparency chunks. `rows` holds the
-// packed scanlines without their filter bytes.
-std::vector<std::uint8_t> make_png(int width, int height, int bit_depth, int colour_type,
-                                   const std::vector<std::uint8_t>& rows,
-                                   const std::vector<std::uint8_t>& palette = {},
-                                   const std::vector<std::uint8_t>& trns = {}) {
-  std::vector<std::uint8_t> out = {0x89, 'P', 'N', 'G', '\r', '\n', 0x1A, '\n'};
-  std::vector<std::uint8_t> ihdr;
-  put32(ihdr, static_cast<std::uint32_t>(width));
-  put32(ihdr, static_cast<std::uint32_t>(height));
-  ihdr.insert(ihdr.end(),
-              {static_cast<std::uint8_t>(bit_depth), static_cast<std::uint8_t>(colour_type), 0, 0, 0});
-  chunk(out, "IHDR", ihdr);
-  if (!palette.empty()) chunk(out, "PLTE", palette);
-  if (!trns.empty()) chunk(out, "tRNS", trns);
-  const std::size_t row_bytes = rows.size() / static_cast<std::size_t>(height);
-  std::vector<std::uint8_t> raw;
-  for (int y = 0; y < height; ++y) {
-    raw.push_back(0); // filter: none
-    raw.insert(raw.end(), rows.begin() + static_cast<std::ptrdiff_t>(y * row_bytes),
-               rows.begin() + static_cast<std::ptrdiff_t>((y + 1) * row_bytes));
-  }
-  std::vector<std::uint8_t> z = {0x78, 0x01, 1}; // zlib header; one final stored block
-  const auto len = static_cast<std::uint16_t>(raw.size());
-  z.insert(z.end(), {static_cast<std::uint8_t>(len), static_cast<std::uint8_t>(len >> 8),
-                     static_cast<std::uint8_t>(~len), static_cast<std::uint8_t>(~len >> 8)});
-  z.insert(z.end(), raw.begin(), raw.end());
+// A zlib stream of `raw` in stored (uncompressed) deflate blocks.
+std::vector<std::uint8_t> zlib_stored(const std::vector<std::uint8_t>& raw) {
+  std::vector<std::uint8_t> z = {0x78, 0x01}; // zlib header
+  std::size_t at = 0;
+  do {
+    const std::size_t n = std::min<std::size_t>(raw.size() - at, 65535);
+    const auto len = static_cast<std::uint16_t>(n);
+    z.push_back(at + n == raw.size() ? 1 : 0); // final block or not, stored
+    z.insert(z.end(), {static_cast<std::uint8_t>(len), static_cast<std::uint8_t>(len >> 8),
+                       static_cast<std::uint8_t>(~len), static_cast<std::uint8_t>(~len >> 8)});
+    z.insert(z.end(), raw.begin() + static_cast<std::ptrdiff_t>(at),
+             raw.begin() + static_cast<std::ptrdiff_t>(at + n));
+    at += n;
+  } while (at < raw.size());
   std::uint32_t a = 1, b = 0; // Adler-32
   for (auto byte : raw) {
     a = (a + byte) % 65521;
     b = (b + a) % 65521;
   }
   put32(z, (b << 16) | a);
-  chunk(out, "IDAT", z);
+  return z;
+}
+
+struct PngLayout {
+  int width = 1;
+  int height = 1;
+  int bit_depth = 8;
+  int colour_type = 0;
+  int interlace = 0;
+  std::vector<std::uint8_t> palette;
+  std::vector<std::uint8_t> trns;
+  std::size_t idat_piece = 0; // the zlib stream split into IDAT chunks of this size; 0: one chunk
+};
+
+// A PNG written by hand, so the tests can make layouts and damage that the OpenImageIO writer does
+// not produce. `raw` holds the scanlines with their filter bytes.
+std::vector<std::uint8_t> assemble_png(const PngLayout& layout, const std::vector<std::uint8_t>& raw) {
+  std::vector<std::uint8_t> out = {0x89, 'P', 'N', 'G', '\r', '\n', 0x1A, '\n'};
+  std::vector<std::uint8_t> ihdr;
+  put32(ihdr, static_cast<std::uint32_t>(layout.width));
+  put32(ihdr, static_cast<std::uint32_t>(layout.height));
+  ihdr.insert(ihdr.end(),
+              {static_cast<std::uint8_t>(layout.bit_depth), static_cast<std::uint8_t>(layout.colour_type), 0,
+               0, static_cast<std::uint8_t>(layout.interlace)});
+  chunk(out, "IHDR", ihdr);
+  if (!layout.palette.empty()) chunk(out, "PLTE", layout.palette);
+  if (!layout.trns.empty()) chunk(out, "tRNS", layout.trns);
+  const auto z = zlib_stored(raw);
+  const std::size_t piece = layout.idat_piece ? layout.idat_piece : z.size();
+  for (std::size_t at = 0; at < z.size(); at += piece) {
+    chunk(out, "IDAT",
+          std::vector<std::uint8_t>(z.begin() + static_cast<std::ptrdiff_t>(at),
+                                    z.begin() + static_cast<std::ptrdiff_t>(std::min(z.size(), at + piece))));
+  }
   chunk(out, "IEND", {});
   return out;
+}
+
+// The rows (packed scanlines without filter bytes) each with filter type 0.
+std::vector<std::uint8_t> unfiltered(const std::vector<std::uint8_t>& rows, int height) {
+  const std::size_t row_bytes = rows.size() / static_cast<std::size_t>(height);
+  std::vector<std::uint8_t> raw;
+  for (int y = 0; y < height; ++y) {
+    raw.push_back(0);
+    raw.insert(raw.end(), rows.begin() + static_cast<std::ptrdiff_t>(y * row_bytes),
+               rows.begin() + static_cast<std::ptrdiff_t>((y + 1) * row_bytes));
+  }
+  return raw;
+}
+
+std::vector<std::uint8_t> make_png(int width, int height, int bit_depth, int colour_type,
+                                   const std::vector<std::uint8_t>& rows,
+                                   const std::vector<std::uint8_t>& palette = {},
+                                   const std::vector<std::uint8_t>& trns = {}) {
+  PngLayout layout{width, height, bit_depth, colour_type, 0, palette, trns, 0};
+  return assemble_png(layout, unfiltered(rows, height));
+}
+
+// PNG's filters as an encoder applies them (the specification's section 9, in its own words): each
+// byte minus the prediction from the bytes to the left (a), above (b) and above-left (c).
+std::vector<std::uint8_t> filtered(const std::vector<std::uint8_t>& rows, int height, int bpp,
+                                   const std::vector<int>& types) {
+  const std::size_t row_bytes = rows.size() / static_cast<std::size_t>(height);
+  std::vector<std::uint8_t> raw;
+  for (int y = 0; y < height; ++y) {
+    const int type = types[static_cast<std::size_t>(y) % types.size()];
+    raw.push_back(static_cast<std::uint8_t>(type));
+    const auto at = [&](int row, std::ptrdiff_t i) -> int {
+      return row < 0 || i < 0 ? 0
+                              : rows[static_cast<std::size_t>(row) * row_bytes + static_cast<std::size_t>(i)];
+    };
+    for (std::ptrdiff_t i = 0; i < static_cast<std::ptrdiff_t>(row_bytes); ++i) {
+      const int a = at(y, i - bpp), b = at(y - 1, i), c = at(y - 1, i - bpp);
+      int prediction = 0;
+      if (type == 1) prediction = a;
+      if (type == 2) prediction = b;
+      if (type == 3) prediction = (a + b) / 2;
+      if (type == 4) {
+        const int p = a + b - c;
+        const int pa = std::abs(p - a), pb = std::abs(p - b), pc = std::abs(p - c);
+        prediction = pa <= pb && pa <= pc ? a : pb <= pc ? b : c;
+      }
+      raw.push_back(static_cast<std::uint8_t>(at(y, i) - prediction));
+    }
+  }
+  return raw;
 }
 
 void write_bytes(const fs::path& path, const std::vector<std::uint8_t>& bytes) {
@@ -211,6 +284,128 @@ TEST(PngReader, ErrorsNameTheFileAndTheReason) {
   EXPECT_NE(error_of(dir / "big.png", 15).find("more than the limit of 15"), std::string::npos);
 
   EXPECT_NE(error_of(dir / "missing.png").find("missing.png: cannot open"), std::string::npos);
+}
+
+// The pixels a decoder must give for packed samples: value / 255 or / 65535, grey replicated, alpha 1
+// when the layout has none. Written out here rather than through the readers' shared conversion.
+std::vector<float> expected_rgba(const std::vector<std::uint8_t>& rows, int channels, int bit_depth) {
+  const std::size_t bytes = static_cast<std::size_t>(bit_depth) / 8;
+  const std::size_t pixels = rows.size() / (static_cast<std::size_t>(channels) * bytes);
+  std::vector<float> rgba;
+  for (std::size_t p = 0; p < pixels; ++p) {
+    float sample[4] = {};
+    for (int c = 0; c < channels; ++c) {
+      const std::uint8_t* v =
+          rows.data() + (p * static_cast<std::size_t>(channels) + static_cast<std::size_t>(c)) * bytes;
+      sample[c] = bit_depth == 8 ? static_cast<float>(v[0]) * (1.0f / 255.0f)
+                                 : static_cast<float>((v[0] << 8) | v[1]) * (1.0f / 65535.0f);
+    }
+    const bool colour = channels >= 3;
+    const bool alpha = channels == 2 || channels == 4;
+    rgba.insert(rgba.end(), {sample[0], colour ? sample[1] : sample[0], colour ? sample[2] : sample[0],
+                             alpha ? sample[channels - 1] : 1.0f});
+  }
+  return rgba;
+}
+
+vectorize::Image direct_decode(const std::vector<std::uint8_t>& file, std::size_t max_pixels, bool& taken) {
+  vectorize::Image image;
+  image.width = -7; // a mark: a refused file must leave the image as it was
+  taken = vectorize::detail::decode_png_direct(file, max_pixels, image);
+  return image;
+}
+
+// Every filter type, in every layout the direct decoder takes, split into many IDAT chunks or one:
+// the pixels are the samples', and libpng gives the same.
+TEST(PngReader, DirectDecoderUndoesEveryFilterAsLibpngDoes) {
+  if (!vectorize::detail::png_direct_available())
+    GTEST_SKIP() << "built without libdeflate (no direct decoder)";
+  ScratchDir dir;
+  std::mt19937 random(20261127);
+  const std::vector<std::vector<int>> filter_orders = {{0}, {1}, {2}, {3}, {4}, {4, 3, 1, 0, 2, 4, 4, 3}};
+  int files = 0;
+  for (int bit_depth : {8, 16}) {
+    for (int colour_type : {0, 4, 2, 6}) {
+      const int channels = colour_type == 0 ? 1 : colour_type == 4 ? 2 : colour_type == 2 ? 3 : 4;
+      const int bpp = channels * bit_depth / 8;
+      for (const auto& filters : filter_orders) {
+        for (std::size_t piece : {std::size_t{0}, std::size_t{7}}) {
+          const int width = 29, height = 11;
+          std::vector<std::uint8_t> rows(static_cast<std::size_t>(width) * height *
+                                         static_cast<std::size_t>(bpp));
+          // Smooth ramps with noise, so that the predictions take every branch.
+          for (std::size_t i = 0; i < rows.size(); ++i)
+            rows[i] = static_cast<std::uint8_t>((i * 3) / 7 + random() % 64 + (random() % 5 == 0 ? 128 : 0));
+          PngLayout layout{width, height, bit_depth, colour_type, 0, {}, {}, piece};
+          const auto path = (dir / std::to_string(files++)).replace_extension(".png");
+          write_bytes(path, assemble_png(layout, filtered(rows, height, bpp, filters)));
+          std::ifstream in(path, std::ios::binary);
+          const std::vector<std::uint8_t> bytes((std::istreambuf_iterator<char>(in)),
+                                                std::istreambuf_iterator<char>());
+          bool taken = false;
+          const auto direct = direct_decode(bytes, std::size_t{1} << 20, taken);
+          ASSERT_TRUE(taken) << path << " depth " << bit_depth << " type " << colour_type;
+          const auto libpng = vectorize::detail::load_png_with_libpng(path, std::size_t{1} << 20);
+          EXPECT_EQ(direct.width, width);
+          EXPECT_EQ(direct.height, height);
+          EXPECT_EQ(direct.source_channels, channels);
+          EXPECT_EQ(direct.rgba, expected_rgba(rows, channels, bit_depth))
+              << "depth " << bit_depth << " type " << colour_type << " filter " << filters.front();
+          EXPECT_EQ(direct.rgba, libpng.rgba);
+          EXPECT_EQ(vectorize::load_png(path).rgba, libpng.rgba);
+        }
+      }
+    }
+  }
+}
+
+// Every file the direct decoder does not take, or finds wrong, is left untouched to libpng, so the
+// layouts read and the errors named stay libpng's.
+TEST(PngReader, DirectDecoderLeavesEverythingElseToLibpng) {
+  if (!vectorize::detail::png_direct_available())
+    GTEST_SKIP() << "built without libdeflate (no direct decoder)";
+  ScratchDir dir;
+  const std::vector<std::uint8_t> rows = {10, 20, 30, 40, 50, 60, 70, 80, 90, 100, 110, 120}; // 2 x 2 RGB
+  const PngLayout rgb{2, 2, 8, 2, 0, {}, {}, 0};
+  const auto good = assemble_png(rgb, filtered(rows, 2, 3, {4}));
+  bool taken = false;
+  direct_decode(good, 100, taken);
+  ASSERT_TRUE(taken);
+
+  const auto refused = [&](const std::vector<std::uint8_t>& file, std::size_t max_pixels = 100) {
+    bool was_taken = true;
+    const auto image = direct_decode(file, max_pixels, was_taken);
+    return !was_taken && image.width == -7 && image.rgba.empty();
+  };
+  EXPECT_TRUE(refused(good, 3)) << "more pixels than the limit";
+  EXPECT_TRUE(refused(make_png(4, 1, 2, 3, {0b00011011}, {1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12})))
+      << "palette";
+  EXPECT_TRUE(refused(make_png(2, 1, 8, 2, {1, 2, 3, 4, 5, 6}, {}, {0, 1, 0, 2, 0, 3}))) << "tRNS";
+  EXPECT_TRUE(refused(make_png(8, 2, 1, 0, {0xA0, 0x50}))) << "1-bit grey";
+  PngLayout interlaced = rgb;
+  interlaced.interlace = 1;
+  EXPECT_TRUE(refused(assemble_png(interlaced, filtered(rows, 2, 3, {0})))) << "interlaced";
+  EXPECT_TRUE(refused(assemble_png(rgb, filtered(rows, 2, 3, {5})))) << "filter type 5";
+  auto extra = filtered(rows, 2, 3, {1});
+  extra.push_back(0);
+  EXPECT_TRUE(refused(assemble_png(rgb, extra))) << "more image data than the rows";
+  extra.resize(extra.size() - 2);
+  EXPECT_TRUE(refused(assemble_png(rgb, extra))) << "less image data than the rows";
+  for (std::size_t cut : {std::size_t{20}, good.size() - 20, good.size() - 1})
+    EXPECT_TRUE(
+        refused(std::vector<std::uint8_t>(good.begin(), good.begin() + static_cast<std::ptrdiff_t>(cut))))
+        << "cut at " << cut;
+  for (std::size_t at = 8; at < good.size(); ++at) {
+    auto damaged = good;
+    damaged[at] ^= 0x04;
+    EXPECT_TRUE(refused(damaged)) << "byte " << at << " changed";
+  }
+
+  // libpng names the error of each damaged file, as before.
+  auto bad_filter = assemble_png(rgb, filtered(rows, 2, 3, {5}));
+  write_bytes(dir / "filter.png", bad_filter);
+  EXPECT_NE(error_of(dir / "filter.png").find("corrupt or truncated"), std::string::npos)
+      << error_of(dir / "filter.png");
 }
 
 } // namespace

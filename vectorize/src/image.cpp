@@ -71,11 +71,17 @@ const OiioModule& oiio_module() {
 
 } // namespace
 
+#if TRIXEL_WITH_LIBDEFLATE
+#define TRIXEL_PNG_READER "libpng " PNG_LIBPNG_VER_STRING " with libdeflate"
+#else
+#define TRIXEL_PNG_READER "libpng " PNG_LIBPNG_VER_STRING
+#endif
+
 const char* image_reader_name() {
 #if TRIXEL_WITH_OIIO
-  return "libpng " PNG_LIBPNG_VER_STRING " for PNG, OpenImageIO (loaded on first use) for other formats";
+  return TRIXEL_PNG_READER " for PNG, OpenImageIO (loaded on first use) for other formats";
 #else
-  return "libpng " PNG_LIBPNG_VER_STRING " (PNG only)";
+  return TRIXEL_PNG_READER " (PNG only)";
 #endif
 }
 

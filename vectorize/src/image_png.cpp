@@ -1,5 +1,6 @@
-// PNG decoding through libpng alone: the image reader of builds without OpenImageIO (a GPU machine
-// that carries only a few small libraries), and a second reader the tests compare with the first.
+// PNG decoding: the direct decoder (png_direct.cpp) for the common layouts, libpng for every other
+// file and every error. The image reader of all builds for PNG, and the only one of builds without
+// OpenImageIO (a GPU machine that carries only a few small libraries).
 
 #include <png.h>
 
@@ -13,6 +14,7 @@
 #include <string>
 #include <vector>
 
+#include "png_direct.hpp"
 #include "vectorize/errors.hpp"
 #include "vectorize/image.hpp"
 
@@ -111,7 +113,7 @@ bool is_png_file(const std::filesystem::path& path) {
   return whole && png_sig_cmp(signature.data(), 0, signature.size()) == 0;
 }
 
-Image load_png(const std::filesystem::path& path, std::size_t max_pixels) {
+Image detail::load_png_with_libpng(const std::filesystem::path& path, std::size_t max_pixels) {
   PngReader reader;
   PngState& state = reader.state;
   state.file = std::fopen(path.c_str(), "rb");
@@ -147,15 +149,54 @@ Image load_png(const std::filesystem::path& path, std::size_t max_pixels) {
   image.height = static_cast<int>(header.height);
   image.source_channels = header.source_channels;
   image.rgba.resize(pixels * 4);
-  const int channels = header.channels;
+  detail::samples_to_rgba(data.data(), pixels, header.channels, header.bit_depth, image.rgba.data());
+  return image;
+}
+
+namespace {
+
+// The whole file, or false when it cannot be read or is larger than any PNG of at most max_pixels
+// pixels would normally be (libpng then reads it as a stream).
+bool read_whole_file(const std::filesystem::path& path, std::size_t max_pixels,
+                     std::vector<unsigned char>& bytes) {
+  std::FILE* file = std::fopen(path.c_str(), "rb");
+  if (!file) return false;
+  const std::unique_ptr<std::FILE, int (*)(std::FILE*)> closer(file, &std::fclose);
+  if (std::fseek(file, 0, SEEK_END) != 0) return false;
+  const long size = std::ftell(file);
+  if (size <= 0 || static_cast<unsigned long>(size) / 16 > max_pixels + (std::size_t{1} << 16)) return false;
+  if (std::fseek(file, 0, SEEK_SET) != 0) return false;
+  bytes.resize(static_cast<std::size_t>(size));
+  return std::fread(bytes.data(), 1, bytes.size(), file) == bytes.size();
+}
+
+} // namespace
+
+Image load_png(const std::filesystem::path& path, std::size_t max_pixels) {
+  if (detail::png_direct_available()) {
+    std::vector<unsigned char> bytes;
+    Image image;
+    if (read_whole_file(path, max_pixels, bytes) && detail::decode_png_direct(bytes, max_pixels, image))
+      return image;
+  }
+  return detail::load_png_with_libpng(path, max_pixels);
+}
+
+namespace detail {
+
+void samples_to_rgba(const unsigned char* samples, std::size_t pixels, int channels, int bit_depth,
+                     float* rgba) {
   const bool has_alpha = channels == 2 || channels == 4;
-  const float scale = header.bit_depth == 16 ? 1.0f / 65535.0f : 1.0f / 255.0f;
-  if (header.bit_depth == 8) {
-    // Each 8-bit value's float, tabulated (the same product as below), and a loop per layout.
-    std::array<float, 256> value_of{};
-    for (unsigned v = 0; v < 256; ++v) value_of[v] = static_cast<float>(v) * scale;
-    const png_byte* src = data.data();
-    float* dst = image.rgba.data();
+  const float scale = bit_depth == 16 ? 1.0f / 65535.0f : 1.0f / 255.0f;
+  if (bit_depth == 8) {
+    // Each 8-bit value's float, tabulated (the same product as below).
+    static const auto value_of = [] {
+      std::array<float, 256> table{};
+      for (unsigned v = 0; v < 256; ++v) table[v] = static_cast<float>(v) * (1.0f / 255.0f);
+      return table;
+    }();
+    const unsigned char* src = samples;
+    float* dst = rgba;
     for (std::size_t i = 0; i < pixels; ++i, src += channels, dst += 4) {
       const float first = value_of[src[0]];
       dst[0] = first;
@@ -163,15 +204,15 @@ Image load_png(const std::filesystem::path& path, std::size_t max_pixels) {
       dst[2] = channels >= 3 ? value_of[src[2]] : first;
       dst[3] = has_alpha ? value_of[src[channels - 1]] : 1.0f;
     }
-    return image;
+    return;
   }
   for (std::size_t i = 0; i < pixels; ++i) {
     float sample[4] = {};
     for (int c = 0; c < channels; ++c) {
-      const png_byte* p = data.data() + (i * channels + c) * bytes_per_sample;
+      const unsigned char* p = samples + (i * channels + c) * 2;
       sample[c] = static_cast<float>((unsigned{p[0]} << 8) | p[1]) * scale;
     }
-    float* dst = image.rgba.data() + i * 4;
+    float* dst = rgba + i * 4;
     if (channels >= 3) {
       dst[0] = sample[0];
       dst[1] = sample[1];
@@ -181,7 +222,8 @@ Image load_png(const std::filesystem::path& path, std::size_t max_pixels) {
     }
     dst[3] = has_alpha ? sample[channels - 1] : 1.0f;
   }
-  return image;
 }
+
+} // namespace detail
 
 } // namespace vectorize

@@ -29,9 +29,9 @@ struct Image {
 /// A build configured with TRIXEL_IMAGE_IO=png has no OpenImageIO and reads PNG only (load_png).
 Image load_image(const std::filesystem::path& path, std::size_t max_pixels = std::size_t{1} << 28);
 
-/// Reads a PNG file with libpng: 1 to 16 bits per sample, grey, grey+alpha, palette, RGB or RGBA,
-/// interlaced or not; palette and transparency chunks become RGB and alpha. Same result and errors
-/// as load_image() gives for a PNG.
+/// Reads a PNG file: 1 to 16 bits per sample, grey, grey+alpha, palette, RGB or RGBA, interlaced or
+/// not; palette and transparency chunks become RGB and alpha. The common layouts are decoded directly
+/// (libdeflate), all others with libpng. Same result and errors as load_image() gives for a PNG.
 Image load_png(const std::filesystem::path& path, std::size_t max_pixels = std::size_t{1} << 28);
 
 /// True when the file starts with the PNG signature.
