@@ -51,9 +51,10 @@ std::size_t write_compact_decimal(std::int64_t units, int decimals, char* out) {
 }
 
 // Appends path commands and numbers, leaving out every separator the SVG path grammar can do without.
+// Path data appended to a document's text.
 class PathData {
 public:
-  explicit PathData(int decimals) : decimals_(decimals) {}
+  PathData(std::string& text, int decimals) : text_(text), decimals_(decimals) {}
 
   // A command letter; a repeat of the previous one is implied by the grammar (except after moveto,
   // whose implied repeat is an absolute lineto, so it is never elided here).
@@ -76,19 +77,17 @@ public:
     after_command_ = false;
   }
 
-  const std::string& text() const { return text_; }
-
 private:
+  std::string& text_;
   int decimals_;
-  std::string text_;
   char last_command_ = 0;
   bool previous_had_point_ = false;
   bool after_command_ = true;
 };
 
-std::string path_data(const RegionPolygon& polygon, int precision) {
+void append_path_data(std::string& text, const RegionPolygon& polygon, int precision) {
   const double scale = std::pow(10.0, precision);
-  PathData d(precision);
+  PathData d(text, precision);
   for (const Ring& ring : polygon.rings) {
     std::int64_t x = std::llround(ring.points.front().x * scale);
     std::int64_t y = std::llround(ring.points.front().y * scale);
@@ -117,24 +116,21 @@ std::string path_data(const RegionPolygon& polygon, int precision) {
     }
     d.command('z');
   }
-  return d.text();
 }
 
-// Short XML ids for the underlay's references: a, b, ..., Z, aa, ab, ... (letters only, so every id
-// is a valid name).
-std::string element_id(std::size_t k) {
+// A short id for the k-th drawn path: a..z, A..Z, then two letters and more.
+void append_element_id(std::string& text, std::size_t k) {
   static constexpr char letters[] = "abcdefghijklmnopqrstuvwxyzABCDEFGHIJKLMNOPQRSTUVWXYZ";
-  std::string id;
+  char id[16];
+  std::size_t length = 0;
   do {
-    id.insert(id.begin(), letters[k % 52]);
+    id[length++] = letters[k % 52];
     k = k / 52;
   } while (k-- > 0);
-  return id;
+  std::reverse(id, id + length);
+  text.append(id, length);
 }
 
-// Regions at least this opaque are drawn solid; more transparent ones (a shadow, a glow) keep their
-// opacity. Anti-aliased edges and soft borders average to between these, and are drawn solid so that
-// the solid pixels among them stay covered.
 constexpr float kSolid = 0.75f;
 
 // Drawn without opacity: opaque enough, or covering part of a solid pixel, which must not let the
@@ -142,10 +138,13 @@ constexpr float kSolid = 0.75f;
 bool drawn_solid(const Region& region) { return region.alpha >= kSolid || region.covers_solid; }
 
 // ` opacity=".73"` for a translucent region (two decimals), nothing for a solid one.
-std::string opacity_attribute(const Region& region) {
-  if (drawn_solid(region)) return {};
+void append_opacity_attribute(std::string& text, const Region& region) {
+  if (drawn_solid(region)) return;
   const auto hundredths = std::clamp<long long>(std::llround(region.alpha * 100.0), 1, 99);
-  return " opacity=\"" + compact_decimal(hundredths, 2) + '"';
+  char number[kCompactDecimalChars];
+  text += " opacity=\"";
+  text.append(number, write_compact_decimal(hundredths, 2, number));
+  text += '"';
 }
 
 } // namespace
@@ -181,8 +180,8 @@ std::string svg_colour(const std::array<float, 3>& rgb) {
   return out;
 }
 
-void write_svg(std::ostream& out, const std::vector<RegionPolygon>& polygons, const Regions& regions,
-               int width, int height, const SvgOptions& options) {
+std::string svg_document(const std::vector<RegionPolygon>& polygons, const Regions& regions, int width,
+                         int height, const SvgOptions& options) {
   if (options.precision < 0 || options.precision > 6)
     throw std::invalid_argument("write_svg: precision must be 0 to 6, got " +
                                 std::to_string(options.precision));
@@ -198,11 +197,24 @@ void write_svg(std::ostream& out, const std::vector<RegionPolygon>& polygons, co
     return polygons[a].region < polygons[b].region;
   });
 
+  // The document is appended to one string: about a million characters for a photograph, in pieces of
+  // a few characters each, which a stream's per-insertion overhead made several milliseconds.
+  std::string out;
+  std::size_t ring_points = 0;
+  for (const RegionPolygon& polygon : polygons)
+    for (const Ring& ring : polygon.rings) ring_points += ring.points.size();
+  out.reserve(1024 + 96 * polygons.size() + 8 * ring_points);
   const std::string w = std::to_string(width);
   const std::string h = std::to_string(height);
-  out << "<?xml version=\"1.0\" encoding=\"UTF-8\"?>\n"
-      << "<svg xmlns=\"http://www.w3.org/2000/svg\" width=\"" << w << "\" height=\"" << h
-      << "\" viewBox=\"0 0 " << w << ' ' << h << "\">\n";
+  out += "<?xml version=\"1.0\" encoding=\"UTF-8\"?>\n<svg xmlns=\"http://www.w3.org/2000/svg\" width=\"";
+  out += w;
+  out += "\" height=\"";
+  out += h;
+  out += "\" viewBox=\"0 0 ";
+  out += w;
+  out += ' ';
+  out += h;
+  out += "\">\n";
   const double seam_width = options.seam_width > 0           ? options.seam_width
                             : options.seams == Seams::stroke ? 0.5
                                                              : 3.0;
@@ -221,29 +233,43 @@ void write_svg(std::ostream& out, const std::vector<RegionPolygon>& polygons, co
     const RegionPolygon& polygon = polygons[index];
     if (regions.regions[polygon.region].transparent && !polygon.rings.empty()) clear.push_back(index);
   }
-  // Width of the band along transparent areas that the underlay may paint: half a pixel beyond their
-  // edge gave the best PSNR on icons (0 leaves more of the outermost solid pixels half covered, 1 px
-  // and more paints colour where the input is transparent).
+  // The attributes and data of a drawn path, from the fill to the end of the element.
+  const auto append_drawn_path = [&](const RegionPolygon& polygon, bool stroke, bool color) {
+    const Region& region = regions.regions[polygon.region];
+    const std::string colour = svg_colour(region.rgb);
+    out += "fill=\"";
+    out += colour;
+    if (stroke) {
+      out += "\" stroke=\"";
+      out += colour;
+    }
+    if (color) {
+      out += "\" color=\"";
+      out += colour;
+    }
+    out += '"';
+    append_opacity_attribute(out, region);
+    out += " d=\"";
+    append_path_data(out, polygon, options.precision);
+    out += "\"/>\n";
+  };
 
   switch (options.seams) {
   case Seams::none:
-    for (std::size_t k = 0; k < drawn.size(); ++k) {
-      const RegionPolygon& polygon = polygons[drawn[k]];
-      out << "<path fill=\"" << svg_colour(regions.regions[polygon.region].rgb) << '"'
-          << opacity_attribute(regions.regions[polygon.region]) << " d=\""
-          << path_data(polygon, options.precision) << "\"/>\n";
+    for (const std::size_t index : drawn) {
+      out += "<path ";
+      append_drawn_path(polygons[index], false, false);
     }
     break;
   case Seams::stroke:
-    out << "<g stroke-width=\"" << seam << "\" stroke-linejoin=\"round\">\n";
-    for (std::size_t k = 0; k < drawn.size(); ++k) {
-      const RegionPolygon& polygon = polygons[drawn[k]];
-      const std::string colour = svg_colour(regions.regions[polygon.region].rgb);
-      out << "<path fill=\"" << colour << "\" stroke=\"" << colour << '"'
-          << opacity_attribute(regions.regions[polygon.region]) << " d=\""
-          << path_data(polygon, options.precision) << "\"/>\n";
+    out += "<g stroke-width=\"";
+    out += seam;
+    out += "\" stroke-linejoin=\"round\">\n";
+    for (const std::size_t index : drawn) {
+      out += "<path ";
+      append_drawn_path(polygons[index], true, false);
     }
-    out << "</g>\n";
+    out += "</g>\n";
     break;
   case Seams::underlay:
     // The underlay refers to the paths below by id; each path carries its colour as `color` too, so
@@ -252,28 +278,49 @@ void write_svg(std::ostream& out, const std::vector<RegionPolygon>& polygons, co
       // The underlay must not paint over transparent areas: the shape's outline already lies on the
       // edge of its rim pixels (PointPlacement), so anything beyond it would colour clear pixels. A
       // luminance mask: white everywhere, transparent regions black.
-      out << "<mask id=\"opaque\" maskUnits=\"userSpaceOnUse\" x=\"0\" y=\"0\" width=\"" << w
-          << "\" height=\"" << h << "\">\n<rect width=\"" << w << "\" height=\"" << h
-          << "\" fill=\"#fff\"/>\n<g fill=\"#000\">\n";
-      for (std::size_t index : clear)
-        out << "<path d=\"" << path_data(polygons[index], options.precision) << "\"/>\n";
-      out << "</g>\n</mask>\n";
+      out += "<mask id=\"opaque\" maskUnits=\"userSpaceOnUse\" x=\"0\" y=\"0\" width=\"";
+      out += w;
+      out += "\" height=\"";
+      out += h;
+      out += "\">\n<rect width=\"";
+      out += w;
+      out += "\" height=\"";
+      out += h;
+      out += "\" fill=\"#fff\"/>\n<g fill=\"#000\">\n";
+      for (std::size_t index : clear) {
+        out += "<path d=\"";
+        append_path_data(out, polygons[index], options.precision);
+        out += "\"/>\n";
+      }
+      out += "</g>\n</mask>\n";
     }
-    out << "<g stroke=\"currentColor\" stroke-width=\"" << seam << "\" stroke-linejoin=\"round\""
-        << (clear.empty() ? "" : " mask=\"url(#opaque)\"") << ">\n";
-    for (std::size_t k = 0; k < drawn.size(); ++k)
-      if (solid(drawn[k])) out << "<use href=\"#" << element_id(k) << "\"/>\n";
-    out << "</g>\n";
+    out += "<g stroke=\"currentColor\" stroke-width=\"";
+    out += seam;
+    out += "\" stroke-linejoin=\"round\"";
+    out += clear.empty() ? "" : " mask=\"url(#opaque)\"";
+    out += ">\n";
     for (std::size_t k = 0; k < drawn.size(); ++k) {
-      const RegionPolygon& polygon = polygons[drawn[k]];
-      const std::string colour = svg_colour(regions.regions[polygon.region].rgb);
-      out << "<path id=\"" << element_id(k) << "\" fill=\"" << colour << "\" color=\"" << colour << '"'
-          << opacity_attribute(regions.regions[polygon.region]) << " d=\""
-          << path_data(polygon, options.precision) << "\"/>\n";
+      if (!solid(drawn[k])) continue;
+      out += "<use href=\"#";
+      append_element_id(out, k);
+      out += "\"/>\n";
+    }
+    out += "</g>\n";
+    for (std::size_t k = 0; k < drawn.size(); ++k) {
+      out += "<path id=\"";
+      append_element_id(out, k);
+      out += "\" ";
+      append_drawn_path(polygons[drawn[k]], false, true);
     }
     break;
   }
-  out << "</svg>\n";
+  out += "</svg>\n";
+  return out;
+}
+
+void write_svg(std::ostream& out, const std::vector<RegionPolygon>& polygons, const Regions& regions,
+               int width, int height, const SvgOptions& options) {
+  out << svg_document(polygons, regions, width, height, options);
 }
 
 } // namespace vectorize

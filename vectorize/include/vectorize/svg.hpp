@@ -57,6 +57,10 @@ Seams parse_seams(std::string_view name);
 void write_svg(std::ostream& out, const std::vector<RegionPolygon>& polygons, const Regions& regions,
                int width, int height, const SvgOptions& options = {});
 
+/// The document write_svg() writes, as a string.
+std::string svg_document(const std::vector<RegionPolygon>& polygons, const Regions& regions, int width,
+                         int height, const SvgOptions& options = {});
+
 /// The compact decimal form of units * 10^-decimals as write_svg() writes numbers: "-1.5", ".25", "3",
 /// "0". decimals in 0..18 (others are clamped to that range).
 std::string compact_decimal(std::int64_t units, int decimals);
