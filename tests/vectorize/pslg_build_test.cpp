@@ -235,11 +235,60 @@ TEST(PslgBuild, SyntheticImageEndToEnd) {
   }
 }
 
+// Each shaded cell's point is the centre of its usable pixel nearest the cell's centre, the first in
+// scan order among equally near ones; found here by brute force over every pixel of every cell, whole
+// cells and cells cut by the image's sides, odd and even sizes, with scattered transparent pixels.
+TEST(PslgBuild, InteriorPointIsTheUsablePixelNearestTheCellCentre) {
+  for (const int cell : {4, 5, 6}) {
+    for (const unsigned seed : {1u, 2u, 3u}) {
+      const int w = 23;
+      const int h = 17;
+      const auto clear = [&](int x, int y) { return ((x * 7 + y * 13 + seed * 5) % 11) < 4; };
+      const Image image = make_image(w, h, [&](int x, int y) {
+        return std::array{(x * x + y) / 600.0f, y / 17.0f, 0.5f, clear(x, y) ? 0.0f : 1.0f};
+      });
+      InteriorOptions options;
+      options.cell_size_px = cell;
+      options.min_std_dev = 0.0;
+      std::set<std::pair<double, double>> expected;
+      for (int y0 = 0; y0 < h; y0 += cell)
+        for (int x0 = 0; x0 < w; x0 += cell) {
+          const int x1 = std::min(w, x0 + cell);
+          const int y1 = std::min(h, y0 + cell);
+          int count = 0;
+          double best = 1e300;
+          std::pair<double, double> point;
+          for (int y = y0; y < y1; ++y)
+            for (int x = x0; x < x1; ++x) {
+              if (clear(x, y)) continue;
+              ++count;
+              const double d =
+                  std::pow(x + 0.5 - (x0 + x1) / 2.0, 2) + std::pow(y + 0.5 - (y0 + y1) / 2.0, 2);
+              if (d < best) {
+                best = d;
+                point = {x + 0.5, y + 0.5};
+              }
+            }
+          if (count >= std::max(4, cell * cell / 4)) expected.insert(point);
+        }
+      const Pslg pslg = vectorize::build_pslg({}, w, h, image, options);
+      std::set<std::pair<double, double>> got;
+      for (std::size_t p = 4; p < pslg.points.size(); ++p) got.insert({pslg.points[p].x, pslg.points[p].y});
+      EXPECT_EQ(got, expected) << "cell " << cell << ", seed " << seed;
+      EXPECT_EQ(pslg.points.size(), 4 + expected.size());
+    }
+  }
+}
+
 TEST(PslgBuild, RejectsBadInput) {
   EXPECT_THROW(vectorize::build_pslg({}, 0, 5, Image{}, {}), std::invalid_argument);
   EXPECT_THROW(vectorize::build_pslg({{{{10, 0}}, false}}, 10, 5, Image{}, {}), std::invalid_argument);
   const Image small = make_image(4, 4, [](int, int) { return std::array{0.0f, 0.0f, 0.0f, 1.0f}; });
   EXPECT_THROW(vectorize::build_pslg({}, 5, 5, small, {}), std::invalid_argument);
+  const Image other = small;
+  EXPECT_THROW(vectorize::build_pslg({}, 4, 4, small, {}, vectorize::PointPlacement{other}),
+               std::invalid_argument);
+  EXPECT_NO_THROW(vectorize::build_pslg({}, 4, 4, small, {}, vectorize::PointPlacement{small}));
 }
 
 } // namespace

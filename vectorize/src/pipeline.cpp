@@ -100,10 +100,11 @@ Conversion convert(const Image& image, const Options& options, StageRecord* reco
   const std::vector<Chain> chains = trace_chains(edges);
   stats.chains = chains.size();
   timer.end("chains");
+  const PointPlacement placement{image};
   const std::vector<Polyline> polylines =
-      simplify_chains(chains, options.simplify_tolerance_px, PointPlacement{image}, options.threads);
+      simplify_chains(chains, options.simplify_tolerance_px, placement, options.threads);
   timer.end("simplify");
-  const Pslg pslg = build_pslg(polylines, image.width, image.height, image, options.interior);
+  const Pslg pslg = build_pslg(polylines, image.width, image.height, image, options.interior, placement);
   stats.points = pslg.points.size();
   stats.segments = pslg.segments.size();
   timer.end("pslg");
@@ -127,9 +128,7 @@ Conversion convert(const Image& image, const Options& options, StageRecord* reco
   const std::vector<RegionPolygon> polygons =
       trace_polygons(triangulation, regions, TransparentRegions::include);
   timer.end("polygons");
-  std::ostringstream svg;
-  write_svg(svg, polygons, regions, image.width, image.height, options.svg);
-  out.svg = std::move(svg).str();
+  out.svg = svg_document(polygons, regions, image.width, image.height, options.svg);
   stats.bytes = out.svg.size();
   // Drawn paths: each has a fill; the paths of the underlay's mask (transparent areas) do not.
   for (std::size_t at = out.svg.find("<path"); at != std::string::npos; at = out.svg.find("<path", at + 5)) {

@@ -135,20 +135,38 @@ void mark_near_segment(std::vector<std::uint8_t>& near, int width, int height, c
 }
 
 void add_interior_points(Builder& builder, const Image& image, const InteriorOptions& options,
-                         std::size_t num_constrained_segments) {
+                         std::size_t num_constrained_segments, bool any_no_shape) {
   const int w = image.width;
   const int h = image.height;
   std::vector<std::uint8_t> unusable(static_cast<std::size_t>(w) * h, 0);
   const Pslg& pslg = builder.pslg();
   for (std::size_t s = 0; s < num_constrained_segments; ++s)
     mark_near_segment(unusable, w, h, pslg.points[pslg.segments[s].a], pslg.points[pslg.segments[s].b]);
-  for (int y = 0; y < h; ++y)
-    for (int x = 0; x < w; ++x)
-      if (image.pixel(x, y)[3] < 0.5f) unusable[static_cast<std::size_t>(y) * w + x] = 1;
+  if (any_no_shape) {
+    for (int y = 0; y < h; ++y)
+      for (int x = 0; x < w; ++x)
+        if (image.pixel(x, y)[3] < 0.5f) unusable[static_cast<std::size_t>(y) * w + x] = 1;
+  }
 
   const int cell = options.cell_size_px;
   // Too few usable pixels say nothing about shading (the cell is mostly edges or transparency).
   const int min_count = std::max(4, cell * cell / 4);
+  // A cell's point is the usable pixel whose centre is nearest the cell's centre, the first in scan
+  // order among equally near ones. The distances are exact (multiples of a quarter), so a whole cell's
+  // pixels can be put in that order once: the first usable one in it is the point.
+  const auto squared_distance = [](int x, int y, int x0, int y0, int x1, int y1) {
+    const double cx = 0.5 * (x0 + x1);
+    const double cy = 0.5 * (y0 + y1);
+    return (x + kCentre - cx) * (x + kCentre - cx) + (y + kCentre - cy) * (y + kCentre - cy);
+  };
+  std::vector<std::pair<int, int>> nearest_first; // (dx, dy) in a whole cell
+  for (int dy = 0; dy < cell; ++dy)
+    for (int dx = 0; dx < cell; ++dx) nearest_first.emplace_back(dx, dy);
+  std::stable_sort(nearest_first.begin(), nearest_first.end(), [&](const auto& p, const auto& q) {
+    return squared_distance(p.first, p.second, 0, 0, cell, cell) <
+           squared_distance(q.first, q.second, 0, 0, cell, cell);
+  });
+
   for (int y0 = 0; y0 < h; y0 += cell)
     for (int x0 = 0; x0 < w; x0 += cell) {
       const int x1 = std::min(w, x0 + cell);
@@ -156,27 +174,18 @@ void add_interior_points(Builder& builder, const Image& image, const InteriorOpt
       std::array<double, 3> sum{};
       std::array<double, 3> sum_sq{};
       int count = 0;
-      const double cx = 0.5 * (x0 + x1);
-      const double cy = 0.5 * (y0 + y1);
-      double best_dist = 0.0;
-      int best_x = -1;
-      int best_y = -1;
-      for (int y = y0; y < y1; ++y)
+      for (int y = y0; y < y1; ++y) {
+        const std::uint8_t* skip = unusable.data() + static_cast<std::size_t>(y) * w;
         for (int x = x0; x < x1; ++x) {
-          if (unusable[static_cast<std::size_t>(y) * w + x]) continue;
+          if (skip[x]) continue;
           const float* p = image.pixel(x, y);
           for (int c = 0; c < 3; ++c) {
             sum[c] += p[c];
             sum_sq[c] += static_cast<double>(p[c]) * p[c];
           }
           ++count;
-          const double d = (x + kCentre - cx) * (x + kCentre - cx) + (y + kCentre - cy) * (y + kCentre - cy);
-          if (best_x < 0 || d < best_dist) {
-            best_dist = d;
-            best_x = x;
-            best_y = y;
-          }
         }
+      }
       if (count < min_count) continue;
       double variance = 0.0;
       for (int c = 0; c < 3; ++c) {
@@ -184,8 +193,31 @@ void add_interior_points(Builder& builder, const Image& image, const InteriorOpt
         variance += std::max(0.0, sum_sq[c] / count - mean * mean);
       }
       const double std_dev = std::sqrt(variance / 3.0);
-      if (options.min_std_dev == 0.0 || std_dev > options.min_std_dev)
-        builder.free_point(best_x + kCentre, best_y + kCentre);
+      if (!(options.min_std_dev == 0.0 || std_dev > options.min_std_dev)) continue;
+      int best_x = -1;
+      int best_y = -1;
+      const auto usable = [&](int x, int y) { return !unusable[static_cast<std::size_t>(y) * w + x]; };
+      if (x1 - x0 == cell && y1 - y0 == cell) {
+        for (const auto& [dx, dy] : nearest_first) {
+          if (!usable(x0 + dx, y0 + dy)) continue;
+          best_x = x0 + dx;
+          best_y = y0 + dy;
+          break;
+        }
+      } else { // a cell cut by the image's right or bottom side
+        double best_dist = 0.0;
+        for (int y = y0; y < y1; ++y)
+          for (int x = x0; x < x1; ++x) {
+            if (!usable(x, y)) continue;
+            const double d = squared_distance(x, y, x0, y0, x1, y1);
+            if (best_x < 0 || d < best_dist) {
+              best_dist = d;
+              best_x = x;
+              best_y = y;
+            }
+          }
+      }
+      builder.free_point(best_x + kCentre, best_y + kCentre);
     }
 }
 
@@ -193,6 +225,11 @@ void add_interior_points(Builder& builder, const Image& image, const InteriorOpt
 
 Pslg build_pslg(const std::vector<Polyline>& simplified, int width, int height, const Image& image,
                 const InteriorOptions& options) {
+  return build_pslg(simplified, width, height, image, options, PointPlacement{image});
+}
+
+Pslg build_pslg(const std::vector<Polyline>& simplified, int width, int height, const Image& image,
+                const InteriorOptions& options, const PointPlacement& placement) {
   if (width < 1 || height < 1) throw std::invalid_argument("build_pslg: width and height must be >= 1");
   const bool have_image = !image.rgba.empty();
   if (have_image && (image.width != width || image.height != height ||
@@ -205,7 +242,9 @@ Pslg build_pslg(const std::vector<Polyline>& simplified, int width, int height, 
       if (p.x < 0 || p.y < 0 || p.x >= width || p.y >= height)
         throw std::invalid_argument("build_pslg: polyline point outside the image");
 
-  Builder builder(PointPlacement{image});
+  if (placement.image() != (have_image ? &image : nullptr))
+    throw std::invalid_argument("build_pslg: the point placement was made for another image");
+  Builder builder(placement);
   for (const Polyline& line : simplified) {
     const std::size_t n = line.points.size();
     std::vector<std::uint32_t> ids(n);
@@ -260,7 +299,8 @@ Pslg build_pslg(const std::vector<Polyline>& simplified, int width, int height, 
     for (std::size_t i = 0; i + 1 < side.size(); ++i) builder.segment(side[i].second, side[i + 1].second);
   }
 
-  if (have_image && options.cell_size_px > 0) add_interior_points(builder, image, options, num_constrained);
+  if (have_image && options.cell_size_px > 0)
+    add_interior_points(builder, image, options, num_constrained, placement.any_no_shape());
   return std::move(builder.pslg());
 }
 

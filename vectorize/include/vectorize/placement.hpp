@@ -50,6 +50,10 @@ public:
   /// Whether pixel p (any coordinates) lies in the image and is solid (alpha 1): a pixel the polygons
   /// must cover completely, so simplification may not cut into it.
   bool solid(PixelPoint p) const;
+  /// The image this placement was made for (null for the default one and an empty image).
+  const Image* image() const { return image_; }
+  /// Whether some pixel is no shape (alpha not >= 1/2, NaN included).
+  bool any_no_shape() const { return has_outline_; }
 
 private:
   const Image* image_ = nullptr;

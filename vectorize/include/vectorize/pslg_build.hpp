@@ -5,6 +5,7 @@
 
 #include "cdt/cdt.hpp"
 #include "vectorize/image.hpp"
+#include "vectorize/placement.hpp"
 #include "vectorize/simplify.hpp"
 
 namespace vectorize {
@@ -47,5 +48,10 @@ struct Pslg {
 /// none (simplify_chains output from trace_chains chains). Throws std::invalid_argument otherwise.
 Pslg build_pslg(const std::vector<Polyline>& simplified, int width, int height, const Image& image,
                 const InteriorOptions& options = {});
+
+/// The same with the image's PointPlacement already made (the pipeline makes it once for simplification
+/// and this stage). Throws std::invalid_argument if `placement` was made for another image.
+Pslg build_pslg(const std::vector<Polyline>& simplified, int width, int height, const Image& image,
+                const InteriorOptions& options, const PointPlacement& placement);
 
 } // namespace vectorize
