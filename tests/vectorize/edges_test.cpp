@@ -2,12 +2,16 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <array>
 #include <cmath>
 #include <cstdlib>
 #include <functional>
 #include <random>
 #include <stdexcept>
+#include <vector>
+
+#include "../../vectorize/src/edges_row.hpp"
 
 namespace {
 
@@ -185,6 +189,65 @@ Image banded_image(int shift, bool notch) {
     const float a = notch && x < 6 && v % 40 < 12 ? 0.0f : 1.0f;
     return std::array{r, g, b, a};
   });
+}
+
+// The strongest-channel step (vectorised where the build allows) against the plain rule written out
+// here: the first channel of the largest gx^2 + gy^2, its derivatives rounded to the nearest integer,
+// ties to even, and clamped to 16 bits (cv::saturate_cast<short> within the range of int), and
+// the squared lengths of shape pixels in order. Rows of every length up to 11 (whole vectors and
+// leftovers), with ties between channels, halves (rounding ties), values beyond 16 bits and zeros.
+TEST(Edges, StrongestChannelStepFollowsThePlainRule) {
+  std::mt19937 random(7);
+  const float specials[] = {0.0f,     0.5f,      1.5f,     2.5f,  -0.5f, -1.5f,
+                            32767.5f, -32768.5f, 40000.0f, -1e6f, 3.0f,  -3.0f};
+  int checked = 0;
+  for (int width = 1; width <= 11; ++width) {
+    for (int trial = 0; trial < 200; ++trial) {
+      std::vector<float> gx(3 * static_cast<std::size_t>(width));
+      std::vector<float> gy(gx.size());
+      std::vector<std::uint8_t> shape(static_cast<std::size_t>(width));
+      for (std::size_t i = 0; i < gx.size(); ++i) {
+        const auto pick = [&] {
+          return random() % 3 == 0 ? specials[random() % std::size(specials)]
+                                   : static_cast<float>(static_cast<int>(random() % 20001) - 10000) / 8.0f;
+        };
+        gx[i] = pick();
+        gy[i] = pick();
+        if (random() % 4 == 0 && i % 3 != 0) { // the same length as the pixel's first channel
+          gx[i] = -gx[i - i % 3];
+          gy[i] = gy[i - i % 3];
+        }
+      }
+      for (auto& s : shape) s = random() % 3 != 0;
+      std::vector<short> out_x(static_cast<std::size_t>(width)), out_y(out_x.size());
+      std::vector<float> squared;
+      vectorize::detail::strongest_channel_row(gx.data(), gy.data(), shape.data(), width, out_x.data(),
+                                               out_y.data(), squared);
+      std::vector<float> expected_squared;
+      for (int x = 0; x < width; ++x) {
+        int best = 0;
+        float best_sq = -1.0f;
+        for (int c = 0; c < 3; ++c) {
+          const float a = gx[3 * x + c];
+          const float b = gy[3 * x + c];
+          const float sq = a * a + b * b;
+          if (sq > best_sq) {
+            best_sq = sq;
+            best = c;
+          }
+        }
+        const auto to_short = [](float v) {
+          return static_cast<short>(std::clamp(std::lrint(v), -32768L, 32767L));
+        };
+        EXPECT_EQ(out_x[x], to_short(gx[3 * x + best])) << "width " << width << " x " << x;
+        EXPECT_EQ(out_y[x], to_short(gy[3 * x + best])) << "width " << width << " x " << x;
+        if (shape[x]) expected_squared.push_back(best_sq);
+        ++checked;
+      }
+      EXPECT_EQ(squared, expected_squared);
+    }
+  }
+  EXPECT_EQ(checked, 200 * 66);
 }
 
 } // namespace
