@@ -95,8 +95,6 @@ constexpr float kScale = 255.0f * 16.0f;
 constexpr double kThresholdScale = kScale / 255.0;
 constexpr double kAutoLowRatio = 0.4;
 
-bool is_shape(const Image& image, int x, int y) { return image.pixel(x, y)[3] >= 0.5f; }
-
 // Row y of the image's RGB, scaled by kScale, into a CV_32FC3 row.
 void scaled_row(const Image& image, int y, cv::Vec3f* row) {
   for (int x = 0; x < image.width; ++x) {
@@ -236,12 +234,17 @@ EdgeMap detect_edges(const Image& image, const EdgeOptions& options, unsigned th
 
   cv::Mat shape_mask(image.height, image.width, CV_8UC1);
   int num_shape = 0;
-  for (int y = 0; y < image.height; ++y)
+  for (int y = 0; y < image.height; ++y) {
+    const float* rgba = image.pixel(0, y);
+    auto* shape = shape_mask.ptr<std::uint8_t>(y);
+    int row_shape = 0;
     for (int x = 0; x < image.width; ++x) {
-      const bool s = is_shape(image, x, y);
-      shape_mask.at<std::uint8_t>(y, x) = s ? 1 : 0;
-      num_shape += s ? 1 : 0;
+      const int s = rgba[4 * x + 3] >= 0.5f ? 1 : 0; // alpha >= 1/2: shape
+      shape[x] = static_cast<std::uint8_t>(s);
+      row_shape += s;
     }
+    num_shape += row_shape;
+  }
   if (num_shape == 0) return map;
 
   const cv::Mat colour =
@@ -295,14 +298,18 @@ EdgeMap detect_edges(const Image& image, const EdgeOptions& options, unsigned th
   for (int y = 0; y < image.height; ++y) {
     const auto* e = edges.ptr<std::uint8_t>(y);
     const auto* shape = shape_mask.ptr<std::uint8_t>(y);
+    std::uint8_t* on = map.on.data() + static_cast<std::size_t>(y) * image.width;
+    if (!has_outline) {
+      for (int x = 0; x < image.width; ++x) on[x] = e[x] != 0 ? 1 : 0;
+      continue;
+    }
     for (int x = 0; x < image.width; ++x) {
       if (!shape[x]) continue;
       // The inside of the shape's outline; the image border is not an outline.
-      const bool outline =
-          has_outline && ((x > 0 && !shape[x - 1]) || (x + 1 < image.width && !shape[x + 1]) ||
-                          (y > 0 && !shape_mask.at<std::uint8_t>(y - 1, x)) ||
-                          (y + 1 < image.height && !shape_mask.at<std::uint8_t>(y + 1, x)));
-      if (outline || e[x]) map.on[static_cast<std::size_t>(y) * image.width + x] = 1;
+      const bool outline = ((x > 0 && !shape[x - 1]) || (x + 1 < image.width && !shape[x + 1]) ||
+                            (y > 0 && !shape_mask.at<std::uint8_t>(y - 1, x)) ||
+                            (y + 1 < image.height && !shape_mask.at<std::uint8_t>(y + 1, x)));
+      if (outline || e[x]) on[x] = 1;
     }
   }
   return map;
