@@ -51,6 +51,12 @@ std::size_t write_compact_decimal(std::int64_t units, int decimals, char* out) {
 }
 
 // Appends path commands and numbers, leaving out every separator the SVG path grammar can do without.
+// Appends each piece (strings and characters) to the text.
+template <class... Pieces>
+void append(std::string& text, const Pieces&... pieces) {
+  ((text += pieces), ...);
+}
+
 // Path data appended to a document's text.
 class PathData {
 public:
@@ -206,15 +212,9 @@ std::string svg_document(const std::vector<RegionPolygon>& polygons, const Regio
   out.reserve(1024 + 96 * polygons.size() + 8 * ring_points);
   const std::string w = std::to_string(width);
   const std::string h = std::to_string(height);
-  out += "<?xml version=\"1.0\" encoding=\"UTF-8\"?>\n<svg xmlns=\"http://www.w3.org/2000/svg\" width=\"";
-  out += w;
-  out += "\" height=\"";
-  out += h;
-  out += "\" viewBox=\"0 0 ";
-  out += w;
-  out += ' ';
-  out += h;
-  out += "\">\n";
+  append(out,
+         "<?xml version=\"1.0\" encoding=\"UTF-8\"?>\n<svg xmlns=\"http://www.w3.org/2000/svg\" width=\"", w,
+         "\" height=\"", h, "\" viewBox=\"0 0 ", w, ' ', h, "\">\n");
   const double seam_width = options.seam_width > 0           ? options.seam_width
                             : options.seams == Seams::stroke ? 0.5
                                                              : 3.0;
@@ -237,16 +237,9 @@ std::string svg_document(const std::vector<RegionPolygon>& polygons, const Regio
   const auto append_drawn_path = [&](const RegionPolygon& polygon, bool stroke, bool color) {
     const Region& region = regions.regions[polygon.region];
     const std::string colour = svg_colour(region.rgb);
-    out += "fill=\"";
-    out += colour;
-    if (stroke) {
-      out += "\" stroke=\"";
-      out += colour;
-    }
-    if (color) {
-      out += "\" color=\"";
-      out += colour;
-    }
+    append(out, "fill=\"", colour);
+    if (stroke) append(out, "\" stroke=\"", colour);
+    if (color) append(out, "\" color=\"", colour);
     out += '"';
     append_opacity_attribute(out, region);
     out += " d=\"";
@@ -262,9 +255,7 @@ std::string svg_document(const std::vector<RegionPolygon>& polygons, const Regio
     }
     break;
   case Seams::stroke:
-    out += "<g stroke-width=\"";
-    out += seam;
-    out += "\" stroke-linejoin=\"round\">\n";
+    append(out, "<g stroke-width=\"", seam, "\" stroke-linejoin=\"round\">\n");
     for (const std::size_t index : drawn) {
       out += "<path ";
       append_drawn_path(polygons[index], true, false);
@@ -278,15 +269,9 @@ std::string svg_document(const std::vector<RegionPolygon>& polygons, const Regio
       // The underlay must not paint over transparent areas: the shape's outline already lies on the
       // edge of its rim pixels (PointPlacement), so anything beyond it would colour clear pixels. A
       // luminance mask: white everywhere, transparent regions black.
-      out += "<mask id=\"opaque\" maskUnits=\"userSpaceOnUse\" x=\"0\" y=\"0\" width=\"";
-      out += w;
-      out += "\" height=\"";
-      out += h;
-      out += "\">\n<rect width=\"";
-      out += w;
-      out += "\" height=\"";
-      out += h;
-      out += "\" fill=\"#fff\"/>\n<g fill=\"#000\">\n";
+      append(out, "<mask id=\"opaque\" maskUnits=\"userSpaceOnUse\" x=\"0\" y=\"0\" width=\"", w,
+             "\" height=\"", h, "\">\n<rect width=\"", w, "\" height=\"", h,
+             "\" fill=\"#fff\"/>\n<g fill=\"#000\">\n");
       for (std::size_t index : clear) {
         out += "<path d=\"";
         append_path_data(out, polygons[index], options.precision);
@@ -294,11 +279,8 @@ std::string svg_document(const std::vector<RegionPolygon>& polygons, const Regio
       }
       out += "</g>\n</mask>\n";
     }
-    out += "<g stroke=\"currentColor\" stroke-width=\"";
-    out += seam;
-    out += "\" stroke-linejoin=\"round\"";
-    out += clear.empty() ? "" : " mask=\"url(#opaque)\"";
-    out += ">\n";
+    append(out, "<g stroke=\"currentColor\" stroke-width=\"", seam, "\" stroke-linejoin=\"round\"",
+           clear.empty() ? "" : " mask=\"url(#opaque)\"", ">\n");
     for (std::size_t k = 0; k < drawn.size(); ++k) {
       if (!solid(drawn[k])) continue;
       out += "<use href=\"#";
