@@ -17,8 +17,15 @@ cmake -S . -B build-device "${generator[@]}" -DCMAKE_BUILD_TYPE=Release -DTRIXEL
   -DCMAKE_DISABLE_FIND_PACKAGE_OpenImageIO=ON -DTRIXEL_CUDA=AUTO -DCMAKE_CUDA_ARCHITECTURES=90 \
   -DTRIXEL_BUILD_TESTS=OFF -DTRIXEL_BUILD_BENCHMARKS=OFF >/dev/null
 cmake --build build-device -j "$(nproc)" --target vectorize_cli
-rm -rf .carry/bundle .carry/kodak
-mkdir -p .carry/bundle/lib .carry/kodak
+rm -rf .carry/bundle
+mkdir -p .carry/bundle/lib
+# The photographs are copied afresh, unless they are already what .carry/kodak holds.
+same_images=0
+[ -d .carry/kodak ] && [ "$(realpath "$kodak")" = "$(realpath .carry/kodak)" ] && same_images=1
+if [ "$same_images" = 0 ]; then
+  rm -rf .carry/kodak
+  mkdir -p .carry/kodak
+fi
 # The binary and every shared library it needs except the C and C++ runtimes, which the GPU machine
 # has in newer versions.
 cp -L build-device/bin/vectorize .carry/bundle/
@@ -29,5 +36,5 @@ if ldd build-device/bin/vectorize | grep -q OpenImageIO; then
   echo "device-bundle: the binary links OpenImageIO; it would not fit" >&2
   exit 1
 fi
-cp "$kodak"/*.png .carry/kodak/
+[ "$same_images" = 1 ] || cp "$kodak"/*.png .carry/kodak/
 du -sh .carry/bundle .carry/kodak
