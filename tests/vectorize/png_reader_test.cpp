@@ -49,8 +49,9 @@ void chunk(std::vector<std::uint8_t>& out, const char* type, const std::vector<s
 }
 
 // A zlib stream of `raw` in stored (uncompressed) deflate blocks.
-std::vector<std::uint8_t> zlib_stored(const std::vector<std::uint8_t>& raw) {
-  std::vector<std::uint8_t> z = {0x78, 0x01}; // zlib header
+std::vector<std::uint8_t> zlib_stored(const std::vector<std::uint8_t>& raw,
+                                      std::array<std::uint8_t, 2> header = {0x78, 0x01}) {
+  std::vector<std::uint8_t> z(header.begin(), header.end()); // zlib header: a 32 KiB window
   std::size_t at = 0;
   do {
     const std::size_t n = std::min<std::size_t>(raw.size() - at, 65535);
@@ -80,6 +81,7 @@ struct PngLayout {
   std::vector<std::uint8_t> palette;
   std::vector<std::uint8_t> trns;
   std::size_t idat_piece = 0; // the zlib stream split into IDAT chunks of this size; 0: one chunk
+  std::array<std::uint8_t, 2> zlib_header = {0x78, 0x01};
 };
 
 // A PNG written by hand, so the tests can make layouts and damage that the OpenImageIO writer does
@@ -95,7 +97,7 @@ std::vector<std::uint8_t> assemble_png(const PngLayout& layout, const std::vecto
   chunk(out, "IHDR", ihdr);
   if (!layout.palette.empty()) chunk(out, "PLTE", layout.palette);
   if (!layout.trns.empty()) chunk(out, "tRNS", layout.trns);
-  const auto z = zlib_stored(raw);
+  const auto z = zlib_stored(raw, layout.zlib_header);
   const std::size_t piece = layout.idat_piece ? layout.idat_piece : z.size();
   for (std::size_t at = 0; at < z.size(); at += piece) {
     chunk(out, "IDAT",
@@ -400,6 +402,24 @@ TEST(PngReader, DirectDecoderLeavesEverythingElseToLibpng) {
     damaged[at] ^= 0x04;
     EXPECT_TRUE(refused(damaged)) << "byte " << at << " changed";
   }
+
+  // A zlib header declaring a 256-byte window (CINFO 0): libdeflate would not hold a stream to it, zlib
+  // does, so the direct decoder takes it only for images whose data fit in the window. libpng reads
+  // the other (valid here: stored blocks reach back nowhere).
+  PngLayout small_window = rgb;
+  small_window.zlib_header = {0x08, 0x1D};
+  bool small_taken = false;
+  const auto small = direct_decode(assemble_png(small_window, filtered(rows, 2, 3, {4})), 100, small_taken);
+  EXPECT_TRUE(small_taken) << "14 bytes of image data in a 256-byte window";
+  EXPECT_EQ(small.rgba, expected_rgba(rows, 3, 8));
+  PngLayout wide = small_window;
+  wide.width = 100;
+  std::vector<std::uint8_t> wide_rows(300 * 2);
+  for (std::size_t i = 0; i < wide_rows.size(); ++i) wide_rows[i] = static_cast<std::uint8_t>(i * 7);
+  const auto wide_file = assemble_png(wide, filtered(wide_rows, 2, 3, {0}));
+  EXPECT_TRUE(refused(wide_file, 1000)) << "602 bytes of image data in a 256-byte window";
+  write_bytes(dir / "window.png", wide_file);
+  EXPECT_EQ(vectorize::load_png(dir / "window.png").rgba, expected_rgba(wide_rows, 3, 8));
 
   // libpng names the error of each damaged file, as before.
   auto bad_filter = assemble_png(rgb, filtered(rows, 2, 3, {5}));

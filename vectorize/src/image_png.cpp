@@ -8,6 +8,7 @@
 #include <array>
 #include <cerrno>
 #include <csetjmp>
+#include <cstdint>
 #include <cstdio>
 #include <cstring>
 #include <memory>
@@ -164,7 +165,8 @@ bool read_whole_file(const std::filesystem::path& path, std::size_t max_pixels,
   const std::unique_ptr<std::FILE, int (*)(std::FILE*)> closer(file, &std::fclose);
   if (std::fseek(file, 0, SEEK_END) != 0) return false;
   const long size = std::ftell(file);
-  if (size <= 0 || static_cast<unsigned long>(size) / 16 > max_pixels + (std::size_t{1} << 16)) return false;
+  const std::size_t room = max_pixels > SIZE_MAX / 2 ? SIZE_MAX / 2 : max_pixels + (std::size_t{1} << 16);
+  if (size <= 0 || static_cast<unsigned long>(size) / 16 > room) return false;
   if (std::fseek(file, 0, SEEK_SET) != 0) return false;
   bytes.resize(static_cast<std::size_t>(size));
   return std::fread(bytes.data(), 1, bytes.size(), file) == bytes.size();

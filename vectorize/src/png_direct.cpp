@@ -3,7 +3,10 @@
 // floats while it is in cache. libpng, inflating through zlib's streaming decoder, took 13-17 ms of a
 // Kodak photograph's conversion on one core; this decoder takes 6-7. Every file it does not take, or
 // finds anything wrong with, goes to libpng (load_png), so the layouts read and the errors reported
-// are libpng's.
+// are libpng's. One difference is left: libdeflate accepts a few deflate encodings that zlib refuses
+// (a literal/length table of 288 codes or a distance table of 32, a distance table of one code read
+// through its unused bit pattern); no encoder writes them, and a file made so is decoded here (its
+// checksum must still hold) where libpng would report it corrupt.
 
 #include "png_direct.hpp"
 
@@ -229,6 +232,12 @@ bool decode_png_direct(std::span<const unsigned char> file, std::size_t max_pixe
     }
     stream = joined;
   }
+  // libdeflate ignores the window size the zlib header declares (2^(CINFO + 8) bytes); zlib, inside
+  // libpng, refuses a distance beyond it. A smaller window than the largest is taken only when the
+  // whole image fits in it, where no distance can reach beyond it.
+  if (stream.size() < 2) return false;
+  const unsigned window_log = (stream[0] >> 4) + 8u;
+  if (window_log > 15 || (window_log < 15 && raw_bytes > (std::size_t{1} << window_log))) return false;
   constexpr std::size_t kSlack = 4; // the pixel loops' reads beyond the last row
   std::unique_ptr<unsigned char[]> raw(new (std::nothrow) unsigned char[raw_bytes + kSlack]);
   const std::unique_ptr<libdeflate_decompressor, DecompressorDeleter> inflater(

@@ -17,7 +17,8 @@ bool png_direct_available();
 /// right, exactly the expected amount of image data. Returns false, and leaves `image` as it was,
 /// for anything else, including every damaged file and an image of more than max_pixels pixels:
 /// load_png() then reads the file with libpng, which decodes every other layout and names the error.
-/// The pixels are those libpng gives, bit for bit.
+/// The pixels are those libpng gives, bit for bit. (Deflate data that breaks the format in ways zlib
+/// refuses and libdeflate does not, which no encoder writes, is decoded here; see png_direct.cpp.)
 bool decode_png_direct(std::span<const unsigned char> file, std::size_t max_pixels, Image& image);
 
 /// Converts `pixels` packed samples of `channels` channels (1 grey, 2 grey+alpha, 3 RGB, 4 RGBA) at
