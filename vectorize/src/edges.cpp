@@ -140,13 +140,13 @@ cv::Mat shape_colours(const Image& image, const cv::Mat& shape_mask) {
   return colour;
 }
 
-// The gradient of the colour channel that changes most, rows [r0, r1) of it, into dx and dy (CV_16S),
-// and the squared magnitudes at shape pixels appended to `magnitudes`. The colour comes from `colour` when
-// given (whole image), else straight from the image. Blur and Sobel run on a band of rows that reaches
-// as far beyond [r0, r1) as their kernels do, as regions of interest inside it: OpenCV filters read
-// the band's rows around a region and extrapolate only past the band's own ends, which are the image's
-// ends or far enough out. So every row comes out as it would from the whole image, with a few
-// kilobytes of buffers instead of four float copies of the image.
+// The gradient of the colour channel that changes most, rows [r0, r1) of it, into dx and dy
+// (CV_16S), and the squared magnitudes at shape pixels appended to `squared`. The colour comes from
+// `colour` when given (whole image), else straight from the image. Blur and Sobel run on a band of
+// rows that reaches as far beyond [r0, r1) as their kernels do, as regions of interest inside it:
+// OpenCV filters read the band's rows around a region and extrapolate only past the band's own
+// ends, which are the image's ends or far enough out. So every row comes out as it would from the
+// whole image, with a few kilobytes of buffers instead of four float copies of the image.
 struct GradientBand {
   const Image& image;
   const cv::Mat& colour; // empty: read the image
@@ -156,8 +156,8 @@ struct GradientBand {
   cv::Mat& dx;
   cv::Mat& dy;
 
-  void operator()(int r0, int r1, std::vector<float>& magnitudes, cv::Mat& band, cv::Mat& blurred,
-                  cv::Mat& dx3, cv::Mat& dy3) const {
+  void operator()(int r0, int r1, std::vector<float>& squared, cv::Mat& band, cv::Mat& blurred, cv::Mat& dx3,
+                  cv::Mat& dy3) const {
     const int h = image.height;
     const int b0 = std::max(0, r0 - 1); // rows the Sobel filters read
     const int b1 = std::min(h, r1 + 1);
@@ -187,7 +187,7 @@ struct GradientBand {
     for (int y = r0; y < r1; ++y) {
       detail::strongest_channel_row(dx3.ptr<float>(y - r0), dy3.ptr<float>(y - r0),
                                     shape_mask.ptr<std::uint8_t>(y), image.width, dx.ptr<short>(y),
-                                    dy.ptr<short>(y), magnitudes);
+                                    dy.ptr<short>(y), squared);
     }
   }
 };
@@ -256,32 +256,33 @@ EdgeMap detect_edges(const Image& image, const EdgeOptions& options, unsigned th
   cv::Mat dx(image.height, image.width, CV_16SC1);
   cv::Mat dy(image.height, image.width, CV_16SC1);
   const GradientBand gradient{image, colour, shape_mask, options.blur_sigma_px, blur_radius, dx, dy};
-  // Bands of kBandRows rows, shared out in contiguous runs over the threads; the magnitudes are only
-  // used through a quantile, which does not depend on their order.
+  // Bands of kBandRows rows, shared out in contiguous runs over the threads; the squared magnitudes
+  // are only used through a quantile, which does not depend on their order.
   constexpr int kBandRows = 32;
   const int num_bands = (image.height + kBandRows - 1) / kBandRows;
   const unsigned workers =
       std::min(resolve_threads(threads), static_cast<unsigned>(std::max(1, num_bands / 4)));
-  std::vector<std::vector<float>> magnitudes(workers);
+  std::vector<std::vector<float>> squared_magnitudes(workers);
   for_each_part(static_cast<std::size_t>(num_bands), workers,
                 [&](std::size_t first, std::size_t last, unsigned k) {
                   cv::Mat band, blurred, dx3, dy3;
-                  std::vector<float>& mine = magnitudes[k];
+                  std::vector<float>& mine = squared_magnitudes[k];
                   mine.reserve(static_cast<std::size_t>(num_shape) / workers + image.width);
                   for (std::size_t band_index = first; band_index < last; ++band_index) {
                     const int r0 = static_cast<int>(band_index) * kBandRows;
                     gradient(r0, std::min(image.height, r0 + kBandRows), mine, band, blurred, dx3, dy3);
                   }
                 });
-  for (std::size_t k = 1; k < magnitudes.size(); ++k)
-    magnitudes[0].insert(magnitudes[0].end(), magnitudes[k].begin(), magnitudes[k].end());
+  std::vector<float>& all_squared = squared_magnitudes[0];
+  for (std::size_t k = 1; k < squared_magnitudes.size(); ++k)
+    all_squared.insert(all_squared.end(), squared_magnitudes[k].begin(), squared_magnitudes[k].end());
 
   double high = options.high * kThresholdScale;
   double low = options.low * kThresholdScale;
   if (high == 0.0 && low == 0.0) {
     // The square root is monotonic, so the quantile of the magnitudes is the root of their squares'.
-    const auto squared = static_cast<float>(quantile(magnitudes[0], options.non_edge_fraction));
-    high = std::max(static_cast<double>(std::sqrt(squared)), options.min_auto_high * kThresholdScale);
+    const auto square = static_cast<float>(quantile(all_squared, options.non_edge_fraction));
+    high = std::max(static_cast<double>(std::sqrt(square)), options.min_auto_high * kThresholdScale);
     low = kAutoLowRatio * high;
   } else if (high == 0.0) {
     high = low / kAutoLowRatio;
@@ -306,9 +307,9 @@ EdgeMap detect_edges(const Image& image, const EdgeOptions& options, unsigned th
     for (int x = 0; x < image.width; ++x) {
       if (!shape[x]) continue;
       // The inside of the shape's outline; the image border is not an outline.
-      const bool outline = ((x > 0 && !shape[x - 1]) || (x + 1 < image.width && !shape[x + 1]) ||
-                            (y > 0 && !shape_mask.at<std::uint8_t>(y - 1, x)) ||
-                            (y + 1 < image.height && !shape_mask.at<std::uint8_t>(y + 1, x)));
+      const bool outline = (x > 0 && !shape[x - 1]) || (x + 1 < image.width && !shape[x + 1]) ||
+                           (y > 0 && !shape_mask.at<std::uint8_t>(y - 1, x)) ||
+                           (y + 1 < image.height && !shape_mask.at<std::uint8_t>(y + 1, x));
       if (outline || e[x]) on[x] = 1;
     }
   }
