@@ -89,6 +89,16 @@ void unfilter_pixels(unsigned char* row, const unsigned char* above, std::size_t
 // bytes apart. Returns false for an unknown filter type.
 bool unfilter_row(int type, unsigned char* row, const unsigned char* above, std::size_t size,
                   std::size_t bpp) {
+#if defined(__SSE4_1__)
+  // Average and Paeth of 3- and 4-byte pixels in SIMD lanes.
+  using PixelLoop = void (*)(unsigned char*, const unsigned char*, std::size_t);
+  static constexpr PixelLoop kPixelLoops[2][2] = {{unfilter_pixels<3, false>, unfilter_pixels<3, true>},
+                                                  {unfilter_pixels<4, false>, unfilter_pixels<4, true>}};
+  if ((type == 3 || type == 4) && (bpp == 3 || bpp == 4)) {
+    kPixelLoops[bpp - 3][type - 3](row, above, size);
+    return true;
+  }
+#endif
   switch (type) {
   case 0:
     return true;
@@ -99,19 +109,11 @@ bool unfilter_row(int type, unsigned char* row, const unsigned char* above, std:
     for (std::size_t i = 0; i < size; ++i) row[i] = static_cast<unsigned char>(row[i] + above[i]);
     return true;
   case 3:
-#if defined(__SSE4_1__)
-    if (bpp == 3) return unfilter_pixels<3, false>(row, above, size), true;
-    if (bpp == 4) return unfilter_pixels<4, false>(row, above, size), true;
-#endif
     for (std::size_t i = 0; i < bpp; ++i) row[i] = static_cast<unsigned char>(row[i] + (above[i] >> 1));
     for (std::size_t i = bpp; i < size; ++i)
       row[i] = static_cast<unsigned char>(row[i] + ((unsigned{row[i - bpp]} + above[i]) >> 1));
     return true;
   case 4:
-#if defined(__SSE4_1__)
-    if (bpp == 3) return unfilter_pixels<3, true>(row, above, size), true;
-    if (bpp == 4) return unfilter_pixels<4, true>(row, above, size), true;
-#endif
     for (std::size_t i = 0; i < bpp; ++i) row[i] = static_cast<unsigned char>(row[i] + above[i]);
     for (std::size_t i = bpp; i < size; ++i) {
       const int a = row[i - bpp];
