@@ -152,20 +152,23 @@ void add_interior_points(Builder& builder, const Image& image, const InteriorOpt
   // Too few usable pixels say nothing about shading (the cell is mostly edges or transparency).
   const int min_count = std::max(4, cell * cell / 4);
   // A cell's point is the usable pixel whose centre is nearest the cell's centre, the first in scan
-  // order among equally near ones. The distances are exact (multiples of a quarter), so a whole cell's
-  // pixels can be put in that order once: the first usable one in it is the point.
-  const auto squared_distance = [](int x, int y, int x0, int y0, int x1, int y1) {
-    const double cx = 0.5 * (x0 + x1);
-    const double cy = 0.5 * (y0 + y1);
-    return (x + kCentre - cx) * (x + kCentre - cx) + (y + kCentre - cy) * (y + kCentre - cy);
+  // order among equally near ones. The distances are exact (multiples of a quarter), so a cell's pixels
+  // can be put in that order, as (dx, dy) from its corner, once per cell size: the first usable one is
+  // the point.
+  const auto nearest_first = [](int cell_w, int cell_h) {
+    std::vector<std::pair<int, int>> order;
+    for (int dy = 0; dy < cell_h; ++dy)
+      for (int dx = 0; dx < cell_w; ++dx) order.emplace_back(dx, dy);
+    const auto squared_distance = [&](const std::pair<int, int>& p) {
+      const double ex = p.first + kCentre - 0.5 * cell_w;
+      const double ey = p.second + kCentre - 0.5 * cell_h;
+      return ex * ex + ey * ey;
+    };
+    std::stable_sort(order.begin(), order.end(),
+                     [&](const auto& p, const auto& q) { return squared_distance(p) < squared_distance(q); });
+    return order;
   };
-  std::vector<std::pair<int, int>> nearest_first; // (dx, dy) in a whole cell
-  for (int dy = 0; dy < cell; ++dy)
-    for (int dx = 0; dx < cell; ++dx) nearest_first.emplace_back(dx, dy);
-  std::stable_sort(nearest_first.begin(), nearest_first.end(), [&](const auto& p, const auto& q) {
-    return squared_distance(p.first, p.second, 0, 0, cell, cell) <
-           squared_distance(q.first, q.second, 0, 0, cell, cell);
-  });
+  const std::vector<std::pair<int, int>> whole_cell = nearest_first(cell, cell);
 
   for (int y0 = 0; y0 < h; y0 += cell)
     for (int x0 = 0; x0 < w; x0 += cell) {
@@ -194,30 +197,15 @@ void add_interior_points(Builder& builder, const Image& image, const InteriorOpt
       }
       const double std_dev = std::sqrt(variance / 3.0);
       if (!(options.min_std_dev == 0.0 || std_dev > options.min_std_dev)) continue;
-      int best_x = -1;
-      int best_y = -1;
-      const auto usable = [&](int x, int y) { return !unusable[static_cast<std::size_t>(y) * w + x]; };
-      if (x1 - x0 == cell && y1 - y0 == cell) {
-        for (const auto& [dx, dy] : nearest_first) {
-          if (!usable(x0 + dx, y0 + dy)) continue;
-          best_x = x0 + dx;
-          best_y = y0 + dy;
-          break;
-        }
-      } else { // a cell cut by the image's right or bottom side
-        double best_dist = 0.0;
-        for (int y = y0; y < y1; ++y)
-          for (int x = x0; x < x1; ++x) {
-            if (!usable(x, y)) continue;
-            const double d = squared_distance(x, y, x0, y0, x1, y1);
-            if (best_x < 0 || d < best_dist) {
-              best_dist = d;
-              best_x = x;
-              best_y = y;
-            }
-          }
+      // Cells cut by the image's right or bottom side have orders of their own.
+      const bool whole = x1 - x0 == cell && y1 - y0 == cell;
+      const std::vector<std::pair<int, int>> cut =
+          whole ? std::vector<std::pair<int, int>>{} : nearest_first(x1 - x0, y1 - y0);
+      for (const auto& [dx, dy] : whole ? whole_cell : cut) {
+        if (unusable[static_cast<std::size_t>(y0 + dy) * w + (x0 + dx)]) continue;
+        builder.free_point(x0 + dx + kCentre, y0 + dy + kCentre); // count >= 4: one is usable
+        break;
       }
-      builder.free_point(best_x + kCentre, best_y + kCentre);
     }
 }
 
