@@ -30,6 +30,7 @@ namespace cdt {
 namespace {
 
 using detail::incircle;
+using detail::incircle_perturbed;
 using detail::orient2d;
 
 int orient(const Point& a, const Point& b, const Point& c) { return orient2d(a.x, a.y, b.x, b.y, c.x, c.y); }
@@ -689,10 +690,12 @@ void check_delaunay(const Triangulation& t, Reporter& report) {
       const Point& b = t.vertices[tri[prev(i)]];
       const Point& c = t.vertices[tri[i]];
       const Point& d = t.vertices[t.triangles[u][j]];
-      if (incircle(a.x, a.y, b.x, b.y, c.x, c.y, d.x, d.y) > 0) {
+      if (incircle_perturbed(a.x, a.y, b.x, b.y, c.x, c.y, d.x, d.y) > 0) {
+        const bool inside = incircle(a.x, a.y, b.x, b.y, c.x, c.y, d.x, d.y) > 0;
         report.add("edge (", tri[next(i)], ", ", tri[prev(i)], ") between triangles ", k, " and ", u,
                    " is not locally Delaunay: vertex ", t.triangles[u][j],
-                   " lies inside the circumcircle of ", k);
+                   inside ? " lies inside the circumcircle of " : " lies on the circumcircle of ", k,
+                   inside ? "" : " and the tie-break among co-circular points keeps the other diagonal");
       }
     }
   }

@@ -91,3 +91,59 @@ TEST(Predicates, OrientationAndIncircleConventions) {
 }
 
 } // namespace
+
+namespace {
+
+using cdt::detail::incircle_perturbed;
+
+struct P {
+  double x;
+  double y;
+};
+
+int perturbed(const P& a, const P& b, const P& c, const P& d) {
+  return incircle_perturbed(a.x, a.y, b.x, b.y, c.x, c.y, d.x, d.y);
+}
+
+// The twelve lattice points of the circle of radius 5, counter-clockwise, moved off the origin (by
+// half-integers, as pixel centres are): every four of them are co-circular and in convex position.
+// For each such quadrilateral a b c d the perturbed test must say exactly one diagonal is Delaunay,
+// the same whichever corner each triangle is read from, and agree with incircle off the circle.
+TEST(Predicates, PerturbedIncircleKeepsExactlyOneDiagonalOfCoCircularPoints) {
+  const P circle[12] = {{5, 0},  {4, 3},   {3, 4},   {0, 5},  {-3, 4}, {-4, 3},
+                        {-5, 0}, {-4, -3}, {-3, -4}, {0, -5}, {3, -4}, {4, -3}};
+  for (const P shift : {P{0, 0}, P{100.5, 7.5}, P{-3.5, 2000.5}}) {
+    P p[12];
+    for (int i = 0; i < 12; ++i) p[i] = {circle[i].x + shift.x, circle[i].y + shift.y};
+    int quads = 0;
+    for (int i = 0; i < 12; ++i)
+      for (int j = i + 1; j < 12; ++j)
+        for (int k = j + 1; k < 12; ++k)
+          for (int l = k + 1; l < 12; ++l) {
+            const P &a = p[i], &b = p[j], &c = p[k], &d = p[l];
+            ASSERT_EQ(incircle(a.x, a.y, b.x, b.y, c.x, c.y, d.x, d.y), 0);
+            // Diagonal a-c: triangles (a, b, c) and (a, c, d); diagonal b-d: (a, b, d) and (b, c, d).
+            const int ac1 = perturbed(a, b, c, d), ac2 = perturbed(a, c, d, b);
+            const int bd1 = perturbed(a, b, d, c), bd2 = perturbed(b, c, d, a);
+            ASSERT_NE(ac1, 0);
+            ASSERT_NE(bd1, 0);
+            EXPECT_EQ(ac1, ac2) << i << j << k << l; // one lifting: both triangles of a diagonal agree
+            EXPECT_EQ(bd1, bd2) << i << j << k << l;
+            EXPECT_NE(ac1, bd1) << i << j << k << l; // and exactly one diagonal passes (sign < 0)
+            EXPECT_EQ(perturbed(b, c, a, d), ac1);   // the triangle read from another corner
+            EXPECT_EQ(perturbed(c, a, b, d), ac1);
+            ++quads;
+          }
+    EXPECT_EQ(quads, 495);
+  }
+  // Off the circle the perturbation changes nothing.
+  const P a{0, 0}, b{4, 0}, c{0, 4};
+  EXPECT_EQ(perturbed(a, b, c, {1, 1}), 1);
+  EXPECT_EQ(perturbed(a, b, c, {5, 5}), -1);
+  // A unit square: the lexicographically first corner (0, 0) is pushed out, so the diagonal
+  // (1, 0)-(0, 1) is kept.
+  EXPECT_EQ(perturbed({0, 0}, {1, 0}, {1, 1}, {0, 1}), 1);  // diagonal (0,0)-(1,1) fails
+  EXPECT_EQ(perturbed({0, 0}, {1, 0}, {0, 1}, {1, 1}), -1); // diagonal (1,0)-(0,1) passes
+}
+
+} // namespace

@@ -99,11 +99,21 @@ TEST(Verify, ConstraintMakesNonDelaunayDiagonalValid) {
   EXPECT_TRUE(r.ok()) << all_problems(r);
 }
 
-// Co-circular points (a rectangle) are Delaunay with either diagonal: incircle == 0 is no violation.
-TEST(Verify, CocircularEitherDiagonalPasses) {
+// Co-circular points (a rectangle): the tie is broken by the perturbation of the lexicographically
+// first point (0, 0), which pushes it out of the others' circle, so only the diagonal 1-3 passes.
+TEST(Verify, CocircularOnlyThePerturbedDiagonalPasses) {
   const std::vector<Point> rect{{0, 0}, {2, 0}, {2, 1}, {0, 1}};
-  EXPECT_TRUE(cdt::verify(make_mesh(rect, {{0, 1, 2}, {0, 2, 3}}), rect, {}).ok());
-  EXPECT_TRUE(cdt::verify(make_mesh(rect, {{0, 1, 3}, {1, 2, 3}}), rect, {}).ok());
+  const auto good = cdt::verify(make_mesh(rect, {{0, 1, 3}, {1, 2, 3}}), rect, {});
+  EXPECT_TRUE(good.ok()) << all_problems(good);
+  const auto bad = cdt::verify(make_mesh(rect, {{0, 1, 2}, {0, 2, 3}}), rect, {});
+  EXPECT_TRUE(mentions(bad, "lies on the circumcircle of")) << all_problems(bad);
+  // A constraint on the other diagonal makes it valid.
+  const std::vector<Segment> s{{0, 2}};
+  Triangulation constrained = make_mesh(rect, {{0, 1, 2}, {0, 2, 3}});
+  constrained.segment_of_edge[0][1] = 0;
+  constrained.segment_of_edge[1][2] = 0;
+  const auto r = cdt::verify(constrained, rect, s);
+  EXPECT_TRUE(r.ok()) << all_problems(r);
 }
 
 TEST(Verify, MissingConstraintFails) {
@@ -345,11 +355,12 @@ TEST(Verify, NonConvexHullFails) {
 // A hole: the centre of a square ring is not triangulated.
 TEST(Verify, HoleInTheMiddleFails) {
   const std::vector<Point> p{{0, 0}, {3, 0}, {3, 3}, {0, 3}, {1, 1}, {2, 1}, {2, 2}, {1, 2}};
-  std::vector<Triangle> ring{{0, 1, 5}, {0, 5, 4}, {1, 2, 6}, {1, 6, 5},
+  // Each trapezoid and the inner square are co-circular: cut by the diagonals the tie-break keeps.
+  std::vector<Triangle> ring{{0, 1, 4}, {1, 5, 4}, {1, 2, 6}, {1, 6, 5},
                              {2, 3, 7}, {2, 7, 6}, {3, 0, 4}, {3, 4, 7}};
   std::vector<Triangle> full = ring;
-  full.push_back({4, 5, 6});
-  full.push_back({4, 6, 7});
+  full.push_back({4, 5, 7});
+  full.push_back({5, 6, 7});
   const auto ok = cdt::verify(make_mesh(p, full), p, {});
   EXPECT_TRUE(ok.ok()) << all_problems(ok);
   const auto r = cdt::verify(make_mesh(p, ring), p, {});
@@ -456,7 +467,8 @@ TEST(Verify, DuplicateMapOutOfRangeFails) {
 
 // --- reporting and scale -----------------------------------------------------------------------------
 
-/// A k x k lattice, each square cut by the same diagonal: co-circular everywhere, so Delaunay.
+/// A k x k lattice, each square cut by the diagonal from (x + 1, y) to (x, y + 1): co-circular
+/// everywhere, and that diagonal is the one the tie-break keeps ((x, y) comes first, and is pushed out).
 Triangulation lattice_mesh(std::uint32_t k, std::vector<Point>& points) {
   points.clear();
   for (std::uint32_t y = 0; y < k; ++y) {
@@ -472,13 +484,14 @@ Triangulation lattice_mesh(std::uint32_t k, std::vector<Point>& points) {
   };
   for (std::uint32_t y = 0; y + 1 < k; ++y) {
     for (std::uint32_t x = 0; x + 1 < k; ++x) {
-      // Lower triangle (x,y) (x+1,y) (x+1,y+1); upper (x,y) (x+1,y+1) (x,y+1).
-      t.triangles.push_back({id(x, y), id(x + 1, y), id(x + 1, y + 1)});
+      // Lower triangle (x,y) (x+1,y) (x,y+1); upper (x+1,y) (x+1,y+1) (x,y+1). Edge i is opposite
+      // corner i.
+      t.triangles.push_back({id(x, y), id(x + 1, y), id(x, y + 1)});
       t.neighbors.push_back(
-          {x + 2 < k ? tri(x + 1, y, 1) : kNone, tri(x, y, 1), y > 0 ? tri(x, y - 1, 1) : kNone});
-      t.triangles.push_back({id(x, y), id(x + 1, y + 1), id(x, y + 1)});
+          {tri(x, y, 1), x > 0 ? tri(x - 1, y, 1) : kNone, y > 0 ? tri(x, y - 1, 1) : kNone});
+      t.triangles.push_back({id(x + 1, y), id(x + 1, y + 1), id(x, y + 1)});
       t.neighbors.push_back(
-          {y + 2 < k ? tri(x, y + 1, 0) : kNone, x > 0 ? tri(x - 1, y, 0) : kNone, tri(x, y, 0)});
+          {y + 2 < k ? tri(x, y + 1, 0) : kNone, tri(x, y, 0), x + 2 < k ? tri(x + 1, y, 0) : kNone});
     }
   }
   t.segment_of_edge.assign(t.triangles.size(), {kNone, kNone, kNone});

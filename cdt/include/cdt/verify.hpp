@@ -27,8 +27,10 @@ struct VerifyReport {
 /// non-degenerate triangles, symmetric neighbour links and constraint flags, a domain equal to the
 /// convex hull (one convex boundary cycle, Euler characteristic 1, no vertex outside), a valid duplicate
 /// map with every representative used, every segment present as a chain of collinear constraint edges,
-/// and every non-constraint edge locally Delaunay. Exact predicates throughout; O(n log n) time for n
-/// triangles, vertices and segments. Never throws on malformed t (beyond std::bad_alloc).
+/// and every non-constraint edge locally Delaunay, with ties among co-circular points broken as
+/// triangulate() breaks them (the perturbed incircle test), so that only the unique CDT passes. Exact
+/// predicates throughout; O(n log n) time for n triangles, vertices and segments. Never throws on malformed t
+/// (beyond std::bad_alloc).
 ///
 /// One tolerance: a segment split at a crossing point that is not a double is bent through the rounded
 /// point, so a chain that is not straight is accepted when every vertex on it lies within

@@ -70,15 +70,17 @@ CDT_HD_INLINE bool flip_is_convex(const MeshView& m, std::uint32_t t, std::uint3
   return orient_vertices(m, a, b, d) > 0 && orient_vertices(m, d, c, a) > 0;
 }
 
-/// True when edge i of t is not a constraint, has a neighbour, fails the strict incircle test and can
-/// be flipped (strictly convex quadrilateral; the incircle test implies it in a valid triangulation,
-/// the orient2d check keeps a corrupt or constrained neighbourhood from producing inverted triangles).
+/// True when edge i of t is not a constraint, has a neighbour, fails the incircle test with ties
+/// perturbed (incircle_perturbed: of two triangulations of four co-circular points one passes, so every
+/// order of flips, on any executor, ends in the same triangulation) and can be flipped (strictly convex
+/// quadrilateral; the incircle test implies it in a valid triangulation, the orient2d check keeps a
+/// corrupt or constrained neighbourhood from producing inverted triangles).
 CDT_HD_INLINE bool edge_wants_flip(const MeshView& m, std::uint32_t t, std::uint32_t i) {
   const std::uint32_t e = m.adj[3 * t + i];
   if (e == kNoId || m.seg[3 * t + i] != kNoId) return false;
   const std::uint32_t a = m.v(t, 0), b = m.v(t, 1), c = m.v(t, 2);
   const std::uint32_t d = m.v(edge_tri(e), edge_index(e));
-  if (incircle(m.x[a], m.y[a], m.x[b], m.y[b], m.x[c], m.y[c], m.x[d], m.y[d]) <= 0) return false;
+  if (incircle_perturbed(m.x[a], m.y[a], m.x[b], m.y[b], m.x[c], m.y[c], m.x[d], m.y[d]) <= 0) return false;
   return flip_is_convex(m, t, i);
 }
 

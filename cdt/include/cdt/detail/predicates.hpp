@@ -349,4 +349,41 @@ CDT_HD inline int incircle(double ax, double ay, double bx, double by, double cx
   return incircle_exact(ax, ay, bx, by, cx, cy, dx, dy);
 }
 
+/// Whether (ax, ay) comes before (bx, by) in lexicographic order: x first, then y.
+CDT_HD_INLINE bool lexicographically_less(double ax, double ay, double bx, double by) {
+  return ax < bx || (ax == bx && ay < by);
+}
+
+/// incircle with its zeros decided by a symbolic perturbation, so that among co-circular points one
+/// triangulation is the Delaunay one (Edelsbrunner and Muecke's Simulation of Simplicity applied to
+/// the lifting map). Each point's lift x^2 + y^2 is raised by eps^r, r its rank in lexicographic
+/// order (the first point is raised the most), for an infinitesimal eps > 0. The determinant is linear
+/// in each lift, so for four points on a circle its sign is that of the raised point's cofactor, which
+/// is the orientation of the other three (never zero: no three distinct points of a circle are
+/// collinear). One lifting for every quadruple: the flips it asks for end, and the constrained Delaunay
+/// triangulation under it is unique, whatever order the flips ran in, on the host or on the device.
+/// Nonzero for four distinct points with a, b, c not collinear; the same as incircle elsewhere.
+CDT_HD inline int incircle_perturbed(double ax, double ay, double bx, double by, double cx, double cy,
+                                     double dx, double dy) {
+  const int sign = incircle(ax, ay, bx, by, cx, cy, dx, dy);
+  if (sign != 0) return sign;
+  // The first of the four in lexicographic order, and its cofactor's sign.
+  int first = 0;
+  double fx = ax;
+  double fy = ay;
+  if (lexicographically_less(bx, by, fx, fy)) first = 1, fx = bx, fy = by;
+  if (lexicographically_less(cx, cy, fx, fy)) first = 2, fx = cx, fy = cy;
+  if (lexicographically_less(dx, dy, fx, fy)) first = 3;
+  switch (first) {
+  case 0:
+    return orient2d(dx, dy, bx, by, cx, cy);
+  case 1:
+    return orient2d(ax, ay, dx, dy, cx, cy);
+  case 2:
+    return orient2d(ax, ay, bx, by, dx, dy);
+  default:
+    return -orient2d(ax, ay, bx, by, cx, cy);
+  }
+}
+
 } // namespace cdt::detail
