@@ -11,7 +11,8 @@
 #   cdt-cpu    the same inputs on the CPU executor and CGAL (one run each: they take seconds per input);
 #              with .carry/bin/bench_cdt_cgal (scripts/device-carry.sh builds it here, statically
 #              linked with CGAL, which that machine lacks), else the device build without CGAL
-#   batch      the vectorize batch benchmark, when its bundle was carried (scripts/device-bundle.sh)
+#   batch      the vectorize batch benchmark, when its bundle was carried (scripts/device-bundle.sh),
+#              and the same SVGs from the CPU and the GPU backend
 #   compare    (not in the default list) an earlier tree against this one on the same machine, whose
 #              timings vary 10-25% between calls: TRIXEL_BASE (default .carry/base) holds a copy of it
 #              (`git archive REV | tar -x -C .carry/base`, carried); both bench_cdt builds run in turn,
@@ -93,6 +94,18 @@ if want batch && [ -x .carry/bundle/vectorize ] && [ -d .carry/kodak ]; then
     -n 200 -j "1 $(nproc)" -- --backend gpu
   step bench-batch-cpu bash scripts/bench-batch.sh --bin .carry/bundle/vectorize --images .carry/kodak \
     -n 200 -j "$(nproc)" -- --backend cpu
+  # The CDT is unique and the pipeline puts it in canonical order: both backends write the same bytes.
+  same_svgs() {
+    local dir
+    dir=$(mktemp -d)
+    .carry/bundle/vectorize .carry/kodak -o "$dir/cpu" -q --backend cpu &&
+      .carry/bundle/vectorize .carry/kodak -o "$dir/gpu" -q --backend gpu &&
+      diff -r "$dir/cpu" "$dir/gpu" && echo "the $(ls "$dir/cpu" | wc -l) SVGs are the same from both backends"
+    local r=$?
+    rm -rf "$dir"
+    return $r
+  }
+  step svgs-cpu-gpu same_svgs
 fi
 if want compare; then
   base=${TRIXEL_BASE:-.carry/base}

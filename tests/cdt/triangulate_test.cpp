@@ -7,6 +7,7 @@
 #include <vector>
 
 #include "artem_ogre.hpp"
+#include "canonical_triangles.hpp"
 #include "cdt/cdt.hpp"
 #include "cdt/io.hpp"
 #include "cdt/verify.hpp"
@@ -123,6 +124,77 @@ TEST(Triangulate, PointsAloneGiveTheSameTrianglesForAnyThreadCount) {
 // Segments through points, overlapping and crossing: the screened split and the added vertices too.
 TEST(Triangulate, SegmentsGiveTheSameTrianglesForAnyThreadCount) {
   expect_same_for_any_thread_count(trixel_gen::lattice_with_segments(30, 300, 5));
+}
+
+/// The same triangles from schedules as different as the CPU executor's can be: grids from far coarser
+/// to far finer than the points (so that the sites, the missing points and every round differ), one and
+/// three threads. Ties among co-circular points are broken by one perturbation (incircle_perturbed), so
+/// the CDT is unique and every schedule must reach it.
+void expect_one_cdt_for_every_schedule(const std::vector<cdt::Point>& points,
+                                       const std::vector<cdt::Segment>& segments, const std::string& what) {
+  cdt::Options first;
+  first.backend = cdt::Backend::cpu;
+  first.threads = 1;
+  const cdt::Triangulation reference = cdt::triangulate(points, segments, first);
+  const cdt::VerifyReport report = cdt::verify(reference, points, segments);
+  EXPECT_TRUE(report.ok()) << what << ": " << (report.problems.empty() ? "" : report.problems.front());
+  const auto expected = trixel_test::canonical_triangles(reference);
+  cdt::Triangulation canonical_reference = reference;
+  cdt::canonicalize(canonical_reference);
+  const cdt::VerifyReport canonical_report = cdt::verify(canonical_reference, points, segments);
+  EXPECT_TRUE(canonical_report.ok()) << what << " canonicalized: "
+                                     << (canonical_report.problems.empty()
+                                             ? ""
+                                             : canonical_report.problems.front());
+  for (const std::uint32_t grid : {16u, 64u, 256u, 2048u}) {
+    for (const unsigned threads : {1u, 3u}) {
+      cdt::Options o = first;
+      o.grid_size = grid;
+      o.threads = threads;
+      cdt::Triangulation t = cdt::triangulate(points, segments, o);
+      const std::string where =
+          what + ", grid " + std::to_string(grid) + ", " + std::to_string(threads) + " threads";
+      EXPECT_EQ(trixel_test::canonical_triangles(t), expected) << where;
+      // In canonical order the arrays themselves are equal.
+      cdt::canonicalize(t);
+      EXPECT_EQ(t.vertices, canonical_reference.vertices) << where;
+      EXPECT_EQ(t.triangles, canonical_reference.triangles) << where;
+      EXPECT_EQ(t.neighbors, canonical_reference.neighbors) << where;
+      EXPECT_EQ(t.segment_of_edge, canonical_reference.segment_of_edge) << where;
+    }
+  }
+}
+
+// Pixel lattices are co-circular everywhere: without one rule for ties each schedule would pick its
+// own diagonals.
+TEST(Triangulate, CoCircularInputsGiveOneCdtForEverySchedule) {
+  for (std::uint32_t k : {3u, 10u, 64u}) {
+    const auto in = trixel_gen::lattice(k);
+    expect_one_cdt_for_every_schedule(in.points, in.segments, "lattice " + std::to_string(k));
+  }
+  const auto with_segments = trixel_gen::lattice_with_segments(40, 300, 7);
+  expect_one_cdt_for_every_schedule(with_segments.points, with_segments.segments, "lattice with segments");
+  // Pixel centres along rings, as an image's outlines give.
+  trixel_gen::Pslg rings;
+  for (int r = 2; r <= 40; r += 3) {
+    const auto first = static_cast<std::uint32_t>(rings.points.size());
+    for (int a = 0; a < 8 * r; ++a) {
+      const double angle = 6.283185307179586 * a / (8 * r);
+      rings.points.push_back(
+          {std::floor(50 + r * std::cos(angle)) + 0.5, std::floor(50 + r * std::sin(angle)) + 0.5});
+    }
+    const auto last = static_cast<std::uint32_t>(rings.points.size());
+    for (std::uint32_t i = first; i + 1 < last; i += 2) rings.segments.push_back({i, i + 1});
+  }
+  expect_one_cdt_for_every_schedule(rings.points, rings.segments, "pixel rings");
+}
+
+TEST(Triangulate, ArtemOgreFilesGiveOneCdtForEverySchedule) {
+  const int files =
+      trixel_test::for_each_artem_ogre_file([](const std::string& name, const cdt::io::Pslg& in) {
+        expect_one_cdt_for_every_schedule(in.points, in.segments, name);
+      });
+  EXPECT_EQ(files, trixel_test::kArtemOgreFiles);
 }
 
 // Every input file of the peer library's test suite (crossings, overlaps, hanging edges).

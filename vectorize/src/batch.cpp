@@ -192,10 +192,16 @@ std::vector<JobResult> run_batch(const std::vector<BatchJob>& jobs, const BatchO
       if (options.on_done) options.on_done(results[k], done, jobs.size());
     }
   };
+  // With the GPU backend and more than one image, CUDA starts on a side thread while the first images
+  // are decoded, instead of in the first triangulation that every worker would wait for.
+  std::thread start_device;
+  if (conversion.backend == cdt::Backend::gpu && jobs.size() > 1)
+    start_device = std::thread([] { cdt::start_gpu(); });
   std::vector<std::thread> pool;
   for (unsigned w = 1; w < workers; ++w) pool.emplace_back(work);
   work();
   for (auto& t : pool) t.join();
+  if (start_device.joinable()) start_device.join();
   std::vector<JobResult> out;
   out.reserve(done);
   for (std::size_t k = 0; k < jobs.size(); ++k) {

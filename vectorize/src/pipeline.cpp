@@ -114,7 +114,10 @@ Conversion convert(const Image& image, const Options& options, StageRecord* reco
                             ? cdt::Backend::cpu
                             : options.backend;
   cdt_options.threads = options.threads;
-  const cdt::Triangulation triangulation = cdt::triangulate(pslg.points, pslg.segments, cdt_options);
+  cdt::Triangulation triangulation = cdt::triangulate(pslg.points, pslg.segments, cdt_options);
+  // The CDT is unique; in its canonical order the stages below, and so the SVG, are the same whichever
+  // backend made it.
+  cdt::canonicalize(triangulation);
   stats.triangles = triangulation.triangles.size();
   stats.cdt_backend = triangulation.stats.backend;
   timer.end("cdt");

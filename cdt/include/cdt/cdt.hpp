@@ -41,8 +41,8 @@ enum class Backend {
   automatic, ///< the GPU when a CUDA device is present, the CPU otherwise, and the CPU when the device
              ///< fails during the call (out of memory, say)
   cpu,       ///< the CPU executor (threads) for every phase
-  gpu,       ///< the CUDA executor (for the digital Voronoi diagram, the dual triangles and the final
-             ///< Lawson flips so far; the CPU executor runs the rest); an error when no device is present
+  gpu,       ///< the CUDA executor for every phase but the host's share of a few (see Statistics::backend);
+             ///< an error when no device is present
 };
 
 /// What to do with input segments that cross each other in their interiors, and with zero-length
@@ -143,9 +143,26 @@ struct Triangulation {
   Statistics stats;
 };
 
+/// Puts t in an order that depends on its triangle set alone: the vertices added at crossings are
+/// numbered by their coordinates (lexicographic order, after the input points), each triangle starts at
+/// its lowest vertex, and the triangles are sorted by their vertices; neighbours follow. The CDT
+/// triangulate() returns is unique (ties among co-circular points are broken by one symbolic
+/// perturbation), but each backend and schedule lists it in an order of its own; after this call two
+/// results for the same input are equal array for array, whichever backend, grid or thread count made
+/// them. O(n) for n triangles, plus a sort of the added vertices.
+void canonicalize(Triangulation& t);
+
 /// Number of CUDA devices Backend::gpu can use: 0 when there is none, or the library was built
 /// without CUDA. Never throws.
 int gpu_device_count() noexcept;
+
+/// Starts CUDA in the process before the first triangulation needs it: creates the device's context
+/// and loads the GPU backend's kernels by triangulating a small fixed input there (0.2-0.3 s on an
+/// H100 or H200 machine). A program about to run many triangulations on the device can call it on a
+/// side thread as it begins, so that its first triangulations (with several threads, each thread's
+/// first one) do not wait for the start-up. Returns false, and does nothing else, without a device;
+/// never throws (a device that fails here fails again, with its error, in triangulate()).
+bool start_gpu() noexcept;
 
 /// Makes freed memory stay in the process for reuse (glibc's allocator: no block is mapped on its own,
 /// the heap is not trimmed). Without it every array larger than 32 MiB is mapped when allocated and
@@ -164,6 +181,11 @@ int gpu_device_count() noexcept;
 bool retain_freed_memory(std::size_t huge_page_bytes = 0) noexcept;
 
 /// Computes the constrained Delaunay triangulation of the points and segments.
+///
+/// The result is unique: among co-circular points the tie is broken by a symbolic perturbation (each
+/// point's lift raised by an infinitesimal that is larger for points earlier in lexicographic order),
+/// so every backend, grid size and thread count gives the same triangles, listed in an order of its
+/// own (canonicalize() makes the lists equal too).
 ///
 /// Duplicate points are merged (see Triangulation::duplicate_of), points lying on a segment split it,
 /// overlapping collinear segments are merged, and crossing segments are split at their intersection

@@ -31,8 +31,7 @@ enum class Preset {
 
 /// The size of PSLG from which the automatic backend triangulates on the GPU. A photograph's PSLG
 /// (10-50K points for 0.4-1.6 megapixels) converts faster on the CPU when a batch's workers share the
-/// device, and one image loses only milliseconds; the rule depends on the PSLG alone, so an image gives
-/// the same SVG alone, in a batch and with any -j.
+/// device, and one image loses only milliseconds. Which backend runs changes no output.
 inline constexpr std::size_t kDevicePslgPoints = 50000;
 
 /// Every knob of the pipeline, in human units (pixels, Delta E).
@@ -44,7 +43,8 @@ struct Options {
   GroupingOptions grouping;
   SvgOptions svg;
   /// cdt::Backend::automatic takes the GPU, when there is one, for PSLGs of kDevicePslgPoints points or
-  /// more, and the CPU below that; cpu and gpu are taken as they are.
+  /// more, and the CPU below that; cpu and gpu are taken as they are. The SVG is the same whichever
+  /// runs: the CDT is unique, and the pipeline puts it in canonical order (cdt::canonicalize).
   cdt::Backend backend = cdt::Backend::automatic;
   /// Threads one conversion may use (simplification, the CDT engine's CPU executor, trixel colours);
   /// 0 uses every hardware thread. The output is the same for any number.
