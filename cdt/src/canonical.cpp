@@ -36,38 +36,36 @@ void canonicalize(Triangulation& t) {
       for (std::uint32_t& v : tri) v = renumbered[v];
   }
 
-  // Each triangle rotated to start at its lowest vertex (edge i is opposite corner i, so its neighbour
-  // and segment turn with it).
-  for (std::size_t k = 0; k < num_triangles; ++k) {
-    auto& tri = t.triangles[k];
-    const int r = tri[1] < tri[0] && tri[1] < tri[2] ? 1 : tri[2] < tri[0] && tri[2] < tri[1] ? 2 : 0;
-    if (r == 0) continue;
-    std::rotate(tri.begin(), tri.begin() + r, tri.end());
-    std::rotate(t.neighbors[k].begin(), t.neighbors[k].begin() + r, t.neighbors[k].end());
-    std::rotate(t.segment_of_edge[k].begin(), t.segment_of_edge[k].begin() + r, t.segment_of_edge[k].end());
-  }
-
-  // Counting sort by the first vertex; a vertex is the lowest corner of few triangles, whose order by
-  // the other two is settled by insertion sort.
+  // Each triangle turned to start at its lowest vertex (edge i is opposite corner i, so its neighbour
+  // and segment turn with it); counted by that vertex.
+  std::vector<std::uint8_t> turn(num_triangles);
   std::vector<std::uint32_t> start(num_vertices + 1, 0);
-  for (const auto& tri : t.triangles) ++start[tri[0] + 1];
-  std::partial_sum(start.begin(), start.end(), start.begin());
-  std::vector<std::uint32_t> order(num_triangles);
-  {
-    std::vector<std::uint32_t> next(start.begin(), start.end() - 1);
-    for (std::size_t k = 0; k < num_triangles; ++k)
-      order[next[t.triangles[k][0]]++] = static_cast<std::uint32_t>(k);
+  for (std::size_t k = 0; k < num_triangles; ++k) {
+    const auto& tri = t.triangles[k];
+    const int r = tri[1] < tri[0] ? (tri[2] < tri[1] ? 2 : 1) : (tri[2] < tri[0] ? 2 : 0);
+    turn[k] = static_cast<std::uint8_t>(r);
+    ++start[tri[r] + 1];
   }
+  std::partial_sum(start.begin(), start.end(), start.begin());
+  // Counting sort by the lowest vertex; a vertex is the lowest corner of few triangles, whose order by
+  // the other two is settled by insertion sort.
+  constexpr int kAfter[5] = {0, 1, 2, 0, 1}; // kAfter[r + i] = (r + i) % 3
+  const auto corner = [&](std::uint32_t k, int i) { return t.triangles[k][kAfter[turn[k] + i]]; };
+  std::vector<std::uint32_t> order(num_triangles);
+  for (std::size_t k = 0; k < num_triangles; ++k)
+    order[start[corner(static_cast<std::uint32_t>(k), 0)]++] = static_cast<std::uint32_t>(k);
+  // start[v] is now where vertex v's triangles end.
   const auto before = [&](std::uint32_t a, std::uint32_t b) {
-    const auto& p = t.triangles[a];
-    const auto& q = t.triangles[b];
-    return p[1] < q[1] || (p[1] == q[1] && p[2] < q[2]);
+    const std::uint32_t a1 = corner(a, 1), b1 = corner(b, 1);
+    return a1 < b1 || (a1 == b1 && corner(a, 2) < corner(b, 2));
   };
+  std::uint32_t bucket_begin = 0;
   for (std::size_t v = 0; v < num_vertices; ++v) {
-    const auto first = order.begin() + start[v];
-    const auto last = order.begin() + start[v + 1];
-    for (auto i = first + (first == last ? 0 : 1); i < last; ++i)
-      for (auto j = i; j != first && before(*j, *(j - 1)); --j) std::iter_swap(j, j - 1);
+    const std::uint32_t bucket_end = start[v];
+    for (std::uint32_t i = bucket_begin + 1; i < bucket_end; ++i)
+      for (std::uint32_t j = i; j > bucket_begin && before(order[j], order[j - 1]); --j)
+        std::swap(order[j], order[j - 1]);
+    bucket_begin = bucket_end;
   }
 
   std::vector<std::uint32_t> position(num_triangles);
@@ -77,10 +75,12 @@ void canonicalize(Triangulation& t) {
   TriangleArray segments(num_triangles);
   for (std::size_t k = 0; k < num_triangles; ++k) {
     const std::uint32_t from = order[k];
-    triangles[k] = t.triangles[from];
-    segments[k] = t.segment_of_edge[from];
+    const int r = turn[from];
     for (int i = 0; i < 3; ++i) {
-      const std::uint32_t u = t.neighbors[from][i];
+      const int e = kAfter[r + i];
+      triangles[k][i] = t.triangles[from][e];
+      segments[k][i] = t.segment_of_edge[from][e];
+      const std::uint32_t u = t.neighbors[from][e];
       neighbors[k][i] = u == kNone ? kNone : position[u];
     }
   }
