@@ -275,6 +275,12 @@ TEST(Triangulate, DuplicatesAreMergedWithTheMapInTheResult) {
   EXPECT_TRUE(cdt::verify(t, p, {}).ok());
 }
 
+// Starting CUDA ahead: true exactly when there is a device to start; without one, nothing happens.
+TEST(Triangulate, StartGpuReportsWhetherADeviceStarted) {
+  EXPECT_EQ(cdt::start_gpu(), cdt::gpu_device_count() > 0);
+  EXPECT_EQ(cdt::start_gpu(), cdt::gpu_device_count() > 0); // and again, once started
+}
+
 TEST(Triangulate, ExplicitGpuBackendWithoutDeviceIsAnError) {
   if (cdt::gpu_device_count() > 0) GTEST_SKIP() << "a CUDA device is present (the GPU tests cover it)";
   cdt::Options o;

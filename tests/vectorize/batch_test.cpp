@@ -8,6 +8,7 @@
 #include <vector>
 
 #include "../test_util.hpp"
+#include "cdt/cdt.hpp"
 #include "vectorize/batch.hpp"
 
 namespace {
@@ -143,6 +144,34 @@ TEST(VectorizeBatch, SameBytesWithOneAndTwoWorkers) {
   ASSERT_EQ(names.size(), 4u);
   EXPECT_EQ(names, files_under(dir / "j2"));
   for (const auto& n : names) EXPECT_EQ(read_all(dir / "j1" / n), read_all(dir / "j2" / n)) << n;
+}
+
+// The GPU backend in a batch (CUDA started on a side thread as it begins): with a device the same
+// bytes as the CPU backend (the CDT is unique and in canonical order); without one every image fails
+// with the reason, none is written, and the batch ends.
+TEST(VectorizeBatch, GpuBackendGivesTheCpuBytesOrFailsEveryImageClearly) {
+  ScratchDir dir;
+  const std::string inputs = shell_quote(kSamples / "logo.png") + " " + shell_quote(kSamples / "photo.png");
+  ASSERT_EQ(run(shell_quote(kBin) + " " + inputs + " -j 2 -q --backend cpu -o " + shell_quote(dir / "cpu"))
+                .exit_code,
+            0);
+  const auto r =
+      run(shell_quote(kBin) + " " + inputs + " -j 2 -q --backend gpu -o " + shell_quote(dir / "gpu"));
+  if (cdt::gpu_device_count() > 0) {
+    ASSERT_EQ(r.exit_code, 0) << r.output;
+    const auto names = files_under(dir / "cpu");
+    ASSERT_EQ(names.size(), 2u);
+    EXPECT_EQ(names, files_under(dir / "gpu"));
+    for (const auto& n : names) EXPECT_EQ(read_all(dir / "cpu" / n), read_all(dir / "gpu" / n)) << n;
+  } else {
+    EXPECT_EQ(r.exit_code, 1) << r.output;
+    for (const char* name : {"logo.png", "photo.png"}) {
+      EXPECT_NE(r.output.find(std::string(name) + ": "), std::string::npos) << r.output;
+    }
+    // "no CUDA device is available", or in a build without CUDA "this build has no CUDA support".
+    EXPECT_NE(r.output.find("CUDA"), std::string::npos) << r.output;
+    EXPECT_TRUE(!fs::exists(dir / "gpu") || files_under(dir / "gpu").empty());
+  }
 }
 
 TEST(VectorizeBatch, InputListFromStandardInput) {
