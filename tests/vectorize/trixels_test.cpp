@@ -307,3 +307,40 @@ TEST(TrixelColours, TransparencyAndAlphaWeightedColour) {
 }
 
 } // namespace
+
+namespace {
+
+// Colours of an opaque image are summed without the premultiplied sums (they equal the straight ones):
+// every triangle away from one translucent pixel must get, to the bit, what the general path gives
+// it in the same image with that pixel added.
+float noise(int x, int y, int c) {
+  if (c == 3) return 1.0f;
+  const double v = std::sin(x * 12.9898 + y * 78.233 + c * 37.719) * 43758.5453;
+  return static_cast<float>(v - std::floor(v)); // every bit of the mantissa in play
+}
+
+TEST(TrixelColours, OpaqueImagesGiveTheGeneralPathsColoursToTheBit) {
+  const int width = 61;
+  const int height = 47;
+  const auto t = triangulate_rectangle(width, height, lattice_points(width, height, 150, 11));
+  const vectorize::Image opaque = make_image(width, height, noise);
+  vectorize::Image translucent = opaque;
+  translucent.pixel(0, 0)[3] = 0.75f;
+  const auto a = vectorize::colour_trixels(opaque, t, 1);
+  const auto b = vectorize::colour_trixels(translucent, t, 1);
+  const auto owner = vectorize::owner_of_pixels(width, height, t);
+  ASSERT_EQ(a.size(), b.size());
+  std::size_t compared = 0;
+  for (std::uint32_t tri = 0; tri < a.size(); ++tri) {
+    EXPECT_EQ(a[tri].pixel_count, b[tri].pixel_count);
+    EXPECT_TRUE(a[tri].covers_solid) << tri;
+    if (tri == owner[0] || a[tri].pixel_count == 0) continue; // the changed pixel's, and slivers
+    EXPECT_EQ(a[tri].rgba, b[tri].rgba) << tri;
+    EXPECT_EQ(b[tri].covers_solid, true) << tri;
+    ++compared;
+  }
+  EXPECT_GT(compared, 200u);
+  EXPECT_NE(a[owner[0]].rgba[3], b[owner[0]].rgba[3]);
+}
+
+} // namespace

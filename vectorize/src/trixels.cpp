@@ -221,10 +221,10 @@ bool meets_square(const cdt::Point& a, const cdt::Point& b, const cdt::Point& c,
 }
 
 // Sets covers_solid for triangles that own no solid pixel centre but reach into a solid pixel. Only
-// an image with transparency needs the search: without it every triangle covers solid pixels.
-void mark_solid_cover(const Image& image, const cdt::Triangulation& t, TrixelColours& trixels) {
-  bool any_clear = false;
-  for (std::size_t i = 3; i < image.rgba.size() && !any_clear; i += 4) any_clear = image.rgba[i] < 1.0f;
+// an image with transparency (any_clear: some alpha below 1) needs the search: without it every
+// triangle covers solid pixels.
+void mark_solid_cover(const Image& image, const cdt::Triangulation& t, TrixelColours& trixels,
+                      bool any_clear) {
   for (std::uint32_t tri = 0; tri < trixels.size(); ++tri) {
     Trixel& trixel = trixels[tri];
     if (trixel.covers_solid) continue;
@@ -329,11 +329,33 @@ TrixelColours colour_trixels(const Image& image, const cdt::Triangulation& t, un
     }
     trixels[tri].pixel_count += static_cast<std::uint32_t>(end - begin);
   };
+  // Without transparency (every alpha exactly 1) the premultiplied sums are the straight ones and the
+  // alpha sum is the pixel count, exactly: only the straight sums are kept, in the same order, so the
+  // colours are the same to the bit.
+  const auto accumulate_opaque = [&](std::uint32_t tri, int row, int begin, int end) {
+    Sums& s = sums[tri];
+    double r = s.straight[0], g = s.straight[1], b = s.straight[2];
+    const float* p = image.pixel(begin, row);
+    for (int x = begin; x < end; ++x, p += 4) {
+      r += p[0];
+      g += p[1];
+      b += p[2];
+    }
+    s.straight[0] = r;
+    s.straight[1] = g;
+    s.straight[2] = b;
+    trixels[tri].pixel_count += static_cast<std::uint32_t>(end - begin);
+  };
+  bool opaque = true;
+  for (std::size_t i = 3; i < image.rgba.size() && opaque; i += 4) opaque = image.rgba[i] == 1.0f;
   const std::size_t count = t.triangles.size();
   const auto parts = static_cast<unsigned>(
       std::min<std::size_t>(resolve_threads(threads), std::max<std::size_t>(1, count / 4096)));
   for_each_part(count, parts, [&](std::size_t first, std::size_t last, unsigned) {
-    for_each_run(image.width, image.height, t, accumulate, first, last);
+    if (opaque)
+      for_each_run(image.width, image.height, t, accumulate_opaque, first, last);
+    else
+      for_each_run(image.width, image.height, t, accumulate, first, last);
   });
 
   for (std::size_t tri = 0; tri < t.triangles.size(); ++tri) {
@@ -345,12 +367,18 @@ TrixelColours colour_trixels(const Image& image, const cdt::Triangulation& t, un
     if (trixel.pixel_count == 0) continue;
     const Sums& s = sums[tri];
     const double n = trixel.pixel_count;
+    if (opaque) {
+      for (int ch = 0; ch < 3; ++ch) trixel.rgba[ch] = static_cast<float>(s.straight[ch] / n);
+      trixel.rgba[3] = 1.0f;
+      trixel.covers_solid = true;
+      continue;
+    }
     for (int ch = 0; ch < 3; ++ch)
       trixel.rgba[ch] = static_cast<float>(s.alpha > 0 ? s.premultiplied[ch] / s.alpha : s.straight[ch] / n);
     trixel.rgba[3] = static_cast<float>(s.alpha / n);
   }
   colour_slivers(image, t, trixels);
-  mark_solid_cover(image, t, trixels);
+  mark_solid_cover(image, t, trixels, !opaque);
   return trixels;
 }
 
