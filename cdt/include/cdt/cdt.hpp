@@ -157,11 +157,12 @@ void canonicalize(Triangulation& t);
 int gpu_device_count() noexcept;
 
 /// Starts CUDA in the process before the first triangulation needs it: creates the device's context
-/// and loads the GPU backend's kernels by triangulating a small fixed input there (0.2-0.3 s on an
-/// H100 or H200 machine). A program about to run many triangulations on the device can call it on a
-/// side thread as it begins, so that its first triangulations (with several threads, each thread's
-/// first one) do not wait for the start-up. Returns false, and does nothing else, without a device;
-/// never throws (a device that fails here fails again, with its error, in triangulate()).
+/// and loads the kernels a small input uses by triangulating a small fixed PSLG there (the start-up
+/// costs 0.2-0.3 s on the H200 machine). A program about to run many triangulations on the device
+/// can call it on a side thread as it begins, so that its first triangulations (with several threads,
+/// each thread's first one) do not wait for the start-up. Returns false, and does nothing else,
+/// without a device; never throws (a device that fails here fails again, with its error, in
+/// triangulate()).
 bool start_gpu() noexcept;
 
 /// Makes freed memory stay in the process for reuse (glibc's allocator: no block is mapped on its own,
