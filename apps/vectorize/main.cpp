@@ -101,6 +101,7 @@ struct BatchCli {
   bool skip_existing = false;
   unsigned jobs = 0;
   std::size_t max_pixels = std::size_t{1} << 27;
+  std::string cdt = "auto";
 };
 
 // --debug DIR and --debug-format.
@@ -147,6 +148,9 @@ int run_batch_cli(const BatchCli& cli, const DebugCli& debug, const vectorize::O
   batch.workers = cli.jobs;
   batch.skip_existing = cli.skip_existing;
   batch.max_pixels = cli.max_pixels;
+  batch.shared_cdt = cli.cdt == "shared" ? vectorize::BatchOptions::SharedCdt::always
+                     : cli.cdt == "own"  ? vectorize::BatchOptions::SharedCdt::never
+                                         : vectorize::BatchOptions::SharedCdt::automatic;
   batch.stop = &g_stop;
   if (debug.on()) {
     batch.write_debug = [&debug](const vectorize::BatchJob& job, const vectorize::Image& image,
@@ -276,8 +280,16 @@ int main(int argc, char** argv) {
                  "Batch mode: cores to use, one image at a time on each (default: every core; with fewer "
                  "images than cores, each image gets several). Memory grows with it: about "
                  "64 bytes per pixel of the largest image per worker, plus 20 MB (a 3072 x 2048 photo "
-                 "peaks at 400 MB)")
+                 "peaks at 400 MB); with a shared CDT (--batch-cdt) half as many workers more wait for "
+                 "their triangulations")
       ->check(CLI::Range(0u, 1024u));
+  app.add_option("--batch-cdt", batch.cdt,
+                 "Batch mode: auto (shared when the CDT runs on a GPU), shared (the images' PSLGs "
+                 "triangulated together, several per call, on a thread of their own, while the images "
+                 "waiting lend their cores to others), own (each worker triangulates its image's PSLG). "
+                 "The SVGs are the same")
+      ->check(CLI::IsMember({"auto", "shared", "own"}))
+      ->capture_default_str();
   app.add_flag("--skip-existing", batch.skip_existing,
                "Batch mode: leave images whose SVG exists (resume a batch)");
   app.add_option("--report", batch.report,

@@ -174,6 +174,58 @@ TEST(VectorizeBatch, GpuBackendGivesTheCpuBytesOrFailsEveryImageClearly) {
   }
 }
 
+// The pipeline's PSLGs are framed by the image border, so cdt::triangulate_many triangulates them
+// together, and each gets the CDT it gets alone.
+TEST(VectorizeBatch, PslgsOfImagesTriangulatedTogetherGiveTheirOwnCdts) {
+  std::vector<vectorize::Pslg> pslgs;
+  for (const char* name : {"logo.png", "photo.png", "strokes.png", "gradient.png"}) {
+    vectorize::StageRecord record;
+    vectorize::convert(vectorize::load_image(kSamples / name), {}, &record);
+    pslgs.push_back(record.pslg);
+  }
+  std::vector<cdt::Input> inputs;
+  for (const auto& p : pslgs) inputs.push_back({p.points, p.segments});
+  cdt::Options options;
+  options.backend = cdt::Backend::cpu;
+  std::vector<cdt::ManyResult> got = cdt::triangulate_many(inputs, options);
+  ASSERT_EQ(got.size(), pslgs.size());
+  for (std::size_t i = 0; i < got.size(); ++i) {
+    ASSERT_FALSE(got[i].error) << i;
+    EXPECT_EQ(got[i].triangulation.stats.inputs, pslgs.size()) << i;
+    cdt::Triangulation alone = cdt::triangulate(pslgs[i].points, pslgs[i].segments, options);
+    cdt::canonicalize(alone);
+    cdt::canonicalize(got[i].triangulation);
+    EXPECT_EQ(got[i].triangulation.vertices, alone.vertices) << i;
+    EXPECT_EQ(got[i].triangulation.triangles, alone.triangles) << i;
+    EXPECT_EQ(got[i].triangulation.neighbors, alone.neighbors) << i;
+    EXPECT_EQ(got[i].triangulation.segment_of_edge, alone.segment_of_edge) << i;
+  }
+}
+
+// A shared CDT (several workers' PSLGs per call) changes no byte, and a bad image still fails alone.
+TEST(VectorizeBatch, SharedCdtGivesTheSameBytes) {
+  ScratchDir dir;
+  fs::create_directories(dir / "in");
+  for (const char* name : {"logo.png", "photo.png", "strokes.png", "gradient.png"}) {
+    for (int copy = 0; copy < 3; ++copy)
+      fs::copy_file(kSamples / name, dir / "in" / (std::to_string(copy) + "-" + name));
+  }
+  std::ofstream(dir / "in" / "corrupt.png") << "this is not a PNG";
+  const std::string common = shell_quote(kBin) + " " + shell_quote(dir / "in") + " -q --backend cpu -j 4";
+  const auto own = run(common + " --batch-cdt own -o " + shell_quote(dir / "own"));
+  const auto shared = run(common + " --batch-cdt shared -o " + shell_quote(dir / "shared") + " --report " +
+                          shell_quote(dir / "report.json"));
+  EXPECT_EQ(own.exit_code, 1) << own.output;
+  EXPECT_EQ(shared.exit_code, 1) << shared.output;
+  EXPECT_NE(shared.output.find("corrupt.png"), std::string::npos) << shared.output;
+  const auto names = files_under(dir / "own");
+  ASSERT_EQ(names.size(), 12u);
+  EXPECT_EQ(names, files_under(dir / "shared"));
+  for (const auto& n : names) EXPECT_EQ(read_all(dir / "own" / n), read_all(dir / "shared" / n)) << n;
+  EXPECT_NE(read_all(dir / "report.json").find("\"cdt_inputs\":"), std::string::npos);
+  EXPECT_EQ(run(common + " --batch-cdt sometimes -o " + shell_quote(dir / "x")).exit_code, 2);
+}
+
 TEST(VectorizeBatch, InputListFromStandardInput) {
   ScratchDir dir;
   const auto r = run("printf '%s\\n# a comment\\n\\n%s\\n' " + shell_quote(kSamples / "logo.png") + " " +

@@ -3,11 +3,16 @@
 
 #include <algorithm>
 #include <chrono>
+#include <condition_variable>
 #include <cstdio>
+#include <deque>
 #include <fstream>
+#include <future>
 #include <iostream>
 #include <map>
 #include <mutex>
+#include <optional>
+#include <semaphore>
 #include <set>
 #include <sstream>
 #include <system_error>
@@ -115,7 +120,8 @@ std::vector<fs::path> read_input_list(const fs::path& list) {
 
 namespace {
 
-JobResult run_job(const BatchJob& job, const BatchOptions& options, const Options& conversion) {
+JobResult run_job(const BatchJob& job, const BatchOptions& options, const Options& conversion,
+                  const Triangulator& triangulator) {
   JobResult r;
   r.job = job;
   const auto start = std::chrono::steady_clock::now();
@@ -133,7 +139,7 @@ JobResult run_job(const BatchJob& job, const BatchOptions& options, const Option
     const Image image = load_image(job.input, options.max_pixels);
     const bool debug = !job.debug.empty() && options.write_debug;
     StageRecord record;
-    const Conversion result = convert(image, conversion, debug ? &record : nullptr);
+    const Conversion result = convert(image, conversion, debug ? &record : nullptr, triangulator);
     fs::create_directories(job.output.parent_path(), ec);
     if (ec) throw FileError(job.output.parent_path(), "cannot create the output directory: " + ec.message());
     // Debug folder first: when it fails, the image fails without an SVG (so --skip-existing retries it).
@@ -162,6 +168,99 @@ unsigned batch_workers(const BatchOptions& options, std::size_t num_jobs) {
                                          static_cast<unsigned>(std::max<std::size_t>(num_jobs, 1))));
 }
 
+// The workers' PSLGs triangulated together on a thread of its own: each call takes every PSLG waiting
+// then (up to a limit), so that calls grow with the load and an idle batch waits for no one.
+class SharedTriangulation {
+public:
+  explicit SharedTriangulation(const cdt::Options& options) : options_(options), thread_([this] { run(); }) {}
+  SharedTriangulation(const SharedTriangulation&) = delete;
+  SharedTriangulation& operator=(const SharedTriangulation&) = delete;
+  ~SharedTriangulation() {
+    {
+      std::lock_guard lock(mutex_);
+      stop_ = true;
+    }
+    wake_.notify_all();
+    thread_.join();
+  }
+
+  // Blocks until the PSLG's call is done; throws what cdt::triangulate() would for it alone.
+  cdt::Triangulation triangulate(const Pslg& pslg) {
+    Request request{&pslg, {}};
+    std::future<cdt::Triangulation> result = request.result.get_future();
+    {
+      std::lock_guard lock(mutex_);
+      pending_.push_back(&request);
+    }
+    wake_.notify_one();
+    return result.get();
+  }
+
+private:
+  // One call stays well inside a device's memory and a batch's latency.
+  static constexpr std::size_t kMaxInputs = 64;
+  static constexpr std::size_t kMaxPoints = std::size_t{1} << 22;
+
+  struct Request {
+    const Pslg* pslg;
+    std::promise<cdt::Triangulation> result;
+  };
+
+  void run() {
+    for (;;) {
+      std::vector<Request*> taken;
+      {
+        std::unique_lock lock(mutex_);
+        wake_.wait(lock, [&] { return stop_ || !pending_.empty(); });
+        if (pending_.empty()) return;
+        std::size_t points = 0;
+        while (!pending_.empty() && taken.size() < kMaxInputs &&
+               (taken.empty() || points + pending_.front()->pslg->points.size() <= kMaxPoints)) {
+          points += pending_.front()->pslg->points.size();
+          taken.push_back(pending_.front());
+          pending_.pop_front();
+        }
+      }
+      std::vector<cdt::Input> inputs;
+      inputs.reserve(taken.size());
+      for (const Request* r : taken) inputs.push_back({r->pslg->points, r->pslg->segments});
+      try {
+        std::vector<cdt::ManyResult> results = cdt::triangulate_many(inputs, options_);
+        for (std::size_t k = 0; k < taken.size(); ++k) {
+          if (results[k].error) {
+            taken[k]->result.set_exception(results[k].error);
+          } else {
+            taken[k]->result.set_value(std::move(results[k].triangulation));
+          }
+        }
+      } catch (...) { // out of memory, say: every image of the call fails with it
+        for (Request* r : taken) r->result.set_exception(std::current_exception());
+      }
+    }
+  }
+
+  cdt::Options options_;
+  std::mutex mutex_;
+  std::condition_variable wake_;
+  std::deque<Request*> pending_;
+  bool stop_ = false;
+  std::thread thread_; // last: started once the members above exist
+};
+
+bool shares_cdt(const BatchOptions& options, std::size_t num_jobs) {
+  if (num_jobs < 2) return false;
+  switch (options.shared_cdt) {
+  case BatchOptions::SharedCdt::always:
+    return true;
+  case BatchOptions::SharedCdt::never:
+    return false;
+  case BatchOptions::SharedCdt::automatic:
+    break;
+  }
+  return options.conversion.backend == cdt::Backend::gpu ||
+         (options.conversion.backend == cdt::Backend::automatic && cdt::gpu_device_count() > 0);
+}
+
 } // namespace
 
 unsigned threads_per_conversion(const BatchOptions& options, std::size_t num_jobs) {
@@ -179,12 +278,36 @@ std::vector<JobResult> run_batch(const std::vector<BatchJob>& jobs, const BatchO
   std::atomic<std::size_t> next{0};
   std::size_t done = 0;
   std::mutex report;
+
+  // With a shared CDT a worker gives its core back while its PSLG waits to be triangulated, and more
+  // threads than cores keep the cores busy meanwhile.
+  std::optional<SharedTriangulation> shared;
+  std::counting_semaphore<> cores(workers);
+  Triangulator triangulator;
+  unsigned threads = workers;
+  if (shares_cdt(options, jobs.size())) {
+    cdt::Options cdt_options;
+    cdt_options.backend = conversion.backend;
+    cdt_options.threads = 1;
+    shared.emplace(cdt_options);
+    threads = static_cast<unsigned>(std::min<std::size_t>(workers + std::max(1u, workers / 2), jobs.size()));
+    triangulator = [&](const Pslg& pslg, const cdt::Options&) {
+      cores.release();
+      struct Reacquire {
+        std::counting_semaphore<>& cores;
+        ~Reacquire() { cores.acquire(); }
+      } reacquire{cores};
+      return shared->triangulate(pslg);
+    };
+  }
   const auto work = [&] {
     for (;;) {
       if (options.stop != nullptr && options.stop->load()) return;
       const std::size_t k = next.fetch_add(1);
       if (k >= jobs.size()) return;
-      JobResult r = run_job(jobs[k], options, conversion);
+      if (shared) cores.acquire();
+      JobResult r = run_job(jobs[k], options, conversion, triangulator);
+      if (shared) cores.release();
       std::lock_guard lock(report);
       results[k] = std::move(r);
       ran[k] = 1;
@@ -198,7 +321,7 @@ std::vector<JobResult> run_batch(const std::vector<BatchJob>& jobs, const BatchO
   if (conversion.backend == cdt::Backend::gpu && jobs.size() > 1)
     start_device = std::thread([] { cdt::start_gpu(); });
   std::vector<std::thread> pool;
-  for (unsigned w = 1; w < workers; ++w) pool.emplace_back(work);
+  for (unsigned w = 1; w < threads; ++w) pool.emplace_back(work);
   work();
   for (auto& t : pool) t.join();
   if (start_device.joinable()) start_device.join();

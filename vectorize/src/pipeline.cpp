@@ -86,7 +86,8 @@ private:
 
 } // namespace
 
-Conversion convert(const Image& image, const Options& options, StageRecord* record) {
+Conversion convert(const Image& image, const Options& options, StageRecord* record,
+                   const Triangulator& triangulator) {
   if (image.width <= 0 || image.height <= 0) throw Error("the image has zero size");
   Conversion out;
   Stats& stats = out.stats;
@@ -114,12 +115,16 @@ Conversion convert(const Image& image, const Options& options, StageRecord* reco
                             ? cdt::Backend::cpu
                             : options.backend;
   cdt_options.threads = options.threads;
-  cdt::Triangulation triangulation = cdt::triangulate(pslg.points, pslg.segments, cdt_options);
+  cdt::Triangulation triangulation = triangulator ? triangulator(pslg, cdt_options)
+                                                  : cdt::triangulate(pslg.points, pslg.segments, cdt_options);
   // The CDT is unique; in its canonical order the stages below, and so the SVG, are the same whichever
   // backend made it.
   cdt::canonicalize(triangulation);
   stats.triangles = triangulation.triangles.size();
   stats.cdt_backend = triangulation.stats.backend;
+  stats.cdt_inputs = triangulation.stats.inputs;
+  for (const cdt::PhaseStats& phase : triangulation.stats.phases)
+    stats.cdt_phases.push_back({phase.name, phase.milliseconds});
   timer.end("cdt");
 
   const TrixelColours trixels = colour_trixels(image, triangulation, options.threads);
@@ -231,14 +236,21 @@ std::string stats_to_json(const Stats& s) {
   j << "{\"width\":" << s.width << ",\"height\":" << s.height << ",\"edge_pixels\":" << s.edge_pixels
     << ",\"chains\":" << s.chains << ",\"points\":" << s.points << ",\"segments\":" << s.segments
     << ",\"triangles\":" << s.triangles << ",\"regions\":" << s.regions << ",\"paths\":" << s.paths
-    << ",\"bytes\":" << s.bytes << ",\"cdt_backend\":\"" << s.cdt_backend << "\",\"stages_ms\":{";
+    << ",\"bytes\":" << s.bytes << ",\"cdt_backend\":\"" << s.cdt_backend
+    << "\",\"cdt_inputs\":" << s.cdt_inputs << ",\"stages_ms\":{";
   char number[32];
   for (std::size_t k = 0; k < s.stages.size(); ++k) {
     std::snprintf(number, sizeof number, "%.3f", s.stages[k].milliseconds);
     j << (k ? "," : "") << '"' << s.stages[k].name << "\":" << number;
   }
+  // A list, not an object: a CDT made twice (cdt::Statistics::attempts) repeats its phases' names.
+  j << "},\"cdt_phases_ms\":[";
+  for (std::size_t k = 0; k < s.cdt_phases.size(); ++k) {
+    std::snprintf(number, sizeof number, "%.3f", s.cdt_phases[k].milliseconds);
+    j << (k ? "," : "") << "[\"" << s.cdt_phases[k].name << "\"," << number << ']';
+  }
   std::snprintf(number, sizeof number, "%.3f", s.total_milliseconds);
-  j << "},\"total_ms\":" << number << "}";
+  j << "],\"total_ms\":" << number << "}";
   return j.str();
 }
 

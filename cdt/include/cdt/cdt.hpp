@@ -8,6 +8,7 @@
 #include <array>
 #include <cstddef>
 #include <cstdint>
+#include <exception>
 #include <memory>
 #include <span>
 #include <string>
@@ -90,6 +91,9 @@ struct Statistics {
   /// than there were sites (the mesh is then made again from all of them, faster than inserting them)
   /// or, rarely, when a crossing vertex could not be inserted. The phases sum both attempts.
   std::uint32_t attempts = 1;
+  /// Inputs triangulated together in one call by triangulate_many() (1 for triangulate()); the grid,
+  /// phases and times are then those of the whole call.
+  std::uint32_t inputs = 1;
   double total_milliseconds = 0.0;
   std::vector<PhaseStats> phases;
 };
@@ -196,5 +200,31 @@ bool retain_freed_memory(std::size_t huge_page_bytes = 0) noexcept;
 /// DeviceError when Backend::gpu is asked for and cannot be used.
 Triangulation triangulate(std::span<const Point> points, std::span<const Segment> segments,
                           const Options& options = {});
+
+/// One input of triangulate_many().
+struct Input {
+  std::span<const Point> points;
+  std::span<const Segment> segments;
+};
+
+/// What triangulate_many() gives for one input: its triangulation, or the error triangulate() throws
+/// for it (then the triangulation is empty).
+struct ManyResult {
+  Triangulation triangulation;
+  std::exception_ptr error;
+};
+
+/// Triangulates each input as triangulate() does (the same triangles; after canonicalize() the same
+/// arrays; the same error for a bad input), in fewer calls. Inputs framed by their segments (every point
+/// within the input's bounding box and the box's four sides covered by segments, as in a PSLG with
+/// its image border) are placed side by side, apart, translated by whole numbers, and triangulated in
+/// one call: a framed input's constrained Delaunay triangles are the same with other inputs outside its
+/// frame, so the triangles of the whole are cut back into one triangulation per input. The fixed costs
+/// of a call (on the GPU, the launches and waits of every round) are paid once for all of them. Any
+/// other input is triangulated on its own, and so is one whose coordinates would not translate exactly,
+/// one that gains vertices at crossings (their rounding depends on where they are), or, when the call
+/// of the whole fails, each input of it (so that an error names its own input). Statistics::inputs
+/// says how many were triangulated together. Results are in the order of `inputs`.
+std::vector<ManyResult> triangulate_many(std::span<const Input> inputs, const Options& options = {});
 
 } // namespace cdt

@@ -66,6 +66,18 @@ struct BatchOptions {
   bool skip_existing = false;
   /// Images with more pixels than this are refused before decoding their pixels.
   std::size_t max_pixels = std::size_t{1} << 27;
+  /// Whether the images' PSLGs are triangulated together: a thread of its own takes every PSLG waiting
+  /// (up to a limit) into one call of cdt::triangulate_many, so that the fixed costs of a call, on the
+  /// GPU most of its time at a photograph's size, are shared; the workers waiting for it lend their
+  /// cores to others (workers + workers / 2 threads then run, `workers` of them busy at a time). The
+  /// SVGs are the same either way.
+  enum class SharedCdt {
+    automatic, ///< when the CDT runs on a GPU (backend gpu, or automatic with a device present) and
+               ///< there is more than one image
+    always,    ///< with any backend, the CPU's too (more than one image)
+    never,
+  };
+  SharedCdt shared_cdt = SharedCdt::automatic;
   /// Set (e.g. from a signal handler) to stop: no new job starts, jobs under way finish.
   const std::atomic<bool>* stop = nullptr;
   /// Writes the debug folder of a converted image whose job has one (BatchJob::debug), with every
@@ -81,10 +93,10 @@ struct BatchOptions {
 /// many images as cores).
 unsigned threads_per_conversion(const BatchOptions& options, std::size_t num_jobs);
 
-/// Runs the jobs on min(options.workers, jobs) threads, each converting one image at a time (so memory
-/// stays bounded by workers x one image's working set), the cores of options.workers shared out
-/// between them. Every job's result is returned in the order of `jobs`; jobs never started because of
-/// `stop` are absent.
+/// Runs the jobs on min(options.workers, jobs) threads (half as many more with a shared CDT, see
+/// BatchOptions::shared_cdt), each converting one image at a time (so memory stays bounded by the
+/// threads x one image's working set), the cores of options.workers shared out between them. Every job's
+/// result is returned in the order of `jobs`; jobs never started because of `stop` are absent.
 std::vector<JobResult> run_batch(const std::vector<BatchJob>& jobs, const BatchOptions& options);
 
 /// The results as a JSON report (one object per image: input, output, status, error, seconds, sizes,

@@ -5,6 +5,7 @@
 #include <cstddef>
 #include <cstdint>
 #include <filesystem>
+#include <functional>
 #include <string>
 #include <string_view>
 #include <vector>
@@ -72,11 +73,14 @@ struct Stats {
   std::size_t points = 0;   ///< PSLG points (chain vertices, border, interior points)
   std::size_t segments = 0; ///< PSLG segments
   std::size_t triangles = 0;
-  std::size_t regions = 0; ///< opaque and transparent regions after grouping
-  std::size_t paths = 0;   ///< <path> elements written
-  std::size_t bytes = 0;   ///< size of the SVG document
-  std::string cdt_backend; ///< "cpu" or "gpu"
+  std::size_t regions = 0;    ///< opaque and transparent regions after grouping
+  std::size_t paths = 0;      ///< <path> elements written
+  std::size_t bytes = 0;      ///< size of the SVG document
+  std::string cdt_backend;    ///< "cpu" or "gpu"
+  std::size_t cdt_inputs = 1; ///< PSLGs triangulated together with this one (cdt::Statistics::inputs)
   std::vector<StageTime> stages;
+  /// The CDT engine's phases (cdt::Statistics::phases; with cdt_inputs > 1, those of the whole call).
+  std::vector<StageTime> cdt_phases;
   double total_milliseconds = 0.0;
 };
 
@@ -99,10 +103,16 @@ struct StageRecord {
   std::vector<RegionPolygon> polygons;
 };
 
+/// What triangulates a PSLG in convert(): given the PSLG and the cdt::Options the options make, it
+/// returns the CDT or throws what cdt::triangulate() would. Unset, convert() calls cdt::triangulate();
+/// a batch gives one that triangulates several images' PSLGs together (cdt::triangulate_many).
+using Triangulator = std::function<cdt::Triangulation(const Pslg&, const cdt::Options&)>;
+
 /// Converts a decoded image into an SVG document: edges, chains, simplification, PSLG, CDT, trixel
 /// colours, grouping, polygons, SVG. With `record`, every stage's output is also copied there.
 /// Throws Error (or cdt::Error from the CDT engine) on failure; an image of zero size is an Error.
-Conversion convert(const Image& image, const Options& options = {}, StageRecord* record = nullptr);
+Conversion convert(const Image& image, const Options& options = {}, StageRecord* record = nullptr,
+                   const Triangulator& triangulator = {});
 
 /// Writes `content` to `path` through a temporary file in the same directory, renamed over `path`
 /// once complete, so that a failure never leaves a partial file. Throws FileError naming the path.
