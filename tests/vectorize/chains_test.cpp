@@ -12,8 +12,12 @@
 #include <vector>
 
 #include "cdt/detail/predicates.hpp"
+#include "stage_test_util.hpp"
 
 namespace {
+
+using trixel_test::improper;
+using trixel_test::orient;
 
 using vectorize::Chain;
 using vectorize::EdgeMap;
@@ -193,30 +197,6 @@ TEST(Chains, ThickSpotOnALineIsThinned) {
 TEST(Chains, TwoPixelBranchIsKept) {
   EXPECT_EQ(vectorize::trace_chains(draw({"..#..", "..#..", "#####"})).size(), 3u);
   EXPECT_EQ(vectorize::trace_chains(draw({"..#..", "#####"})).size(), 1u);
-}
-
-int orient(const PixelPoint& a, const PixelPoint& b, const PixelPoint& c) {
-  return cdt::detail::orient2d(a.x, a.y, b.x, b.y, c.x, c.y);
-}
-
-bool on_box(const PixelPoint& a, const PixelPoint& b, const PixelPoint& p) {
-  return std::min(a.x, b.x) <= p.x && p.x <= std::max(a.x, b.x) && std::min(a.y, b.y) <= p.y &&
-         p.y <= std::max(a.y, b.y);
-}
-
-// Segments ab and cd meet somewhere other than at a shared end (or are the same segment).
-bool improper(PixelPoint a, PixelPoint b, PixelPoint c, PixelPoint d) {
-  const int shared = (a == c || a == d) + (b == c || b == d);
-  if (shared == 2) return true;
-  if (shared == 1) {
-    if (a == d || b == d) std::swap(c, d);
-    if (b == c) std::swap(a, b);
-    return orient(a, b, d) == 0 && (b.x - a.x) * (d.x - a.x) + (b.y - a.y) * (d.y - a.y) > 0;
-  }
-  const int o1 = orient(a, b, c), o2 = orient(a, b, d), o3 = orient(c, d, a), o4 = orient(c, d, b);
-  if (o1 * o2 < 0 && o3 * o4 < 0) return true;
-  return (o1 == 0 && on_box(a, b, c)) || (o2 == 0 && on_box(a, b, d)) || (o3 == 0 && on_box(c, d, a)) ||
-         (o4 == 0 && on_box(c, d, b));
 }
 
 // On random dense edge maps: every link becomes one chain segment, chain segments form a plane graph

@@ -12,26 +12,15 @@
 #include <vector>
 
 #include "../../vectorize/src/edges_row.hpp"
+#include "stage_test_util.hpp"
 
 namespace {
+
+using trixel_test::make_image;
 
 using vectorize::EdgeMap;
 using vectorize::EdgeOptions;
 using vectorize::Image;
-
-Image make_image(int width, int height, const std::function<std::array<float, 4>(int, int)>& colour) {
-  Image image;
-  image.width = width;
-  image.height = height;
-  image.source_channels = 4;
-  image.rgba.resize(static_cast<std::size_t>(width) * height * 4);
-  for (int y = 0; y < height; ++y)
-    for (int x = 0; x < width; ++x) {
-      const auto c = colour(x, y);
-      for (int k = 0; k < 4; ++k) image.pixel(x, y)[k] = c[k];
-    }
-  return image;
-}
 
 int count_edges(const EdgeMap& map) {
   int n = 0;

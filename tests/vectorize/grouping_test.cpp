@@ -2,6 +2,7 @@
 
 #include <gtest/gtest.h>
 
+#include "stage_test_util.hpp"
 #include <algorithm>
 #include <array>
 #include <cmath>
@@ -12,23 +13,11 @@
 
 namespace {
 
+using trixel_test::triangulate_rectangle;
+
 using vectorize::GroupingOptions;
 using vectorize::Regions;
 using vectorize::TrixelColours;
-
-cdt::Triangulation triangulate_rectangle(double width, double height, std::vector<cdt::Point> points,
-                                         std::vector<cdt::Segment> segments = {}) {
-  const auto base = static_cast<std::uint32_t>(points.size());
-  points.push_back({0, 0});
-  points.push_back({width, 0});
-  points.push_back({width, height});
-  points.push_back({0, height});
-  for (std::uint32_t i = 0; i < 4; ++i) segments.push_back({base + i, base + (i + 1) % 4});
-  cdt::Options options;
-  options.backend = cdt::Backend::cpu;
-  options.threads = 1;
-  return cdt::triangulate(points, segments, options);
-}
 
 std::vector<cdt::Point> random_points(double width, double height, int count, unsigned seed) {
   std::mt19937 rng(seed);

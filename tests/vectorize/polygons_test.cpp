@@ -2,6 +2,7 @@
 
 #include <gtest/gtest.h>
 
+#include "stage_test_util.hpp"
 #include <algorithm>
 #include <cmath>
 #include <map>
@@ -12,22 +13,10 @@
 
 namespace {
 
+using trixel_test::triangulate_rectangle;
+
 using vectorize::Regions;
 using vectorize::TransparentRegions;
-
-cdt::Triangulation triangulate_rectangle(double width, double height, std::vector<cdt::Point> points,
-                                         std::vector<cdt::Segment> segments = {}) {
-  const auto base = static_cast<std::uint32_t>(points.size());
-  points.push_back({0, 0});
-  points.push_back({width, 0});
-  points.push_back({width, height});
-  points.push_back({0, height});
-  for (std::uint32_t i = 0; i < 4; ++i) segments.push_back({base + i, base + (i + 1) % 4});
-  cdt::Options options;
-  options.backend = cdt::Backend::cpu;
-  options.threads = 1;
-  return cdt::triangulate(points, segments, options);
-}
 
 cdt::Point centroid(const cdt::Triangulation& t, std::size_t tri) {
   const auto& a = t.vertices[t.triangles[tri][0]];

@@ -14,11 +14,17 @@
 #include "cdt/cdt.hpp"
 #include "cdt/detail/predicates.hpp"
 #include "cdt/verify.hpp"
+#include "stage_test_util.hpp"
 #include "vectorize/chains.hpp"
 #include "vectorize/edges.hpp"
 #include "vectorize/simplify.hpp"
 
 namespace {
+
+using trixel_test::improper;
+using trixel_test::make_image;
+using trixel_test::on_box;
+using trixel_test::orient;
 
 using cdt::Point;
 using vectorize::Image;
@@ -26,44 +32,6 @@ using vectorize::InteriorOptions;
 using vectorize::PixelPoint;
 using vectorize::Polyline;
 using vectorize::Pslg;
-
-Image make_image(int width, int height, const std::function<std::array<float, 4>(int, int)>& colour) {
-  Image image;
-  image.width = width;
-  image.height = height;
-  image.source_channels = 4;
-  image.rgba.resize(static_cast<std::size_t>(width) * height * 4);
-  for (int y = 0; y < height; ++y)
-    for (int x = 0; x < width; ++x) {
-      const auto c = colour(x, y);
-      for (int k = 0; k < 4; ++k) image.pixel(x, y)[k] = c[k];
-    }
-  return image;
-}
-
-int orient(const Point& a, const Point& b, const Point& c) {
-  return cdt::detail::orient2d(a.x, a.y, b.x, b.y, c.x, c.y);
-}
-
-bool on_box(const Point& a, const Point& b, const Point& p) {
-  return std::min(a.x, b.x) <= p.x && p.x <= std::max(a.x, b.x) && std::min(a.y, b.y) <= p.y &&
-         p.y <= std::max(a.y, b.y);
-}
-
-// Segments ab and cd meet somewhere other than at a shared end (or are the same segment).
-bool improper(Point a, Point b, Point c, Point d) {
-  const int shared = (a == c || a == d) + (b == c || b == d);
-  if (shared == 2) return true;
-  if (shared == 1) {
-    if (a == d || b == d) std::swap(c, d);
-    if (b == c) std::swap(a, b);
-    return orient(a, b, d) == 0 && (b.x - a.x) * (d.x - a.x) + (b.y - a.y) * (d.y - a.y) > 0;
-  }
-  const int o1 = orient(a, b, c), o2 = orient(a, b, d), o3 = orient(c, d, a), o4 = orient(c, d, b);
-  if (o1 * o2 < 0 && o3 * o4 < 0) return true;
-  return (o1 == 0 && on_box(a, b, c)) || (o2 == 0 && on_box(a, b, d)) || (o3 == 0 && on_box(c, d, a)) ||
-         (o4 == 0 && on_box(c, d, b));
-}
 
 double distance_to_segment(const Point& a, const Point& b, const Point& p) {
   const double dx = b.x - a.x, dy = b.y - a.y;

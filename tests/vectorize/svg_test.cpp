@@ -15,25 +15,14 @@
 #include <vector>
 
 #include "../test_util.hpp"
+#include "stage_test_util.hpp"
 #include "vectorize/trixels.hpp"
 
 namespace {
 
-using vectorize::SvgOptions;
+using trixel_test::triangulate_rectangle;
 
-cdt::Triangulation triangulate_rectangle(double width, double height, std::vector<cdt::Point> points,
-                                         std::vector<cdt::Segment> segments = {}) {
-  const auto base = static_cast<std::uint32_t>(points.size());
-  points.push_back({0, 0});
-  points.push_back({width, 0});
-  points.push_back({width, height});
-  points.push_back({0, height});
-  for (std::uint32_t i = 0; i < 4; ++i) segments.push_back({base + i, base + (i + 1) % 4});
-  cdt::Options options;
-  options.backend = cdt::Backend::cpu;
-  options.threads = 1;
-  return cdt::triangulate(points, segments, options);
-}
+using vectorize::SvgOptions;
 
 struct Element {
   std::string name;

@@ -8,23 +8,11 @@
 #include <vector>
 
 #include "cdt/detail/predicates.hpp"
+#include "stage_test_util.hpp"
 
 namespace {
 
-// The rectangle [0, w] x [0, h] as a constrained border plus the given interior points.
-cdt::Triangulation triangulate_rectangle(int width, int height, std::vector<cdt::Point> points,
-                                         std::vector<cdt::Segment> segments = {}) {
-  const auto base = static_cast<std::uint32_t>(points.size());
-  points.push_back({0, 0});
-  points.push_back({double(width), 0});
-  points.push_back({double(width), double(height)});
-  points.push_back({0, double(height)});
-  for (std::uint32_t i = 0; i < 4; ++i) segments.push_back({base + i, base + (i + 1) % 4});
-  cdt::Options options;
-  options.backend = cdt::Backend::cpu;
-  options.threads = 1;
-  return cdt::triangulate(points, segments, options);
-}
+using trixel_test::triangulate_rectangle;
 
 std::vector<cdt::Point> random_points(int width, int height, int count, unsigned seed) {
   std::mt19937 rng(seed);
