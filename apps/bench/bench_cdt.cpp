@@ -21,6 +21,9 @@
 // median run (with their parallel rounds in parentheses), flips,
 // missing points, the verifier's verdict, peak memory of the run (its own process), CGAL's time and
 // the ratio ours/CGAL (<= 1 means faster).
+// --together N then triangulates N of the --file PSLGs (cycled) in one cdt::triangulate_many call and
+// each alone, R times, and prints a second table: the wall times of both ways (medians), how many
+// inputs shared the call, and whether every result verifies.
 
 #include <sys/resource.h>
 #if defined(__GLIBC__)
@@ -237,6 +240,7 @@ int main(int argc, char** argv) {
   std::vector<std::pair<std::size_t, std::size_t>> sizes;
   std::uint32_t lattice_side = 0;
   std::string cache;
+  int together = 0;
   for (int i = 1; i < argc; ++i) {
     if (!std::strcmp(argv[i], "--quick"))
       quick = true;
@@ -256,6 +260,8 @@ int main(int argc, char** argv) {
       ++i;
     else if (!std::strcmp(argv[i], "--cache") && i + 1 < argc)
       cache = argv[++i];
+    else if (!std::strcmp(argv[i], "--together") && i + 1 < argc)
+      together = std::max(1, std::atoi(argv[++i]));
     else if (!std::strcmp(argv[i], "--lattice") && i + 1 < argc)
       lattice_side = static_cast<std::uint32_t>(std::atoi(argv[++i]));
     else if (!std::strcmp(argv[i], "--no-cgal"))
@@ -270,7 +276,7 @@ int main(int argc, char** argv) {
       std::fprintf(stderr, "usage: bench_cdt [--quick] [--coast FILE] [--file PSLG]... [--threads N] "
                            "[--repeat R] [--case TEXT] "
                            "[--no-cgal] [--grid M] [--backend auto|cpu|gpu] [--sizes POINTS:SEGMENTS,...] "
-                           "[--lattice K] [--cache DIR] [--small-pages]\n");
+                           "[--lattice K] [--cache DIR] [--small-pages] [--together N]\n");
       return 2;
     }
   }
@@ -340,11 +346,13 @@ int main(int argc, char** argv) {
         lower.find("gshhg") != std::string::npos ? "GSHHG coastlines" : "coastlines " + base;
     if (wanted(name.c_str())) inputs.push_back({name, read_coast(coast)});
   }
+  std::vector<trixel_gen::Pslg> file_pslgs;
   for (const std::string& file : files) {
     if (!wanted(file.c_str())) continue;
     try {
       cdt::io::Pslg read = cdt::io::read_pslg(file);
       inputs.push_back({file, {std::move(read.points), std::move(read.segments)}});
+      file_pslgs.push_back(inputs.back().pslg);
     } catch (const cdt::Error& e) {
       std::fprintf(stderr, "bench_cdt: %s\n", e.what());
       return 1;
@@ -434,6 +442,68 @@ int main(int argc, char** argv) {
                 input.pslg.points.size(), input.pslg.segments.size(), f[0].c_str(), f[1].c_str(),
                 f[2].c_str(), f[3].c_str(), f[4].c_str(), peak, cgal_ms, cgal_ms > 0 ? ours / cgal_ms : 0.0);
     std::fflush(stdout);
+  }
+  if (together > 0 && !file_pslgs.empty()) {
+    std::printf(
+        "\n| inputs | points | segments | alone ms (median of %d, the sum of the calls) | together ms "
+        "(median) | alone / together | inputs per call | verified |\n",
+        repeat);
+    std::printf("| --- | --- | --- | --- | --- | --- | --- | --- |\n");
+    std::vector<cdt::Input> many;
+    std::size_t points = 0;
+    std::size_t segments = 0;
+    for (int k = 0; k < together; ++k) {
+      const trixel_gen::Pslg& p = file_pslgs[static_cast<std::size_t>(k) % file_pslgs.size()];
+      many.push_back({p.points, p.segments});
+      points += p.points.size();
+      segments += p.segments.size();
+    }
+    std::string row;
+    const double peak = peak_mib_of(
+        [&](int fd) {
+          cdt::Options options;
+          options.threads = threads;
+          options.grid_size = grid;
+          options.backend = backend;
+          // A first call starts the device, if any, outside the timings.
+          (void)cdt::triangulate(many[0].points, many[0].segments, options);
+          std::vector<double> alone;
+          std::vector<double> joint;
+          std::vector<cdt::ManyResult> results;
+          for (int r = 0; r < repeat; ++r) {
+            auto start = Clock::now();
+            for (const cdt::Input& in : many) (void)cdt::triangulate(in.points, in.segments, options);
+            alone.push_back(std::chrono::duration<double, std::milli>(Clock::now() - start).count());
+            results.clear();
+            start = Clock::now();
+            results = cdt::triangulate_many(many, options);
+            joint.push_back(std::chrono::duration<double, std::milli>(Clock::now() - start).count());
+          }
+          bool ok = true;
+          for (std::size_t k = 0; k < many.size(); ++k)
+            ok = ok && !results[k].error &&
+                 cdt::verify(results[k].triangulation, many[k].points, many[k].segments).ok();
+          char text[256];
+          const int len =
+              std::snprintf(text, sizeof text, "%.1f|%.1f|%u|%s", median(alone), median(joint),
+                            results[0].error ? 0u : results[0].triangulation.stats.inputs, ok ? "yes" : "NO");
+          if (write(fd, text, static_cast<std::size_t>(len)) < 0) _exit(1);
+        },
+        row);
+    std::vector<std::string> f;
+    std::stringstream ss(row);
+    std::string item;
+    while (std::getline(ss, item, '|')) f.push_back(item);
+    if (f.size() != 4) {
+      std::printf("| %d | %zu | %zu | FAILED (child output: %s) |\n", together, points, segments,
+                  row.c_str());
+    } else {
+      const double a = std::atof(f[0].c_str());
+      const double t = std::atof(f[1].c_str());
+      std::printf("| %d | %zu | %zu | %s | %s | %.2fx | %s | %s (peak %.0f MiB) |\n", together, points,
+                  segments, f[0].c_str(), f[1].c_str(), t > 0 ? a / t : 0.0, f[2].c_str(), f[3].c_str(),
+                  peak);
+    }
   }
   return 0;
 }

@@ -11,6 +11,7 @@
 #include <vector>
 
 #include "../test_util.hpp"
+#include "cdt/io.hpp"
 #include "vectorize/errors.hpp"
 
 namespace {
@@ -163,7 +164,7 @@ TEST(DebugFolder, WritesOverlaysLayersDataAndPage) {
   options.source = kLogo;
   const fs::path out = dir / "debug" / "logo";
   const auto files = vectorize::write_debug_folder(out, c.image, c.record, c.svg, options);
-  EXPECT_EQ(files.size(), 18u);
+  EXPECT_EQ(files.size(), 19u);
   for (const DebugStage stage : vectorize::kDebugStages) {
     const std::string stem = vectorize::debug_stage_names(stage).stem;
     const auto overlay = vectorize::load_image(out / (stem + ".png"));
@@ -173,6 +174,10 @@ TEST(DebugFolder, WritesOverlaysLayersDataAndPage) {
   }
   EXPECT_EQ(read_all(out / "input.png"), read_all(kLogo));
   EXPECT_EQ(read_all(out / "result.svg"), c.svg);
+  // The PSLG, to the bit, as the cdt tool reads it.
+  const cdt::io::Pslg pslg = cdt::io::read_pslg(out / "pslg.poly");
+  EXPECT_EQ(pslg.points, c.record.pslg.points);
+  EXPECT_EQ(pslg.segments, c.record.pslg.segments);
   const std::string json = read_all(out / "regions.json");
   EXPECT_EQ(count(json, "{\"id\":"), c.record.regions.regions.size());
   EXPECT_NE(json.find("\"width\":256"), std::string::npos);

@@ -8,6 +8,7 @@
 #include <random>
 #include <system_error>
 
+#include "cdt/io.hpp"
 #include "vectorize/errors.hpp"
 
 namespace vectorize {
@@ -431,7 +432,8 @@ std::vector<fs::path> write_debug_folder(const fs::path& dir, const Image& image
   };
   // An input is never overwritten, even one kept in the debug folder under a name written here.
   if (!options.source.empty()) {
-    std::vector<fs::path> targets{dir / "result.svg", dir / "regions.json", dir / "index.html"};
+    std::vector<fs::path> targets{dir / "result.svg", dir / "regions.json", dir / "index.html",
+                                  dir / "pslg.poly"};
     for (const DebugStage stage : kDebugStages) {
       targets.push_back(dir / overlay_name(stage));
       targets.push_back(dir / layer_name(stage));
@@ -474,6 +476,14 @@ std::vector<fs::path> write_debug_folder(const fs::path& dir, const Image& image
     const bool visible = stage == DebugStage::cdt;
     layers += "," + layer_json(names.stem, names.title, layer, overlay, visible, 0.85);
   }
+
+  // The PSLG as the cdt tool reads it (Triangle's .poly, coordinates to the bit): the CDT stage can be
+  // rerun, benchmarked or checked on its own.
+  cdt::io::Pslg pslg;
+  pslg.points = record.pslg.points;
+  pslg.segments = record.pslg.segments;
+  cdt::io::write_poly(dir / "pslg.poly", pslg);
+  folder.wrote(dir / "pslg.poly");
 
   write_file_atomically(dir / "result.svg", svg);
   folder.wrote(dir / "result.svg");
