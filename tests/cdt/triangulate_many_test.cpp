@@ -14,64 +14,9 @@
 
 namespace {
 
+using trixel_gen::add_frame;
+using trixel_gen::framed_pixels;
 using trixel_gen::Pslg;
-
-// A frame [0, w] x [0, h]: its corners and its sides, each side split at `cuts` points on it.
-void add_frame(Pslg& p, double w, double h, int cuts) {
-  const auto side = [&](cdt::Point from, cdt::Point to) {
-    auto previous = static_cast<std::uint32_t>(p.points.size());
-    p.points.push_back(from);
-    for (int c = 1; c <= cuts; ++c) {
-      const double t = static_cast<double>(c) / (cuts + 1);
-      p.points.push_back(
-          {std::floor(from.x + t * (to.x - from.x)), std::floor(from.y + t * (to.y - from.y))});
-      const auto at = static_cast<std::uint32_t>(p.points.size() - 1);
-      p.segments.push_back({previous, at});
-      previous = at;
-    }
-    p.points.push_back(to);
-    p.segments.push_back({previous, static_cast<std::uint32_t>(p.points.size() - 1)});
-  };
-  side({0, 0}, {w, 0});
-  side({w, 0}, {w, h});
-  side({w, h}, {0, h});
-  side({0, h}, {0, 0});
-}
-
-// Pixel centres of a w x h image, some of them, with horizontal and vertical runs between them as
-// segments, inside a frame: the kind of PSLG
-// the vectorizer makes.
-Pslg framed_pixels(int w, int h, std::uint64_t seed, int cuts = 2) {
-  trixel_gen::Random rng(seed);
-  Pslg p;
-  std::vector<std::int64_t> index(static_cast<std::size_t>(w) * h, -1);
-  const auto point = [&](int x, int y) {
-    std::int64_t& i = index[static_cast<std::size_t>(y) * w + x];
-    if (i < 0) {
-      i = static_cast<std::int64_t>(p.points.size());
-      p.points.push_back({x + 0.5, y + 0.5});
-    }
-    return static_cast<std::uint32_t>(i);
-  };
-  for (int k = 0; k < w * h / 6; ++k)
-    point(static_cast<int>(rng.next() % w), static_cast<int>(rng.next() % h));
-  for (int k = 0; k < w * h / 40; ++k) {
-    const int x = static_cast<int>(rng.next() % w);
-    const int y = static_cast<int>(rng.next() % h);
-    const int run = 1 + static_cast<int>(rng.next() % 6);
-    const bool horizontal = rng.next() % 2 == 0;
-    // Unit steps, so that where runs cross there is a point: no vertex is added.
-    for (int s = 0; s < run; ++s) {
-      const int x1 = horizontal ? x + s : x;
-      const int y1 = horizontal ? y : y + s;
-      const int x2 = horizontal ? x1 + 1 : x1;
-      const int y2 = horizontal ? y1 : y1 + 1;
-      if (x2 < w && y2 < h) p.segments.push_back({point(x1, y1), point(x2, y2)});
-    }
-  }
-  add_frame(p, w, h, cuts);
-  return p;
-}
 
 std::vector<cdt::Input> as_inputs(const std::vector<Pslg>& pslgs) {
   std::vector<cdt::Input> inputs;

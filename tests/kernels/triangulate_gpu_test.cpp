@@ -128,3 +128,42 @@ TEST_F(TriangulateGpu, ArtemOgreFilesMatchTheCpuBackend) {
 }
 
 } // namespace
+
+// triangulate_many on the device: framed inputs in one call, each cut back to exactly the CDT the CPU
+// backend makes of it alone; an input with a crossing (a vertex added) and an unframed one alone.
+TEST(TriangulateManyGpu, FramedInputsMatchTheCpuBackendAlone) {
+  if (cdt::gpu_device_count() == 0) GTEST_SKIP() << "no CUDA device";
+  std::vector<trixel_gen::Pslg> pslgs;
+  for (int k = 0; k < 12; ++k)
+    pslgs.push_back(trixel_gen::framed_pixels(40 + 37 * k, 30 + 23 * (k % 5), 300 + k, k % 3));
+  trixel_gen::Pslg crossing = trixel_gen::framed_pixels(60, 50, 400);
+  const auto first = static_cast<std::uint32_t>(crossing.points.size());
+  crossing.points.insert(crossing.points.end(), {{3.5, 3.5}, {6.5, 6.5}, {3.5, 6.5}, {6.5, 3.5}});
+  crossing.segments.insert(crossing.segments.end(), {{first, first + 1}, {first + 2, first + 3}});
+  pslgs.push_back(crossing);
+  pslgs.push_back(trixel_gen::random_points(5000, Distribution::uniform, 401));
+  std::vector<cdt::Input> inputs;
+  for (const auto& p : pslgs) inputs.push_back({p.points, p.segments});
+  cdt::Options gpu;
+  gpu.backend = cdt::Backend::gpu;
+  cdt::Options cpu;
+  cpu.backend = cdt::Backend::cpu;
+  const std::vector<cdt::ManyResult> got = cdt::triangulate_many(inputs, gpu);
+  ASSERT_EQ(got.size(), pslgs.size());
+  for (std::size_t i = 0; i < got.size(); ++i) {
+    const std::string what = "input " + std::to_string(i);
+    ASSERT_FALSE(got[i].error) << what;
+    cdt::Triangulation mine = got[i].triangulation;
+    EXPECT_EQ(mine.stats.backend.rfind("gpu", 0), 0u) << what << ": backend " << mine.stats.backend;
+    EXPECT_EQ(mine.stats.inputs, i < 12 ? 13u : 1u)
+        << what; // the crossing input shared a call, then went alone
+    const cdt::VerifyReport report = cdt::verify(mine, pslgs[i].points, pslgs[i].segments);
+    EXPECT_TRUE(report.ok()) << what << ": " << (report.problems.empty() ? "" : report.problems.front());
+    cdt::Triangulation alone = cdt::triangulate(pslgs[i].points, pslgs[i].segments, cpu);
+    cdt::canonicalize(mine);
+    cdt::canonicalize(alone);
+    EXPECT_TRUE(mine.vertices == alone.vertices && mine.triangles == alone.triangles &&
+                mine.neighbors == alone.neighbors && mine.segment_of_edge == alone.segment_of_edge)
+        << what << ": canonical arrays differ from the CPU backend's";
+  }
+}
