@@ -13,6 +13,9 @@
 #              linked with CGAL, which that machine lacks), else the device build without CGAL
 #   batch      the vectorize batch benchmark, when its bundle was carried (scripts/device-bundle.sh),
 #              and the same SVGs from the CPU and the GPU backend
+#   many       cdt::triangulate_many against one call per input (bench_cdt --together N), on the
+#              photographs' PSLGs in .carry/pslg/*.poly when carried (the `pslg.poly` of `vectorize
+#              --debug` folders), with the GPU backend and the CPU executor
 #   compare    (not in the default list) an earlier tree against this one on the same machine, whose
 #              timings vary 10-25% between calls: TRIXEL_BASE (default .carry/base) holds a copy of it
 #              (`git archive REV | tar -x -C .carry/base`, carried); both bench_cdt builds run in turn,
@@ -26,7 +29,7 @@
 set -uo pipefail
 cd "$(dirname "$0")/.."
 parts=("$@")
-[ ${#parts[@]} -eq 0 ] && parts=(tests micro cdt-gpu cdt-cpu batch)
+[ ${#parts[@]} -eq 0 ] && parts=(tests micro cdt-gpu cdt-cpu batch many)
 want() { [[ " ${parts[*]} " == *" $1 "* ]]; }
 logs=${OUT:-build-gpu/logs}
 mkdir -p "$logs"
@@ -94,6 +97,8 @@ if want batch && [ -x .carry/bundle/vectorize ] && [ -d .carry/kodak ]; then
     -n 200 -j "1 $(nproc)" -- --backend gpu
   step bench-batch-cpu bash scripts/bench-batch.sh --bin .carry/bundle/vectorize --images .carry/kodak \
     -n 200 -j "$(nproc)" -- --backend cpu
+  step bench-batch-own bash scripts/bench-batch.sh --bin .carry/bundle/vectorize --images .carry/kodak \
+    -n 200 -j "$(nproc)" -- --backend gpu --batch-cdt own
   # The CDT is unique and the pipeline puts it in canonical order: both backends write the same bytes.
   same_svgs() {
     local dir
@@ -106,6 +111,22 @@ if want batch && [ -x .carry/bundle/vectorize ] && [ -d .carry/kodak ]; then
     return $r
   }
   step svgs-cpu-gpu same_svgs
+fi
+if want many && compgen -G ".carry/pslg/*.poly" >/dev/null; then
+  [ -x build-gpu/bin/bench_cdt ] || step build-bench cmake --build build-gpu -j "$(nproc)" --target bench_cdt
+  files=()
+  for f in .carry/pslg/*.poly; do files+=(--file "$f"); done
+  many_run() {
+    local backend n
+    for backend in gpu cpu; do
+      for n in 4 16 64; do
+        echo "backend $backend:"
+        build-gpu/bin/bench_cdt "${files[@]}" --sizes 100:0 --no-cgal --repeat 3 --backend "$backend" \
+          --together "$n" | tail -n 1
+      done
+    done
+  }
+  step bench-many many_run
 fi
 if want compare; then
   base=${TRIXEL_BASE:-.carry/base}
@@ -146,9 +167,10 @@ for log in bench-predicates bench-voronoi bench-cdt-gpu bench-cdt-cpu; do
   [ -f "$logs/$log.log" ] && { grep -h -e '^backend' -e '^|' "$logs/$log.log" || true; echo; }
 done
 [ -f "$logs/compare.log" ] && { echo "compare (base = ${TRIXEL_BASE:-.carry/base}, gpu = this tree):"; cat "$logs/compare.log"; echo; }
-for log in bench-batch bench-batch-cpu; do
+for log in bench-batch bench-batch-cpu bench-batch-own; do
   [ -f "$logs/$log.log" ] && { echo "$log:"; grep -h '^|' "$logs/$log.log" || true; }
 done
+[ -f "$logs/bench-many.log" ] && { echo "bench-many:"; grep -h -e '^backend' -e '^|' "$logs/bench-many.log" || true; }
 [ -f "$logs/gpu-tests.log" ] && { grep -h -E 'tests passed|tests failed|Skipped|Not Run' "$logs/gpu-tests.log" || true; }
 grep -q FAIL <<<"${status[*]}" && exit 1
 exit 0
