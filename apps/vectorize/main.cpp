@@ -280,14 +280,14 @@ int main(int argc, char** argv) {
                  "Batch mode: cores to use, one image at a time on each (default: every core; with fewer "
                  "images than cores, each image gets several). Memory grows with it: about "
                  "64 bytes per pixel of the largest image per worker, plus 20 MB (a 3072 x 2048 photo "
-                 "peaks at 400 MB); with a shared CDT (--batch-cdt) half as many workers more wait for "
-                 "their triangulations")
+                 "peaks at 400 MB); with a shared CDT (--batch-cdt) up to 3 N images are held, each "
+                 "about 20 bytes per pixel while it waits for its CDT")
       ->check(CLI::Range(0u, 1024u));
   app.add_option("--batch-cdt", batch.cdt,
-                 "Batch mode: auto (shared when the CDT runs on a GPU), shared (the images' PSLGs "
-                 "triangulated together, several per call, on a thread of their own, while the images "
-                 "waiting lend their cores to others), own (each worker triangulates its image's PSLG). "
-                 "The SVGs are the same")
+                 "Batch mode: auto (shared with --backend gpu), shared (the images' PSLGs triangulated "
+                 "together, about N per call, on a thread of their own; a worker sets its image aside "
+                 "meanwhile and takes another), own (each worker triangulates its image's PSLG). The "
+                 "SVGs are the same")
       ->check(CLI::IsMember({"auto", "shared", "own"}))
       ->capture_default_str();
   app.add_flag("--skip-existing", batch.skip_existing,

@@ -255,7 +255,7 @@ TEST(VectorizeBatch, BatchOnlyOptionsNeedAnOutputDirectory) {
 // Ctrl-C: the batch stops, the images under way finish, nothing partial is left, exit status 130.
 // The signal is sent once the first image is written: a background job of a non-interactive shell
 // starts with SIGINT ignored, so a signal sent before the handler is installed would be lost.
-TEST(VectorizeBatch, InterruptStopsCleanly) {
+void expect_clean_interrupt(const std::string& options) {
   ScratchDir dir;
   fs::create_directories(dir / "in");
   for (int k = 0; k < 120; ++k) {
@@ -265,7 +265,7 @@ TEST(VectorizeBatch, InterruptStopsCleanly) {
   }
   const auto r =
       run("{ " + shell_quote(kBin) + " " + shell_quote(dir / "in") + " -o " + shell_quote(dir / "out") +
-          " -j 2 & pid=$!; n=0; until ls " + shell_quote(dir / "out") +
+          " -j 2" + options + " & pid=$!; n=0; until ls " + shell_quote(dir / "out") +
           "/*.svg >/dev/null 2>&1 || [ $n -ge 600 ]; do sleep 0.05; n=$((n+1)); done; kill -INT $pid; "
           "wait $pid; echo \"exit=$?\"; }");
   EXPECT_NE(r.output.find("exit=130"), std::string::npos) << r.output;
@@ -275,6 +275,14 @@ TEST(VectorizeBatch, InterruptStopsCleanly) {
   for (const auto& f : written) {
     EXPECT_EQ(fs::path(f).extension(), ".svg") << f; // no temporary file left
     EXPECT_TRUE(complete_svg(dir / "out" / f)) << f;
+  }
+}
+
+// With a shared CDT too (images set aside for their CDT finish as well).
+TEST(VectorizeBatch, InterruptStopsCleanly) {
+  for (const char* cdt : {"own", "shared"}) {
+    SCOPED_TRACE(cdt);
+    expect_clean_interrupt(std::string(" --backend cpu --batch-cdt ") + cdt);
   }
 }
 

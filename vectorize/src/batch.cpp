@@ -7,12 +7,10 @@
 #include <cstdio>
 #include <deque>
 #include <fstream>
-#include <future>
 #include <iostream>
 #include <map>
+#include <memory>
 #include <mutex>
-#include <optional>
-#include <semaphore>
 #include <set>
 #include <sstream>
 #include <system_error>
@@ -120,40 +118,82 @@ std::vector<fs::path> read_input_list(const fs::path& list) {
 
 namespace {
 
-JobResult run_job(const BatchJob& job, const BatchOptions& options, const Options& conversion,
-                  const Triangulator& triangulator) {
-  JobResult r;
-  r.job = job;
-  const auto start = std::chrono::steady_clock::now();
+// One image on its way through a job: what the first half of its conversion made, until its CDT
+// comes back (a shared CDT) or is made on the spot.
+struct Flight {
+  std::size_t index = 0; // into the jobs
+  JobResult result;
+  std::chrono::steady_clock::time_point start;
+  Image image;
+  bool debug = false;
+  StageRecord record;
+  PslgStage first;
+  cdt::Triangulation triangulation;
+  std::exception_ptr error; // of the CDT
+};
+
+// Records the exception being handled as the job's error, named by the file when it is a FileError.
+void fail(JobResult& r) {
+  try {
+    throw;
+  } catch (const FileError& e) {
+    r.error = e.what();
+  } catch (const std::exception& e) {
+    r.error = r.job.input.string() + ": " + e.what();
+  }
+}
+
+void set_seconds(Flight& f) {
+  f.result.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - f.start).count();
+}
+
+// The first half of a job: checks, decoding, the conversion up to its PSLG. False when the job has
+// ended already (skipped, or failed: the result says why).
+bool begin_job(Flight& f, const BatchJob& job, const BatchOptions& options, const Options& conversion) {
+  f.result.job = job;
+  f.start = std::chrono::steady_clock::now();
   std::error_code ec;
   if (options.skip_existing && fs::exists(job.output, ec)) {
-    r.status = JobStatus::skipped;
-    return r;
+    f.result.status = JobStatus::skipped;
+    return false;
   }
   try {
     if (fs::exists(job.output, ec) && fs::equivalent(job.output, job.input, ec)) {
       throw FileError(job.output, "is the input itself; refusing to overwrite it");
     }
-    r.input_bytes =
+    f.result.input_bytes =
         fs::is_regular_file(job.input, ec) ? static_cast<std::size_t>(fs::file_size(job.input, ec)) : 0;
-    const Image image = load_image(job.input, options.max_pixels);
-    const bool debug = !job.debug.empty() && options.write_debug;
-    StageRecord record;
-    const Conversion result = convert(image, conversion, debug ? &record : nullptr, triangulator);
+    f.image = load_image(job.input, options.max_pixels);
+    f.debug = !job.debug.empty() && static_cast<bool>(options.write_debug);
+    f.first = convert_to_pslg(f.image, conversion, f.debug ? &f.record : nullptr);
+    return true;
+  } catch (...) {
+    fail(f.result);
+  }
+  set_seconds(f);
+  return false;
+}
+
+// The second half, once f.triangulation (or f.error) is there: the rest of the conversion, the debug
+// folder, the SVG.
+void end_job(Flight& f, const BatchOptions& options, const Options& conversion) {
+  const BatchJob& job = f.result.job;
+  try {
+    if (f.error) std::rethrow_exception(f.error);
+    const Conversion result = finish_conversion(f.image, conversion, std::move(f.first),
+                                                std::move(f.triangulation), f.debug ? &f.record : nullptr);
+    std::error_code ec;
     fs::create_directories(job.output.parent_path(), ec);
     if (ec) throw FileError(job.output.parent_path(), "cannot create the output directory: " + ec.message());
     // Debug folder first: when it fails, the image fails without an SVG (so --skip-existing retries it).
-    if (debug) options.write_debug(job, image, result, record);
+    if (f.debug) options.write_debug(job, f.image, result, f.record);
     write_file_atomically(job.output, result.svg);
-    r.stats = result.stats;
-    r.status = JobStatus::converted;
-  } catch (const FileError& e) {
-    r.error = e.what();
-  } catch (const std::exception& e) {
-    r.error = job.input.string() + ": " + e.what();
+    f.result.stats = result.stats;
+    f.result.status = JobStatus::converted;
+  } catch (...) {
+    fail(f.result);
   }
-  r.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-  return r;
+  set_seconds(f);
 }
 
 // -j N is a budget of N cores: N images at a time, each on one thread; with fewer images than that,
@@ -168,85 +208,6 @@ unsigned batch_workers(const BatchOptions& options, std::size_t num_jobs) {
                                          static_cast<unsigned>(std::max<std::size_t>(num_jobs, 1))));
 }
 
-// The workers' PSLGs triangulated together on a thread of its own: each call takes every PSLG waiting
-// then (up to a limit), so that calls grow with the load and an idle batch waits for no one.
-class SharedTriangulation {
-public:
-  explicit SharedTriangulation(const cdt::Options& options) : options_(options), thread_([this] { run(); }) {}
-  SharedTriangulation(const SharedTriangulation&) = delete;
-  SharedTriangulation& operator=(const SharedTriangulation&) = delete;
-  ~SharedTriangulation() {
-    {
-      std::lock_guard lock(mutex_);
-      stop_ = true;
-    }
-    wake_.notify_all();
-    thread_.join();
-  }
-
-  // Blocks until the PSLG's call is done; throws what cdt::triangulate() would for it alone.
-  cdt::Triangulation triangulate(const Pslg& pslg) {
-    Request request{&pslg, {}};
-    std::future<cdt::Triangulation> result = request.result.get_future();
-    {
-      std::lock_guard lock(mutex_);
-      pending_.push_back(&request);
-    }
-    wake_.notify_one();
-    return result.get();
-  }
-
-private:
-  // One call stays well inside a device's memory and a batch's latency.
-  static constexpr std::size_t kMaxInputs = 64;
-  static constexpr std::size_t kMaxPoints = std::size_t{1} << 22;
-
-  struct Request {
-    const Pslg* pslg;
-    std::promise<cdt::Triangulation> result;
-  };
-
-  void run() {
-    for (;;) {
-      std::vector<Request*> taken;
-      {
-        std::unique_lock lock(mutex_);
-        wake_.wait(lock, [&] { return stop_ || !pending_.empty(); });
-        if (pending_.empty()) return;
-        std::size_t points = 0;
-        while (!pending_.empty() && taken.size() < kMaxInputs &&
-               (taken.empty() || points + pending_.front()->pslg->points.size() <= kMaxPoints)) {
-          points += pending_.front()->pslg->points.size();
-          taken.push_back(pending_.front());
-          pending_.pop_front();
-        }
-      }
-      std::vector<cdt::Input> inputs;
-      inputs.reserve(taken.size());
-      for (const Request* r : taken) inputs.push_back({r->pslg->points, r->pslg->segments});
-      try {
-        std::vector<cdt::ManyResult> results = cdt::triangulate_many(inputs, options_);
-        for (std::size_t k = 0; k < taken.size(); ++k) {
-          if (results[k].error) {
-            taken[k]->result.set_exception(results[k].error);
-          } else {
-            taken[k]->result.set_value(std::move(results[k].triangulation));
-          }
-        }
-      } catch (...) { // out of memory, say: every image of the call fails with it
-        for (Request* r : taken) r->result.set_exception(std::current_exception());
-      }
-    }
-  }
-
-  cdt::Options options_;
-  std::mutex mutex_;
-  std::condition_variable wake_;
-  std::deque<Request*> pending_;
-  bool stop_ = false;
-  std::thread thread_; // last: started once the members above exist
-};
-
 bool shares_cdt(const BatchOptions& options, std::size_t num_jobs) {
   if (num_jobs < 2) return false;
   switch (options.shared_cdt) {
@@ -257,9 +218,144 @@ bool shares_cdt(const BatchOptions& options, std::size_t num_jobs) {
   case BatchOptions::SharedCdt::automatic:
     break;
   }
-  return options.conversion.backend == cdt::Backend::gpu ||
-         (options.conversion.backend == cdt::Backend::automatic && cdt::gpu_device_count() > 0);
+  return options.conversion.backend == cdt::Backend::gpu;
 }
+
+// The jobs with a shared CDT. A worker takes, in this order: an image whose CDT is back (to finish
+// it), a new image (while fewer than `in_flight_limit` are under way), or waits. Its PSLG joins the
+// queue of the CDT thread, which triangulates what is queued in one call of cdt::triangulate_many once
+// `batch` PSLGs wait, when no more images can start, or when a worker has nothing else to do; a call
+// takes at most kMaxInputs PSLGs and kMaxPoints points.
+class SharedCdtBatch {
+public:
+  SharedCdtBatch(const std::vector<BatchJob>& jobs, const BatchOptions& options, const Options& conversion,
+                 unsigned workers, const std::function<void(JobResult&&, std::size_t)>& report)
+      : jobs_(jobs), options_(options), conversion_(conversion), report_(report),
+        batch_(std::clamp<std::size_t>(workers, 2, kMaxInputs)), in_flight_limit_(2 * batch_ + workers) {
+    cdt_options_.backend = conversion.backend;
+    cdt_options_.threads = 1;
+  }
+
+  void run(unsigned workers) {
+    std::thread cdt_thread([this] { triangulate_queued(); });
+    std::vector<std::thread> pool;
+    for (unsigned w = 1; w < workers; ++w) pool.emplace_back([this] { work(); });
+    work();
+    for (auto& t : pool) t.join();
+    {
+      std::lock_guard lock(mutex_);
+      done_ = true;
+    }
+    cdt_wake_.notify_all();
+    cdt_thread.join();
+  }
+
+private:
+  static constexpr std::size_t kMaxInputs = 64;
+  static constexpr std::size_t kMaxPoints = std::size_t{1} << 22;
+
+  bool may_start() const {
+    return next_ < jobs_.size() && in_flight_ < in_flight_limit_ &&
+           (options_.stop == nullptr || !options_.stop->load());
+  }
+  bool starts_over() const {
+    return next_ >= jobs_.size() || (options_.stop != nullptr && options_.stop->load());
+  }
+
+  void work() {
+    std::unique_lock lock(mutex_);
+    for (;;) {
+      if (!ready_.empty()) {
+        std::unique_ptr<Flight> f = std::move(ready_.front());
+        ready_.pop_front();
+        lock.unlock();
+        end_job(*f, options_, conversion_);
+        report_(std::move(f->result), f->index);
+        f.reset();
+        lock.lock();
+        --in_flight_;
+        continue;
+      }
+      if (may_start()) {
+        auto f = std::make_unique<Flight>();
+        f->index = next_++;
+        ++in_flight_;
+        lock.unlock();
+        const bool begun = begin_job(*f, jobs_[f->index], options_, conversion_);
+        if (!begun) report_(std::move(f->result), f->index);
+        lock.lock();
+        if (begun) {
+          queued_.push_back(std::move(f));
+          cdt_wake_.notify_one();
+        } else {
+          --in_flight_;
+        }
+        continue;
+      }
+      if (starts_over() && in_flight_ == 0) {
+        worker_wake_.notify_all();
+        return;
+      }
+      ++idle_;
+      cdt_wake_.notify_one();
+      worker_wake_.wait(lock);
+      --idle_;
+    }
+  }
+
+  void triangulate_queued() {
+    std::unique_lock lock(mutex_);
+    for (;;) {
+      cdt_wake_.wait(lock, [&] {
+        return done_ || (!queued_.empty() && (queued_.size() >= batch_ || idle_ > 0 || starts_over() ||
+                                              in_flight_ >= in_flight_limit_));
+      });
+      if (queued_.empty()) return; // done
+      std::vector<std::unique_ptr<Flight>> taken;
+      std::size_t points = 0;
+      while (!queued_.empty() && taken.size() < kMaxInputs &&
+             (taken.empty() || points + queued_.front()->first.pslg.points.size() <= kMaxPoints)) {
+        points += queued_.front()->first.pslg.points.size();
+        taken.push_back(std::move(queued_.front()));
+        queued_.pop_front();
+      }
+      lock.unlock();
+      std::vector<cdt::Input> inputs;
+      inputs.reserve(taken.size());
+      for (const auto& f : taken) inputs.push_back({f->first.pslg.points, f->first.pslg.segments});
+      try {
+        std::vector<cdt::ManyResult> results = cdt::triangulate_many(inputs, cdt_options_);
+        for (std::size_t k = 0; k < taken.size(); ++k) {
+          taken[k]->triangulation = std::move(results[k].triangulation);
+          taken[k]->error = results[k].error;
+        }
+      } catch (...) { // out of memory, say: every image of the call fails with it
+        for (auto& f : taken) f->error = std::current_exception();
+      }
+      lock.lock();
+      for (auto& f : taken) ready_.push_back(std::move(f));
+      worker_wake_.notify_all();
+    }
+  }
+
+  const std::vector<BatchJob>& jobs_;
+  const BatchOptions& options_;
+  const Options& conversion_;
+  const std::function<void(JobResult&&, std::size_t)>& report_;
+  cdt::Options cdt_options_;
+  const std::size_t batch_;
+  const std::size_t in_flight_limit_;
+
+  std::mutex mutex_;
+  std::condition_variable worker_wake_;
+  std::condition_variable cdt_wake_;
+  std::size_t next_ = 0;
+  std::size_t in_flight_ = 0;
+  unsigned idle_ = 0;
+  bool done_ = false;
+  std::deque<std::unique_ptr<Flight>> queued_; // waiting for their CDT
+  std::deque<std::unique_ptr<Flight>> ready_;  // their CDT is back
+};
 
 } // namespace
 
@@ -275,55 +371,48 @@ std::vector<JobResult> run_batch(const std::vector<BatchJob>& jobs, const BatchO
 
   std::vector<JobResult> results(jobs.size());
   std::vector<char> ran(jobs.size(), 0);
-  std::atomic<std::size_t> next{0};
   std::size_t done = 0;
-  std::mutex report;
-
-  // With a shared CDT a worker gives its core back while its PSLG waits to be triangulated, and more
-  // threads than cores keep the cores busy meanwhile.
-  std::optional<SharedTriangulation> shared;
-  std::counting_semaphore<> cores(workers);
-  Triangulator triangulator;
-  unsigned threads = workers;
-  if (shares_cdt(options, jobs.size())) {
-    cdt::Options cdt_options;
-    cdt_options.backend = conversion.backend;
-    cdt_options.threads = 1;
-    shared.emplace(cdt_options);
-    threads = static_cast<unsigned>(std::min<std::size_t>(workers + std::max(1u, workers / 2), jobs.size()));
-    triangulator = [&](const Pslg& pslg, const cdt::Options&) {
-      cores.release();
-      struct Reacquire {
-        std::counting_semaphore<>& cores;
-        ~Reacquire() { cores.acquire(); }
-      } reacquire{cores};
-      return shared->triangulate(pslg);
-    };
-  }
-  const auto work = [&] {
-    for (;;) {
-      if (options.stop != nullptr && options.stop->load()) return;
-      const std::size_t k = next.fetch_add(1);
-      if (k >= jobs.size()) return;
-      if (shared) cores.acquire();
-      JobResult r = run_job(jobs[k], options, conversion, triangulator);
-      if (shared) cores.release();
-      std::lock_guard lock(report);
-      results[k] = std::move(r);
-      ran[k] = 1;
-      ++done;
-      if (options.on_done) options.on_done(results[k], done, jobs.size());
-    }
+  std::mutex report_mutex;
+  const std::function<void(JobResult&&, std::size_t)> report = [&](JobResult&& r, std::size_t k) {
+    std::lock_guard lock(report_mutex);
+    results[k] = std::move(r);
+    ran[k] = 1;
+    ++done;
+    if (options.on_done) options.on_done(results[k], done, jobs.size());
   };
+
   // With the GPU backend and more than one image, CUDA starts on a side thread while the first images
   // are decoded, instead of in the first triangulation that every worker would wait for.
   std::thread start_device;
   if (conversion.backend == cdt::Backend::gpu && jobs.size() > 1)
     start_device = std::thread([] { cdt::start_gpu(); });
-  std::vector<std::thread> pool;
-  for (unsigned w = 1; w < threads; ++w) pool.emplace_back(work);
-  work();
-  for (auto& t : pool) t.join();
+  if (shares_cdt(options, jobs.size())) {
+    SharedCdtBatch(jobs, options, conversion, workers, report).run(workers);
+  } else {
+    std::atomic<std::size_t> next{0};
+    const auto work = [&] {
+      for (;;) {
+        if (options.stop != nullptr && options.stop->load()) return;
+        const std::size_t k = next.fetch_add(1);
+        if (k >= jobs.size()) return;
+        Flight f;
+        if (begin_job(f, jobs[k], options, conversion)) {
+          try {
+            f.triangulation =
+                cdt::triangulate(f.first.pslg.points, f.first.pslg.segments, f.first.cdt_options);
+          } catch (...) {
+            f.error = std::current_exception();
+          }
+          end_job(f, options, conversion);
+        }
+        report(std::move(f.result), k);
+      }
+    };
+    std::vector<std::thread> pool;
+    for (unsigned w = 1; w < workers; ++w) pool.emplace_back(work);
+    work();
+    for (auto& t : pool) t.join();
+  }
   if (start_device.joinable()) start_device.join();
   std::vector<JobResult> out;
   out.reserve(done);

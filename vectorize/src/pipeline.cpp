@@ -66,9 +66,12 @@ namespace {
 
 using Clock = std::chrono::steady_clock;
 
+// Adds each stage's time to the statistics: from the end of the stage before it (or the start).
 class StageTimer {
 public:
-  explicit StageTimer(Stats& stats) : stats_(stats), start_(Clock::now()), last_(start_) {}
+  StageTimer(Stats& stats, Clock::time_point start, Clock::time_point last)
+      : stats_(stats), start_(start), last_(last) {}
+  explicit StageTimer(Stats& stats) : StageTimer(stats, Clock::now(), Clock::now()) {}
   void end(const char* name) {
     const auto now = Clock::now();
     stats_.stages.push_back({name, std::chrono::duration<double, std::milli>(now - last_).count()});
@@ -77,6 +80,8 @@ public:
   void finish() {
     stats_.total_milliseconds = std::chrono::duration<double, std::milli>(Clock::now() - start_).count();
   }
+  Clock::time_point start() const { return start_; }
+  Clock::time_point last() const { return last_; }
 
 private:
   Stats& stats_;
@@ -86,10 +91,9 @@ private:
 
 } // namespace
 
-Conversion convert(const Image& image, const Options& options, StageRecord* record,
-                   const Triangulator& triangulator) {
+PslgStage convert_to_pslg(const Image& image, const Options& options, StageRecord* record) {
   if (image.width <= 0 || image.height <= 0) throw Error("the image has zero size");
-  Conversion out;
+  PslgStage out;
   Stats& stats = out.stats;
   stats.width = image.width;
   stats.height = image.height;
@@ -105,18 +109,35 @@ Conversion convert(const Image& image, const Options& options, StageRecord* reco
   const std::vector<Polyline> polylines =
       simplify_chains(chains, options.simplify_tolerance_px, placement, options.threads);
   timer.end("simplify");
-  const Pslg pslg = build_pslg(polylines, image.width, image.height, image, options.interior, placement);
-  stats.points = pslg.points.size();
-  stats.segments = pslg.segments.size();
+  out.pslg = build_pslg(polylines, image.width, image.height, image, options.interior, placement);
+  stats.points = out.pslg.points.size();
+  stats.segments = out.pslg.segments.size();
   timer.end("pslg");
 
-  cdt::Options cdt_options;
-  cdt_options.backend = options.backend == cdt::Backend::automatic && pslg.points.size() < kDevicePslgPoints
-                            ? cdt::Backend::cpu
-                            : options.backend;
-  cdt_options.threads = options.threads;
-  cdt::Triangulation triangulation = triangulator ? triangulator(pslg, cdt_options)
-                                                  : cdt::triangulate(pslg.points, pslg.segments, cdt_options);
+  out.cdt_options.backend =
+      options.backend == cdt::Backend::automatic && out.pslg.points.size() < kDevicePslgPoints
+          ? cdt::Backend::cpu
+          : options.backend;
+  out.cdt_options.threads = options.threads;
+  out.started = timer.start();
+  // Copied after timing, so that recording does not show in the stage times.
+  if (record != nullptr) {
+    record->edges = edges;
+    record->chains = chains;
+    record->polylines = polylines;
+    record->pslg = out.pslg;
+  }
+  out.stages_done = Clock::now();
+  return out;
+}
+
+Conversion finish_conversion(const Image& image, const Options& options, PslgStage&& first,
+                             cdt::Triangulation triangulation, StageRecord* record) {
+  Conversion out;
+  Stats& stats = out.stats;
+  stats = std::move(first.stats);
+  // The CDT stage runs from the end of the first half: with a CDT made elsewhere it includes the wait.
+  StageTimer timer(stats, first.started, first.stages_done);
   // The CDT is unique; in its canonical order the stages below, and so the SVG, are the same whichever
   // backend made it.
   cdt::canonicalize(triangulation);
@@ -144,18 +165,20 @@ Conversion convert(const Image& image, const Options& options, StageRecord* reco
   }
   timer.end("svg");
   timer.finish();
-  // Copied after timing, so that recording does not show in the stage times.
   if (record != nullptr) {
-    record->edges = edges;
-    record->chains = chains;
-    record->polylines = polylines;
-    record->pslg = pslg;
     record->polygons = polygons;
     record->trixels = trixels;
     record->regions = regions;
-    record->triangulation = triangulation;
+    record->triangulation = std::move(triangulation);
   }
   return out;
+}
+
+Conversion convert(const Image& image, const Options& options, StageRecord* record) {
+  PslgStage first = convert_to_pslg(image, options, record);
+  cdt::Triangulation triangulation =
+      cdt::triangulate(first.pslg.points, first.pslg.segments, first.cdt_options);
+  return finish_conversion(image, options, std::move(first), std::move(triangulation), record);
 }
 
 namespace {

@@ -66,14 +66,14 @@ struct BatchOptions {
   bool skip_existing = false;
   /// Images with more pixels than this are refused before decoding their pixels.
   std::size_t max_pixels = std::size_t{1} << 27;
-  /// Whether the images' PSLGs are triangulated together: a thread of its own takes every PSLG waiting
-  /// (up to a limit) into one call of cdt::triangulate_many, so that the fixed costs of a call, on the
-  /// GPU most of its time at a photograph's size, are shared; the workers waiting for it lend their
-  /// cores to others (workers + workers / 2 threads then run, `workers` of them busy at a time). The
-  /// SVGs are the same either way.
+  /// Whether the images' PSLGs are triangulated together: a thread of its own triangulates the PSLGs
+  /// waiting, about `workers` at a time, in one call of cdt::triangulate_many, so that the fixed costs
+  /// of a call, on the GPU most of its time at a photograph's size, are shared. A worker never waits
+  /// for it: it sets the image aside and takes another, and finishes the image when its CDT is back.
+  /// Up to 3 x workers images are under way at once (their pixels and PSLGs held). The SVGs are the
+  /// same either way.
   enum class SharedCdt {
-    automatic, ///< when the CDT runs on a GPU (backend gpu, or automatic with a device present) and
-               ///< there is more than one image
+    automatic, ///< with the GPU backend (cdt::Backend::gpu) and more than one image
     always,    ///< with any backend, the CPU's too (more than one image)
     never,
   };
@@ -93,9 +93,10 @@ struct BatchOptions {
 /// many images as cores).
 unsigned threads_per_conversion(const BatchOptions& options, std::size_t num_jobs);
 
-/// Runs the jobs on min(options.workers, jobs) threads (half as many more with a shared CDT, see
-/// BatchOptions::shared_cdt), each converting one image at a time (so memory stays bounded by the
-/// threads x one image's working set), the cores of options.workers shared out between them. Every job's
+/// Runs the jobs on min(options.workers, jobs) threads, each converting one image at a time (so memory
+/// stays bounded by the workers x one image's working set; with a shared CDT, see
+/// BatchOptions::shared_cdt, 3 x workers images are held), the cores of options.workers shared out
+/// between them. Every job's
 /// result is returned in the order of `jobs`; jobs never started because of `stop` are absent.
 std::vector<JobResult> run_batch(const std::vector<BatchJob>& jobs, const BatchOptions& options);
 

@@ -2,10 +2,10 @@
 // The whole conversion, raster to SVG: the stages of the pipeline composed in order. The CLI and any
 // other front end call convert(); nothing here does file I/O except write_file_atomically().
 
+#include <chrono>
 #include <cstddef>
 #include <cstdint>
 #include <filesystem>
-#include <functional>
 #include <string>
 #include <string_view>
 #include <vector>
@@ -103,16 +103,31 @@ struct StageRecord {
   std::vector<RegionPolygon> polygons;
 };
 
-/// What triangulates a PSLG in convert(): given the PSLG and the cdt::Options the options make, it
-/// returns the CDT or throws what cdt::triangulate() would. Unset, convert() calls cdt::triangulate();
-/// a batch gives one that triangulates several images' PSLGs together (cdt::triangulate_many).
-using Triangulator = std::function<cdt::Triangulation(const Pslg&, const cdt::Options&)>;
-
 /// Converts a decoded image into an SVG document: edges, chains, simplification, PSLG, CDT, trixel
 /// colours, grouping, polygons, SVG. With `record`, every stage's output is also copied there.
 /// Throws Error (or cdt::Error from the CDT engine) on failure; an image of zero size is an Error.
-Conversion convert(const Image& image, const Options& options = {}, StageRecord* record = nullptr,
-                   const Triangulator& triangulator = {});
+/// The same as convert_to_pslg(), cdt::triangulate() with its cdt_options, then finish_conversion().
+Conversion convert(const Image& image, const Options& options = {}, StageRecord* record = nullptr);
+
+/// The first half of a conversion, up to its PSLG, for a caller that makes the CDT itself (a batch
+/// triangulates several images' PSLGs in one call of cdt::triangulate_many).
+struct PslgStage {
+  Pslg pslg;
+  /// What convert() triangulates the PSLG with (the backend the options choose for its size).
+  cdt::Options cdt_options;
+  /// Counts and stage times so far.
+  Stats stats;
+  std::chrono::steady_clock::time_point started;     ///< when the conversion began
+  std::chrono::steady_clock::time_point stages_done; ///< when this half ended: the CDT stage's start
+};
+
+/// The stages of convert() up to the PSLG (edges, chains, simplification, PSLG); `record` gets theirs.
+PslgStage convert_to_pslg(const Image& image, const Options& options = {}, StageRecord* record = nullptr);
+
+/// The rest of convert() given the PSLG's CDT: canonical order, trixel colours, grouping, polygons, SVG.
+/// The CDT stage's time runs from the end of the first half, so it includes any wait for the CDT.
+Conversion finish_conversion(const Image& image, const Options& options, PslgStage&& first,
+                             cdt::Triangulation triangulation, StageRecord* record = nullptr);
 
 /// Writes `content` to `path` through a temporary file in the same directory, renamed over `path`
 /// once complete, so that a failure never leaves a partial file. Throws FileError naming the path.
