@@ -13,6 +13,7 @@
 #include <cstddef>
 #include <cstdint>
 #include <stdexcept>
+#include <thread>
 #include <utility>
 #include <vector>
 
@@ -317,6 +318,10 @@ EdgeMap detect_edges(const Image& image, const EdgeOptions& options, unsigned th
 }
 
 void set_opencv_threads(unsigned threads) {
+  // No more than the machine runs at once: OpenCV's TBB back end refuses (and prints a warning for)
+  // more workers than that.
+  const unsigned cores = std::thread::hardware_concurrency();
+  if (cores > 0) threads = std::min(threads, cores);
   // OpenCV reads 0 as "no threads: run on the caller's thread".
   cv::setNumThreads(threads <= 1 ? 0 : static_cast<int>(threads));
 }
