@@ -156,6 +156,15 @@ trixel_gen::Pslg cached(const std::string& cache, const std::string& name,
   return p;
 }
 
+/// The '|'-separated fields of a child's row.
+std::vector<std::string> fields_of(const std::string& row) {
+  std::vector<std::string> f;
+  std::stringstream ss(row);
+  std::string item;
+  while (std::getline(ss, item, '|')) f.push_back(item);
+  return f;
+}
+
 double median(std::vector<double> v) {
   std::sort(v.begin(), v.end());
   return v[v.size() / 2];
@@ -346,13 +355,13 @@ int main(int argc, char** argv) {
         lower.find("gshhg") != std::string::npos ? "GSHHG coastlines" : "coastlines " + base;
     if (wanted(name.c_str())) inputs.push_back({name, read_coast(coast)});
   }
-  std::vector<trixel_gen::Pslg> file_pslgs;
+  std::vector<std::size_t> file_inputs; // the --file inputs, by their place in `inputs`
   for (const std::string& file : files) {
     if (!wanted(file.c_str())) continue;
     try {
       cdt::io::Pslg read = cdt::io::read_pslg(file);
       inputs.push_back({file, {std::move(read.points), std::move(read.segments)}});
-      file_pslgs.push_back(inputs.back().pslg);
+      file_inputs.push_back(inputs.size() - 1);
     } catch (const cdt::Error& e) {
       std::fprintf(stderr, "bench_cdt: %s\n", e.what());
       return 1;
@@ -364,14 +373,14 @@ int main(int argc, char** argv) {
               "| CGAL ms | ours / CGAL |\n",
               repeat);
   std::printf("| --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- |\n");
+  cdt::Options options;
+  options.threads = threads;
+  options.grid_size = grid;
+  options.backend = backend;
   for (const Input& input : inputs) {
     std::string row;
     const double peak = peak_mib_of(
         [&](int fd) {
-          cdt::Options options;
-          options.threads = threads;
-          options.grid_size = grid;
-          options.backend = backend;
           // Every run gives the same triangulation; the phases printed are those of the median run
           // (the first run also pays for starting the device, which would show in its first phase).
           std::vector<double> times;
@@ -428,10 +437,7 @@ int main(int argc, char** argv) {
 #else
     (void)with_cgal; // no competitor in this build: the column says -1
 #endif
-    std::vector<std::string> f;
-    std::stringstream ss(row);
-    std::string item;
-    while (std::getline(ss, item, '|')) f.push_back(item);
+    const std::vector<std::string> f = fields_of(row);
     if (f.size() != 5) {
       std::printf("| %s | %zu | %zu | FAILED (child output: %s) |\n", input.name.c_str(),
                   input.pslg.points.size(), input.pslg.segments.size(), row.c_str());
@@ -443,7 +449,7 @@ int main(int argc, char** argv) {
                 f[2].c_str(), f[3].c_str(), f[4].c_str(), peak, cgal_ms, cgal_ms > 0 ? ours / cgal_ms : 0.0);
     std::fflush(stdout);
   }
-  if (together > 0 && !file_pslgs.empty()) {
+  if (together > 0 && !file_inputs.empty()) {
     std::printf(
         "\n| inputs | points | segments | alone ms (median of %d, the sum of the calls) | together ms "
         "(median) | alone / together | inputs per call | verified |\n",
@@ -453,7 +459,7 @@ int main(int argc, char** argv) {
     std::size_t points = 0;
     std::size_t segments = 0;
     for (int k = 0; k < together; ++k) {
-      const trixel_gen::Pslg& p = file_pslgs[static_cast<std::size_t>(k) % file_pslgs.size()];
+      const trixel_gen::Pslg& p = inputs[file_inputs[static_cast<std::size_t>(k) % file_inputs.size()]].pslg;
       many.push_back({p.points, p.segments});
       points += p.points.size();
       segments += p.segments.size();
@@ -461,10 +467,6 @@ int main(int argc, char** argv) {
     std::string row;
     const double peak = peak_mib_of(
         [&](int fd) {
-          cdt::Options options;
-          options.threads = threads;
-          options.grid_size = grid;
-          options.backend = backend;
           // A first call starts the device, if any, outside the timings.
           (void)cdt::triangulate(many[0].points, many[0].segments, options);
           std::vector<double> alone;
@@ -490,10 +492,7 @@ int main(int argc, char** argv) {
           if (write(fd, text, static_cast<std::size_t>(len)) < 0) _exit(1);
         },
         row);
-    std::vector<std::string> f;
-    std::stringstream ss(row);
-    std::string item;
-    while (std::getline(ss, item, '|')) f.push_back(item);
+    const std::vector<std::string> f = fields_of(row);
     if (f.size() != 4) {
       std::printf("| %d | %zu | %zu | FAILED (child output: %s) |\n", together, points, segments,
                   row.c_str());
