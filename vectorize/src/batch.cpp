@@ -140,6 +140,8 @@ void fail(JobResult& r) {
     r.error = e.what();
   } catch (const std::exception& e) {
     r.error = r.job.input.string() + ": " + e.what();
+  } catch (...) {
+    r.error = r.job.input.string() + ": unknown error";
   }
 }
 
@@ -230,16 +232,16 @@ class SharedCdtBatch {
 public:
   SharedCdtBatch(const std::vector<BatchJob>& jobs, const BatchOptions& options, const Options& conversion,
                  unsigned workers, const std::function<void(JobResult&&, std::size_t)>& report)
-      : jobs_(jobs), options_(options), conversion_(conversion), report_(report),
+      : jobs_(jobs), options_(options), conversion_(conversion), report_(report), workers_(workers),
         batch_(std::clamp<std::size_t>(workers, 2, kMaxInputs)), in_flight_limit_(2 * batch_ + workers) {
     cdt_options_.backend = conversion.backend;
     cdt_options_.threads = 1;
   }
 
-  void run(unsigned workers) {
+  void run() {
     std::thread cdt_thread([this] { triangulate_queued(); });
     std::vector<std::thread> pool;
-    for (unsigned w = 1; w < workers; ++w) pool.emplace_back([this] { work(); });
+    for (unsigned w = 1; w < workers_; ++w) pool.emplace_back([this] { work(); });
     work();
     for (auto& t : pool) t.join();
     {
@@ -343,6 +345,7 @@ private:
   const Options& conversion_;
   const std::function<void(JobResult&&, std::size_t)>& report_;
   cdt::Options cdt_options_;
+  const unsigned workers_;
   const std::size_t batch_;
   const std::size_t in_flight_limit_;
 
@@ -387,7 +390,7 @@ std::vector<JobResult> run_batch(const std::vector<BatchJob>& jobs, const BatchO
   if (conversion.backend == cdt::Backend::gpu && jobs.size() > 1)
     start_device = std::thread([] { cdt::start_gpu(); });
   if (shares_cdt(options, jobs.size())) {
-    SharedCdtBatch(jobs, options, conversion, workers, report).run(workers);
+    SharedCdtBatch(jobs, options, conversion, workers, report).run();
   } else {
     std::atomic<std::size_t> next{0};
     const auto work = [&] {

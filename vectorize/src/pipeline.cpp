@@ -81,7 +81,6 @@ public:
     stats_.total_milliseconds = std::chrono::duration<double, std::milli>(Clock::now() - start_).count();
   }
   Clock::time_point start() const { return start_; }
-  Clock::time_point last() const { return last_; }
 
 private:
   Stats& stats_;
