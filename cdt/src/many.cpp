@@ -128,14 +128,9 @@ bool together(std::span<const Input> inputs, const std::vector<Placed>& placed, 
     const std::size_t end = j + 1 < k ? placed[j + 1].first_point : num_points;
     std::fill(owner.begin() + placed[j].first_point, owner.begin() + static_cast<std::ptrdiff_t>(end), j);
   }
-  const auto owner_of_segment = [&](std::uint32_t s) {
-    const auto after = std::upper_bound(placed.begin(), placed.end(), s,
-                                        [](std::uint32_t v, const Placed& p) { return v < p.first_segment; });
-    return static_cast<std::uint32_t>(after - placed.begin()) - 1;
-  };
 
-  // Each triangle's input: the one of its input-point corners, or, for one of added vertices only, of
-  // its constrained edges; kNone for the triangles between frames (corners of different inputs).
+  // Each triangle's input: the one of its input-point corners; kNone for the triangles between frames
+  // (corners of different inputs).
   const std::size_t num_triangles = whole.triangles.size();
   std::vector<std::uint32_t> tri_owner(num_triangles, kNone);
   std::vector<char> gained(k, 0);
@@ -151,12 +146,7 @@ bool together(std::span<const Input> inputs, const std::vector<Placed>& placed, 
       if (o == kNone) o = owner[v];
       mixed |= owner[v] != o;
     }
-    if (o == kNone) {
-      for (const std::uint32_t s : whole.segment_of_edge[t]) {
-        if (s != kNone) o = owner_of_segment(s);
-      }
-      if (o == kNone) return false; // cannot be placed: the caller triangulates each input alone
-    }
+    if (o == kNone) return false; // corners all added at crossings: each input is triangulated alone
     if (mixed) {
       if (added) return false;
       continue;
