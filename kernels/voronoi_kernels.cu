@@ -431,57 +431,87 @@ std::vector<std::uint32_t> DeviceVoronoi::remove_sites(std::span<const std::uint
   const std::uint32_t num_cleared = executor.compact(
       cells, [=] __device__(std::size_t c) { return detail::sorted_contains(list, num, colour[c]); },
       cleared);
-  // Per cleared cell, its neighbours on the grid with their colours as the flood starts (kNone for
-  // cleared ones) and those sites' grid cells: all the flood reads.
+  // Per cleared cell, its new colour when no neighbour is cleared (amend::isolated_cleared_colour: most
+  // of them), else kNone; and the neighbours on the grid with their colours as the flood starts (kNone
+  // for cleared ones) and those sites' grid cells: all the host's flood reads for the others.
   using detail::Around;
+  detail::DeviceBuffer<std::uint32_t> d_new(num_cleared + 1);
+  std::uint32_t* next = d_new.data();
   detail::DeviceBuffer<Around> d_around(num_cleared + 1);
   Around* around = d_around.data();
   executor.for_each(
       num_cleared,
       [=] __device__(std::size_t k) {
         const std::uint32_t c = cleared[k];
+        const auto neighbour = [&](std::uint32_t x, std::uint32_t y) {
+          const std::uint32_t j = colour[static_cast<std::size_t>(y) * m + x];
+          return j == kNone || detail::sorted_contains(list, num, j) ? kNone : j;
+        };
+        next[k] =
+            ::cdt::detail::amend::isolated_cleared_colour(m, c % m, c / m, neighbour, [=](std::uint32_t j) {
+              const std::int64_t dx = static_cast<std::int64_t>(c % m) - gx[j];
+              const std::int64_t dy = static_cast<std::int64_t>(c / m) - gy[j];
+              return dx * dx + dy * dy;
+            });
+        if (next[k] != kNone) return;
         Around a;
         int i = 0;
         ::cdt::detail::amend::for_each_neighbour(m, c % m, c / m, [&](std::uint32_t x, std::uint32_t y) {
-          const std::uint32_t j = colour[static_cast<std::size_t>(y) * m + x];
-          const bool none = j == kNone || detail::sorted_contains(list, num, j);
+          const std::uint32_t j = neighbour(x, y);
           a.cell[i] = y * m + x;
-          a.colour[i] = none ? kNone : j;
-          a.gx[i] = none ? 0 : gx[j];
-          a.gy[i] = none ? 0 : gy[j];
+          a.colour[i] = j;
+          a.gx[i] = j == kNone ? 0 : gx[j];
+          a.gy[i] = j == kNone ? 0 : gy[j];
           ++i;
         });
         for (; i < 4; ++i) a.cell[i] = kNone;
         around[k] = a;
       },
       "cleared_cells");
-  std::vector<std::uint32_t> h_cleared(num_cleared);
-  std::vector<Around> h_around(num_cleared);
-  executor.download(h_cleared.data(), cleared, num_cleared);
-  executor.download(h_around.data(), around, num_cleared);
-
   trace.mark("cleared cells");
-  detail::ProbeMap<std::uint32_t> local_colour(5 * static_cast<std::size_t>(num_cleared));
-  detail::ProbeMap<std::array<std::uint32_t, 2>> site_cell(4 * static_cast<std::size_t>(num_cleared));
-  for (std::uint32_t k = 0; k < num_cleared; ++k) {
-    const std::uint32_t c = h_cleared[k];
-    local_colour.set(c, kNone);
-    const Around& a = h_around[k];
-    for (int i = 0; i < 4 && a.cell[i] != kNone; ++i) {
-      local_colour.add(a.cell[i], a.colour[i]);
-      if (a.colour[i] != kNone) site_cell.set(a.colour[i], {a.gx[i], a.gy[i]});
-    }
-  }
-  ::cdt::detail::flood_cleared_cells(
-      h_cleared, m, [&](std::uint32_t c) -> std::uint32_t& { return local_colour.at(c); },
-      [&](std::uint32_t j) { return site_cell.at(j); });
 
-  std::vector<std::uint32_t> h_new(num_cleared);
-  for (std::uint32_t k = 0; k < num_cleared; ++k) h_new[k] = local_colour.at(h_cleared[k]);
+  // The others (in components of two or more cleared cells) are flooded on the host.
+  detail::DeviceBuffer<std::uint32_t> d_rest(num_cleared + 1);
+  std::uint32_t* rest = d_rest.data();
+  const std::uint32_t num_rest = executor.compact(
+      num_cleared, [=] __device__(std::size_t k) { return next[k] == kNone; }, rest);
+  if (num_rest > 0) {
+    detail::DeviceBuffer<std::uint32_t> d_rest_cells(num_rest);
+    detail::DeviceBuffer<Around> d_rest_around(num_rest);
+    std::uint32_t* rest_cells = d_rest_cells.data();
+    Around* rest_around = d_rest_around.data();
+    executor.for_each(
+        num_rest,
+        [=] __device__(std::size_t r) {
+          rest_cells[r] = cleared[rest[r]];
+          rest_around[r] = around[rest[r]];
+        },
+        "gather_flooded_cells");
+    std::vector<std::uint32_t> h_cleared(num_rest);
+    std::vector<Around> h_around(num_rest);
+    executor.download(h_cleared.data(), rest_cells, num_rest);
+    executor.download(h_around.data(), rest_around, num_rest);
+    detail::ProbeMap<std::uint32_t> local_colour(5 * static_cast<std::size_t>(num_rest));
+    detail::ProbeMap<std::array<std::uint32_t, 2>> site_cell(4 * static_cast<std::size_t>(num_rest));
+    for (std::uint32_t r = 0; r < num_rest; ++r) {
+      const std::uint32_t c = h_cleared[r];
+      local_colour.set(c, kNone);
+      const Around& a = h_around[r];
+      for (int i = 0; i < 4 && a.cell[i] != kNone; ++i) {
+        local_colour.add(a.cell[i], a.colour[i]);
+        if (a.colour[i] != kNone) site_cell.set(a.colour[i], {a.gx[i], a.gy[i]});
+      }
+    }
+    ::cdt::detail::flood_cleared_cells(
+        h_cleared, m, [&](std::uint32_t c) -> std::uint32_t& { return local_colour.at(c); },
+        [&](std::uint32_t j) { return site_cell.at(j); });
+    std::vector<std::uint32_t> h_new(num_rest);
+    for (std::uint32_t r = 0; r < num_rest; ++r) h_new[r] = local_colour.at(h_cleared[r]);
+    executor.upload(rest_cells, h_new.data(), num_rest); // reused for the new colours
+    executor.for_each(
+        num_rest, [=] __device__(std::size_t r) { next[rest[r]] = rest_cells[r]; }, "scatter_flooded_cells");
+  }
   trace.mark("flooded on the host");
-  detail::DeviceBuffer<std::uint32_t> d_new(num_cleared + 1);
-  executor.upload(d_new.data(), h_new.data(), num_cleared);
-  const std::uint32_t* next = d_new.data();
   executor.for_each(
       num_cleared, [=] __device__(std::size_t k) { colour[cleared[k]] = next[k]; }, "recolour_cleared");
   detail::DeviceBuffer<std::uint32_t> d_owners(num);

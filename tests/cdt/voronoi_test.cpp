@@ -678,3 +678,87 @@ TEST(Voronoi, DigitalVoronoiHasConnectedRegionsContainingTheirSites) {
 }
 
 } // namespace
+
+namespace {
+
+/// Sites taken out of a colouring, written plainly: each removed site's 4-connected region around its
+/// cell is cleared, then one priority queue over every cleared cell, ordered by (distance, site, cell),
+/// gives each the colour of the first entry to reach it.
+std::vector<std::uint32_t> remove_sites_plainly(std::vector<std::uint32_t> colour, const GridSites& s,
+                                                std::uint32_t m, const std::vector<std::uint32_t>& removed) {
+  const auto in_grid = [&](std::int64_t x, std::int64_t y) { return x >= 0 && y >= 0 && x < m && y < m; };
+  const int dx[4] = {-1, 1, 0, 0};
+  const int dy[4] = {0, 0, -1, 1};
+  std::vector<std::uint32_t> cleared;
+  for (const std::uint32_t site : removed) {
+    std::vector<std::uint32_t> stack{s.gy[site] * m + s.gx[site]};
+    if (colour[stack[0]] != site) continue;
+    colour[stack[0]] = kNone;
+    while (!stack.empty()) {
+      const std::uint32_t c = stack.back();
+      stack.pop_back();
+      cleared.push_back(c);
+      for (int k = 0; k < 4; ++k) {
+        const std::int64_t x = c % m + dx[k], y = c / m + dy[k];
+        if (!in_grid(x, y) || colour[y * m + x] != site) continue;
+        colour[y * m + x] = kNone;
+        stack.push_back(static_cast<std::uint32_t>(y * m + x));
+      }
+    }
+  }
+  using Entry = std::tuple<std::int64_t, std::uint32_t, std::uint32_t>; // distance, site, cell
+  std::priority_queue<Entry, std::vector<Entry>, std::greater<>> queue;
+  const auto push_from = [&](std::uint32_t c, std::uint32_t site) {
+    for (int k = 0; k < 4; ++k) {
+      const std::int64_t x = c % m + dx[k], y = c / m + dy[k];
+      if (in_grid(x, y) && colour[y * m + x] == kNone)
+        queue.push({squared_distance(s, static_cast<std::uint32_t>(x), static_cast<std::uint32_t>(y), site),
+                    site, static_cast<std::uint32_t>(y * m + x)});
+    }
+  };
+  for (std::uint32_t c = 0; c < m * m; ++c)
+    if (colour[c] != kNone) push_from(c, colour[c]);
+  while (!queue.empty()) {
+    const auto [d, site, c] = queue.top();
+    queue.pop();
+    if (colour[c] != kNone) continue;
+    colour[c] = site;
+    push_from(c, site);
+  }
+  return colour;
+}
+
+} // namespace
+
+// Removing sites (the degenerate corners' middle sites) floods their regions from the neighbours like
+// one queue over all of them, both where a cleared cell stands alone among coloured cells (taken at
+// once) and where cleared cells touch (flooded); dense sites make both common.
+TEST(Voronoi, RemovedSitesAreFloodedLikeOneQueue) {
+  CpuExecutor executor(2);
+  SplitMix64 rng(515);
+  std::size_t alone = 0, touching = 0;
+  for (int trial = 0; trial < 200; ++trial) {
+    const std::uint32_t m = 8 + rng.below(57);
+    const std::uint32_t count = 2 + rng.below(m * m);
+    const GridSites s = sites_at(m, random_points(m, count, rng), executor);
+    std::vector<std::uint32_t> colour = cdt::detail::compute_digital_voronoi(s, m, executor);
+    std::vector<std::uint32_t> removed;
+    for (const std::uint32_t site : kept_sites(s))
+      if (rng.below(100) < 5u + static_cast<std::uint32_t>(trial % 40)) removed.push_back(site);
+    const std::vector<std::uint32_t> expected = remove_sites_plainly(colour, s, m, removed);
+    std::vector<std::uint8_t> is_cleared(colour.size(), 0);
+    const std::vector<std::uint32_t> cleared =
+        cdt::detail::remove_sites_from_colouring(colour, s, m, removed);
+    for (const std::uint32_t c : cleared) is_cleared[c] = 1;
+    for (const std::uint32_t c : cleared) {
+      bool touches = false;
+      cdt::detail::amend::for_each_neighbour(m, c % m, c / m, [&](std::uint32_t x, std::uint32_t y) {
+        touches = touches || is_cleared[y * m + x] != 0;
+      });
+      ++(touches ? touching : alone);
+    }
+    ASSERT_EQ(colour, expected) << "trial " << trial << ", m " << m << ", " << removed.size() << " removed";
+  }
+  EXPECT_GT(alone, 100u);
+  EXPECT_GT(touching, 100u);
+}

@@ -8,7 +8,6 @@
 #include <cmath>
 #include <numbers>
 #include <optional>
-#include <unordered_map>
 #include <vector>
 
 #include "cdt/detail/predicates.hpp"
@@ -19,6 +18,44 @@ namespace cdt::detail {
 namespace {
 
 using Tri = DualTriangle;
+
+/// 64-bit keys (never ~0) to 32-bit values by linear probing, with room for a given number of entries:
+/// the completion's lookups (a few per boundary vertex and new edge, tens of thousands at 10^7 points)
+/// without a node per entry or a sort.
+class KeyTable {
+public:
+  explicit KeyTable(std::size_t entries) {
+    std::size_t capacity = 16;
+    while (capacity < 2 * entries) capacity *= 2;
+    keys_.assign(capacity, kEmpty);
+    values_.resize(capacity);
+    mask_ = capacity - 1;
+  }
+  /// The value stored under key, or nullptr after storing `value` under it.
+  std::uint32_t* find_or_add(std::uint64_t key, std::uint32_t value) {
+    const std::size_t i = slot(key);
+    if (keys_[i] == key) return &values_[i];
+    keys_[i] = key;
+    values_[i] = value;
+    return nullptr;
+  }
+  /// The value stored under key, or nullptr.
+  const std::uint32_t* find(std::uint64_t key) const {
+    const std::size_t i = slot(key);
+    return keys_[i] == key ? &values_[i] : nullptr;
+  }
+
+private:
+  static constexpr std::uint64_t kEmpty = ~std::uint64_t{0};
+  std::size_t slot(std::uint64_t key) const {
+    std::size_t i = static_cast<std::size_t>((key * 0x9E3779B97F4A7C15ull) >> 32) & mask_;
+    while (keys_[i] != key && keys_[i] != kEmpty) i = (i + 1) & mask_;
+    return i;
+  }
+  std::vector<std::uint64_t> keys_;
+  std::vector<std::uint32_t> values_;
+  std::size_t mask_ = 0;
+};
 
 CDT_HD_INLINE int orient(const double* x, const double* y, std::uint32_t a, std::uint32_t b,
                          std::uint32_t c) {
@@ -141,20 +178,20 @@ bool zip_fake_boundary(const std::vector<std::uint32_t>& hull, std::uint32_t fir
 /// The open edges (indices into `open`) in the order they run around the dual's boundary, when it is
 /// one simple cycle; empty otherwise.
 std::vector<std::uint32_t> boundary_cycle(std::span<const OpenEdge> open) {
-  std::unordered_map<std::uint32_t, std::uint32_t> leaving; // vertex -> the open edge leaving it
-  leaving.reserve(2 * open.size());
+  KeyTable leaving(open.size()); // vertex -> the open edge leaving it
   for (std::size_t k = 0; k < open.size(); ++k) {
-    if (!leaving.emplace(open[k].from, static_cast<std::uint32_t>(k)).second)
+    if (leaving.find_or_add(open[k].from, static_cast<std::uint32_t>(k)) != nullptr)
       return {}; // two boundary edges leave one vertex: a pinch
   }
   std::vector<std::uint32_t> cycle;
   if (open.empty()) return cycle;
+  cycle.reserve(open.size());
   const std::uint32_t first = static_cast<std::uint32_t>(open.size() - 1);
   std::uint32_t k = first;
   do {
     cycle.push_back(k);
-    const auto it = leaving.find(open[k].to);
-    k = it == leaving.end() ? kNoId : it->second;
+    const std::uint32_t* next = leaving.find(open[k].to);
+    k = next == nullptr ? kNoId : *next;
   } while (k != kNoId && k != first && cycle.size() <= open.size());
   if (k != first || cycle.size() != open.size()) return {};
   return cycle;
@@ -370,29 +407,11 @@ std::optional<DualCompletion> plan_dual_completion(std::span<const OpenEdge> ope
   for (const Tri& t : added) plan.triangles.push_back({global(t.a), global(t.b), global(t.c)});
 
   // Links: each edge of a new triangle meets another new triangle's edge, an open edge of the dual, or
-  // nothing (the fake polygon's outside). Edges are keyed by their ends, lower first.
+  // nothing (the fake polygon's outside). Edges are keyed by their ends, lower first; the first edge of
+  // a key waits in the table for the second.
   const auto key = [](std::uint32_t from, std::uint32_t to) {
     return from < to ? (std::uint64_t{from} << 32) | to : (std::uint64_t{to} << 32) | from;
   };
-  struct Record {
-    std::uint64_t key;
-    std::uint32_t edge;
-    std::uint32_t from;
-  };
-  std::vector<Record> records;
-  records.reserve(open.size() + 3 * plan.triangles.size());
-  for (const OpenEdge& e : open) records.push_back({key(e.from, e.to), e.edge, e.from});
-  for (std::size_t k = 0; k < plan.triangles.size(); ++k) {
-    const std::uint32_t v[3] = {plan.triangles[k].a, plan.triangles[k].b, plan.triangles[k].c};
-    for (std::uint32_t i = 0; i < 3; ++i) {
-      const std::uint32_t from = v[next3(i)];
-      const std::uint32_t to = v[prev3(i)];
-      records.push_back({key(from, to), edge_id(num_dual + static_cast<std::uint32_t>(k), i), from});
-    }
-  }
-  std::sort(records.begin(), records.end(), [](const Record& p, const Record& q) {
-    return p.key != q.key ? p.key < q.key : p.edge < q.edge;
-  });
   plan.adj.assign(3 * plan.triangles.size(), kNoId);
   const std::uint32_t first_new_edge = edge_id(num_dual, 0);
   const auto link = [&](std::uint32_t e, std::uint32_t to) {
@@ -402,18 +421,34 @@ std::optional<DualCompletion> plan_dual_completion(std::span<const OpenEdge> ope
       plan.links.emplace_back(e, to);
     }
   };
-  for (std::size_t k = 0; k < records.size();) {
-    std::size_t end = k + 1;
-    while (end < records.size() && records[end].key == records[k].key) ++end;
-    if (end - k > 2) throw Error("internal error: an edge is shared by more than two triangles");
-    if (end - k == 2) {
-      if (records[k].from == records[k + 1].from) {
-        throw Error("internal error: two triangles overlap along an edge (same direction)");
-      }
-      link(records[k].edge, records[k + 1].edge);
-      link(records[k + 1].edge, records[k].edge);
+  struct Waiting {
+    std::uint32_t edge;
+    std::uint32_t from;
+    bool paired;
+  };
+  std::vector<Waiting> waiting; // the first edge of each key
+  waiting.reserve(open.size() + 3 * plan.triangles.size());
+  KeyTable first_of_key(open.size() + 3 * plan.triangles.size());
+  const auto meet = [&](std::uint32_t from, std::uint32_t to, std::uint32_t edge) {
+    const std::uint32_t* w =
+        first_of_key.find_or_add(key(from, to), static_cast<std::uint32_t>(waiting.size()));
+    if (w == nullptr) {
+      waiting.push_back({edge, from, false});
+      return;
     }
-    k = end;
+    Waiting& other = waiting[*w];
+    if (other.paired) throw Error("internal error: an edge is shared by more than two triangles");
+    if (other.from == from)
+      throw Error("internal error: two triangles overlap along an edge (same direction)");
+    other.paired = true;
+    link(other.edge, edge);
+    link(edge, other.edge);
+  };
+  for (const OpenEdge& e : open) meet(e.from, e.to, e.edge);
+  for (std::size_t k = 0; k < plan.triangles.size(); ++k) {
+    const std::uint32_t v[3] = {plan.triangles[k].a, plan.triangles[k].b, plan.triangles[k].c};
+    for (std::uint32_t i = 0; i < 3; ++i)
+      meet(v[next3(i)], v[prev3(i)], edge_id(num_dual + static_cast<std::uint32_t>(k), i));
   }
   // Each fake vertex's first new triangle (the boundary's vertices have theirs in the dual).
   plan.fake_vert_tri.assign(k_fake, kNoId);

@@ -550,6 +550,32 @@ CDT_HD inline std::uint32_t flood_colour(const FloodView& v, std::uint32_t x, st
   return best;
 }
 
+/// The colour flood_cleared_cells gives a cleared cell (x, y) none of whose neighbours is uncoloured
+/// (cleared or kNone): the flood reaches such a cell only from its seeds, so it takes the smallest
+/// key (distance from the cell, site) among its neighbours' colours. kNone when a neighbour is
+/// uncoloured: the cell is left to the flood. colour(nx, ny) is a neighbour's colour (kNone when
+/// uncoloured), distance(j) the squared distance from the cell to site j's grid cell.
+template <class Colour, class Distance>
+CDT_HD_INLINE std::uint32_t isolated_cleared_colour(std::uint32_t m, std::uint32_t x, std::uint32_t y,
+                                                    const Colour& colour, const Distance& distance) {
+  std::uint32_t best = kNone;
+  std::int64_t best_distance = 0;
+  bool isolated = true;
+  for_each_neighbour(m, x, y, [&](std::uint32_t nx, std::uint32_t ny) {
+    const std::uint32_t j = colour(nx, ny);
+    if (j == kNone) {
+      isolated = false;
+      return;
+    }
+    const std::int64_t d = distance(j);
+    if (best == kNone || key_before(d, j, best_distance, best)) {
+      best = j;
+      best_distance = d;
+    }
+  });
+  return isolated ? best : kNone;
+}
+
 } // namespace amend
 
 } // namespace cdt::detail
