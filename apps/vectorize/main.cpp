@@ -285,7 +285,7 @@ int main(int argc, char** argv) {
       ->check(CLI::Range(0u, 1024u));
   app.add_option("--batch-cdt", batch.cdt,
                  "Batch mode: auto (shared with --backend gpu), shared (the images' PSLGs triangulated "
-                 "together, about N per call, on a thread of their own; a worker sets its image aside "
+                 "together, about N per call, on threads of their own; a worker sets its image aside "
                  "meanwhile and takes another), own (each worker triangulates its image's PSLG). The "
                  "SVGs are the same")
       ->check(CLI::IsMember({"auto", "shared", "own"}))

@@ -202,7 +202,8 @@ TEST(VectorizeBatch, PslgsOfImagesTriangulatedTogetherGiveTheirOwnCdts) {
   }
 }
 
-// A shared CDT (several workers' PSLGs per call) changes no byte, and a bad image still fails alone.
+// A shared CDT (several workers' PSLGs per call; four workers: two CDT threads) changes no byte, and a
+// bad image still fails alone.
 TEST(VectorizeBatch, SharedCdtGivesTheSameBytes) {
   ScratchDir dir;
   fs::create_directories(dir / "in");
@@ -255,7 +256,7 @@ TEST(VectorizeBatch, BatchOnlyOptionsNeedAnOutputDirectory) {
 // Ctrl-C: the batch stops, the images under way finish, nothing partial is left, exit status 130.
 // The signal is sent once the first image is written: a background job of a non-interactive shell
 // starts with SIGINT ignored, so a signal sent before the handler is installed would be lost.
-void expect_clean_interrupt(const std::string& options) {
+void expect_clean_interrupt(const std::string& options, int jobs) {
   ScratchDir dir;
   fs::create_directories(dir / "in");
   for (int k = 0; k < 120; ++k) {
@@ -265,7 +266,7 @@ void expect_clean_interrupt(const std::string& options) {
   }
   const auto r =
       run("{ " + shell_quote(kBin) + " " + shell_quote(dir / "in") + " -o " + shell_quote(dir / "out") +
-          " -j 2" + options + " & pid=$!; n=0; until ls " + shell_quote(dir / "out") +
+          " -j " + std::to_string(jobs) + options + " & pid=$!; n=0; until ls " + shell_quote(dir / "out") +
           "/*.svg >/dev/null 2>&1 || [ $n -ge 600 ]; do sleep 0.05; n=$((n+1)); done; kill -INT $pid; "
           "wait $pid; echo \"exit=$?\"; }");
   EXPECT_NE(r.output.find("exit=130"), std::string::npos) << r.output;
@@ -278,11 +279,14 @@ void expect_clean_interrupt(const std::string& options) {
   }
 }
 
-// With a shared CDT too (images set aside for their CDT finish as well).
+// With a shared CDT too (images set aside for their CDT finish as well), by one CDT thread (two
+// workers) and by two (four workers).
 TEST(VectorizeBatch, InterruptStopsCleanly) {
   for (const char* cdt : {"own", "shared"}) {
-    SCOPED_TRACE(cdt);
-    expect_clean_interrupt(std::string(" --backend cpu --batch-cdt ") + cdt);
+    for (const int jobs : {2, 4}) {
+      SCOPED_TRACE(std::string(cdt) + ", -j " + std::to_string(jobs));
+      expect_clean_interrupt(std::string(" --backend cpu --batch-cdt ") + cdt, jobs);
+    }
   }
 }
 

@@ -66,10 +66,11 @@ struct BatchOptions {
   bool skip_existing = false;
   /// Images with more pixels than this are refused before decoding their pixels.
   std::size_t max_pixels = std::size_t{1} << 27;
-  /// Whether the images' PSLGs are triangulated together: a thread of its own triangulates the PSLGs
-  /// waiting, about `workers` at a time, in one call of cdt::triangulate_many, so that the fixed costs
-  /// of a call, on the GPU most of its time at a photograph's size, are shared. A worker never waits
-  /// for it: it sets the image aside and takes another, and finishes the image when its CDT is back.
+  /// Whether the images' PSLGs are triangulated together: threads of their own (two with four workers
+  /// or more, else one) triangulate the PSLGs waiting, about `workers` at a time, in one call of
+  /// cdt::triangulate_many each, so that the fixed costs of a call, on the GPU most of its time at a
+  /// photograph's size, are shared. A worker never waits for them: it sets the image aside and takes
+  /// another, and finishes the image when its CDT is back.
   /// Up to 3 x workers images are under way at once (their pixels and PSLGs held). The SVGs are the
   /// same either way.
   enum class SharedCdt {
