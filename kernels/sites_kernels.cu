@@ -438,7 +438,7 @@ void prepare_sites(DeviceSites::State& s, std::uint32_t m, GridMapping& mapping,
   executor.download(site_of_vertex.data(), site_of, nv, &parallel);
   executor.download(kept.data(), keep, n, &parallel);
   executor.download(reinterpret_cast<std::uint32_t*>(missing.data()), pairs,
-                    2 * static_cast<std::size_t>(num_missing));
+                    2 * static_cast<std::size_t>(num_missing), &parallel);
   s.vertex_xy = {};
   s.site_list = {};
   trace.mark("downloaded");
