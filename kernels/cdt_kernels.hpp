@@ -87,9 +87,12 @@ public:
   /// coordinates, -0 equal to +0), sites (the points that are their own, increasing) and the pieces
   /// (the segments between representatives, zero-length ones left out, each pair once with its lowest
   /// segment id, sorted by (a, b)) as the host's merge does (cdt::detail::merge_input); prepare() then
-  /// does the rest from the points and sites already on the device. The input checks come first.
-  DeviceSites(std::span<const Point> points, std::span<const Segment> segments, IndexArray& duplicate_of,
-              IndexArray& sites, ::cdt::detail::PieceArray& pieces, const HostParallelFor& parallel = {});
+  /// does the rest from the points and sites already on the device. The input checks come first, on the
+  /// device: the InvalidInputError of the host's checks for the same point or segment (zero-length
+  /// segments are errors unless `policy` is resolve; their number goes to zero_length_segments).
+  DeviceSites(std::span<const Point> points, std::span<const Segment> segments, CrossingSegments policy,
+              IndexArray& duplicate_of, IndexArray& sites, ::cdt::detail::PieceArray& pieces,
+              std::size_t& zero_length_segments, const HostParallelFor& parallel = {});
   void prepare(std::uint32_t m, ::cdt::detail::GridMapping& mapping, ::cdt::detail::Box& bounds,
                IndexArray& site_vertex, IndexArray& site_of_vertex, ::cdt::detail::FlagArray& kept,
                ::cdt::detail::MissingArray& missing, const HostParallelFor& parallel = {});

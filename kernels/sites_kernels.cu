@@ -111,26 +111,21 @@ void upload_vertices(DeviceSites::State& s, std::span<const Point> vertices,
 /// the sites and the points left unresolved (16); CUB's scratch within a megabyte and a byte a point.
 std::size_t duplicates_device_bytes(std::size_t n) { return 49 * n + (std::size_t{1} << 20); }
 
-/// Bytes of device memory pieces_between_representatives needs for m segments: the segments (8
-/// bytes), the kept ones' keys and labels with the sort's second copies (24), the starts of equal keys
-/// and the pieces (16); CUB's scratch within a megabyte and a byte a segment.
-std::size_t pieces_device_bytes(std::size_t m) { return 49 * m + (std::size_t{1} << 20); }
+/// Bytes of device memory pieces_between_representatives needs for m segments beside their ends: the
+/// kept ones' keys and labels with the sort's second copies (24 bytes), the starts of equal keys and
+/// the pieces (16); CUB's scratch within a megabyte and a byte a segment.
+std::size_t pieces_device_bytes(std::size_t m) { return 41 * m + (std::size_t{1} << 20); }
 
-/// The host's initial_segments (cdt/src/pslg.cpp) on the device, from the representatives `dup` of the
-/// nv points: the segments between distinct representatives, as (lower, higher) pairs ordered by
-/// (a, b) and then by segment id (a stable radix sort of the segments in id order), each pair once
-/// with its lowest id.
-void pieces_between_representatives(CudaExecutor& executor, std::span<const Segment> segments,
+/// The host's initial_segments (cdt/src/pslg.cpp) on the device, from the m segments' ends (a, b pairs,
+/// every index below nv) and the representatives `dup` of the nv points: the segments between distinct
+/// representatives, as (lower, higher) pairs ordered by (a, b) and then by segment id (a stable radix
+/// sort of the segments in id order), each pair once with its lowest id.
+void pieces_between_representatives(CudaExecutor& executor, const std::uint32_t* ends, std::size_t m,
                                     const std::uint32_t* dup, std::size_t nv,
                                     ::cdt::detail::PieceArray& pieces, const HostParallelFor& parallel) {
   pieces.clear();
-  const std::size_t m = segments.size();
   if (m == 0) return;
   require_device_memory(pieces_device_bytes(m), 0, "the pieces of " + std::to_string(m) + " segments");
-  static_assert(sizeof(Segment) == 2 * sizeof(std::uint32_t));
-  DeviceBuffer<std::uint32_t> d_ends(2 * m);
-  executor.upload(d_ends.data(), reinterpret_cast<const std::uint32_t*>(segments.data()), 2 * m, &parallel);
-  const std::uint32_t* ends = d_ends.data();
   DeviceBuffer<std::uint32_t> d_kept(m);
   const std::uint32_t num_kept = executor.compact(
       m, [=] __device__(std::size_t k) { return dup[ends[2 * k]] != dup[ends[2 * k + 1]]; }, d_kept.data());
@@ -185,12 +180,15 @@ void pieces_between_representatives(CudaExecutor& executor, std::span<const Segm
 /// ten million points) is resolved on the host among the others like it: every point with its
 /// coordinates is in that run and differs from the first point too. Then the sites (the points that are
 /// their own representative) and the pieces (pieces_between_representatives).
-void merge_input_on_device(DeviceSites::State& s, std::span<const Point> points,
-                           std::span<const Segment> segments, IndexArray& duplicate_of, IndexArray& sites,
-                           ::cdt::detail::PieceArray& pieces, const HostParallelFor& parallel) {
+std::size_t merge_input_on_device(DeviceSites::State& s, std::span<const Point> points,
+                                  std::span<const Segment> segments, ::cdt::CrossingSegments policy,
+                                  IndexArray& duplicate_of, IndexArray& sites,
+                                  ::cdt::detail::PieceArray& pieces, const HostParallelFor& parallel) {
   const std::size_t nv = points.size();
-  if (nv == 0 || nv >= kNoId) throw Error("internal error: DeviceSites: no points, or too many");
-  require_device_memory(duplicates_device_bytes(nv), 0,
+  const std::size_t m = segments.size();
+  if (nv == 0 || nv >= kNoId || m >= kNoId)
+    throw Error("internal error: DeviceSites: no points, or too many points or segments");
+  require_device_memory(duplicates_device_bytes(nv) + 8 * m, 0,
                         "merging the duplicates of " + std::to_string(nv) + " points");
   CudaExecutor& executor = s.executor;
   ::cdt::detail::StepTrace trace("device duplicates");
@@ -198,7 +196,46 @@ void merge_input_on_device(DeviceSites::State& s, std::span<const Point> points,
   s.vertex_xy.resize(2 * nv);
   executor.upload(s.vertex_xy.data(), reinterpret_cast<const double*>(points.data()), 2 * nv, &parallel);
   const double* xy = s.vertex_xy.data();
+  static_assert(sizeof(Segment) == 2 * sizeof(std::uint32_t));
+  DeviceBuffer<std::uint32_t> d_ends(2 * m + 1);
+  executor.upload(d_ends.data(), reinterpret_cast<const std::uint32_t*>(segments.data()), 2 * m, &parallel);
+  const std::uint32_t* ends = d_ends.data();
   trace.mark("points up");
+
+  // The input checks of cdt::detail::merge_input: the lowest invalid point, else the lowest segment
+  // with an end beyond the points or (under reject) of zero length; and the zero-length segments.
+  DeviceBuffer<std::uint32_t> d_check(3);
+  std::uint32_t* check = d_check.data();
+  executor.fill_bytes(check, 0xFF, 2);
+  executor.fill_bytes(check + 2, 0, 1);
+  executor.for_each(
+      nv,
+      [=] __device__(std::size_t i) {
+        if (!::cdt::detail::point_is_valid(xy[2 * i], xy[2 * i + 1]))
+          atomic_min(check, static_cast<std::uint32_t>(i));
+      },
+      "check_points");
+  const bool zero_length_is_error = policy != ::cdt::CrossingSegments::resolve;
+  const auto num_points = static_cast<std::uint32_t>(nv);
+  executor.for_each(
+      m,
+      [=] __device__(std::size_t k) {
+        const std::uint32_t a = ends[2 * k], b = ends[2 * k + 1];
+        if (a >= num_points || b >= num_points) {
+          atomic_min(check + 1, static_cast<std::uint32_t>(k));
+        } else if (a == b ||
+                   (xy[2 * static_cast<std::size_t>(a)] == xy[2 * static_cast<std::size_t>(b)] &&
+                    xy[2 * static_cast<std::size_t>(a) + 1] == xy[2 * static_cast<std::size_t>(b) + 1])) {
+          atomicAdd(check + 2, 1u);
+          if (zero_length_is_error) atomic_min(check + 1, static_cast<std::uint32_t>(k));
+        }
+      },
+      "check_segments");
+  std::uint32_t checked[3];
+  executor.download(checked, check, 3);
+  if (checked[0] != kNoId) ::cdt::detail::throw_invalid_point(points, checked[0]);
+  if (checked[1] != kNoId) ::cdt::detail::throw_invalid_segment(points, segments, checked[1]);
+  trace.mark("checked");
 
   DeviceBuffer<std::uint32_t> d_hash(nv), d_order(nv);
   std::uint32_t* hash = d_hash.data();
@@ -279,7 +316,8 @@ void merge_input_on_device(DeviceSites::State& s, std::span<const Point> points,
   d_unresolved = {};
   trace.mark("merged");
 
-  pieces_between_representatives(executor, segments, dup, nv, pieces, parallel);
+  pieces_between_representatives(executor, ends, m, dup, nv, pieces, parallel);
+  d_ends = {};
   trace.mark("pieces");
 
   s.site_list.resize(nv);
@@ -293,6 +331,7 @@ void merge_input_on_device(DeviceSites::State& s, std::span<const Point> points,
   executor.download(sites.data(), s.site_list.data(), n, &parallel);
   if (n == nv) s.site_list = {};
   trace.mark("downloaded");
+  return checked[2];
 }
 
 /// DeviceSites' preparation (a constructor cannot hold the extended lambdas of its steps), from the
@@ -466,10 +505,12 @@ DeviceSites::DeviceSites(std::span<const Point> vertices, std::span<const std::u
 }
 
 DeviceSites::DeviceSites(std::span<const Point> points, std::span<const Segment> segments,
-                         IndexArray& duplicate_of, IndexArray& sites, ::cdt::detail::PieceArray& pieces,
+                         CrossingSegments policy, IndexArray& duplicate_of, IndexArray& sites,
+                         ::cdt::detail::PieceArray& pieces, std::size_t& zero_length_segments,
                          const HostParallelFor& parallel)
     : state_(std::make_unique<State>()) {
-  detail::merge_input_on_device(*state_, points, segments, duplicate_of, sites, pieces, parallel);
+  zero_length_segments =
+      detail::merge_input_on_device(*state_, points, segments, policy, duplicate_of, sites, pieces, parallel);
 }
 
 void DeviceSites::prepare(std::uint32_t m, GridMapping& mapping, ::cdt::detail::Box& bounds,

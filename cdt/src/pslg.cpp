@@ -80,10 +80,7 @@ bool strictly_between(const Point& a, const Point& b, const Point& p) {
 
 // --- input checks ------------------------------------------------------------------------------------
 
-bool point_is_valid(const Point& p) {
-  return std::isfinite(p.x) && std::isfinite(p.y) && std::abs(p.x) <= kMaxCoordinate &&
-         std::abs(p.y) <= kMaxCoordinate;
-}
+bool point_is_valid(const Point& p) { return detail::point_is_valid(p.x, p.y); }
 
 void validate_points(std::span<const Point> points, CpuExecutor& executor) {
   // Screened in parallel; the lowest invalid point is the one reported.
@@ -91,19 +88,7 @@ void validate_points(std::span<const Point> points, CpuExecutor& executor) {
   executor.for_each(points.size(), [&](std::size_t i) {
     if (!point_is_valid(points[i])) atomic_min(&first_invalid, static_cast<std::uint32_t>(i));
   });
-  if (first_invalid == points.size()) return;
-  const std::size_t i = first_invalid;
-  const Point& p = points[i];
-  if (!std::isfinite(p.x) || !std::isfinite(p.y)) {
-    throw InvalidInputError(Kind::non_finite_coordinate, i,
-                            "point " + std::to_string(i) + " has a non-finite coordinate " + format_point(p));
-  }
-  if (std::abs(p.x) > kMaxCoordinate || std::abs(p.y) > kMaxCoordinate) {
-    throw InvalidInputError(Kind::coordinate_out_of_range, i,
-                            "point " + std::to_string(i) + " has a coordinate beyond +-" +
-                                format_number(kMaxCoordinate) + " " + format_point(p) +
-                                ": the exact predicates' products would overflow");
-  }
+  if (first_invalid != points.size()) throw_invalid_point(points, first_invalid);
 }
 
 /// Returns the number of zero-length segments (a point to itself, or two points at one place): they
@@ -135,7 +120,24 @@ std::size_t validate_segments(std::span<const Point> points, std::span<const Seg
         acc.first_bad = std::min(acc.first_bad, part.first_bad);
       });
   if (scan.first_bad == n) return scan.zero_length;
-  const std::size_t s = scan.first_bad;
+  throw_invalid_segment(points, segments, scan.first_bad);
+}
+
+} // namespace
+
+void throw_invalid_point(std::span<const Point> points, std::size_t i) {
+  const Point& p = points[i];
+  if (!std::isfinite(p.x) || !std::isfinite(p.y)) {
+    throw InvalidInputError(Kind::non_finite_coordinate, i,
+                            "point " + std::to_string(i) + " has a non-finite coordinate " + format_point(p));
+  }
+  throw InvalidInputError(Kind::coordinate_out_of_range, i,
+                          "point " + std::to_string(i) + " has a coordinate beyond +-" +
+                              format_number(kMaxCoordinate) + " " + format_point(p) +
+                              ": the exact predicates' products would overflow");
+}
+
+void throw_invalid_segment(std::span<const Point> points, std::span<const Segment> segments, std::size_t s) {
   const Segment& g = segments[s];
   if (g.a >= points.size() || g.b >= points.size()) {
     throw InvalidInputError(Kind::index_out_of_range, s,
@@ -148,6 +150,8 @@ std::size_t validate_segments(std::span<const Point> points, std::span<const Seg
                               std::to_string(g.b) + ") has zero length: both ends are at " +
                               format_point(points[g.a]));
 }
+
+namespace {
 
 // --- duplicates --------------------------------------------------------------------------------------
 
@@ -1309,15 +1313,14 @@ PreparedPslg merge_input(std::span<const Point> points, std::span<const Segment>
     throw Error("more than 2^32 - 2 points or segments");
   }
   StepTrace trace("prepare");
-  validate_points(points, executor);
-  const std::size_t zero_length = validate_segments(points, segments, policy, executor);
-  trace.mark("validated");
   PreparedPslg out;
-  out.zero_length_segments = zero_length;
   if (merge) {
-    merge(out.duplicate_of, out.sites, out.pieces);
-    trace.mark("duplicates, sites, pieces");
+    out.zero_length_segments = merge(out.duplicate_of, out.sites, out.pieces);
+    trace.mark("validated, duplicates, sites, pieces");
   } else {
+    validate_points(points, executor);
+    out.zero_length_segments = validate_segments(points, segments, policy, executor);
+    trace.mark("validated");
     out.duplicate_of = merge_duplicates(points, executor);
     trace.mark("duplicates");
     out.sites =

@@ -81,11 +81,28 @@ CDT_HD_INLINE std::uint64_t point_hash(double x, double y) {
   return h ^ (h >> 29);
 }
 
-/// merge_input's work done elsewhere than on the host (the device), after the input checks: fills, for
-/// the points and segments given to merge_input, duplicate_of (per point the lowest index with
-/// identical coordinates, -0 equal to +0), sites (the points that are their own representative,
-/// increasing) and pieces (merge_input's), as the host would.
-using InputMerge = std::function<void(IndexArray& duplicate_of, IndexArray& sites, PieceArray& pieces)>;
+/// Whether a point passes the input checks: finite coordinates within +-kMaxCoordinate (v - v is 0
+/// exactly for a finite v, NaN for infinities and NaN; the same test on the host and the device).
+CDT_HD_INLINE bool point_is_valid(double x, double y) {
+  return x - x == 0.0 && y - y == 0.0 && (x < 0 ? -x : x) <= kMaxCoordinate &&
+         (y < 0 ? -y : y) <= kMaxCoordinate;
+}
+
+/// The InvalidInputError of merge_input's checks for point i, which fails point_is_valid.
+[[noreturn]] void throw_invalid_point(std::span<const Point> points, std::size_t i);
+
+/// The InvalidInputError of merge_input's checks for segment s: an end beyond the points, or both ends
+/// at one place (an error under CrossingSegments::reject).
+[[noreturn]] void throw_invalid_segment(std::span<const Point> points, std::span<const Segment> segments,
+                                        std::size_t s);
+
+/// merge_input's work done elsewhere than on the host (the device), the input checks included: throws
+/// the errors merge_input's checks throw, for the same point or segment, then fills, for the points and
+/// segments given to merge_input, duplicate_of (per point the lowest index with identical coordinates,
+/// -0 equal to +0), sites (the points that are their own representative, increasing) and pieces
+/// (merge_input's), as the host would. Returns the number of zero-length segments.
+using InputMerge =
+    std::function<std::size_t(IndexArray& duplicate_of, IndexArray& sites, PieceArray& pieces)>;
 
 /// Checks and cleans the input of triangulate(). Throws InvalidInputError (non-finite coordinates,
 /// coordinates beyond kMaxCoordinate, out-of-range indices, zero-length segments under
@@ -108,8 +125,8 @@ PreparedPslg prepare_pslg(std::span<const Point> points, std::span<const Segment
 
 /// The first half of prepare_pslg: input checks (the same errors), duplicate points merged, and as
 /// pieces the input segments between representatives, each vertex pair once (the lowest segment id),
-/// sorted by (a, b), not yet split at points on them or at crossings. The duplicates are merged and
-/// the pieces made by `merge` when given (after the input checks), else on `executor`.
+/// sorted by (a, b), not yet split at points on them or at crossings. The checks are made, the
+/// duplicates merged and the pieces made by `merge` when given, else on `executor`.
 PreparedPslg merge_input(std::span<const Point> points, std::span<const Segment> segments,
                          CrossingSegments policy, CpuExecutor& executor, const InputMerge& merge = {});
 

@@ -305,12 +305,16 @@ Triangulation triangulate_on(std::span<const Point> points, std::span<const Segm
   const gpu::HostParallelFor parallel = [&](std::size_t parts, const std::function<void(std::size_t)>& body) {
     executor.for_each_part(parts, body);
   };
-  // With the GPU backend the points and segments go to the device once: the duplicates are merged
-  // and the pieces made there, and the sites are prepared from the points already there.
+  // With the GPU backend the points and segments go to the device once: they are checked, the
+  // duplicates merged and the pieces made there, and the sites are prepared from the points already
+  // there.
   InputMerge merge;
-  if (on_gpu) {
+  if (on_gpu && points.size() >= 3) { // fewer: the host's checks name the error
     merge = [&](IndexArray& duplicate_of, IndexArray& sites, PieceArray& pieces) {
-      device_sites.emplace(points, segments, duplicate_of, sites, pieces, parallel);
+      std::size_t zero_length_segments = 0;
+      device_sites.emplace(points, segments, options.crossings, duplicate_of, sites, pieces,
+                           zero_length_segments, parallel);
+      return zero_length_segments;
     };
   }
 #else

@@ -10,6 +10,7 @@
 #include <algorithm>
 #include <array>
 #include <cstdint>
+#include <limits>
 #include <string>
 #include <vector>
 
@@ -125,6 +126,96 @@ TEST_F(TriangulateGpu, ArtemOgreFilesMatchTheCpuBackend) {
         expect_same_as_cpu(in.points, in.segments, name);
       });
   EXPECT_EQ(files, trixel_test::kArtemOgreFiles);
+}
+
+/// The InvalidInputError a triangulation throws, as (kind, item, message); kind -1 when it throws none.
+struct Outcome {
+  int kind = -1;
+  std::uint64_t item = 0;
+  std::string message;
+  std::size_t zero_length_segments = 0;
+  bool operator==(const Outcome&) const = default;
+};
+
+Outcome outcome_of(const std::vector<cdt::Point>& points, const std::vector<cdt::Segment>& segments,
+                   cdt::Backend backend, cdt::CrossingSegments crossings) {
+  cdt::Options options;
+  options.backend = backend;
+  options.crossings = crossings;
+  Outcome out;
+  try {
+    out.zero_length_segments = cdt::triangulate(points, segments, options).stats.zero_length_segments;
+  } catch (const cdt::InvalidInputError& e) {
+    out.kind = static_cast<int>(e.kind());
+    out.item = e.item();
+    out.message = e.what();
+  }
+  return out;
+}
+
+// The input checks run on the device with the GPU backend: every bad input gets the CPU backend's error
+// (the same kind, point or segment and message: the lowest bad point first, then the lowest bad
+// segment), and the zero-length segments that resolve ignores are counted alike.
+TEST_F(TriangulateGpu, BadInputsGetTheCpuBackendsErrors) {
+  const std::vector<cdt::Point> square = {{0, 0}, {4, 0}, {4, 4}, {0, 4}, {1, 1}, {3, 1}, {2, 3}, {1, 3}};
+  const std::vector<cdt::Segment> sides = {{0, 1}, {1, 2}, {2, 3}, {3, 0}, {4, 6}};
+  const double nan = std::numeric_limits<double>::quiet_NaN();
+  const double inf = std::numeric_limits<double>::infinity();
+  struct Case {
+    std::string name;
+    std::vector<cdt::Point> points;
+    std::vector<cdt::Segment> segments;
+    int kind; // the error expected, -1 for none
+  };
+  using Kind = cdt::InvalidInputError::Kind;
+  std::vector<Case> cases;
+  const auto with_point = [&](std::size_t i, cdt::Point p) {
+    std::vector<cdt::Point> points = square;
+    points[i] = p;
+    return points;
+  };
+  const auto with_segments = [&](std::vector<cdt::Segment> more) {
+    std::vector<cdt::Segment> segments = sides;
+    segments.insert(segments.end(), more.begin(), more.end());
+    return segments;
+  };
+  cases.push_back({"NaN", with_point(5, {1.0, nan}), sides, int(Kind::non_finite_coordinate)});
+  std::vector<cdt::Point> two_bad = with_point(6, {nan, 0});
+  two_bad[3] = {inf, 1};
+  cases.push_back({"infinity before NaN", two_bad, sides, int(Kind::non_finite_coordinate)});
+  cases.push_back({"beyond the range", with_point(2, {4, -2e60}), sides, int(Kind::coordinate_out_of_range)});
+  cases.push_back({"bad point and bad segment", with_point(7, {inf, inf}), with_segments({{0, 99}}),
+                   int(Kind::non_finite_coordinate)});
+  cases.push_back(
+      {"end beyond the points", square, with_segments({{5, 7}, {2, 8}}), int(Kind::index_out_of_range)});
+  cases.push_back(
+      {"a point to itself", square, with_segments({{5, 5}, {1, 7}}), int(Kind::degenerate_segment)});
+  std::vector<cdt::Point> copied = square;
+  copied.push_back(copied[5]);
+  cases.push_back(
+      {"two copies of a point", copied, with_segments({{1, 7}, {8, 5}}), int(Kind::degenerate_segment)});
+  cases.push_back({"no points", {}, {}, int(Kind::too_few_points)});
+  cases.push_back({"two points", {{0, 0}, {1, 1}}, {{0, 1}}, int(Kind::too_few_points)});
+  cases.push_back({"collinear", {{0, 0}, {1, 1}, {2, 2}, {3, 3}}, {}, int(Kind::all_collinear)});
+  std::size_t zero_length_seen = 0;
+  for (const Case& c : cases) {
+    for (const auto crossings : {cdt::CrossingSegments::resolve, cdt::CrossingSegments::reject}) {
+      const std::string what =
+          c.name + (crossings == cdt::CrossingSegments::reject ? " (reject)" : " (resolve)");
+      const Outcome cpu = outcome_of(c.points, c.segments, cdt::Backend::cpu, crossings);
+      const Outcome gpu = outcome_of(c.points, c.segments, cdt::Backend::gpu, crossings);
+      EXPECT_EQ(gpu, cpu) << what << ": gpu " << gpu.kind << " " << gpu.item << " '" << gpu.message
+                          << "', cpu " << cpu.kind << " " << cpu.item << " '" << cpu.message << "'";
+      // Zero-length segments are an error only under reject.
+      if (c.kind == int(Kind::degenerate_segment) && crossings == cdt::CrossingSegments::resolve) {
+        EXPECT_EQ(cpu.kind, -1) << what;
+        zero_length_seen += cpu.zero_length_segments;
+      } else {
+        EXPECT_EQ(cpu.kind, c.kind) << what;
+      }
+    }
+  }
+  EXPECT_EQ(zero_length_seen, 2u); // {5, 5}, and {8, 5} between two copies of a point
 }
 
 } // namespace

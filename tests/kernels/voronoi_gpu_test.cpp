@@ -605,7 +605,11 @@ TEST_F(GpuVoronoi, DuplicatesMergeAsOnTheHost) {
         cdt::detail::merge_input(c.points, c.segments, cdt::CrossingSegments::resolve, executor);
     cdt::IndexArray duplicate_of, sites;
     cdt::detail::PieceArray pieces;
-    cdt::gpu::DeviceSites device(c.points, c.segments, duplicate_of, sites, pieces);
+    std::size_t zero_length_segments = 0;
+    cdt::gpu::DeviceSites device(c.points, c.segments, cdt::CrossingSegments::resolve, duplicate_of, sites,
+                                 pieces, zero_length_segments);
+    EXPECT_EQ(zero_length_segments, host.zero_length_segments) << c.name;
+    EXPECT_GT(zero_length_segments, 0u) << c.name;
     EXPECT_EQ(duplicate_of, host.duplicate_of) << c.name;
     EXPECT_EQ(sites, host.sites) << c.name;
     ASSERT_EQ(pieces.size(), host.pieces.size()) << c.name;
