@@ -188,8 +188,10 @@ std::size_t merge_input_on_device(DeviceSites::State& s, std::span<const Point> 
   const std::size_t m = segments.size();
   if (nv == 0 || nv >= kNoId || m >= kNoId)
     throw Error("internal error: DeviceSites: no points, or too many points or segments");
-  require_device_memory(duplicates_device_bytes(nv) + 8 * m, 0,
-                        "merging the duplicates of " + std::to_string(nv) + " points");
+  // The points and the segments' ends first: an input that fails its checks gets their error, not
+  // one about the memory the merge would need.
+  require_device_memory(16 * nv + 8 * m + (std::size_t{1} << 20), 0,
+                        "checking " + std::to_string(nv) + " points and " + std::to_string(m) + " segments");
   CudaExecutor& executor = s.executor;
   ::cdt::detail::StepTrace trace("device duplicates");
   s.num_vertices = nv;
@@ -235,6 +237,9 @@ std::size_t merge_input_on_device(DeviceSites::State& s, std::span<const Point> 
   executor.download(checked, check, 3);
   if (checked[0] != kNoId) ::cdt::detail::throw_invalid_point(points, checked[0]);
   if (checked[1] != kNoId) ::cdt::detail::throw_invalid_segment(points, segments, checked[1]);
+  d_check = {};
+  require_device_memory(duplicates_device_bytes(nv) - 16 * nv, 0,
+                        "merging the duplicates of " + std::to_string(nv) + " points");
   trace.mark("checked");
 
   DeviceBuffer<std::uint32_t> d_hash(nv), d_order(nv);

@@ -81,11 +81,10 @@ CDT_HD_INLINE std::uint64_t point_hash(double x, double y) {
   return h ^ (h >> 29);
 }
 
-/// Whether a point passes the input checks: finite coordinates within +-kMaxCoordinate (v - v is 0
-/// exactly for a finite v, NaN for infinities and NaN; the same test on the host and the device).
+/// Whether a point passes the input checks: finite coordinates within +-kMaxCoordinate (a NaN or an
+/// infinity fails the comparison; the same test on the host and the device).
 CDT_HD_INLINE bool point_is_valid(double x, double y) {
-  return x - x == 0.0 && y - y == 0.0 && (x < 0 ? -x : x) <= kMaxCoordinate &&
-         (y < 0 ? -y : y) <= kMaxCoordinate;
+  return (x < 0 ? -x : x) <= kMaxCoordinate && (y < 0 ? -y : y) <= kMaxCoordinate;
 }
 
 /// The InvalidInputError of merge_input's checks for point i, which fails point_is_valid.

@@ -309,7 +309,7 @@ Triangulation triangulate_on(std::span<const Point> points, std::span<const Segm
   // duplicates merged and the pieces made there, and the sites are prepared from the points already
   // there.
   InputMerge merge;
-  if (on_gpu && points.size() >= 3) { // fewer: the host's checks name the error
+  if (on_gpu && points.size() >= 3) { // fewer: no triangulation; the host's checks say why
     merge = [&](IndexArray& duplicate_of, IndexArray& sites, PieceArray& pieces) {
       std::size_t zero_length_segments = 0;
       device_sites.emplace(points, segments, options.crossings, duplicate_of, sites, pieces,

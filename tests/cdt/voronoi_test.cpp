@@ -728,8 +728,6 @@ std::vector<std::uint32_t> remove_sites_plainly(std::vector<std::uint32_t> colou
   return colour;
 }
 
-} // namespace
-
 // Removing sites (the degenerate corners' middle sites) floods their regions from the neighbours like
 // one queue over all of them, both where a cleared cell stands alone among coloured cells (taken at
 // once) and where cleared cells touch (flooded); dense sites make both common.
@@ -762,3 +760,5 @@ TEST(Voronoi, RemovedSitesAreFloodedLikeOneQueue) {
   EXPECT_GT(alone, 100u);
   EXPECT_GT(touching, 100u);
 }
+
+} // namespace

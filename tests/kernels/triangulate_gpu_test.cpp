@@ -165,7 +165,10 @@ TEST_F(TriangulateGpu, BadInputsGetTheCpuBackendsErrors) {
     std::string name;
     std::vector<cdt::Point> points;
     std::vector<cdt::Segment> segments;
-    int kind; // the error expected, -1 for none
+    int kind;             // the error expected under reject
+    std::uint64_t item;   // its point or segment
+    int resolve_kind = 0; // under resolve, when not `kind`: -1 for none
+    std::uint64_t resolve_item = 0;
   };
   using Kind = cdt::InvalidInputError::Kind;
   std::vector<Case> cases;
@@ -179,24 +182,28 @@ TEST_F(TriangulateGpu, BadInputsGetTheCpuBackendsErrors) {
     segments.insert(segments.end(), more.begin(), more.end());
     return segments;
   };
-  cases.push_back({"NaN", with_point(5, {1.0, nan}), sides, int(Kind::non_finite_coordinate)});
+  const int none = -1;
+  cases.push_back({"NaN", with_point(5, {1.0, nan}), sides, int(Kind::non_finite_coordinate), 5});
   std::vector<cdt::Point> two_bad = with_point(6, {nan, 0});
   two_bad[3] = {inf, 1};
-  cases.push_back({"infinity before NaN", two_bad, sides, int(Kind::non_finite_coordinate)});
-  cases.push_back({"beyond the range", with_point(2, {4, -2e60}), sides, int(Kind::coordinate_out_of_range)});
+  cases.push_back({"infinity before NaN", two_bad, sides, int(Kind::non_finite_coordinate), 3});
+  cases.push_back(
+      {"beyond the range", with_point(2, {4, -2e60}), sides, int(Kind::coordinate_out_of_range), 2});
   cases.push_back({"bad point and bad segment", with_point(7, {inf, inf}), with_segments({{0, 99}}),
-                   int(Kind::non_finite_coordinate)});
+                   int(Kind::non_finite_coordinate), 7});
+  cases.push_back({"ends beyond the points", square, with_segments({{5, 7}, {2, 8}, {9, 1}}),
+                   int(Kind::index_out_of_range), 6});
   cases.push_back(
-      {"end beyond the points", square, with_segments({{5, 7}, {2, 8}}), int(Kind::index_out_of_range)});
-  cases.push_back(
-      {"a point to itself", square, with_segments({{5, 5}, {1, 7}}), int(Kind::degenerate_segment)});
+      {"a point to itself", square, with_segments({{5, 5}, {1, 7}}), int(Kind::degenerate_segment), 5, none});
   std::vector<cdt::Point> copied = square;
   copied.push_back(copied[5]);
-  cases.push_back(
-      {"two copies of a point", copied, with_segments({{1, 7}, {8, 5}}), int(Kind::degenerate_segment)});
-  cases.push_back({"no points", {}, {}, int(Kind::too_few_points)});
-  cases.push_back({"two points", {{0, 0}, {1, 1}}, {{0, 1}}, int(Kind::too_few_points)});
-  cases.push_back({"collinear", {{0, 0}, {1, 1}, {2, 2}, {3, 3}}, {}, int(Kind::all_collinear)});
+  cases.push_back({"two copies of a point", copied, with_segments({{1, 7}, {8, 5}}),
+                   int(Kind::degenerate_segment), 6, none});
+  cases.push_back({"zero length before an end beyond", square, with_segments({{5, 5}, {2, 8}}),
+                   int(Kind::degenerate_segment), 5, int(Kind::index_out_of_range), 6});
+  cases.push_back({"no points", {}, {}, int(Kind::too_few_points), 0});
+  cases.push_back({"two points", {{0, 0}, {1, 1}}, {{0, 1}}, int(Kind::too_few_points), 2});
+  cases.push_back({"collinear", {{0, 0}, {1, 1}, {2, 2}, {3, 3}}, {}, int(Kind::all_collinear), 4});
   std::size_t zero_length_seen = 0;
   for (const Case& c : cases) {
     for (const auto crossings : {cdt::CrossingSegments::resolve, cdt::CrossingSegments::reject}) {
@@ -207,11 +214,12 @@ TEST_F(TriangulateGpu, BadInputsGetTheCpuBackendsErrors) {
       EXPECT_EQ(gpu, cpu) << what << ": gpu " << gpu.kind << " " << gpu.item << " '" << gpu.message
                           << "', cpu " << cpu.kind << " " << cpu.item << " '" << cpu.message << "'";
       // Zero-length segments are an error only under reject.
-      if (c.kind == int(Kind::degenerate_segment) && crossings == cdt::CrossingSegments::resolve) {
-        EXPECT_EQ(cpu.kind, -1) << what;
-        zero_length_seen += cpu.zero_length_segments;
+      const bool resolving = crossings == cdt::CrossingSegments::resolve && c.resolve_kind != 0;
+      EXPECT_EQ(cpu.kind, resolving ? c.resolve_kind : c.kind) << what;
+      if (cpu.kind >= 0) {
+        EXPECT_EQ(cpu.item, resolving ? c.resolve_item : c.item) << what;
       } else {
-        EXPECT_EQ(cpu.kind, c.kind) << what;
+        zero_length_seen += cpu.zero_length_segments;
       }
     }
   }

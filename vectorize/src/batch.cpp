@@ -327,6 +327,7 @@ private:
         taken.push_back(std::move(queued_.front()));
         queued_.pop_front();
       }
+      if (!queued_.empty()) cdt_wake_.notify_one(); // more than one call's worth: another thread's
       lock.unlock();
       std::vector<cdt::Input> inputs;
       inputs.reserve(taken.size());
