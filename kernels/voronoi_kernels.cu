@@ -25,6 +25,7 @@
 #include "cuda_executor.cuh"
 #include "device_sites.cuh"
 #include "device_voronoi.cuh"
+#include "gcd/probe_map.hpp"
 #include "gcd/voronoi.hpp"
 
 namespace cdt::gpu {
@@ -354,48 +355,16 @@ __device__ inline bool sorted_contains(const std::uint32_t* list, std::uint32_t 
   return lo < num && list[lo] == j;
 }
 
-/// A map from 32-bit keys (never kNone) to values with room for a given number of entries, by linear
-/// probing in one array: the host's part of DeviceVoronoi::remove_sites looks up tens of thousands of
-/// cells and sites, where a node-based map costs an allocation per entry.
-template <class V>
-class ProbeMap {
-public:
-  explicit ProbeMap(std::size_t entries) {
-    std::size_t capacity = 16;
-    while (capacity < 2 * entries) capacity *= 2;
-    keys_.assign(capacity, ::cdt::kNone);
-    values_.resize(capacity);
-    mask_ = capacity - 1;
-  }
-  /// Sets key's value.
-  void set(std::uint32_t key, const V& value) {
-    const std::size_t i = slot(key);
-    keys_[i] = key;
-    values_[i] = value;
-  }
-  /// Sets key's value unless it has one.
-  void add(std::uint32_t key, const V& value) {
-    const std::size_t i = slot(key);
-    if (keys_[i] == key) return;
-    keys_[i] = key;
-    values_[i] = value;
-  }
-  V& at(std::uint32_t key) {
-    const std::size_t i = slot(key);
-    if (keys_[i] != key) throw Error("DeviceVoronoi::remove_sites: the flood read beyond its cells");
-    return values_[i];
-  }
+using ::cdt::detail::ProbeMap;
 
-private:
-  std::size_t slot(std::uint32_t key) const {
-    std::size_t i = static_cast<std::size_t>((key * 0x9E3779B97F4A7C15ull) >> 32) & mask_;
-    while (keys_[i] != key && keys_[i] != ::cdt::kNone) i = (i + 1) & mask_;
-    return i;
-  }
-  std::vector<std::uint32_t> keys_;
-  std::vector<V> values_;
-  std::size_t mask_ = 0;
-};
+/// The value of a key the host's part of DeviceVoronoi::remove_sites stored (every cell and site the
+/// flood reads is).
+template <class V>
+V& at(ProbeMap<std::uint32_t, V>& map, std::uint32_t key) {
+  V* value = map.find(key);
+  if (value == nullptr) throw Error("DeviceVoronoi::remove_sites: the flood read beyond its cells");
+  return *value;
+}
 
 /// A cleared cell's neighbours (kNone past the last) as the flood of DeviceVoronoi::remove_sites
 /// starts: their colours and those sites' grid cells.
@@ -491,22 +460,23 @@ std::vector<std::uint32_t> DeviceVoronoi::remove_sites(std::span<const std::uint
     std::vector<Around> h_around(num_rest);
     executor.download(h_cleared.data(), rest_cells, num_rest);
     executor.download(h_around.data(), rest_around, num_rest);
-    detail::ProbeMap<std::uint32_t> local_colour(5 * static_cast<std::size_t>(num_rest));
-    detail::ProbeMap<std::array<std::uint32_t, 2>> site_cell(4 * static_cast<std::size_t>(num_rest));
+    detail::ProbeMap<std::uint32_t, std::uint32_t> local_colour(5 * static_cast<std::size_t>(num_rest));
+    detail::ProbeMap<std::uint32_t, std::array<std::uint32_t, 2>> site_cell(
+        4 * static_cast<std::size_t>(num_rest));
     for (std::uint32_t r = 0; r < num_rest; ++r) {
       const std::uint32_t c = h_cleared[r];
       local_colour.set(c, kNone);
       const Around& a = h_around[r];
       for (int i = 0; i < 4 && a.cell[i] != kNone; ++i) {
-        local_colour.add(a.cell[i], a.colour[i]);
+        local_colour.find_or_add(a.cell[i], a.colour[i]);
         if (a.colour[i] != kNone) site_cell.set(a.colour[i], {a.gx[i], a.gy[i]});
       }
     }
     ::cdt::detail::flood_cleared_cells(
-        h_cleared, m, [&](std::uint32_t c) -> std::uint32_t& { return local_colour.at(c); },
-        [&](std::uint32_t j) { return site_cell.at(j); });
+        h_cleared, m, [&](std::uint32_t c) -> std::uint32_t& { return detail::at(local_colour, c); },
+        [&](std::uint32_t j) { return detail::at(site_cell, j); });
     std::vector<std::uint32_t> h_new(num_rest);
-    for (std::uint32_t r = 0; r < num_rest; ++r) h_new[r] = local_colour.at(h_cleared[r]);
+    for (std::uint32_t r = 0; r < num_rest; ++r) h_new[r] = detail::at(local_colour, h_cleared[r]);
     executor.upload(rest_cells, h_new.data(), num_rest); // reused for the new colours
     executor.for_each(
         num_rest, [=] __device__(std::size_t r) { next[rest[r]] = rest_cells[r]; }, "scatter_flooded_cells");

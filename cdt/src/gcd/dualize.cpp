@@ -13,49 +13,15 @@
 #include "cdt/detail/predicates.hpp"
 #include "cdt/errors.hpp"
 #include "executor/cpu_executor.hpp"
+#include "gcd/probe_map.hpp"
 
 namespace cdt::detail {
 namespace {
 
 using Tri = DualTriangle;
 
-/// 64-bit keys (never ~0) to 32-bit values by linear probing, with room for a given number of entries:
-/// the completion's lookups (a few per boundary vertex and new edge, tens of thousands at 10^7 points)
-/// without a node per entry or a sort.
-class KeyTable {
-public:
-  explicit KeyTable(std::size_t entries) {
-    std::size_t capacity = 16;
-    while (capacity < 2 * entries) capacity *= 2;
-    keys_.assign(capacity, kEmpty);
-    values_.resize(capacity);
-    mask_ = capacity - 1;
-  }
-  /// The value stored under key, or nullptr after storing `value` under it.
-  std::uint32_t* find_or_add(std::uint64_t key, std::uint32_t value) {
-    const std::size_t i = slot(key);
-    if (keys_[i] == key) return &values_[i];
-    keys_[i] = key;
-    values_[i] = value;
-    return nullptr;
-  }
-  /// The value stored under key, or nullptr.
-  const std::uint32_t* find(std::uint64_t key) const {
-    const std::size_t i = slot(key);
-    return keys_[i] == key ? &values_[i] : nullptr;
-  }
-
-private:
-  static constexpr std::uint64_t kEmpty = ~std::uint64_t{0};
-  std::size_t slot(std::uint64_t key) const {
-    std::size_t i = static_cast<std::size_t>((key * 0x9E3779B97F4A7C15ull) >> 32) & mask_;
-    while (keys_[i] != key && keys_[i] != kEmpty) i = (i + 1) & mask_;
-    return i;
-  }
-  std::vector<std::uint64_t> keys_;
-  std::vector<std::uint32_t> values_;
-  std::size_t mask_ = 0;
-};
+/// Edges and vertices to 32-bit values (the completion's lookups, tens of thousands at 10^7 points).
+using KeyTable = ProbeMap<std::uint64_t, std::uint32_t>;
 
 CDT_HD_INLINE int orient(const double* x, const double* y, std::uint32_t a, std::uint32_t b,
                          std::uint32_t c) {
