@@ -125,9 +125,15 @@ PreparedPslg prepare_pslg(std::span<const Point> points, std::span<const Segment
 /// The first half of prepare_pslg: input checks (the same errors), duplicate points merged, and as
 /// pieces the input segments between representatives, each vertex pair once (the lowest segment id),
 /// sorted by (a, b), not yet split at points on them or at crossings. The checks are made, the
-/// duplicates merged and the pieces made by `merge` when given, else on `executor`.
+/// duplicates merged and the pieces made by `merge` when given, else on `executor`. With `merge`, the
+/// vertex array has the points' size but its elements are not written: the caller copies the points
+/// into it (copy_points) before anything reads them, so that the copy (160 MB at 10^7 points) can run
+/// while the device works.
 PreparedPslg merge_input(std::span<const Point> points, std::span<const Segment> segments,
                          CrossingSegments policy, CpuExecutor& executor, const InputMerge& merge = {});
+
+/// Writes the points into the first points.size() elements of vertices (merge_input's copy of the input).
+void copy_points(std::span<const Point> points, PointArray& vertices);
 
 /// The second half: splits every piece at the sites on it and at crossings (the errors of prepare_pslg
 /// for crossings), adding the crossing vertices to vertices and sites.
