@@ -331,7 +331,8 @@ int main(int argc, char** argv) {
   app.add_option("--backend", backend_name,
                  "CDT engine: auto (the GPU when present, for PSLGs of " +
                      std::to_string(vectorize::kDevicePslgPoints) +
-                     " points or more; the CPU below), cpu or gpu")
+                     " points or more; the CPU below), cpu or gpu (in batch mode, images that come "
+                     "before the device has started are triangulated on the CPU: the same result)")
       ->check(CLI::IsMember({"auto", "cpu", "gpu"}))
       ->capture_default_str();
   app.add_option("--stats", stats_format, "Print per-stage times and counts to stderr: text or json")

@@ -2,6 +2,7 @@
 #include "vectorize/batch.hpp"
 
 #include <algorithm>
+#include <atomic>
 #include <chrono>
 #include <condition_variable>
 #include <cstdio>
@@ -178,6 +179,17 @@ bool begin_job(Flight& f, const BatchJob& job, const BatchOptions& options, cons
 
 // The second half, once f.triangulation (or f.error) is there: the rest of the conversion, the debug
 // folder, the SVG.
+// The image's CDT on this thread, with `backend`; an error is kept for end_job.
+void triangulate_here(Flight& f, cdt::Backend backend) {
+  cdt::Options options = f.first.cdt_options;
+  options.backend = backend;
+  try {
+    f.triangulation = cdt::triangulate(f.first.pslg.points, f.first.pslg.segments, options);
+  } catch (...) {
+    f.error = std::current_exception();
+  }
+}
+
 void end_job(Flight& f, const BatchOptions& options, const Options& conversion) {
   const BatchJob& job = f.result.job;
   try {
@@ -223,6 +235,46 @@ bool shares_cdt(const BatchOptions& options, std::size_t num_jobs) {
   return options.conversion.backend == cdt::Backend::gpu;
 }
 
+// CUDA started on a side thread while the first images are decoded (0.2-0.3 s on the H200 machine; the
+// first triangulations on the device would wait for it). Until the device is up, a worker triangulates
+// its image on the CPU instead: the CDT is the same on every backend, so the SVG is too (the report
+// names the backend each image used). Whether there is a device at all is settled first, and takes a
+// fraction of the start: without one the images go to the GPU backend as asked, and fail with its error.
+class DeviceStart {
+public:
+  explicit DeviceStart(bool wanted) {
+    if (!wanted) return;
+    try {
+      thread_ = std::thread([this] {
+        const bool found = cdt::gpu_device_count() > 0;
+        state_.store(found ? kStarting : kUp);
+        state_.notify_all();
+        if (found) cdt::start_gpu();
+        state_.store(kUp);
+      });
+    } catch (const std::system_error&) {
+      state_.store(kUp); // no thread for it: the first triangulation starts CUDA
+    }
+  }
+  DeviceStart(const DeviceStart&) = delete;
+  DeviceStart& operator=(const DeviceStart&) = delete;
+  ~DeviceStart() {
+    if (thread_.joinable()) thread_.join();
+  }
+
+  /// The backend to triangulate with now instead of `asked`: the CPU while the device is starting.
+  cdt::Backend backend_now(cdt::Backend asked) {
+    if (asked != cdt::Backend::gpu) return asked;
+    state_.wait(kCounting);
+    return state_.load() == kStarting ? cdt::Backend::cpu : asked;
+  }
+
+private:
+  enum State : int { kCounting, kStarting, kUp };
+  std::atomic<int> state_{kCounting};
+  std::thread thread_;
+};
+
 // The jobs with a shared CDT. A worker takes, in this order: an image whose CDT is back (to finish
 // it), a new image (while fewer than `in_flight_limit` are under way), or waits. Its PSLG joins the
 // queue of the CDT threads, one of which triangulates what is queued in one call of
@@ -235,10 +287,11 @@ bool shares_cdt(const BatchOptions& options, std::size_t num_jobs) {
 class SharedCdtBatch {
 public:
   SharedCdtBatch(const std::vector<BatchJob>& jobs, const BatchOptions& options, const Options& conversion,
-                 unsigned workers, const std::function<void(JobResult&&, std::size_t)>& report)
-      : jobs_(jobs), options_(options), conversion_(conversion), report_(report), workers_(workers),
-        batch_(std::clamp<std::size_t>(workers, 2, kMaxInputs)), in_flight_limit_(2 * batch_ + workers),
-        cdt_threads_(workers >= 4 ? 2 : 1) {
+                 unsigned workers, const std::function<void(JobResult&&, std::size_t)>& report,
+                 DeviceStart& device)
+      : jobs_(jobs), options_(options), conversion_(conversion), report_(report), device_(device),
+        workers_(workers), batch_(std::clamp<std::size_t>(workers, 2, kMaxInputs)),
+        in_flight_limit_(2 * batch_ + workers), cdt_threads_(workers >= 4 ? 2 : 1) {
     cdt_options_.backend = conversion.backend;
     cdt_options_.threads = 1;
   }
@@ -289,7 +342,12 @@ private:
         f->index = next_++;
         ++in_flight_;
         lock.unlock();
-        const bool begun = begin_job(*f, jobs_[f->index], options_, conversion_);
+        bool begun = begin_job(*f, jobs_[f->index], options_, conversion_);
+        if (begun && device_.backend_now(cdt_options_.backend) != cdt_options_.backend) {
+          triangulate_here(*f, cdt::Backend::cpu);
+          end_job(*f, options_, conversion_);
+          begun = false;
+        }
         if (!begun) report_(std::move(f->result), f->index);
         lock.lock();
         if (begun) {
@@ -351,6 +409,7 @@ private:
   const BatchOptions& options_;
   const Options& conversion_;
   const std::function<void(JobResult&&, std::size_t)>& report_;
+  DeviceStart& device_;
   cdt::Options cdt_options_;
   const unsigned workers_;
   const std::size_t batch_;
@@ -392,13 +451,11 @@ std::vector<JobResult> run_batch(const std::vector<BatchJob>& jobs, const BatchO
     if (options.on_done) options.on_done(results[k], done, jobs.size());
   };
 
-  // With the GPU backend and more than one image, CUDA starts on a side thread while the first images
-  // are decoded, instead of in the first triangulation that every worker would wait for.
-  std::thread start_device;
-  if (conversion.backend == cdt::Backend::gpu && jobs.size() > 1)
-    start_device = std::thread([] { cdt::start_gpu(); });
+  // With the GPU backend and more than one image, CUDA starts on a side thread, and images whose CDT
+  // comes before it is up are triangulated on the CPU.
+  DeviceStart device(conversion.backend == cdt::Backend::gpu && jobs.size() > 1);
   if (shares_cdt(options, jobs.size())) {
-    SharedCdtBatch(jobs, options, conversion, workers, report).run();
+    SharedCdtBatch(jobs, options, conversion, workers, report, device).run();
   } else {
     std::atomic<std::size_t> next{0};
     const auto work = [&] {
@@ -408,12 +465,7 @@ std::vector<JobResult> run_batch(const std::vector<BatchJob>& jobs, const BatchO
         if (k >= jobs.size()) return;
         Flight f;
         if (begin_job(f, jobs[k], options, conversion)) {
-          try {
-            f.triangulation =
-                cdt::triangulate(f.first.pslg.points, f.first.pslg.segments, f.first.cdt_options);
-          } catch (...) {
-            f.error = std::current_exception();
-          }
+          triangulate_here(f, device.backend_now(f.first.cdt_options.backend));
           end_job(f, options, conversion);
         }
         report(std::move(f.result), k);
@@ -424,7 +476,6 @@ std::vector<JobResult> run_batch(const std::vector<BatchJob>& jobs, const BatchO
     work();
     for (auto& t : pool) t.join();
   }
-  if (start_device.joinable()) start_device.join();
   std::vector<JobResult> out;
   out.reserve(done);
   for (std::size_t k = 0; k < jobs.size(); ++k) {
