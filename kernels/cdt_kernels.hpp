@@ -320,13 +320,16 @@ public:
 
   /// cdt::detail::screen_pieces on the device, the same result: the pieces (mesh vertex ids; the id
   /// field is ignored) that are no edges of the mesh, the edge-pieces they cross and the sites near
-  /// them. Reads the mesh only; only the suspects' indices come back to the host.
-  ::cdt::detail::ScreenedPieces screen(std::span<const ::cdt::detail::ConstraintPiece2> pieces);
+  /// them. Reads the mesh only; only the suspects' indices come back to the host. The pieces' upload is
+  /// spread over `parallel` (as are the other large copies).
+  ::cdt::detail::ScreenedPieces screen(std::span<const ::cdt::detail::ConstraintPiece2> pieces,
+                                       const HostParallelFor& parallel = {});
 
   /// cdt::detail::insert_constraints (Step 2, Algorithms 4 and 5), with the same hang guard. Keeps on
   /// the device which slots its flips rewrote, for flip_after_constraints().
   ::cdt::detail::ConstraintStats insert_constraints(std::span<const ::cdt::detail::ConstraintPiece2> pieces,
-                                                    unsigned inner_iterations);
+                                                    unsigned inner_iterations,
+                                                    const HostParallelFor& parallel = {});
 
   /// cdt::detail::flip_to_delaunay (constraint edges never flip); upload_ms and download_ms stay 0.
   FlipResult flip();

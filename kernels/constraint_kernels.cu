@@ -218,7 +218,8 @@ void check_device_pieces(CudaExecutor& executor, const ConstraintPiece2* pieces,
 }
 
 ConstraintStats insert_constraints(DeviceMesh::State& s, std::span<const ConstraintPiece2> host_pieces,
-                                   unsigned inner_iterations, std::uint8_t* flipped) {
+                                   unsigned inner_iterations, std::uint8_t* flipped,
+                                   const HostParallelFor& parallel) {
   ConstraintStats stats;
   const std::uint32_t slots = s.num_slots;
   ::cdt::detail::check_constraint_counts(slots, host_pieces.size());
@@ -230,7 +231,7 @@ ConstraintStats insert_constraints(DeviceMesh::State& s, std::span<const Constra
 
   const MeshView m = s.view();
   DeviceBuffer<ConstraintPiece2> d_pieces(num_pieces);
-  executor.upload(d_pieces.data(), host_pieces.data(), num_pieces);
+  executor.upload(d_pieces.data(), host_pieces.data(), num_pieces, &parallel);
   check_device_pieces(executor, d_pieces.data(), host_pieces, s.num_vertices);
   const ConstraintPiece2* piece = d_pieces.data();
   DeviceBuffer<std::uint32_t> d_cmark(slots), d_claim(slots);
@@ -485,11 +486,11 @@ ConstraintStats insert_constraints(DeviceMesh::State& s, std::span<const Constra
 } // namespace detail
 
 ConstraintStats DeviceMesh::insert_constraints(std::span<const ConstraintPiece2> pieces,
-                                               unsigned inner_iterations) {
+                                               unsigned inner_iterations, const HostParallelFor& parallel) {
   detail::DeviceBuffer<std::uint8_t>& flipped = state_->flipped_by_constraints;
   flipped.resize(state_->num_slots);
   state_->executor.fill_bytes(flipped.data(), 0, state_->num_slots);
-  return detail::insert_constraints(*state_, pieces, inner_iterations, flipped.data());
+  return detail::insert_constraints(*state_, pieces, inner_iterations, flipped.data(), parallel);
 }
 
 } // namespace cdt::gpu

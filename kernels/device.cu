@@ -298,7 +298,11 @@ void CudaExecutor::make_staging() {
 void CudaExecutor::copy_to_device(void* d_dst, const void* h_src, std::size_t bytes,
                                   const HostParallelFor* parallel) {
   if (bytes == 0) return;
-  if (bytes <= kStagingBytes) {
+  // From pageable memory the driver stages the copy itself, on this thread; with host threads to spread
+  // the staging over, copies of a few parts or more go through the pinned blocks (the pieces of 10^6
+  // segments are 12 MB).
+  const bool helped = parallel != nullptr && *parallel && bytes >= 2 * kCopyPartBytes;
+  if (bytes <= kStagingBytes && !helped) {
     CDT_CUDA_CHECK(cudaMemcpyAsync(d_dst, h_src, bytes, cudaMemcpyHostToDevice, stream_));
     return;
   }

@@ -1584,8 +1584,8 @@ void DeviceMesh::output(std::span<const std::uint32_t> vertex_of,
   if (known > 0)
     CDT_CUDA_CHECK(cudaMemcpyAsync(d_vertex_of.data(), s.vertex_ids.data(), known * sizeof(std::uint32_t),
                                    cudaMemcpyDeviceToDevice, executor.stream()));
-  executor.upload(d_vertex_of.data() + known, vertex_of.data() + known, vertex_of.size() - known);
-  executor.upload(d_segment_of_piece.data(), segment_of_piece.data(), segment_of_piece.size());
+  executor.upload(d_vertex_of.data() + known, vertex_of.data() + known, vertex_of.size() - known, &parallel);
+  executor.upload(d_segment_of_piece.data(), segment_of_piece.data(), segment_of_piece.size(), &parallel);
   const std::size_t words = 3 * static_cast<std::size_t>(count);
   detail::DeviceBuffer<std::uint32_t> corners(words + 1);
   detail::DeviceBuffer<std::uint32_t> neighbours(words + 1);

@@ -37,7 +37,8 @@ std::vector<std::uint32_t> flagged(CudaExecutor& executor, const std::uint8_t* f
 } // namespace
 } // namespace detail
 
-ScreenedPieces DeviceMesh::screen(std::span<const ConstraintPiece2> host_pieces) {
+ScreenedPieces DeviceMesh::screen(std::span<const ConstraintPiece2> host_pieces,
+                                  const HostParallelFor& parallel) {
   using detail::DeviceBuffer;
   ScreenedPieces out;
   State& s = *state_;
@@ -54,7 +55,7 @@ ScreenedPieces DeviceMesh::screen(std::span<const ConstraintPiece2> host_pieces)
   };
 
   DeviceBuffer<ConstraintPiece2> d_pieces(np);
-  executor.upload(d_pieces.data(), host_pieces.data(), np);
+  executor.upload(d_pieces.data(), host_pieces.data(), np, &parallel);
   detail::check_device_pieces(executor, d_pieces.data(), host_pieces, s.num_vertices);
   const ConstraintPiece2* pieces = d_pieces.data();
   // Per edge side, the piece lying on it; per piece, whether it is walked, whether it shares a triangle

@@ -647,7 +647,7 @@ Triangulation triangulate_on(std::span<const Point> points, std::span<const Segm
     pieces_stale = false;
     ScreenedPieces screen;
 #if defined(TRIXEL_HAVE_CUDA)
-    if (on_gpu) screen = device_mesh->screen(pieces);
+    if (on_gpu) screen = device_mesh->screen(pieces, parallel);
 #endif
     if (!on_gpu) screen = screen_pieces(mesh.view(), pieces, executor);
     trace.mark("screened");
@@ -687,7 +687,8 @@ Triangulation triangulate_on(std::span<const Point> points, std::span<const Segm
   std::vector<std::uint8_t> flipped;
   try {
 #if defined(TRIXEL_HAVE_CUDA)
-    if (on_gpu) cons = device_mesh->insert_constraints(pieces, std::max(1u, options.inner_iterations));
+    if (on_gpu)
+      cons = device_mesh->insert_constraints(pieces, std::max(1u, options.inner_iterations), parallel);
 #endif
     if (!on_gpu) {
       flipped.assign(mesh.num_slots(), 0);
