@@ -174,11 +174,13 @@ std::vector<Chain> trace_chains(const EdgeMap& edges) {
   auto is_node = [&](int x, int y) { return degree[grid.index(x, y)] != 2; };
 
   std::vector<Chain> chains;
+  // A chain's points are collected here, then copied at their size: one allocation per chain rather
+  // than one per doubling (an image has thousands of chains).
+  std::vector<PixelPoint> points;
   // Follows the link k from (x, y) through two-link pixels until a node, or back to the start.
   auto walk = [&](int x, int y, int k, bool closed) {
-    Chain chain;
-    chain.closed = closed;
-    chain.points.push_back({x, y});
+    points.clear();
+    points.push_back({x, y});
     const int sx = x;
     const int sy = y;
     for (;;) {
@@ -186,7 +188,7 @@ std::vector<Chain> trace_chains(const EdgeMap& edges) {
       x += kDx[k];
       y += kDy[k];
       if (closed && x == sx && y == sy) break;
-      chain.points.push_back({x, y});
+      points.push_back({x, y});
       if (!closed && is_node(x, y)) break;
       const int back = (k + 4) % 8;
       // The highest other link.
@@ -195,7 +197,7 @@ std::vector<Chain> trace_chains(const EdgeMap& edges) {
       if (next < 0 || (walked[grid.index(x, y)] & (1u << next))) break; // cannot happen on a valid map
       k = next;
     }
-    chains.push_back(std::move(chain));
+    chains.push_back({std::vector<PixelPoint>(points.begin(), points.end()), closed});
   };
 
   for (int y = 0; y < h; ++y)

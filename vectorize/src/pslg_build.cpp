@@ -233,9 +233,10 @@ Pslg build_pslg(const std::vector<Polyline>& simplified, int width, int height, 
   if (placement.image() != (have_image ? &image : nullptr))
     throw std::invalid_argument("build_pslg: the point placement was made for another image");
   Builder builder(placement);
+  std::vector<std::uint32_t> ids; // one line's point ids, reused from line to line
   for (const Polyline& line : simplified) {
     const std::size_t n = line.points.size();
-    std::vector<std::uint32_t> ids(n);
+    ids.resize(n);
     for (std::size_t i = 0; i < n; ++i) ids[i] = builder.pixel_point(line.points[i]);
     for (std::size_t i = 0; i + 1 < n; ++i) builder.segment(ids[i], ids[i + 1]);
     if (line.closed && n >= 3) builder.segment(ids[n - 1], ids[0]);

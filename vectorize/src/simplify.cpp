@@ -255,15 +255,21 @@ private:
 };
 
 struct ChainState {
-  std::vector<PixelPoint> pixels;    // the original points, consecutive duplicates dropped
-  std::vector<Vec> points;           // where they are placed
-  std::vector<std::uint8_t> outline; // 1 where the point is on a shape's outline (Placement::outline)
+  std::vector<PixelPoint> pixels; // the original points, consecutive duplicates dropped
+  std::vector<Vec> points;        // where they are placed
   bool closed = false;
-  std::vector<int> prev;
-  std::vector<int> next;
-  std::vector<std::uint32_t> segment_from; // id of the live segment from i to next[i]
-  std::vector<std::uint32_t> version;
-  std::vector<std::uint8_t> alive;
+  // The linked list of live points and what else is known of each point, one entry per point (one
+  // array rather than one per field: an image has thousands of chains, and each array is an
+  // allocation).
+  struct Link {
+    int prev;
+    int next;
+    std::uint32_t segment_from; // id of the live segment from the point to next
+    std::uint32_t version;
+    std::uint8_t alive;
+    std::uint8_t outline; // 1 where the point is on a shape's outline (Placement::outline)
+  };
+  std::vector<Link> link;
   int num_alive = 0;
   int min_alive = 2;
 };
@@ -293,29 +299,29 @@ constexpr std::uint32_t kNoSegment = std::numeric_limits<std::uint32_t>::max();
 ChainState place_chain(const Chain& chain, const PointPlacement& placement) {
   ChainState s;
   s.closed = chain.closed;
+  // Sized once: an image has thousands of chains, and growing their arrays point by point made the
+  // allocator a noticeable part of the stage.
+  s.pixels.reserve(chain.points.size());
+  s.points.reserve(chain.points.size());
+  s.link.reserve(chain.points.size());
   for (const PixelPoint& p : chain.points) {
     if (!s.pixels.empty() && s.pixels.back() == p) continue;
     const Placement placed = placement.place(p);
     s.pixels.push_back(p);
     s.points.push_back({placed.at.x, placed.at.y});
-    s.outline.push_back(placed.outline ? 1 : 0);
+    s.link.push_back({0, 0, kNoSegment, 0, 1, static_cast<std::uint8_t>(placed.outline ? 1 : 0)});
   }
   if (s.closed && s.pixels.size() > 1 && s.pixels.front() == s.pixels.back()) {
     s.pixels.pop_back();
     s.points.pop_back();
-    s.outline.pop_back();
+    s.link.pop_back();
   }
   const int n = static_cast<int>(s.points.size());
-  s.prev.resize(n);
-  s.next.resize(n);
-  s.segment_from.assign(n, kNoSegment);
-  s.version.assign(n, 0);
-  s.alive.assign(n, 1);
   s.num_alive = n;
   s.min_alive = s.closed ? 3 : (n > 1 && s.points.front() == s.points.back() ? 4 : 2);
   for (int i = 0; i < n; ++i) {
-    s.prev[i] = s.closed ? (i + n - 1) % n : i - 1;
-    s.next[i] = s.closed ? (i + 1) % n : i + 1;
+    s.link[i].prev = s.closed ? (i + n - 1) % n : i - 1;
+    s.link[i].next = s.closed ? (i + 1) % n : i + 1;
   }
   return s;
 }
@@ -374,22 +380,22 @@ void drop_straight_run_points(std::vector<ChainState>& states) {
     for (int v = 0; v < n; ++v) {
       if (s.num_alive <= s.min_alive) break;
       if (s.closed ? n < 3 : v == 0 || v + 1 == n) continue;
-      if (uses[index(s.pixels[v])] != 1 || s.outline[v] != 0) continue;
+      if (uses[index(s.pixels[v])] != 1 || s.link[v].outline != 0) continue;
       // v's own steps; those of the points removed before it between u and w were checked with them.
       const PixelPoint before = s.pixels[v == 0 ? n - 1 : v - 1];
       const PixelPoint after = s.pixels[v + 1 == n ? 0 : v + 1];
       if (maybe_crossed(before, s.pixels[v]) || maybe_crossed(s.pixels[v], after)) continue;
-      const int u = s.prev[v];
-      const int w = s.next[v];
+      const int u = s.link[v].prev;
+      const int w = s.link[v].next;
       if (s.pixels[u] == s.pixels[w]) continue;
       const Vec& a = s.points[u];
       const Vec& b = s.points[v];
       const Vec& c = s.points[w];
       if (orient(a, b, c) != 0 || (b.x - a.x) * (c.x - b.x) + (b.y - a.y) * (c.y - b.y) <= 0.0) continue;
-      s.alive[v] = 0;
+      s.link[v].alive = 0;
       --s.num_alive;
-      s.next[u] = w;
-      s.prev[w] = u;
+      s.link[u].next = w;
+      s.link[w].prev = u;
     }
   }
 }
@@ -400,7 +406,7 @@ void for_each_segment_start(const ChainState& s, F&& f) {
   const int n = static_cast<int>(s.points.size());
   if (s.closed ? n < 3 : n < 2) return;
   for (int i = 0; i < n; ++i)
-    if (s.alive[i] && (s.closed || s.next[i] < n)) f(i);
+    if (s.link[i].alive && (s.closed || s.link[i].next < n)) f(i);
 }
 
 // Simplifies some chains (its own: no other simplifier touches them meanwhile) around others that
@@ -429,11 +435,11 @@ public:
     for (const std::uint32_t c : own) {
       ChainState& s = states_[c];
       for_each_segment_start(
-          s, [&](int i) { s.segment_from[i] = add_segment(s.points[i], s.points[s.next[i]]); });
+          s, [&](int i) { s.link[i].segment_from = add_segment(s.points[i], s.points[s.link[i].next]); });
     }
     for (const std::uint32_t c : fixed) {
       const ChainState& s = states_[c];
-      for_each_segment_start(s, [&](int i) { add_segment(s.points[i], s.points[s.next[i]]); });
+      for_each_segment_start(s, [&](int i) { add_segment(s.points[i], s.points[s.link[i].next]); });
     }
   }
 
@@ -458,15 +464,15 @@ public:
         queue.pop();
         ChainState& s = states_[cand.chain()];
         const int v = static_cast<int>(cand.vertex());
-        if (!s.alive[v] || s.version[v] != cand.version || s.num_alive <= s.min_alive) continue;
+        if (!s.link[v].alive || s.link[v].version != cand.version || s.num_alive <= s.min_alive) continue;
         if (!removable(s, v)) {
           blocked.push_back(cand);
           continue;
         }
         remove(s, v);
         ++removed;
-        push(queue, cand.chain(), s.prev[v]);
-        push(queue, cand.chain(), s.next[v]);
+        push(queue, cand.chain(), s.link[v].prev);
+        push(queue, cand.chain(), s.link[v].next);
       }
       if (blocked.empty() || removed == 0) break;
     }
@@ -497,7 +503,7 @@ private:
     for (int i = u + 1 == n ? 0 : u + 1; i != w; i = i + 1 == n ? 0 : i + 1) {
       worst = std::max(worst, squared_distance_to_segment(a, b, s.points[i]));
       if (worst > squared_tolerance_) return worst;
-      if (!s.outline[i]) continue;
+      if (!s.link[i].outline) continue;
       // The segment stays within the tolerance of the point, so the solid pixels it could cut into
       // are the point's own and its neighbours.
       const PixelPoint p = s.pixels[i];
@@ -511,23 +517,23 @@ private:
 
   void push(std::priority_queue<Candidate>& queue, std::uint32_t c, int v) {
     const ChainState& s = states_[c];
-    if (!s.alive[v] || !interior(s, v) || s.num_alive <= s.min_alive) return;
-    const int u = s.prev[v];
-    const int w = s.next[v];
+    if (!s.link[v].alive || !interior(s, v) || s.num_alive <= s.min_alive) return;
+    const int u = s.link[v].prev;
+    const int w = s.link[v].next;
     if (s.pixels[u] == s.pixels[w]) return;
     const double cost = squared_deviation(s, u, w);
-    if (cost <= squared_tolerance_) queue.emplace(cost, c, static_cast<std::uint32_t>(v), s.version[v]);
+    if (cost <= squared_tolerance_) queue.emplace(cost, c, static_cast<std::uint32_t>(v), s.link[v].version);
   }
 
   // Whether replacing u-v-w by u-w creates no contact with another segment and sweeps over no point.
   bool removable(const ChainState& s, int v) {
-    const int u = s.prev[v];
-    const int w = s.next[v];
+    const int u = s.link[v].prev;
+    const int w = s.link[v].next;
     const Vec& pu = s.points[u];
     const Vec& pv = s.points[v];
     const Vec& pw = s.points[w];
-    const std::uint32_t skip_a = s.segment_from[u];
-    const std::uint32_t skip_b = s.segment_from[v];
+    const std::uint32_t skip_a = s.link[u].segment_from;
+    const std::uint32_t skip_b = s.link[v].segment_from;
     // Most segments of the cells lie clear of the triangle's bounding box: they can neither meet uw
     // nor have an end inside the triangle, and are dismissed without an orientation test.
     const Box box{std::min({pu.x, pv.x, pw.x}), std::max({pu.x, pv.x, pw.x}), std::min({pu.y, pv.y, pw.y}),
@@ -556,18 +562,18 @@ private:
   }
 
   void remove(ChainState& s, int v) {
-    const int u = s.prev[v];
-    const int w = s.next[v];
-    segment_alive_[s.segment_from[u]] = 0;
-    segment_alive_[s.segment_from[v]] = 0;
-    s.segment_from[v] = kNoSegment;
-    s.segment_from[u] = add_segment(s.points[u], s.points[w]);
-    s.alive[v] = 0;
+    const int u = s.link[v].prev;
+    const int w = s.link[v].next;
+    segment_alive_[s.link[u].segment_from] = 0;
+    segment_alive_[s.link[v].segment_from] = 0;
+    s.link[v].segment_from = kNoSegment;
+    s.link[u].segment_from = add_segment(s.points[u], s.points[w]);
+    s.link[v].alive = 0;
     --s.num_alive;
-    s.next[u] = w;
-    s.prev[w] = u;
-    ++s.version[u];
-    ++s.version[w];
+    s.link[u].next = w;
+    s.link[w].prev = u;
+    ++s.link[u].version;
+    ++s.link[w].version;
   }
 
   double tolerance_;
@@ -648,8 +654,9 @@ std::vector<Polyline> simplify_chains(const std::vector<Chain>& chains, double t
   for (std::size_t c = 0; c < states.size(); ++c) {
     const ChainState& s = states[c];
     out[c].closed = s.closed;
+    out[c].points.reserve(static_cast<std::size_t>(s.num_alive));
     for (std::size_t i = 0; i < s.points.size(); ++i)
-      if (s.alive[i]) out[c].points.push_back(s.pixels[i]);
+      if (s.link[i].alive) out[c].points.push_back(s.pixels[i]);
   }
   return out;
 }
