@@ -51,11 +51,12 @@ void print_stats_text(const vectorize::Stats& s, const std::filesystem::path& in
   std::fprintf(stderr, "  %-10s %10.2f\n", "total", s.total_milliseconds);
 }
 
-// One image per process: keep freed memory in the heap for the next stage instead of handing it back
-// to the system. By default glibc maps large blocks (the per-pixel and per-triangle arrays) afresh and
+// Keep freed memory in the heap for the next stage and the next image instead of handing it back to
+// the system. By default glibc maps large blocks (the per-pixel and per-triangle arrays) afresh and
 // unmaps them when freed, so every stage pays a page fault per 4 KiB it touches again; with the heap
-// kept, a 768 x 512 photo takes about a third fewer page faults (11,300 -> 7,100). Not in batch mode,
-// where long-lived workers should give memory back between images.
+// kept, a 768 x 512 photo takes about a third fewer page faults (11,300 -> 7,100), and a batch of 48
+// photographs on one core 95,000 -> 7,000 (about 6% less CPU time). A batch's workers then keep what
+// their largest image needed until the batch ends, which is the peak --jobs states anyway.
 void keep_freed_memory_for_reuse() {
 #if defined(__GLIBC__)
   constexpr int kLarge = 1 << 30; // bytes: above any block one image needs, below mallopt's int limit
@@ -400,6 +401,7 @@ int main(int argc, char** argv) {
                     : backend_name == "gpu" ? cdt::Backend::gpu
                                             : cdt::Backend::automatic;
 
+  keep_freed_memory_for_reuse();
   if (batch_mode) {
     batch.inputs = positional;
     std::signal(SIGINT, on_interrupt);
@@ -425,7 +427,6 @@ int main(int argc, char** argv) {
     return kExitFailure;
   }
 
-  keep_freed_memory_for_reuse();
   try {
     const vectorize::Image image = vectorize::load_image(input, batch.max_pixels);
     vectorize::StageRecord record;
