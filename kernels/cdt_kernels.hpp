@@ -301,8 +301,10 @@ public:
   /// insert() to place.
   void add_vertices(std::span<const double> x, std::span<const double> y);
 
-  /// cdt::detail::insert_missing_points (the mesh grows on the device when free slots are short).
-  ::cdt::detail::InsertStats insert(std::span<const ::cdt::detail::MissingPoint> missing);
+  /// cdt::detail::insert_missing_points (the mesh grows on the device when free slots are short). The
+  /// list's upload is spread over `parallel`.
+  ::cdt::detail::InsertStats insert(std::span<const ::cdt::detail::MissingPoint> missing,
+                                    const HostParallelFor& parallel = {});
 
   /// cdt::detail::flip_fake_fans: the fake vertices' fans made convex chains before their removal.
   FlipResult flip_fake_fans(std::uint32_t first_fake);

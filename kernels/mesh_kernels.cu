@@ -894,7 +894,8 @@ __global__ void __launch_bounds__(kBlockRoundThreads)
         n, in_rest, rounds, cursor, inserted, step, step == InsertStep::location ? failure : 0u};
 }
 
-InsertStats insert(DeviceMesh::State& s, std::span<const MissingPoint> missing) {
+InsertStats insert(DeviceMesh::State& s, std::span<const MissingPoint> missing,
+                   const HostParallelFor& parallel) {
   using ::cdt::detail::PointLocation;
   InsertStats stats;
   const std::size_t num_points = missing.size();
@@ -928,7 +929,7 @@ InsertStats insert(DeviceMesh::State& s, std::span<const MissingPoint> missing) 
   const std::uint32_t* free_slots = d_free.data();
 
   DeviceBuffer<MissingPoint> d_missing(num);
-  executor.upload(d_missing.data(), missing.data(), num);
+  executor.upload(d_missing.data(), missing.data(), num, &parallel);
   const MissingPoint* points = d_missing.data();
   // The checks of insert.cpp, reporting the same point: the first one (in list order) that is out of
   // range, already in the mesh, or a vertex listed before. pending first holds each vertex's first
@@ -1539,8 +1540,8 @@ ShiftStats DeviceMesh::shift(std::uint32_t num_sites, const DeviceSites& sites, 
   return detail::shift(*state_, num_sites, from.true_x.data(), from.true_y.data(), missing);
 }
 
-InsertStats DeviceMesh::insert(std::span<const MissingPoint> missing) {
-  return detail::insert(*state_, missing);
+InsertStats DeviceMesh::insert(std::span<const MissingPoint> missing, const HostParallelFor& parallel) {
+  return detail::insert(*state_, missing, parallel);
 }
 
 void DeviceMesh::remove_fake_boundary(std::uint32_t first_fake, const RemoveOnHost& remove_on_host) {

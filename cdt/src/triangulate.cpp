@@ -581,7 +581,7 @@ Triangulation triangulate_on(std::span<const Point> points, std::span<const Segm
   InsertStats insert;
 #if defined(TRIXEL_HAVE_CUDA)
   if (on_gpu) {
-    insert = device_mesh->insert(missing);
+    insert = device_mesh->insert(missing, parallel);
     // The paper's rounds leave the points outside the sites' hull in huge fans of the fake vertices,
     // which the removal would copy to the host and fill there without flips. Without these flips the
     // coastlines' insert phase took 10 ms instead of 13-14, uniform 10M + 1M 18-19 instead of 16-17.
