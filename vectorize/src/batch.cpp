@@ -177,8 +177,6 @@ bool begin_job(Flight& f, const BatchJob& job, const BatchOptions& options, cons
   return false;
 }
 
-// The second half, once f.triangulation (or f.error) is there: the rest of the conversion, the debug
-// folder, the SVG.
 // The image's CDT on this thread, with `backend`; an error is kept for end_job.
 void triangulate_here(Flight& f, cdt::Backend backend) {
   cdt::Options options = f.first.cdt_options;
@@ -190,6 +188,8 @@ void triangulate_here(Flight& f, cdt::Backend backend) {
   }
 }
 
+// The second half, once f.triangulation (or f.error) is there: the rest of the conversion, the debug
+// folder, the SVG.
 void end_job(Flight& f, const BatchOptions& options, const Options& conversion) {
   const BatchJob& job = f.result.job;
   try {
