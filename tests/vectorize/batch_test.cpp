@@ -4,6 +4,7 @@
 
 #include <fstream>
 #include <iterator>
+#include <regex>
 #include <string>
 #include <vector>
 
@@ -91,6 +92,21 @@ TEST(VectorizeBatch, MixedInputsConvertTheGoodReportTheBad) {
   EXPECT_NE(report.find("\"converted\":5"), std::string::npos) << report;
   EXPECT_NE(report.find("\"failed\":4"), std::string::npos) << report;
   EXPECT_NE(report.find("truncated.png"), std::string::npos) << report;
+  // Every image says when it started, within the batch's wall time.
+  const std::regex wall_field("\"wall_seconds\":([0-9.]+)");
+  const std::regex started_field("\"started\":([0-9.]+),\"seconds\":([0-9.]+)");
+  std::smatch m;
+  ASSERT_TRUE(std::regex_search(report, m, wall_field)) << report;
+  const double wall = std::stod(m[1]);
+  int timed = 0;
+  for (auto it = std::sregex_iterator(report.begin(), report.end(), started_field);
+       it != std::sregex_iterator(); ++it, ++timed) {
+    const double started = std::stod((*it)[1]);
+    const double seconds = std::stod((*it)[2]);
+    EXPECT_GE(started, 0.0);
+    EXPECT_LE(started + seconds, wall + 0.002) << report; // both rounded to milliseconds
+  }
+  EXPECT_EQ(timed, 9) << report;
 }
 
 // An output folder that cannot be written (a file stands where a subfolder must go): the image is

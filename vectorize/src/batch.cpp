@@ -443,7 +443,10 @@ std::vector<JobResult> run_batch(const std::vector<BatchJob>& jobs, const BatchO
   std::vector<char> ran(jobs.size(), 0);
   std::size_t done = 0;
   std::mutex report_mutex;
+  const auto batch_start = std::chrono::steady_clock::now();
   const std::function<void(JobResult&&, std::size_t)> report = [&](JobResult&& r, std::size_t k) {
+    const double now = std::chrono::duration<double>(std::chrono::steady_clock::now() - batch_start).count();
+    r.started = std::max(0.0, now - r.seconds);
     std::lock_guard lock(report_mutex);
     results[k] = std::move(r);
     ran[k] = 1;
@@ -537,14 +540,16 @@ std::string batch_report_json(const std::vector<JobResult>& results, double wall
     const char* status = r.status == JobStatus::converted ? "converted"
                          : r.status == JobStatus::skipped ? "skipped"
                                                           : "failed";
+    char started[32];
     std::snprintf(number, sizeof number, "%.3f", r.seconds);
+    std::snprintf(started, sizeof started, "%.3f", r.started);
     j << (k ? ",\n" : "\n") << "{\"input\":" << json_string(r.job.input.string())
       << ",\"output\":" << json_string(r.job.output.string()) << ",\"status\":\"" << status << "\"";
     if (r.status == JobStatus::converted && !r.job.debug.empty()) {
       j << ",\"debug\":" << json_string(r.job.debug.string());
     }
     if (r.status == JobStatus::failed) j << ",\"error\":" << json_string(r.error);
-    j << ",\"seconds\":" << number << ",\"input_bytes\":" << r.input_bytes;
+    j << ",\"started\":" << started << ",\"seconds\":" << number << ",\"input_bytes\":" << r.input_bytes;
     if (r.status == JobStatus::converted) j << ",\"stats\":" << stats_to_json(r.stats);
     j << "}";
   }

@@ -53,6 +53,7 @@ struct JobResult {
   JobStatus status = JobStatus::failed;
   std::string error;    ///< the reason, for a failed job
   double seconds = 0.0; ///< wall time of load + convert + write
+  double started = 0.0; ///< when the job began, in seconds after run_batch began
   std::size_t input_bytes = 0;
   Stats stats; ///< of a converted job
 };
@@ -101,8 +102,8 @@ unsigned threads_per_conversion(const BatchOptions& options, std::size_t num_job
 /// result is returned in the order of `jobs`; jobs never started because of `stop` are absent.
 std::vector<JobResult> run_batch(const std::vector<BatchJob>& jobs, const BatchOptions& options);
 
-/// The results as a JSON report (one object per image: input, output, status, error, seconds, sizes,
-/// counts and stage times).
+/// The results as a JSON report (one object per image: input, output, status, error, when it started
+/// and how long it took, sizes, counts and stage times).
 std::string batch_report_json(const std::vector<JobResult>& results, double wall_seconds);
 
 } // namespace vectorize
