@@ -44,6 +44,13 @@ int device_count() noexcept;
 /// "NAME (compute capability X.Y, N SMs, M MiB)" for device 0; throws DeviceError without a device.
 std::string device_description();
 
+/// Sets memory aside for the process's later triangulations on the device, so that the first of them
+/// do not pay for it: `staging_blocks` pinned host blocks for staging copies (pinning costs
+/// milliseconds per megabyte, and holds the driver's lock, stalling other threads' device work
+/// meanwhile), and `device_bytes` of device memory, allocated from the buffer pool and given back to
+/// it, which keeps it. Throws DeviceError.
+void reserve_memory(std::size_t staging_blocks, std::size_t device_bytes);
+
 /// Synchronise after every launch so a fault shows at the launch that caused it (slow; for debugging).
 /// Also turned on by the environment variable TRIXEL_CUDA_SYNC=1.
 void set_debug_sync(bool on) noexcept;

@@ -288,8 +288,12 @@ CudaExecutor::~CudaExecutor() {
   }
 }
 
-void CudaExecutor::make_staging() {
-  for (int k = 0; k < kStagingBlocks; ++k) {
+void CudaExecutor::make_staging(std::size_t bytes) {
+  // A copy of a few megabytes (an image's PSLG) needs one block; pinning the others would cost a
+  // triangulation of it more than its copies take.
+  const auto needed =
+      static_cast<int>(std::min<std::size_t>(kStagingBlocks, (bytes + kStagingBytes - 1) / kStagingBytes));
+  for (int k = 0; k < needed; ++k) {
     if (h_staging_[k] == nullptr) h_staging_[k] = take_staging_block();
     if (staged_[k] == nullptr) CDT_CUDA_CHECK(cudaEventCreateWithFlags(&staged_[k], cudaEventDisableTiming));
   }
@@ -306,7 +310,7 @@ void CudaExecutor::copy_to_device(void* d_dst, const void* h_src, std::size_t by
     CDT_CUDA_CHECK(cudaMemcpyAsync(d_dst, h_src, bytes, cudaMemcpyHostToDevice, stream_));
     return;
   }
-  make_staging();
+  make_staging(bytes);
   auto* dst = static_cast<unsigned char*>(d_dst);
   const auto* src = static_cast<const unsigned char*>(h_src);
   for (std::size_t at = 0, k = 0; at < bytes; at += kStagingBytes, ++k) {
@@ -328,7 +332,7 @@ void CudaExecutor::copy_to_host(void* h_dst, const void* d_src, std::size_t byte
     synchronize();
     return;
   }
-  make_staging();
+  make_staging(bytes);
   auto* dst = static_cast<unsigned char*>(h_dst);
   const auto* src = static_cast<const unsigned char*>(d_src);
   const std::size_t blocks = (bytes + kStagingBytes - 1) / kStagingBytes;
@@ -372,6 +376,24 @@ float DeviceEvent::since(const DeviceEvent& start) const {
 void CudaExecutor::synchronize() { CDT_CUDA_CHECK(cudaStreamSynchronize(stream_)); }
 
 } // namespace detail
+
+void reserve_memory(std::size_t staging_blocks, std::size_t device_bytes) {
+  std::vector<void*> blocks;
+  blocks.reserve(staging_blocks);
+  try {
+    for (std::size_t k = 0; k < staging_blocks; ++k) blocks.push_back(detail::take_staging_block());
+  } catch (...) {
+    for (void* block : blocks) detail::return_staging_block(block);
+    throw;
+  }
+  for (void* block : blocks) detail::return_staging_block(block);
+  if (device_bytes == 0 || detail::debug_sync()) return; // with the debug switch buffers bypass the pool
+  void* buffer = nullptr;
+  bool pooled = false;
+  CDT_CUDA_CHECK(detail::device_allocate(&buffer, device_bytes, pooled));
+  detail::device_release(buffer, pooled);
+  CDT_CUDA_CHECK(cudaStreamSynchronize(cudaStreamPerThread));
+}
 
 void print_profile(const char* heading) {
   if (detail::profiling()) profile().print(heading);

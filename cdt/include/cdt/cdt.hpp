@@ -160,13 +160,15 @@ void canonicalize(Triangulation& t);
 /// without CUDA. Never throws.
 int gpu_device_count() noexcept;
 
-/// Starts CUDA in the process before the first triangulation needs it: creates the device's context
-/// and loads the kernels a small input uses by triangulating a small fixed PSLG there (the start-up
-/// costs 0.2-0.3 s on the H200 machine). A program about to run many triangulations on the device
-/// can call it on a side thread as it begins, so that its first triangulations (with several threads,
-/// each thread's first one) do not wait for the start-up. Returns false, and does nothing else,
-/// without a device; never throws (a device that fails here fails again, with its error, in
-/// triangulate()).
+/// Starts CUDA in the process before the first triangulation needs it: creates the device's context,
+/// loads the kernels a small input uses by triangulating a small fixed PSLG there, and sets aside the
+/// memory that the first triangulations of a few hundred thousand points each would otherwise allocate
+/// on the way (pinned host memory for their copies and device memory kept for reuse, about 300 MB in
+/// all; the start-up costs 0.3-0.4 s on the H200 machine). A program about to run many
+/// triangulations on the device can call it on a side thread as it begins, so that its first
+/// triangulations (with several threads, each thread's first one) do not wait for the start-up.
+/// Returns false, and does nothing else, without a device; never throws (a device that fails here
+/// fails again, with its error, in triangulate()).
 bool start_gpu() noexcept;
 
 /// Makes freed memory stay in the process for reuse (glibc's allocator: no block is mapped on its own,
