@@ -51,6 +51,12 @@ std::string device_description();
 /// it, which keeps it. Throws DeviceError.
 void reserve_memory(std::size_t staging_blocks, std::size_t device_bytes);
 
+/// Gives back everything the process holds on its devices: the pinned staging blocks, the buffer
+/// pools and the devices' contexts (cudaDeviceReset), which the driver would otherwise tear down at
+/// the process's exit. Only when no triangulation is running on the device; a later one starts CUDA
+/// again. Never throws.
+void release_device() noexcept;
+
 /// Synchronise after every launch so a fault shows at the launch that caused it (slow; for debugging).
 /// Also turned on by the environment variable TRIXEL_CUDA_SYNC=1.
 void set_debug_sync(bool on) noexcept;

@@ -101,10 +101,20 @@ namespace {
 /// cudaFree of hundreds of megabytes cost milliseconds each, and cudaFree waits for the whole device,
 /// which stalls every other thread's work on it; every triangulation frees and allocates the same sizes
 /// phase after phase and call after call.
+struct BufferPools {
+  std::mutex mutex;
+  std::map<int, cudaMemPool_t> pools;
+};
+
+BufferPools& buffer_pools() {
+  static auto* pools = new BufferPools; // never destroyed: buffers may be freed at exit
+  return *pools;
+}
+
 cudaMemPool_t buffer_pool(int device) {
-  static std::mutex mutex;
-  static std::map<int, cudaMemPool_t> pools; // never destroyed: buffers may be freed at exit
-  std::lock_guard lock(mutex);
+  BufferPools& all = buffer_pools();
+  std::lock_guard lock(all.mutex);
+  auto& pools = all.pools;
   if (const auto it = pools.find(device); it != pools.end()) return it->second;
   cudaMemPoolProps props{};
   props.allocType = cudaMemAllocationTypePinned;
@@ -393,6 +403,32 @@ void reserve_memory(std::size_t staging_blocks, std::size_t device_bytes) {
   CDT_CUDA_CHECK(detail::device_allocate(&buffer, device_bytes, pooled));
   detail::device_release(buffer, pooled);
   CDT_CUDA_CHECK(cudaStreamSynchronize(cudaStreamPerThread));
+}
+
+void release_device() noexcept {
+  {
+    detail::StagingBlocks& blocks = detail::staging_blocks();
+    const std::lock_guard<std::mutex> lock(blocks.mutex);
+    for (void* block : blocks.free) cudaFreeHost(block);
+    blocks.free.clear();
+  }
+  {
+    detail::BufferPools& all = detail::buffer_pools();
+    const std::lock_guard lock(all.mutex);
+    for (const auto& [device, pool] : all.pools) {
+      cudaSetDevice(device);
+      cudaMemPoolDestroy(pool);
+    }
+    all.pools.clear();
+  }
+  int count = 0;
+  if (cudaGetDeviceCount(&count) == cudaSuccess) {
+    for (int device = 0; device < count; ++device) {
+      cudaSetDevice(device);
+      cudaDeviceReset();
+    }
+  }
+  cudaGetLastError(); // nothing here is the caller's error
 }
 
 void print_profile(const char* heading) {

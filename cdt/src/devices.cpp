@@ -47,4 +47,10 @@ bool start_gpu() noexcept {
   return true;
 }
 
+void stop_gpu() noexcept {
+#if defined(TRIXEL_HAVE_CUDA)
+  if (gpu_device_count() > 0) gpu::release_device();
+#endif
+}
+
 } // namespace cdt

@@ -276,9 +276,12 @@ TEST(Triangulate, DuplicatesAreMergedWithTheMapInTheResult) {
 }
 
 // Starting CUDA ahead: true exactly when there is a device to start; without one, nothing happens.
+// Giving the device back lets it start again.
 TEST(Triangulate, StartGpuReportsWhetherADeviceStarted) {
   EXPECT_EQ(cdt::start_gpu(), cdt::gpu_device_count() > 0);
   EXPECT_EQ(cdt::start_gpu(), cdt::gpu_device_count() > 0); // and again, once started
+  cdt::stop_gpu();
+  EXPECT_EQ(cdt::start_gpu(), cdt::gpu_device_count() > 0);
 }
 
 TEST(Triangulate, ExplicitGpuBackendWithoutDeviceIsAnError) {

@@ -88,6 +88,31 @@ TEST_F(TriangulateGpu, SegmentsMatchTheCpuBackend) {
   }
 }
 
+// Starting CUDA ahead, giving the device back, and triangulating again: the device starts afresh (its
+// context, staging memory and buffer pool made again) and gives the same triangles. Large enough that
+// the copies go through the pinned staging blocks.
+TEST_F(TriangulateGpu, StoppedDeviceStartsAgain) {
+  const auto in = trixel_gen::synthetic_pslg(300000, 30000, Distribution::uniform, 77);
+  cdt::Options gpu;
+  gpu.backend = cdt::Backend::gpu;
+  ASSERT_TRUE(cdt::start_gpu());
+  cdt::Triangulation first = cdt::triangulate(in.points, in.segments, gpu);
+  cdt::stop_gpu();
+  cdt::stop_gpu(); // nothing left to give back
+  cdt::Triangulation again = cdt::triangulate(in.points, in.segments, gpu);
+  cdt::stop_gpu();
+  ASSERT_TRUE(cdt::start_gpu());
+  cdt::Triangulation third = cdt::triangulate(in.points, in.segments, gpu);
+  for (auto* t : {&first, &again, &third}) {
+    EXPECT_EQ(t->stats.backend.rfind("gpu", 0), 0u) << t->stats.backend;
+    cdt::canonicalize(*t);
+  }
+  EXPECT_TRUE(first.triangles == again.triangles && first.neighbors == again.neighbors &&
+              first.segment_of_edge == again.segment_of_edge && first.triangles == third.triangles);
+  const cdt::VerifyReport report = cdt::verify(again, in.points, in.segments);
+  EXPECT_TRUE(report.ok()) << (report.problems.empty() ? "" : report.problems.front());
+}
+
 // Crossing segments: the device screens them, the host splits the suspects, and the mesh comes back
 // to the host for the crossing vertices and goes up again.
 TEST_F(TriangulateGpu, CrossingSegmentsMatchTheCpuBackend) {

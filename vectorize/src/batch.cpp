@@ -251,6 +251,7 @@ public:
         state_.notify_all();
         if (found) cdt::start_gpu();
         state_.store(kUp);
+        state_.notify_all();
       });
     } catch (const std::system_error&) {
       state_.store(kUp); // no thread for it: the first triangulation starts CUDA
@@ -269,6 +270,15 @@ public:
     return state_.load() == kStarting ? cdt::Backend::cpu : asked;
   }
 
+  /// Once the batch needs the device no more: gives it back (cdt::stop_gpu) after the start-up is
+  /// done, so that the driver's cleanup overlaps the last images' conversion instead of following the
+  /// batch at the process's exit. Only when this batch started CUDA.
+  void stop() {
+    if (!thread_.joinable()) return;
+    for (int s = state_.load(); s != kUp; s = state_.load()) state_.wait(s);
+    cdt::stop_gpu();
+  }
+
 private:
   enum State : int { kCounting, kStarting, kUp };
   std::atomic<int> state_{kCounting};
@@ -283,7 +293,8 @@ private:
 // or more there are two CDT threads: a call's host steps (placing the PSLGs, the engine's host phases,
 // cutting the result apart) are about half of it, and with one thread, sixteen workers left it busy
 // three quarters of the time and waited on it for a fifth of theirs; with two, one call's host steps
-// overlap the other's device work.
+// overlap the other's device work. After the batch's last CDT call the device is given back while
+// the last images are finished (DeviceStart::stop).
 class SharedCdtBatch {
 public:
   SharedCdtBatch(const std::vector<BatchJob>& jobs, const BatchOptions& options, const Options& conversion,
@@ -341,6 +352,7 @@ private:
         auto f = std::make_unique<Flight>();
         f->index = next_++;
         ++in_flight_;
+        ++owed_;
         lock.unlock();
         bool begun = begin_job(*f, jobs_[f->index], options_, conversion_);
         if (begun && device_.backend_now(cdt_options_.backend) != cdt_options_.backend) {
@@ -355,6 +367,8 @@ private:
           cdt_wake_.notify_one();
         } else {
           --in_flight_;
+          --owed_;
+          stop_device_if_done(lock);
         }
         continue;
       }
@@ -400,9 +414,21 @@ private:
         for (auto& f : taken) f->error = std::current_exception();
       }
       lock.lock();
+      owed_ -= taken.size();
       for (auto& f : taken) ready_.push_back(std::move(f));
       worker_wake_.notify_all();
+      stop_device_if_done(lock);
     }
+  }
+
+  // After the batch's last CDT, gives the device back while the last images are finished (on the
+  // calling thread, the lock released meanwhile).
+  void stop_device_if_done(std::unique_lock<std::mutex>& lock) {
+    if (device_stopped_ || owed_ > 0 || !starts_over()) return;
+    device_stopped_ = true;
+    lock.unlock();
+    device_.stop();
+    lock.lock();
   }
 
   const std::vector<BatchJob>& jobs_;
@@ -421,6 +447,8 @@ private:
   std::condition_variable cdt_wake_;
   std::size_t next_ = 0;
   std::size_t in_flight_ = 0;
+  std::size_t owed_ = 0; ///< images begun whose CDT is not back yet (queued, in a call, or beginning)
+  bool device_stopped_ = false;
   unsigned idle_ = 0;
   bool done_ = false;
   std::deque<std::unique_ptr<Flight>> queued_; // waiting for their CDT
