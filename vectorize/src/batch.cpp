@@ -235,11 +235,12 @@ bool shares_cdt(const BatchOptions& options, std::size_t num_jobs) {
   return options.conversion.backend == cdt::Backend::gpu;
 }
 
-// CUDA started on a side thread while the first images are decoded (0.2-0.3 s on the H200 machine; the
-// first triangulations on the device would wait for it). Until the device is up, a worker triangulates
-// its image on the CPU instead: the CDT is the same on every backend, so the SVG is too (the report
-// names the backend each image used). Whether there is a device at all is settled first, and takes a
-// fraction of the start: without one the images go to the GPU backend as asked, and fail with its error.
+// CUDA started on a side thread while the first images are decoded (0.3-0.4 s on the H200 machine,
+// the device count alone 0.1-0.25 s of it; the first triangulations on the device would wait for
+// it). Until the device is up, a worker triangulates its image on the CPU instead: the CDT is the
+// same on every backend, so the SVG is too (the report names the backend each image used). Whether
+// there is a device at all is settled first, and takes a fraction of the start: without one the
+// images go to the GPU backend as asked, and fail with its error.
 class DeviceStart {
 public:
   explicit DeviceStart(bool wanted) {
