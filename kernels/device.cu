@@ -95,12 +95,7 @@ bool debug_sync() noexcept {
 
 namespace {
 
-/// The memory pool of device buffers on each device: stream-ordered (cudaMallocFromPoolAsync and
-/// cudaFreeAsync on the calling thread's default stream), and with no release threshold, so memory a
-/// buffer frees stays in the pool for the next one instead of going back to the driver. cudaMalloc and
-/// cudaFree of hundreds of megabytes cost milliseconds each, and cudaFree waits for the whole device,
-/// which stalls every other thread's work on it; every triangulation frees and allocates the same sizes
-/// phase after phase and call after call.
+/// Every device's buffer pool (buffer_pool), reachable for release_device.
 struct BufferPools {
   std::mutex mutex;
   std::map<int, cudaMemPool_t> pools;
@@ -111,6 +106,12 @@ BufferPools& buffer_pools() {
   return *pools;
 }
 
+/// The memory pool of device buffers on each device: stream-ordered (cudaMallocFromPoolAsync and
+/// cudaFreeAsync on the calling thread's default stream), and with no release threshold, so memory a
+/// buffer frees stays in the pool for the next one instead of going back to the driver. cudaMalloc and
+/// cudaFree of hundreds of megabytes cost milliseconds each, and cudaFree waits for the whole device,
+/// which stalls every other thread's work on it; every triangulation frees and allocates the same sizes
+/// phase after phase and call after call.
 cudaMemPool_t buffer_pool(int device) {
   BufferPools& all = buffer_pools();
   std::lock_guard lock(all.mutex);

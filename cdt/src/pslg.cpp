@@ -1334,8 +1334,6 @@ PreparedPslg merge_input(std::span<const Point> points, std::span<const Segment>
   if (!merge) {
     executor.for_each(points.size(), [&](std::size_t k) { out.vertices[k] = points[k]; });
     trace.mark("sites");
-  }
-  if (!merge) {
     const std::vector<WorkSegment> segs = initial_segments(segments, out.duplicate_of, executor);
     out.pieces.reserve(piece_room(segs.size()));
     out.pieces.resize(segs.size());
