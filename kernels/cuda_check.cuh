@@ -48,6 +48,18 @@ cudaError_t device_allocate(void** d_ptr, std::size_t bytes, bool& pooled);
 /// cudaFree.
 void device_release(void* d_ptr, bool pooled) noexcept;
 
+/// Copies up to this size go straight from pageable memory; larger ones are split into blocks of
+/// this size and staged through pinned blocks, the host's memcpy of one block overlapping the bus
+/// transfers of the others.
+inline constexpr std::size_t kStagingBytes = std::size_t{16} << 20;
+/// A pinned host block of kStagingBytes from the process's pool of them (kept and handed from one
+/// user to the next; reserve_memory fills the pool, release_device empties it). Throws DeviceError.
+void* take_staging_block();
+/// A block of the pool when one is free, else null (pins nothing).
+void* try_take_staging_block() noexcept;
+/// Gives a block of take_staging_block or try_take_staging_block back to the pool.
+void return_staging_block(void* block) noexcept;
+
 /// A device buffer owned by RAII; device memory from device_allocate, never managed memory.
 /// resize() keeps the allocation when it is large enough, so one buffer serves several phases; the
 /// contents are not kept when it grows.

@@ -230,10 +230,6 @@ CudaExecutor::CudaExecutor() {
 }
 
 namespace {
-/// Copies up to this size go straight from pageable memory; larger ones are split into blocks of
-/// this size and staged through kStagingBlocks pinned blocks, the host's memcpy of one block
-/// overlapping the bus transfers of the others.
-constexpr std::size_t kStagingBytes = std::size_t{16} << 20;
 constexpr std::size_t kCopyPartBytes = std::size_t{512} << 10; ///< a host thread's share of a block
 
 /// memcpy of len bytes, in parts of kCopyPartBytes over `parallel` when given.
@@ -262,6 +258,7 @@ StagingBlocks& staging_blocks() {
   static auto* blocks = new StagingBlocks; // never destroyed: executors may outlive static destructors
   return *blocks;
 }
+} // namespace
 
 void* take_staging_block() {
   StagingBlocks& blocks = staging_blocks();
@@ -278,6 +275,15 @@ void* take_staging_block() {
   return block;
 }
 
+void* try_take_staging_block() noexcept {
+  StagingBlocks& blocks = staging_blocks();
+  const std::lock_guard<std::mutex> lock(blocks.mutex);
+  if (blocks.free.empty()) return nullptr;
+  void* block = blocks.free.back();
+  blocks.free.pop_back();
+  return block;
+}
+
 void return_staging_block(void* block) noexcept {
   StagingBlocks& blocks = staging_blocks();
   const std::lock_guard<std::mutex> lock(blocks.mutex);
@@ -287,7 +293,6 @@ void return_staging_block(void* block) noexcept {
     cudaFreeHost(block);
   }
 }
-} // namespace
 
 CudaExecutor::~CudaExecutor() {
   // Buffers are freed by their own destructors, in stream order; errors here were reported by the call

@@ -8,6 +8,7 @@
 #include <vector>
 
 #include "cdt/detail/predicates.hpp"
+#include "cdt/errors.hpp"
 #include "stage_test_util.hpp"
 
 namespace {
@@ -329,6 +330,36 @@ TEST(TrixelColours, OpaqueImagesGiveTheGeneralPathsColoursToTheBit) {
   }
   EXPECT_GT(compared, 200u);
   EXPECT_NE(a[owner[0]].rgba[3], b[owner[0]].rgba[3]);
+}
+
+} // namespace
+
+namespace {
+
+// TrixelDevice::gpu adds up the pixels on the device with the host's code: the same trixels, field for
+// field and bit for bit, where there is a device; without one (or without CUDA in the build) a clear
+// cdt::DeviceError rather than another answer.
+TEST(TrixelColours, OnTheDeviceTheSameTrixelsOrAClearError) {
+  const int width = 53;
+  const int height = 41;
+  const auto t = triangulate_rectangle(width, height, random_points(width, height, 200, 7));
+  vectorize::Image translucent = make_image(width, height, noise);
+  for (int x = 0; x < width; ++x) translucent.pixel(x, x % height)[3] = 0.25f;
+  for (const vectorize::Image& image : {make_image(width, height, noise), translucent}) {
+    if (cdt::gpu_device_count() == 0) {
+      EXPECT_THROW(vectorize::colour_trixels(image, t, 1, vectorize::TrixelDevice::gpu), cdt::DeviceError);
+      continue;
+    }
+    const auto on_cpu = vectorize::colour_trixels(image, t, 1);
+    const auto on_gpu = vectorize::colour_trixels(image, t, 1, vectorize::TrixelDevice::gpu);
+    ASSERT_EQ(on_cpu.size(), on_gpu.size());
+    for (std::size_t tri = 0; tri < on_cpu.size(); ++tri) {
+      EXPECT_EQ(on_cpu[tri].rgba, on_gpu[tri].rgba) << tri;
+      EXPECT_EQ(on_cpu[tri].pixel_count, on_gpu[tri].pixel_count) << tri;
+      EXPECT_EQ(on_cpu[tri].covers_solid, on_gpu[tri].covers_solid) << tri;
+      EXPECT_EQ(on_cpu[tri].area, on_gpu[tri].area) << tri;
+    }
+  }
 }
 
 } // namespace

@@ -189,13 +189,15 @@ void triangulate_here(Flight& f, cdt::Backend backend) {
 }
 
 // The second half, once f.triangulation (or f.error) is there: the rest of the conversion, the debug
-// folder, the SVG.
-void end_job(Flight& f, const BatchOptions& options, const Options& conversion) {
+// folder, the SVG. `device_done` as for finish_conversion.
+void end_job(Flight& f, const BatchOptions& options, const Options& conversion,
+             const std::function<void()>& device_done = {}) {
   const BatchJob& job = f.result.job;
   try {
     if (f.error) std::rethrow_exception(f.error);
-    const Conversion result = finish_conversion(f.image, conversion, std::move(f.first),
-                                                std::move(f.triangulation), f.debug ? &f.record : nullptr);
+    const Conversion result =
+        finish_conversion(f.image, conversion, std::move(f.first), std::move(f.triangulation),
+                          f.debug ? &f.record : nullptr, device_done);
     std::error_code ec;
     fs::create_directories(job.output.parent_path(), ec);
     if (ec) throw FileError(job.output.parent_path(), "cannot create the output directory: " + ec.message());
@@ -240,17 +242,19 @@ bool shares_cdt(const BatchOptions& options, std::size_t num_jobs) {
 // it). Until the device is up, a worker triangulates its image on the CPU instead: the CDT is the
 // same on every backend, so the SVG is too (the report names the backend each image used). Whether
 // there is a device at all is settled first, and takes a fraction of the start: without one the
-// images go to the GPU backend as asked, and fail with its error.
+// images go to the GPU backend as asked, and fail with its error. The start also readies the trixel
+// colours on the device for the workers (prepare_trixels_on_device).
 class DeviceStart {
 public:
-  explicit DeviceStart(bool wanted) {
+  /// `workers`: the threads that will make trixel colours on the device at once.
+  DeviceStart(bool wanted, unsigned workers) {
     if (!wanted) return;
     try {
-      thread_ = std::thread([this] {
+      thread_ = std::thread([this, workers] {
         const bool found = cdt::gpu_device_count() > 0;
         state_.store(found ? kStarting : kUp);
         state_.notify_all();
-        if (found) cdt::start_gpu();
+        if (found && cdt::start_gpu()) prepare_trixels_on_device(workers);
         state_.store(kUp);
         state_.notify_all();
       });
@@ -294,8 +298,9 @@ private:
 // or more there are two CDT threads: a call's host steps (placing the PSLGs, the engine's host phases,
 // cutting the result apart) are about half of it, and with one thread, sixteen workers left it busy
 // three quarters of the time and waited on it for a fifth of theirs; with two, one call's host steps
-// overlap the other's device work. After the batch's last CDT call the device is given back while
-// the last images are finished (DeviceStart::stop).
+// overlap the other's device work. Once the batch's last image needs the device no more (its CDT
+// and trixel colours made) the device is given back while the last images are finished
+// (DeviceStart::stop).
 class SharedCdtBatch {
 public:
   SharedCdtBatch(const std::vector<BatchJob>& jobs, const BatchOptions& options, const Options& conversion,
@@ -342,7 +347,16 @@ private:
         std::unique_ptr<Flight> f = std::move(ready_.front());
         ready_.pop_front();
         lock.unlock();
-        end_job(*f, options_, conversion_);
+        // Its trixel colours may be made on the device (as its CDT was): it is owed until they are.
+        bool settled = false;
+        const auto settle = [&] {
+          if (std::exchange(settled, true)) return;
+          std::unique_lock relock(mutex_);
+          --owed_;
+          stop_device_if_done(relock);
+        };
+        end_job(*f, options_, conversion_, settle);
+        settle();
         report_(std::move(f->result), f->index);
         f.reset();
         lock.lock();
@@ -415,14 +429,12 @@ private:
         for (auto& f : taken) f->error = std::current_exception();
       }
       lock.lock();
-      owed_ -= taken.size();
       for (auto& f : taken) ready_.push_back(std::move(f));
       worker_wake_.notify_all();
-      stop_device_if_done(lock);
     }
   }
 
-  // After the batch's last CDT, gives the device back while the last images are finished (on the
+  // Once no image needs the device any more, gives it back while the last images are finished (on the
   // calling thread, the lock released meanwhile).
   void stop_device_if_done(std::unique_lock<std::mutex>& lock) {
     if (device_stopped_ || owed_ > 0 || !starts_over()) return;
@@ -448,7 +460,9 @@ private:
   std::condition_variable cdt_wake_;
   std::size_t next_ = 0;
   std::size_t in_flight_ = 0;
-  std::size_t owed_ = 0; ///< images begun whose CDT is not back yet (queued, in a call, or beginning)
+  /// Images begun that may still need the device: their CDT is not back yet (queued, in a call, or
+  /// beginning), or their trixel colours, made on the device with a CDT from there, are not done.
+  std::size_t owed_ = 0;
   bool device_stopped_ = false;
   unsigned idle_ = 0;
   bool done_ = false;
@@ -485,7 +499,7 @@ std::vector<JobResult> run_batch(const std::vector<BatchJob>& jobs, const BatchO
 
   // With the GPU backend and more than one image, CUDA starts on a side thread, and images whose CDT
   // comes before it is up are triangulated on the CPU.
-  DeviceStart device(conversion.backend == cdt::Backend::gpu && jobs.size() > 1);
+  DeviceStart device(conversion.backend == cdt::Backend::gpu && jobs.size() > 1, workers);
   if (shares_cdt(options, jobs.size())) {
     SharedCdtBatch(jobs, options, conversion, workers, report, device).run();
   } else {

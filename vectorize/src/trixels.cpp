@@ -13,163 +13,41 @@
 #include <vector>
 
 #include "cdt/detail/predicates.hpp"
+#include "cdt/errors.hpp"
 #include "parallel.hpp"
+#include "trixel_runs.hpp"
+
+#if TRIXEL_HAVE_CUDA
+#include "trixel_kernels.hpp"
+#endif
 
 namespace vectorize {
 namespace {
 
-// Does the interior of the counter-clockwise triangle abc contain p + (eps, eps^2) for an infinitesimal
-// eps > 0? On edge a->b (interior on its left) the perturbed point's orientation is
-// orient(a, b, p) + (b.x - a.x) eps^2 - (b.y - a.y) eps, so a zero orientation is decided by the sign
-// of -(b.y - a.y), then of (b.x - a.x). The perturbed point never lies on a line through p, hence in
-// exactly one triangle of a mesh that covers a neighbourhood of p.
-bool owns(const cdt::Point& a, const cdt::Point& b, const cdt::Point& c, double px, double py) {
-  const cdt::Point* v[3] = {&a, &b, &c};
-  for (int i = 0; i < 3; ++i) {
-    const cdt::Point& s = *v[i];
-    const cdt::Point& e = *v[(i + 1) % 3];
-    const int o = cdt::detail::orient2d(s.x, s.y, e.x, e.y, px, py);
-    if (o < 0) return false;
-    if (o == 0 && !(e.y < s.y || (e.y == s.y && e.x > s.x))) return false;
-  }
-  return true;
-}
-
-// Coordinates that are multiples of 1/16 below 2^20 in magnitude: differences of them and of pixel
-// centres have at most 25 significant bits, so an edge function (a difference of two products of such
-// differences) is exact in double arithmetic. Pixel centres, corners and the points placed on outlines
-// of hard-edged shapes are such coordinates.
-bool on_fine_grid(double v) {
-  const double scaled = v * 16.0;
-  return std::abs(v) < 1048576.0 && scaled == std::floor(scaled);
-}
-
-// One edge s->e of a triangle as a half-plane over the pixel centres (i + 0.5, yc) of a row: the
-// centre is owned (as far as this edge decides) when the edge function
-// E = (e.x - s.x)(yc - s.y) - (e.y - s.y)(cx - s.x) is positive, or zero and the fill rule's tie-break
-// (e.y < s.y, or e.y == s.y and e.x > s.x) says so. Exact for fine-grid coordinates (on_fine_grid).
-struct EdgeHalfPlane {
-  double sx;
-  double sy;
-  double dx;
-  double dy;
-  double inverse_slope; // dx / dy, for the estimate of the crossing; unused when dy == 0
-  double ey;            // sy + dy
-
-  // Whether the edge's ends lie strictly on one side of row yc. The other two edges then meet the row
-  // where the triangle does, at points strictly inside this edge's half-plane: it decides nothing.
-  bool clear_of_row(double yc) const { return (yc - sy) * (yc - ey) > 0.0; }
-
-  double at(double yc, int i) const { return dx * (yc - sy) - dy * (i + 0.5 - sx); }
-};
-
-// Narrows the run [begin, end) of owned centres of row yc to the edge's half-plane. With dy < 0 the
-// function grows with x and the edge bounds the run from the left (ties owned); with dy > 0 it falls
-// and bounds it from the right (ties not owned); a horizontal edge owns the whole row or none of it.
-// The crossing is estimated in floating point, then the bound is settled by exact evaluations, one or
-// two steps from the estimate.
-[[gnu::always_inline]] inline void narrow_run(const EdgeHalfPlane& h, double yc, int width, int& begin,
-                                              int& end) {
-  if (h.dy == 0.0) {
-    const double e = h.dx * (yc - h.sy);
-    if (!(e > 0.0 || (e == 0.0 && h.dx > 0.0))) end = begin;
-    return;
-  }
-  const double crossing = h.sx + (yc - h.sy) * h.inverse_slope;
-  int i = static_cast<int>(std::clamp(std::ceil(crossing - 0.5), 0.0, static_cast<double>(width)));
-  if (h.dy < 0.0) { // first i with E >= 0
-    while (i > 0 && h.at(yc, i - 1) >= 0.0) --i;
-    while (i < width && h.at(yc, i) < 0.0) ++i;
-    begin = std::max(begin, i);
-  } else { // first i with E <= 0
-    while (i > 0 && h.at(yc, i - 1) <= 0.0) --i;
-    while (i < width && h.at(yc, i) > 0.0) ++i;
-    end = std::min(end, i);
-  }
-}
-
 // Calls visit(triangle, row, x_begin, x_end) for each run of pixels [x_begin, x_end) of a row whose
-// centres the triangle owns. A triangle with fine-grid coordinates (nearly all of them: vertices at
-// pixel centres) is the intersection of its edges' half-planes, each settled exactly with a few
-// multiplications (narrow_run). Otherwise rows and runs are first estimated in floating point, then
-// every candidate is decided exactly with orient2d; the estimate is off by far less than a pixel, so
-// probing one pixel beyond each end finds the exact run (a convex set meets a row of centres in one
-// run).
+// centres a triangle of [tri_begin, tri_end) owns (trixel_runs.hpp), triangle after triangle.
 template <class Visit>
 void for_each_run(int width, int height, const cdt::Triangulation& t, Visit&& visit,
                   std::size_t tri_begin = 0, std::size_t tri_end = SIZE_MAX) {
   if (width <= 0 || height <= 0) return;
   tri_end = std::min(tri_end, t.triangles.size());
   for (auto tri = static_cast<std::uint32_t>(tri_begin); tri < tri_end; ++tri) {
-    const cdt::Point& a = t.vertices[t.triangles[tri][0]];
-    const cdt::Point& b = t.vertices[t.triangles[tri][1]];
-    const cdt::Point& c = t.vertices[t.triangles[tri][2]];
-    if (on_fine_grid(a.x) && on_fine_grid(a.y) && on_fine_grid(b.x) && on_fine_grid(b.y) &&
-        on_fine_grid(c.x) && on_fine_grid(c.y)) {
-      std::array<EdgeHalfPlane, 3> edges;
-      const cdt::Point* v[3] = {&a, &b, &c};
-      for (int i = 0; i < 3; ++i) {
-        const cdt::Point& s = *v[i];
-        const cdt::Point& e = *v[(i + 1) % 3];
-        const double dx = e.x - s.x;
-        const double dy = e.y - s.y;
-        edges[i] = {s.x, s.y, dx, dy, dy != 0.0 ? dx / dy : 0.0, e.y};
-      }
-      // Rows whose centres lie within [y_min, y_max]; the half-planes settle the rest exactly.
-      const int row_lo = static_cast<int>(
-          std::clamp(std::ceil(std::min({a.y, b.y, c.y}) - 0.5), 0.0, static_cast<double>(height)));
-      const int row_hi = static_cast<int>(
-          std::clamp(std::floor(std::max({a.y, b.y, c.y}) - 0.5), -1.0, static_cast<double>(height - 1)));
-      for (int row = row_lo; row <= row_hi; ++row) {
-        const double yc = row + 0.5;
-        int begin = 0;
-        int end = width;
-        for (const EdgeHalfPlane& h : edges) {
-          if (h.clear_of_row(yc)) continue;
-          narrow_run(h, yc, width, begin, end);
-          if (begin >= end) break;
-        }
-        if (begin < end) visit(tri, row, begin, end);
-      }
-      continue;
-    }
-    const double y_min = std::min({a.y, b.y, c.y});
-    const double y_max = std::max({a.y, b.y, c.y});
-    // One row of slack on each side absorbs the rounding of y - 0.5.
-    const double row_lo = std::clamp(std::ceil(y_min - 0.5) - 1.0, 0.0, static_cast<double>(height - 1));
-    const double row_hi = std::clamp(std::floor(y_max - 0.5) + 1.0, 0.0, static_cast<double>(height - 1));
-    for (int row = static_cast<int>(row_lo); row <= static_cast<int>(row_hi); ++row) {
-      const double yc = row + 0.5;
-      double x_lo = INFINITY;
-      double x_hi = -INFINITY;
-      const cdt::Point* v[3] = {&a, &b, &c};
-      for (int i = 0; i < 3; ++i) {
-        const cdt::Point& s = *v[i];
-        const cdt::Point& e = *v[(i + 1) % 3];
-        if (yc < std::min(s.y, e.y) || yc > std::max(s.y, e.y)) continue;
-        double x0 = s.x;
-        double x1 = e.x;
-        if (s.y != e.y) {
-          const double x = s.x + (yc - s.y) * (e.x - s.x) / (e.y - s.y);
-          x0 = x1 = std::clamp(x, std::min(s.x, e.x), std::max(s.x, e.x));
-        }
-        x_lo = std::min({x_lo, x0, x1});
-        x_hi = std::max({x_hi, x0, x1});
-      }
-      if (x_lo > x_hi) continue; // the row misses the triangle
-      const int first =
-          static_cast<int>(std::clamp(std::ceil(x_lo - 0.5) - 1.0, 0.0, static_cast<double>(width - 1)));
-      const int last =
-          static_cast<int>(std::clamp(std::floor(x_hi - 0.5) + 1.0, 0.0, static_cast<double>(width - 1)));
-      int begin = first;
-      while (begin <= last && !owns(a, b, c, begin + 0.5, yc)) ++begin;
-      if (begin > last) continue;
-      while (begin > 0 && owns(a, b, c, begin - 0.5, yc)) --begin;
-      int end = begin + 1;
-      while (end < width && owns(a, b, c, end + 0.5, yc)) ++end;
-      visit(tri, row, begin, end);
-    }
+    detail::triangle_runs(t.vertices[t.triangles[tri][0]], t.vertices[t.triangles[tri][1]],
+                          t.vertices[t.triangles[tri][2]], width, height,
+                          [&](int row, int begin, int end) { visit(tri, row, begin, end); });
   }
+}
+
+// Each triangle's sums on the device (TrixelDevice::gpu).
+void gpu_trixel_sums(const Image& image, const cdt::Triangulation& t, bool opaque,
+                     std::vector<detail::TrixelSums>& sums) {
+#if TRIXEL_HAVE_CUDA
+  gpu::trixel_sums(image.rgba.data(), image.width, image.height, t.vertices.data(), t.vertices.size(),
+                   t.triangles.data(), t.triangles.size(), opaque, sums.data());
+#else
+  (void)image, (void)t, (void)opaque, (void)sums;
+  throw cdt::DeviceError("trixel colours on the device: this build has no CUDA support");
+#endif
 }
 
 // Bilinear interpolation between pixel centres, clamped at the border, of premultiplied colour so that
@@ -306,66 +184,63 @@ std::vector<std::uint32_t> owner_of_pixels(int width, int height, const cdt::Tri
   return owner;
 }
 
-TrixelColours colour_trixels(const Image& image, const cdt::Triangulation& t, unsigned threads) {
-  struct Sums {
-    double premultiplied[3] = {0, 0, 0};
-    double straight[3] = {0, 0, 0};
-    double alpha = 0;
-  };
-  std::vector<Sums> sums(t.triangles.size());
-  TrixelColours trixels(t.triangles.size());
-  // Each triangle's sums are its own and are added up by one thread in row order, so the result is the
-  // same for any number of threads.
-  const auto accumulate = [&](std::uint32_t tri, int row, int begin, int end) {
-    Sums& s = sums[tri];
-    for (int x = begin; x < end; ++x) {
-      const float* p = image.pixel(x, row);
-      for (int ch = 0; ch < 3; ++ch) {
-        s.premultiplied[ch] += static_cast<double>(p[ch]) * p[3];
-        s.straight[ch] += p[ch];
-      }
-      s.alpha += p[3];
-      if (p[3] >= 1.0f) trixels[tri].covers_solid = true;
-    }
-    trixels[tri].pixel_count += static_cast<std::uint32_t>(end - begin);
-  };
-  // Without transparency (every alpha exactly 1) the premultiplied sums are the straight ones and the
-  // alpha sum is the pixel count, exactly: only the straight sums are kept, in the same order, so the
-  // colours are the same to the bit.
-  const auto accumulate_opaque = [&](std::uint32_t tri, int row, int begin, int end) {
-    Sums& s = sums[tri];
-    double r = s.straight[0], g = s.straight[1], b = s.straight[2];
-    const float* p = image.pixel(begin, row);
-    for (int x = begin; x < end; ++x, p += 4) {
-      r += p[0];
-      g += p[1];
-      b += p[2];
-    }
-    s.straight[0] = r;
-    s.straight[1] = g;
-    s.straight[2] = b;
-    trixels[tri].pixel_count += static_cast<std::uint32_t>(end - begin);
-  };
+bool prepare_trixels_on_device(unsigned callers) noexcept {
+#if TRIXEL_HAVE_CUDA
+  try {
+    gpu::prepare_trixel_sums(callers);
+    return true;
+  } catch (...) {
+    return false; // a device that fails here fails again, with its error, in colour_trixels
+  }
+#else
+  (void)callers;
+  return false;
+#endif
+}
+
+TrixelColours colour_trixels(const Image& image, const cdt::Triangulation& t, unsigned threads,
+                             TrixelDevice device) {
   bool opaque = true;
   for (std::size_t i = 3; i < image.rgba.size() && opaque; i += 4) opaque = image.rgba[i] == 1.0f;
   const std::size_t count = t.triangles.size();
-  const auto parts = static_cast<unsigned>(
-      std::min<std::size_t>(resolve_threads(threads), std::max<std::size_t>(1, count / 4096)));
-  for_each_part(count, parts, [&](std::size_t first, std::size_t last, unsigned) {
-    if (opaque)
-      for_each_run(image.width, image.height, t, accumulate_opaque, first, last);
-    else
-      for_each_run(image.width, image.height, t, accumulate, first, last);
-  });
+  std::vector<detail::TrixelSums> sums(count);
+  if (device == TrixelDevice::gpu) {
+    gpu_trixel_sums(image, t, opaque, sums);
+  } else {
+    // Each triangle's sums are its own and are added up by one thread in row order, so the result is
+    // the same for any number of threads.
+    const auto parts = static_cast<unsigned>(
+        std::min<std::size_t>(resolve_threads(threads), std::max<std::size_t>(1, count / 4096)));
+    const std::size_t row_floats = static_cast<std::size_t>(image.width) * 4;
+    for_each_part(count, parts, [&](std::size_t first, std::size_t last, unsigned) {
+      if (opaque)
+        for_each_run(
+            image.width, image.height, t,
+            [&](std::uint32_t tri, int row, int begin, int end) {
+              detail::add_run_opaque(sums[tri], image.rgba.data() + row * row_floats, begin, end);
+            },
+            first, last);
+      else
+        for_each_run(
+            image.width, image.height, t,
+            [&](std::uint32_t tri, int row, int begin, int end) {
+              detail::add_run(sums[tri], image.rgba.data() + row * row_floats, begin, end);
+            },
+            first, last);
+    });
+  }
 
+  TrixelColours trixels(count);
   for (std::size_t tri = 0; tri < t.triangles.size(); ++tri) {
     Trixel& trixel = trixels[tri];
     const cdt::Point& a = t.vertices[t.triangles[tri][0]];
     const cdt::Point& b = t.vertices[t.triangles[tri][1]];
     const cdt::Point& c = t.vertices[t.triangles[tri][2]];
     trixel.area = 0.5 * std::abs((b.x - a.x) * (c.y - a.y) - (b.y - a.y) * (c.x - a.x));
+    const detail::TrixelSums& s = sums[tri];
+    trixel.pixel_count = s.pixel_count;
+    trixel.covers_solid = s.covers_solid != 0;
     if (trixel.pixel_count == 0) continue;
-    const Sums& s = sums[tri];
     const double n = trixel.pixel_count;
     if (opaque) {
       for (int ch = 0; ch < 3; ++ch) trixel.rgba[ch] = static_cast<float>(s.straight[ch] / n);

@@ -6,6 +6,7 @@
 #include <cstddef>
 #include <cstdint>
 #include <filesystem>
+#include <functional>
 #include <string>
 #include <string_view>
 #include <vector>
@@ -45,7 +46,8 @@ struct Options {
   SvgOptions svg;
   /// cdt::Backend::automatic takes the GPU, when there is one, for PSLGs of kDevicePslgPoints points or
   /// more, and the CPU below that; cpu and gpu are taken as they are. The SVG is the same whichever
-  /// runs: the CDT is unique, and the pipeline puts it in canonical order (cdt::canonicalize).
+  /// runs: the CDT is unique, and the pipeline puts it in canonical order (cdt::canonicalize). An image
+  /// whose CDT was made on the device has its trixel colours added up there too (TrixelDevice::gpu).
   cdt::Backend backend = cdt::Backend::automatic;
   /// Threads one conversion may use (simplification, the CDT engine's CPU executor, trixel colours);
   /// 0 uses every hardware thread. The output is the same for any number.
@@ -126,8 +128,11 @@ PslgStage convert_to_pslg(const Image& image, const Options& options = {}, Stage
 
 /// The rest of convert() given the PSLG's CDT: canonical order, trixel colours, grouping, polygons, SVG.
 /// The CDT stage's time runs from the end of the first half, so it includes any wait for the CDT.
+/// `device_done`, when given, is called once the conversion needs the CUDA device no more (after the
+/// trixel colours, which a CDT made on the device has made there too), not at all when it fails before.
 Conversion finish_conversion(const Image& image, const Options& options, PslgStage&& first,
-                             cdt::Triangulation triangulation, StageRecord* record = nullptr);
+                             cdt::Triangulation triangulation, StageRecord* record = nullptr,
+                             const std::function<void()>& device_done = {});
 
 /// Writes `content` to `path` through a temporary file in the same directory, renamed over `path`
 /// once complete, so that a failure never leaves a partial file. Throws FileError naming the path.

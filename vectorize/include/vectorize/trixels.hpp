@@ -40,6 +40,10 @@ struct Trixel {
 /// One Trixel per triangle, indexed like Triangulation::triangles.
 using TrixelColours = std::vector<Trixel>;
 
+/// Where colour_trixels() adds up each triangle's pixels: on the CPU, or on the CUDA device (a build
+/// with CUDA; the same sums to the bit, the same rule and order of operations).
+enum class TrixelDevice { cpu, gpu };
+
 /// The colour, pixel count and area of every triangle of t over image.
 ///
 /// Preconditions: t is a valid triangulation (counter-clockwise, non-degenerate triangles) whose
@@ -47,8 +51,17 @@ using TrixelColours = std::vector<Trixel>;
 /// Every pixel centre is then owned by exactly one triangle; pixel centres outside the domain (a
 /// violated precondition) are ignored. Time O(pixels + triangles + the summed heights of the
 /// triangles in pixel rows), memory O(triangles). `threads` > 1 shares the triangles among that many
-/// threads (0: every hardware thread); the result does not depend on it.
-TrixelColours colour_trixels(const Image& image, const cdt::Triangulation& t, unsigned threads = 1);
+/// threads (0: every hardware thread); the result does not depend on it, nor on `device`. With
+/// TrixelDevice::gpu the sums are made on the device (the image and the mesh copied there; `threads`
+/// unused); that throws cdt::DeviceError on a CUDA failure or in a build without CUDA.
+TrixelColours colour_trixels(const Image& image, const cdt::Triangulation& t, unsigned threads = 1,
+                             TrixelDevice device = TrixelDevice::cpu);
+
+/// Prepares TrixelDevice::gpu for `callers` threads calling colour_trixels() at once: loads its device
+/// code and pins host memory for their copies (16 MB per caller, at most 256 MB), so that their images
+/// do not wait for either. Returns false, doing nothing, in a build without CUDA or without a device;
+/// never throws.
+bool prepare_trixels_on_device(unsigned callers) noexcept;
 
 /// The triangle that owns each pixel centre, row-major from the top-left (width * height entries),
 /// cdt::kNone for a centre outside the domain of t. The fill rule: a centre p belongs to the
