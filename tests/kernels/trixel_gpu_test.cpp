@@ -137,10 +137,22 @@ TEST_F(TrixelSumsGpu, SameAsTheHostAtAPhotographsSize) {
   expect_same_sums(clear, random_mesh(768, 512, 30, 0, 6), false, "few large triangles, transparent");
 }
 
-TEST_F(TrixelSumsGpu, NoTrianglesNoWork) {
+// No triangles: nothing to do. No pixels: every triangle owns none (and reads no row).
+TEST_F(TrixelSumsGpu, EmptyInputsGiveEmptySums) {
   const Raster r = random_raster(8, 8, false, 1);
   EXPECT_NO_THROW(
       vectorize::gpu::trixel_sums(r.rgba.data(), r.width, r.height, nullptr, 0, nullptr, 0, true, nullptr));
+  const cdt::Triangulation t = random_mesh(8, 8, 20, 0, 2);
+  for (const int width : {0, 8}) {
+    std::vector<TrixelSums> got(t.triangles.size());
+    got[0].pixel_count = 7; // overwritten
+    vectorize::gpu::trixel_sums(nullptr, width, 8 - width, t.vertices.data(), t.vertices.size(),
+                                t.triangles.data(), t.triangles.size(), false, got.data());
+    for (const TrixelSums& s : got) {
+      EXPECT_EQ(s.pixel_count, 0u) << "width " << width;
+      EXPECT_EQ(s.alpha, 0.0) << "width " << width;
+    }
+  }
 }
 
 } // namespace
