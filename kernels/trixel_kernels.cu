@@ -37,10 +37,6 @@ __global__ void trixel_sums_kernel(const float* __restrict__ rgba, int width, in
   sums[tri] = s;
 }
 
-} // namespace
-
-namespace {
-
 // A free staging block held for one call; none when the copies do not fit one or every block is in
 // use (nothing is pinned on the way: that would stall the other threads' device work).
 class HeldStagingBlock {
