@@ -69,10 +69,6 @@ void trixel_sums(const float* rgba, int width, int height, const cdt::Point* ver
     throw cdt::DeviceError("trixel colours on the device: no CUDA device is available");
   const cudaStream_t stream = cudaStreamPerThread;
   const std::size_t pixels = width > 0 && height > 0 ? static_cast<std::size_t>(width) * height : 0;
-  if (pixels == 0) { // no pixel centre to own (and no row a triangle's runs may read)
-    std::fill(sums, sums + num_triangles, detail::TrixelSums{});
-    return;
-  }
   // Three vertex indices per triangle, as std::array<std::uint32_t, 3> lays them out.
   static_assert(sizeof(std::array<std::uint32_t, 3>) == 3 * sizeof(std::uint32_t));
   const std::size_t image_bytes = 4 * pixels * sizeof(float);
@@ -80,7 +76,7 @@ void trixel_sums(const float* rgba, int width, int height, const cdt::Point* ver
   const std::size_t triangle_bytes = num_triangles * sizeof(triangles[0]);
   const std::size_t sum_bytes = num_triangles * sizeof(detail::TrixelSums);
   DeviceBuffer<float> d_rgba(4 * pixels);
-  DeviceBuffer<cdt::Point> d_vertices(num_vertices + 1);
+  DeviceBuffer<cdt::Point> d_vertices(num_vertices);
   DeviceBuffer<std::uint32_t> d_triangles(3 * num_triangles);
   DeviceBuffer<detail::TrixelSums> d_sums(num_triangles);
 

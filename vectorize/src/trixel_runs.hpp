@@ -99,6 +99,7 @@ CDT_HD_INLINE void narrow_run(const EdgeHalfPlane& h, double yc, int width, int&
 template <class Visit>
 CDT_HD_INLINE void triangle_runs(const cdt::Point& a, const cdt::Point& b, const cdt::Point& c, int width,
                                  int height, Visit&& visit) {
+  if (width <= 0 || height <= 0) return; // no pixel centre (and the row bounds below need one)
   const double y_min = min_of(min_of(a.y, b.y), c.y);
   const double y_max = max_of(max_of(a.y, b.y), c.y);
   if (on_fine_grid(a.x) && on_fine_grid(a.y) && on_fine_grid(b.x) && on_fine_grid(b.y) && on_fine_grid(c.x) &&

@@ -29,7 +29,6 @@ namespace {
 template <class Visit>
 void for_each_run(int width, int height, const cdt::Triangulation& t, Visit&& visit,
                   std::size_t tri_begin = 0, std::size_t tri_end = SIZE_MAX) {
-  if (width <= 0 || height <= 0) return;
   tri_end = std::min(tri_end, t.triangles.size());
   for (auto tri = static_cast<std::uint32_t>(tri_begin); tri < tri_end; ++tri) {
     detail::triangle_runs(t.vertices[t.triangles[tri][0]], t.vertices[t.triangles[tri][1]],
