@@ -60,6 +60,24 @@ void* try_take_staging_block() noexcept;
 /// Gives a block of take_staging_block or try_take_staging_block back to the pool.
 void return_staging_block(void* block) noexcept;
 
+/// A free staging block held for one call (try_take_staging_block), or none when `wanted` is false or
+/// every block is in use: nothing is pinned on the way, which would stall the other threads' device
+/// work.
+class HeldStagingBlock {
+public:
+  explicit HeldStagingBlock(bool wanted)
+      : block_(wanted ? static_cast<unsigned char*>(try_take_staging_block()) : nullptr) {}
+  HeldStagingBlock(const HeldStagingBlock&) = delete;
+  HeldStagingBlock& operator=(const HeldStagingBlock&) = delete;
+  ~HeldStagingBlock() {
+    if (block_ != nullptr) return_staging_block(block_);
+  }
+  unsigned char* get() const { return block_; }
+
+private:
+  unsigned char* block_;
+};
+
 /// A device buffer owned by RAII; device memory from device_allocate, never managed memory.
 /// resize() keeps the allocation when it is large enough, so one buffer serves several phases; the
 /// contents are not kept when it grows.

@@ -15,6 +15,7 @@ namespace vectorize::gpu {
 namespace {
 
 using cdt::gpu::detail::DeviceBuffer;
+using cdt::gpu::detail::HeldStagingBlock;
 
 template <bool kOpaque>
 __global__ void trixel_sums_kernel(const float* __restrict__ rgba, int width, int height,
@@ -36,23 +37,6 @@ __global__ void trixel_sums_kernel(const float* __restrict__ rgba, int width, in
                         });
   sums[tri] = s;
 }
-
-// A free staging block held for one call; none when the copies do not fit one or every block is in
-// use (nothing is pinned on the way: that would stall the other threads' device work).
-class HeldStagingBlock {
-public:
-  explicit HeldStagingBlock(bool wanted)
-      : block_(wanted ? static_cast<unsigned char*>(cdt::gpu::detail::try_take_staging_block()) : nullptr) {}
-  HeldStagingBlock(const HeldStagingBlock&) = delete;
-  HeldStagingBlock& operator=(const HeldStagingBlock&) = delete;
-  ~HeldStagingBlock() {
-    if (block_ != nullptr) cdt::gpu::detail::return_staging_block(block_);
-  }
-  unsigned char* get() const { return block_; }
-
-private:
-  unsigned char* block_;
-};
 
 std::size_t aligned(std::size_t bytes) { return (bytes + 255) / 256 * 256; }
 

@@ -11,7 +11,9 @@
 #include <stdexcept>
 #include <vector>
 
-#include "../../vectorize/src/edges_row.hpp"
+#include "../../vectorize/src/edge_steps.hpp"
+#include "cdt/cdt.hpp"
+#include "cdt/errors.hpp"
 #include "stage_test_util.hpp"
 
 namespace {
@@ -180,63 +182,189 @@ Image banded_image(int shift, bool notch) {
   });
 }
 
-// The strongest-channel step (vectorised where the build allows) against the plain rule written out
-// here: the first channel of the largest gx^2 + gy^2, its derivatives rounded to the nearest integer,
-// ties to even, and clamped to 16 bits (cv::saturate_cast<short> within the range of int), and
-// the squared lengths of shape pixels in order. Rows of every length up to 11 (whole vectors and
-// leftovers), with ties between channels, halves (rounding ties), values beyond 16 bits and zeros.
+// The strongest-channel step against the plain rule written out here: the first channel of the
+// largest gx^2 + gy^2, its derivatives rounded to the nearest integer, ties to even, and clamped to 16
+// bits; with ties between channels, halves (rounding ties), values beyond 16 bits and zeros.
 TEST(Edges, StrongestChannelStepFollowsThePlainRule) {
   std::mt19937 random(7);
   const float specials[] = {0.0f,     0.5f,      1.5f,     2.5f,  -0.5f, -1.5f,
                             32767.5f, -32768.5f, 40000.0f, -1e6f, 3.0f,  -3.0f};
-  int checked = 0;
-  for (int width = 1; width <= 11; ++width) {
-    for (int trial = 0; trial < 200; ++trial) {
-      std::vector<float> gx(3 * static_cast<std::size_t>(width));
-      std::vector<float> gy(gx.size());
-      std::vector<std::uint8_t> shape(static_cast<std::size_t>(width));
-      for (std::size_t i = 0; i < gx.size(); ++i) {
-        const auto pick = [&] {
-          return random() % 3 == 0 ? specials[random() % std::size(specials)]
-                                   : static_cast<float>(static_cast<int>(random() % 20001) - 10000) / 8.0f;
-        };
-        gx[i] = pick();
-        gy[i] = pick();
-        if (random() % 4 == 0 && i % 3 != 0) { // the same length as the pixel's first channel
-          gx[i] = -gx[i - i % 3];
-          gy[i] = gy[i - i % 3];
-        }
+  const auto pick = [&] {
+    return random() % 3 == 0 ? specials[random() % std::size(specials)]
+                             : static_cast<float>(static_cast<int>(random() % 20001) - 10000) / 8.0f;
+  };
+  for (int trial = 0; trial < 20000; ++trial) {
+    float gx[3];
+    float gy[3];
+    for (int c = 0; c < 3; ++c) {
+      gx[c] = pick();
+      gy[c] = pick();
+      if (c > 0 && random() % 4 == 0) { // the same length as the first channel
+        gx[c] = -gx[0];
+        gy[c] = gy[0];
       }
-      for (auto& s : shape) s = random() % 3 != 0;
-      std::vector<short> out_x(static_cast<std::size_t>(width)), out_y(out_x.size());
-      std::vector<float> squared;
-      vectorize::detail::strongest_channel_row(gx.data(), gy.data(), shape.data(), width, out_x.data(),
-                                               out_y.data(), squared);
-      std::vector<float> expected_squared;
-      for (int x = 0; x < width; ++x) {
-        int best = 0;
-        float best_sq = -1.0f;
-        for (int c = 0; c < 3; ++c) {
-          const float a = gx[3 * x + c];
-          const float b = gy[3 * x + c];
-          const float sq = a * a + b * b;
-          if (sq > best_sq) {
-            best_sq = sq;
-            best = c;
+    }
+    int best = 0;
+    float best_sq = -1.0f;
+    for (int c = 0; c < 3; ++c) {
+      const float sq = gx[c] * gx[c] + gy[c] * gy[c];
+      if (sq > best_sq) {
+        best_sq = sq;
+        best = c;
+      }
+    }
+    const auto to_short = [](float v) {
+      return static_cast<int>(std::clamp(std::lrint(v), -32768L, 32767L));
+    };
+    const vectorize::detail::PixelGradient g =
+        vectorize::detail::strongest_channel(gx[0], gy[0], gx[1], gy[1], gx[2], gy[2]);
+    ASSERT_EQ(g.dx, to_short(gx[best])) << "trial " << trial;
+    ASSERT_EQ(g.dy, to_short(gy[best])) << "trial " << trial;
+    ASSERT_EQ(g.magnitude, static_cast<std::uint32_t>(g.dx * g.dx) + static_cast<std::uint32_t>(g.dy * g.dy));
+  }
+}
+
+// The host's gradient, made tap by tap across rows in bands, against the same steps evaluated pixel by
+// pixel with clamped coordinates, as the device evaluates them: equal to the bit, for blurs of several
+// widths (none included), images down to one pixel wide or high, and bands anywhere.
+TEST(Edges, GradientRowsFollowThePerPixelSteps) {
+  namespace d = vectorize::detail;
+  std::mt19937 random(11);
+  int compared = 0;
+  for (const double sigma : {0.0, 0.3, 0.7, 1.2, 2.5}) {
+    const d::BlurTaps taps = d::blur_taps(sigma);
+    for (const auto& [width, height] :
+         std::vector<std::pair<int, int>>{{1, 1}, {1, 9}, {9, 1}, {2, 3}, {17, 12}, {40, 33}}) {
+      std::vector<float> rgba(static_cast<std::size_t>(width) * height * 4);
+      for (float& v : rgba) v = static_cast<float>(random() % 65536) / 65535.0f;
+      const auto value = [&](int x, int y, int c) {
+        x = std::clamp(x, 0, width - 1);
+        y = std::clamp(y, 0, height - 1);
+        return rgba[(static_cast<std::size_t>(y) * width + x) * 4 + c] * d::kEdgeScale;
+      };
+      const auto across = [&](int x, int y, int c) {
+        float acc = taps.radius == 0 ? value(x, y, c) : taps.weight[0] * value(x, y, c);
+        for (int k = 1; k <= taps.radius; ++k)
+          acc = d::add_taps(acc, taps.weight[k], value(x - k, y, c), value(x + k, y, c));
+        return acc;
+      };
+      const auto blurred = [&](int x, int y, int c) {
+        x = std::clamp(x, 0, width - 1);
+        y = std::clamp(y, 0, height - 1);
+        float acc = taps.radius == 0 ? across(x, y, c) : taps.weight[0] * across(x, y, c);
+        for (int k = 1; k <= taps.radius; ++k)
+          acc = d::add_taps(acc, taps.weight[k], across(x, std::max(0, y - k), c),
+                            across(x, std::min(height - 1, y + k), c));
+        return acc;
+      };
+      const std::size_t n = static_cast<std::size_t>(width) * height;
+      std::vector<std::int16_t> dx(n, 0x5555), dy(n, 0x5555);
+      std::vector<std::uint32_t> magnitude(n, 0x55555555);
+      d::GradientScratch scratch;
+      const auto source = [&](int y, float* const* planes) {
+        for (int x = 0; x < width; ++x)
+          for (int c = 0; c < 3; ++c)
+            planes[c][x] = rgba[(static_cast<std::size_t>(y) * width + x) * 4 + c] * d::kEdgeScale;
+      };
+      // Bands of random heights covering the rows.
+      for (int r0 = 0; r0 < height;) {
+        const int r1 = std::min(height, r0 + 1 + static_cast<int>(random() % 7));
+        d::gradient_rows(source, width, height, taps, r0, r1, dx.data(), dy.data(), magnitude.data(),
+                         scratch);
+        r0 = r1;
+      }
+      for (int y = 0; y < height; ++y)
+        for (int x = 0; x < width; ++x) {
+          float gx[3];
+          float gy[3];
+          for (int c = 0; c < 3; ++c) {
+            gx[c] = d::sobel_x(blurred(x - 1, y - 1, c), blurred(x + 1, y - 1, c), blurred(x - 1, y, c),
+                               blurred(x + 1, y, c), blurred(x - 1, y + 1, c), blurred(x + 1, y + 1, c));
+            gy[c] = d::sobel_y(blurred(x - 1, y - 1, c), blurred(x, y - 1, c), blurred(x + 1, y - 1, c),
+                               blurred(x - 1, y + 1, c), blurred(x, y + 1, c), blurred(x + 1, y + 1, c));
           }
+          const d::PixelGradient g = d::strongest_channel(gx[0], gy[0], gx[1], gy[1], gx[2], gy[2]);
+          const std::size_t i = static_cast<std::size_t>(y) * width + x;
+          ASSERT_EQ(dx[i], g.dx) << "sigma " << sigma << " size " << width << "x" << height << " at " << x
+                                 << "," << y;
+          ASSERT_EQ(dy[i], g.dy) << "sigma " << sigma << " size " << width << "x" << height << " at " << x
+                                 << "," << y;
+          ASSERT_EQ(magnitude[i], g.magnitude);
+          ++compared;
         }
-        const auto to_short = [](float v) {
-          return static_cast<short>(std::clamp(std::lrint(v), -32768L, 32767L));
-        };
-        EXPECT_EQ(out_x[x], to_short(gx[3 * x + best])) << "width " << width << " x " << x;
-        EXPECT_EQ(out_y[x], to_short(gy[3 * x + best])) << "width " << width << " x " << x;
-        if (shape[x]) expected_squared.push_back(best_sq);
-        ++checked;
-      }
-      EXPECT_EQ(squared, expected_squared);
     }
   }
-  EXPECT_EQ(checked, 200 * 66);
+  EXPECT_EQ(compared, 5 * (1 + 9 + 9 + 6 + 17 * 12 + 40 * 33));
+}
+
+// The hysteresis keeps the candidates 8-connected to a strong pixel through candidates, diagonals
+// included, and drops the others.
+TEST(Edges, HysteresisKeepsCandidatesConnectedToStrongPixels) {
+  namespace d = vectorize::detail;
+  // 0: not an edge, 1: candidate, 2: strong.
+  const std::vector<std::uint8_t> before = {
+      1, 1, 0, 0, 0, 0, //
+      0, 0, 1, 0, 0, 1, //
+      0, 0, 0, 2, 0, 1, //
+      0, 1, 0, 0, 0, 0, //
+      1, 0, 0, 0, 1, 1, //
+  };
+  const std::vector<std::uint8_t> after = {
+      2, 2, 0, 0, 0, 0, //
+      0, 0, 2, 0, 0, 1, //
+      0, 0, 0, 2, 0, 1, //
+      0, 1, 0, 0, 0, 0, //
+      1, 0, 0, 0, 1, 1, //
+  };
+  std::vector<std::uint8_t> classes = before;
+  d::hysteresis(classes.data(), 6, 5);
+  EXPECT_EQ(classes, after);
+}
+
+// The suppression keeps a pixel that exceeds its neighbour against the gradient and equals or exceeds
+// the one along it, in each of the four sectors, and classes it by the thresholds.
+TEST(Edges, SuppressionComparesAlongTheGradient) {
+  namespace d = vectorize::detail;
+  const d::SquaredThresholds t{100, 400};
+  // Rows above, at and below the pixel (x = 1 of 3).
+  const std::uint32_t up[3] = {10, 20, 30};
+  const std::uint32_t mid[3] = {40, 200, 60};
+  const std::uint32_t down[3] = {70, 80, 90};
+  EXPECT_EQ(d::suppress(10, 0, 200, up, mid, down, 1, 3, t), d::kCandidate);   // along x: 40 and 60
+  EXPECT_EQ(d::suppress(0, 10, 200, up, mid, down, 1, 3, t), d::kCandidate);   // along y: 20 and 80
+  EXPECT_EQ(d::suppress(10, 10, 200, up, mid, down, 1, 3, t), d::kCandidate);  // down-right: 10 and 90
+  EXPECT_EQ(d::suppress(10, -10, 200, up, mid, down, 1, 3, t), d::kCandidate); // down-left: 30 and 70
+  EXPECT_EQ(d::suppress(10, 0, 60, up, mid, down, 1, 3, t), d::kNotEdge);      // at most the low threshold
+  EXPECT_EQ(d::suppress(10, 0, 500, up, mid, down, 1, 3, t), d::kStrong);
+  const std::uint32_t high_after[3] = {40, 200, 200};
+  EXPECT_EQ(d::suppress(10, 0, 200, up, high_after, down, 1, 3, t), d::kCandidate); // equal along: kept
+  const std::uint32_t high_before[3] = {200, 200, 60};
+  EXPECT_EQ(d::suppress(10, 0, 200, up, high_before, down, 1, 3, t), d::kNotEdge); // equal against: not
+  // Outside the image a magnitude is 0.
+  EXPECT_EQ(d::suppress(0, 10, 200, nullptr, mid, nullptr, 1, 3, t), d::kCandidate);
+  EXPECT_EQ(d::suppress(10, 0, 200, up, mid, down, 0, 1, t), d::kCandidate);
+}
+
+// EdgeDevice::gpu: the same edges as the CPU's with a device (an image with transparency stays on the
+// CPU), cdt::DeviceError without one or without CUDA.
+TEST(Edges, OnTheDeviceTheSameEdgesOrAClearError) {
+  std::mt19937 random(5);
+  const Image opaque = make_image(61, 47, [&](int x, int y) {
+    const float v = (x - 30) * (x - 30) + (y - 20) * (y - 20) < 200 ? 0.8f : 0.2f;
+    return std::array<float, 4>{v, 0.5f + static_cast<float>(random() % 100) / 1000.0f, 1.0f - v, 1.0f};
+  });
+  Image translucent = opaque;
+  for (int x = 0; x < 20; ++x) translucent.pixel(x, 3)[3] = 0.0f;
+  EdgeOptions options;
+  if (cdt::gpu_device_count() == 0) {
+    EXPECT_THROW(vectorize::detect_edges(opaque, options, 1, vectorize::EdgeDevice::gpu), cdt::DeviceError);
+    return;
+  }
+  for (const Image& image : {opaque, translucent}) {
+    const EdgeMap on_cpu = vectorize::detect_edges(image, options, 1);
+    EXPECT_GT(count_edges(on_cpu), 20);
+    EXPECT_EQ(vectorize::detect_edges(image, options, 1, vectorize::EdgeDevice::gpu).on, on_cpu.on);
+  }
 }
 
 } // namespace

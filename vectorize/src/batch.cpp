@@ -150,9 +150,11 @@ void set_seconds(Flight& f) {
   f.result.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - f.start).count();
 }
 
-// The first half of a job: checks, decoding, the conversion up to its PSLG. False when the job has
-// ended already (skipped, or failed: the result says why).
-bool begin_job(Flight& f, const BatchJob& job, const BatchOptions& options, const Options& conversion) {
+// The first half of a job: checks, decoding, the conversion up to its PSLG (its edges on the device
+// when the GPU backend is asked for and `device_ready`). False when the job has ended already (skipped,
+// or failed: the result says why).
+bool begin_job(Flight& f, const BatchJob& job, const BatchOptions& options, const Options& conversion,
+               bool device_ready) {
   f.result.job = job;
   f.start = std::chrono::steady_clock::now();
   std::error_code ec;
@@ -168,7 +170,7 @@ bool begin_job(Flight& f, const BatchJob& job, const BatchOptions& options, cons
         fs::is_regular_file(job.input, ec) ? static_cast<std::size_t>(fs::file_size(job.input, ec)) : 0;
     f.image = load_image(job.input, options.max_pixels);
     f.debug = !job.debug.empty() && static_cast<bool>(options.write_debug);
-    f.first = convert_to_pslg(f.image, conversion, f.debug ? &f.record : nullptr);
+    f.first = convert_to_pslg(f.image, conversion, f.debug ? &f.record : nullptr, device_ready);
     return true;
   } catch (...) {
     fail(f.result);
@@ -275,6 +277,10 @@ public:
     return state_.load() == kStarting ? cdt::Backend::cpu : asked;
   }
 
+  /// Whether the device may be used now without waiting for its start: it is up (or was never to be
+  /// started here, so that a first use starts it). Never blocks.
+  bool ready() const { return !thread_.joinable() || state_.load() == kUp; }
+
   /// Once the batch needs the device no more: gives it back (cdt::stop_gpu) after the start-up is
   /// done, so that the driver's cleanup overlaps the last images' conversion instead of following the
   /// batch at the process's exit. Only when this batch started CUDA.
@@ -369,7 +375,7 @@ private:
         ++in_flight_;
         ++owed_;
         lock.unlock();
-        bool begun = begin_job(*f, jobs_[f->index], options_, conversion_);
+        bool begun = begin_job(*f, jobs_[f->index], options_, conversion_, device_.ready());
         if (begun && device_.backend_now(cdt_options_.backend) != cdt_options_.backend) {
           triangulate_here(*f, cdt::Backend::cpu);
           end_job(*f, options_, conversion_);
@@ -513,7 +519,7 @@ std::vector<JobResult> run_batch(const std::vector<BatchJob>& jobs, const BatchO
         const std::size_t k = next.fetch_add(1);
         if (k >= jobs.size()) return;
         Flight f;
-        if (begin_job(f, jobs[k], options, conversion)) {
+        if (begin_job(f, jobs[k], options, conversion, device.ready())) {
           triangulate_here(f, device.backend_now(f.first.cdt_options.backend));
           end_job(f, options, conversion);
         }

@@ -90,7 +90,8 @@ private:
 
 } // namespace
 
-PslgStage convert_to_pslg(const Image& image, const Options& options, StageRecord* record) {
+PslgStage convert_to_pslg(const Image& image, const Options& options, StageRecord* record,
+                          bool device_ready) {
   if (image.width <= 0 || image.height <= 0) throw Error("the image has zero size");
   PslgStage out;
   Stats& stats = out.stats;
@@ -98,7 +99,9 @@ PslgStage convert_to_pslg(const Image& image, const Options& options, StageRecor
   stats.height = image.height;
   StageTimer timer(stats);
 
-  const EdgeMap edges = detect_edges(image, options.edges, options.threads);
+  const EdgeDevice edge_device =
+      options.backend == cdt::Backend::gpu && device_ready ? EdgeDevice::gpu : EdgeDevice::cpu;
+  const EdgeMap edges = detect_edges(image, options.edges, options.threads, edge_device);
   for (const std::uint8_t e : edges.on) stats.edge_pixels += e;
   timer.end("edges");
   const std::vector<Chain> chains = trace_chains(edges);

@@ -37,18 +37,28 @@ struct EdgeOptions {
   double min_auto_high = 40.0;
 };
 
-/// Edge pixels of the image: Canny (non-maximum suppression and hysteresis) on the per-pixel gradient
-/// of the colour channel with the largest gradient magnitude. Pixels with alpha < 0.5 are "no shape":
-/// they are never edges, their colour is replaced by the nearest shape pixel's so that it neither makes
-/// edges in the transparent area nor at its border, and the shape pixels that have a no-shape
-/// 4-neighbour (the inside of the shape's outline) are always edges. Grey and 16-bit inputs need
-/// nothing special (Image holds floats). An empty image gives an empty map; throws
-/// std::invalid_argument when image.rgba does not hold width * height * 4 values or an option is out
-/// of range. The gradient is computed in bands of rows, on up to `threads` threads (0: every hardware
-/// thread); the result is the same for any number.
-EdgeMap detect_edges(const Image& image, const EdgeOptions& options = {}, unsigned threads = 1);
+/// Where detect_edges() runs: on the CPU, or on the CUDA device (a build with CUDA; the same edges, the
+/// same steps and order of operations).
+enum class EdgeDevice { cpu, gpu };
 
-/// Process-wide: how many threads OpenCV's own parallel functions (Canny, the blur) may use; 0 or 1 runs
+/// Edge pixels of the image: Canny (non-maximum suppression and hysteresis) on the per-pixel gradient
+/// of the colour channel with the largest gradient magnitude, after a Gaussian blur (taps reaching
+/// about 4 sigma, at most 64 pixels); blur and 3x3 Sobel filter replicate the border. Pixels with
+/// alpha < 0.5 are "no shape": they are never edges, their colour is replaced by the nearest shape
+/// pixel's so that it neither makes edges in the transparent area nor at its border, and the shape
+/// pixels that have a no-shape 4-neighbour (the inside of the shape's outline) are always edges. Grey
+/// and 16-bit inputs need nothing special (Image holds floats). An empty image gives an empty map;
+/// throws std::invalid_argument when image.rgba does not hold width * height * 4 values or an option
+/// is out of range. On the CPU the gradient is computed in bands of rows, on up to `threads` threads
+/// (0: every hardware thread). EdgeDevice::gpu makes the edges of an image without no-shape pixels on
+/// the device (`threads` unused; other images stay on the CPU) and throws cdt::DeviceError on a CUDA
+/// failure or in a build without CUDA. The result depends on neither `threads` nor `device`, nor on
+/// the processor's vector instructions.
+EdgeMap detect_edges(const Image& image, const EdgeOptions& options = {}, unsigned threads = 1,
+                     EdgeDevice device = EdgeDevice::cpu);
+
+/// Process-wide: how many threads OpenCV's own parallel functions (the distance transform that fills
+/// no-shape pixels' colours) may use; 0 or 1 runs
 /// them on the calling thread. OpenCV's pool is global, so a program sets it once, before converting:
 /// left alone it is every core, for each of a batch's images at once.
 void set_opencv_threads(unsigned threads);

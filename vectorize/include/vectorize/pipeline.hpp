@@ -47,7 +47,8 @@ struct Options {
   /// cdt::Backend::automatic takes the GPU, when there is one, for PSLGs of kDevicePslgPoints points or
   /// more, and the CPU below that; cpu and gpu are taken as they are. The SVG is the same whichever
   /// runs: the CDT is unique, and the pipeline puts it in canonical order (cdt::canonicalize). An image
-  /// whose CDT was made on the device has its trixel colours added up there too (TrixelDevice::gpu).
+  /// whose CDT was made on the device has its trixel colours added up there too (TrixelDevice::gpu);
+  /// with cdt::Backend::gpu its edges are found there as well (EdgeDevice::gpu), the same edges.
   cdt::Backend backend = cdt::Backend::automatic;
   /// Threads one conversion may use (simplification, the CDT engine's CPU executor, trixel colours);
   /// 0 uses every hardware thread. The output is the same for any number.
@@ -124,7 +125,10 @@ struct PslgStage {
 };
 
 /// The stages of convert() up to the PSLG (edges, chains, simplification, PSLG); `record` gets theirs.
-PslgStage convert_to_pslg(const Image& image, const Options& options = {}, StageRecord* record = nullptr);
+/// With options.backend cdt::Backend::gpu the edges are found on the device unless `device_ready` is
+/// false (a batch whose device is still starting finds them on the CPU meanwhile: the same edges).
+PslgStage convert_to_pslg(const Image& image, const Options& options = {}, StageRecord* record = nullptr,
+                          bool device_ready = true);
 
 /// The rest of convert() given the PSLG's CDT: canonical order, trixel colours, grouping, polygons, SVG.
 /// The CDT stage's time runs from the end of the first half, so it includes any wait for the CDT.

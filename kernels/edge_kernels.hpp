@@ -1,0 +1,21 @@
+#pragma once
+// Host-callable entry point of stage 2 (edge pixels) on the device. This header includes no CUDA
+// header.
+
+#include <cstdint>
+
+#include "edge_steps.hpp" // vectorize/src: the steps, shared with the host
+
+namespace vectorize::gpu {
+
+/// The suppression's classes (detail::kNotEdge, kCandidate or kStrong, before the hysteresis), width *
+/// height of them row-major, of the opaque width x height image of RGBA floats `rgba` (row-major), as
+/// the host makes them with detail::gradient_rows (the colour scaled by detail::kEdgeScale),
+/// detail::edge_thresholds over every pixel's squared magnitude and detail::suppress_rows: the same
+/// classes. Runs on the calling thread's default stream (cudaStreamPerThread) and returns when they are
+/// in host memory; copies that fit go through a free one of the pinned staging blocks the CDT engine's
+/// copies use. Throws cdt::DeviceError on any CUDA failure.
+void edge_classes(const float* rgba, int width, int height, const detail::BlurTaps& taps,
+                  const detail::ThresholdRule& rule, std::uint8_t* classes);
+
+} // namespace vectorize::gpu

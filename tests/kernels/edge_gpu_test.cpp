@@ -1,0 +1,128 @@
+// Stage 2's edges on the device (vectorize::gpu::edge_classes) against the host running the same steps
+// (vectorize/src/edge_steps.hpp: gradient_rows in bands, edge_thresholds, suppress_rows): the same
+// classes, pixel for pixel, with and without blur, with automatic and given thresholds, on images down
+// to one pixel wide or high and at a photograph's size.
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdint>
+#include <random>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include "cdt/cdt.hpp"
+#include "edge_kernels.hpp"
+
+namespace {
+
+namespace d = vectorize::detail;
+
+struct Raster {
+  int width = 0;
+  int height = 0;
+  std::vector<float> rgba;
+};
+
+// Discs and a ramp of different colours under 16-bit noise: edges of every direction, flat areas and
+// faint texture, so that the quantile, the suppression's four sectors and the hysteresis all matter.
+Raster test_image(int width, int height, unsigned seed) {
+  std::mt19937 rng(seed);
+  std::uniform_real_distribution<float> noise(-0.02f, 0.02f);
+  std::uniform_real_distribution<float> unit(0.0f, 1.0f);
+  struct Disc {
+    float x, y, r, colour[3];
+  };
+  std::vector<Disc> discs;
+  for (int k = 0; k < 6; ++k)
+    discs.push_back({unit(rng) * width,
+                     unit(rng) * height,
+                     (0.1f + 0.3f * unit(rng)) * std::max(width, height),
+                     {unit(rng), unit(rng), unit(rng)}});
+  Raster r{width, height, std::vector<float>(static_cast<std::size_t>(width) * height * 4)};
+  for (int y = 0; y < height; ++y)
+    for (int x = 0; x < width; ++x) {
+      float c[3] = {0.3f * x / std::max(1, width), 0.5f, 0.2f + 0.5f * y / std::max(1, height)};
+      for (const Disc& disc : discs)
+        if ((x - disc.x) * (x - disc.x) + (y - disc.y) * (y - disc.y) < disc.r * disc.r)
+          for (int i = 0; i < 3; ++i) c[i] = disc.colour[i];
+      float* p = &r.rgba[(static_cast<std::size_t>(y) * width + x) * 4];
+      for (int i = 0; i < 3; ++i)
+        p[i] = std::round(std::clamp(c[i] + noise(rng), 0.0f, 1.0f) * 65535.0f) / 65535.0f;
+      p[3] = 1.0f;
+    }
+  return r;
+}
+
+std::vector<std::uint8_t> host_classes(const Raster& r, const d::BlurTaps& taps,
+                                       const d::ThresholdRule& rule) {
+  const std::size_t n = static_cast<std::size_t>(r.width) * r.height;
+  std::vector<std::int16_t> dx(n), dy(n);
+  std::vector<std::uint32_t> magnitude(n);
+  d::GradientScratch scratch;
+  const auto source = [&](int y, float* const* planes) {
+    for (int x = 0; x < r.width; ++x)
+      for (int c = 0; c < 3; ++c)
+        planes[c][x] = r.rgba[(static_cast<std::size_t>(y) * r.width + x) * 4 + c] * d::kEdgeScale;
+  };
+  for (int r0 = 0; r0 < r.height; r0 += 16)
+    d::gradient_rows(source, r.width, r.height, taps, r0, std::min(r.height, r0 + 16), dx.data(), dy.data(),
+                     magnitude.data(), scratch);
+  const d::SquaredThresholds t = d::edge_thresholds(rule, magnitude.data(), n);
+  std::vector<std::uint8_t> classes(n);
+  d::suppress_rows(dx.data(), dy.data(), magnitude.data(), r.width, r.height, t, 0, r.height, classes.data());
+  return classes;
+}
+
+// Expects the device's classes to equal the host's; returns how many pixels are strong.
+std::size_t expect_same_classes(const Raster& r, double sigma, const d::ThresholdRule& rule,
+                                const std::string& what) {
+  const d::BlurTaps taps = d::blur_taps(sigma);
+  const std::vector<std::uint8_t> expected = host_classes(r, taps, rule);
+  std::vector<std::uint8_t> got(expected.size(), 0x55);
+  vectorize::gpu::edge_classes(r.rgba.data(), r.width, r.height, taps, rule, got.data());
+  std::size_t strong = 0;
+  for (std::size_t i = 0; i < expected.size(); ++i) {
+    EXPECT_EQ(got[i], expected[i]) << what << ", pixel " << i % r.width << "," << i / r.width;
+    if (got[i] != expected[i]) break;
+    strong += got[i] == d::kStrong;
+  }
+  return strong;
+}
+
+class EdgesGpu : public ::testing::Test {
+protected:
+  void SetUp() override {
+    if (cdt::gpu_device_count() == 0) GTEST_SKIP() << "no CUDA device";
+  }
+};
+
+TEST_F(EdgesGpu, SameClassesAsTheHost) {
+  d::ThresholdRule automatic;
+  d::ThresholdRule given;
+  given.low = 20.0;
+  given.high = 60.0;
+  d::ThresholdRule high_only;
+  high_only.high = 45.0;
+  const std::vector<std::pair<int, int>> sizes = {{1, 1}, {1, 7}, {7, 1}, {2, 2}, {33, 17}, {160, 120}};
+  std::size_t strong = 0;
+  unsigned seed = 1;
+  for (const auto& [width, height] : sizes)
+    for (const double sigma : {0.0, 0.7, 1.2, 3.0})
+      for (const auto& [rule, name] : {std::pair{automatic, "automatic"}, std::pair{given, "given"},
+                                       std::pair{high_only, "high only"}}) {
+        const Raster r = test_image(width, height, seed++);
+        strong += expect_same_classes(r, sigma, rule,
+                                      std::to_string(width) + "x" + std::to_string(height) + ", sigma " +
+                                          std::to_string(sigma) + ", thresholds " + name);
+      }
+  EXPECT_GT(strong, 1000u); // edges were found, not only compared
+}
+
+TEST_F(EdgesGpu, SameClassesAtAPhotographsSize) {
+  const Raster r = test_image(768, 512, 99);
+  for (const double sigma : {1.0, 1.2}) EXPECT_GT(expect_same_classes(r, sigma, {}, "768x512"), 1000u);
+}
+
+} // namespace
