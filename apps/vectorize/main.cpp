@@ -333,8 +333,10 @@ int main(int argc, char** argv) {
   app.add_option("--backend", backend_name,
                  "CDT engine: auto (the GPU when present, for PSLGs of " +
                      std::to_string(vectorize::kDevicePslgPoints) +
-                     " points or more; the CPU below), cpu or gpu (in batch mode, images that come "
-                     "before the device has started are triangulated on the CPU: the same result)")
+                     " points or more; the CPU below), cpu or gpu (the edges too are then found on "
+                     "the device, and an image whose CDT was made there gets its colours there; in batch "
+                     "mode, images that come before the device has started stay on the CPU: the same "
+                     "result)")
       ->check(CLI::IsMember({"auto", "cpu", "gpu"}))
       ->capture_default_str();
   app.add_option("--stats", stats_format, "Print per-stage times and counts to stderr: text or json")
