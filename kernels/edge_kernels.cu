@@ -161,4 +161,14 @@ void edge_classes(const float* rgba, int width, int height, const detail::BlurTa
   if (block.get() != nullptr) std::memcpy(classes, block.get(), pixels);
 }
 
+void prepare_edge_classes() {
+  if (cdt::gpu::device_count() == 0)
+    throw cdt::DeviceError("edges on the device: no CUDA device is available");
+  cudaFuncAttributes attributes{};
+  CDT_CUDA_CHECK(cudaFuncGetAttributes(&attributes, blur_across_kernel));
+  CDT_CUDA_CHECK(cudaFuncGetAttributes(&attributes, blur_down_kernel));
+  CDT_CUDA_CHECK(cudaFuncGetAttributes(&attributes, gradient_kernel));
+  CDT_CUDA_CHECK(cudaFuncGetAttributes(&attributes, suppress_kernel));
+}
+
 } // namespace vectorize::gpu

@@ -18,4 +18,9 @@ namespace vectorize::gpu {
 void edge_classes(const float* rgba, int width, int height, const detail::BlurTaps& taps,
                   const detail::ThresholdRule& rule, std::uint8_t* classes);
 
+/// Loads edge_classes' device code, so that a first call does not wait for it (loading a kernel holds
+/// the driver's lock, stalling every other thread's device work). Its copies use the staging blocks
+/// prepare_trixel_sums pins. Throws cdt::DeviceError.
+void prepare_edge_classes();
+
 } // namespace vectorize::gpu

@@ -23,9 +23,10 @@ void trixel_sums(const float* rgba, int width, int height, const cdt::Point* ver
                  std::size_t num_triangles, bool opaque, detail::TrixelSums* sums);
 
 /// Loads trixel_sums' device code and pins a staging block (16 MB) for each of `callers` threads that
-/// will call it at once, at most 16, so that the calls do not wait for either (loading a kernel module
-/// and pinning host memory hold the driver's lock, stalling every other thread's device work; a call
-/// that finds no free block copies from pageable memory instead). Throws cdt::DeviceError.
+/// will call it at once, at most 4, so that the calls do not wait for either (loading a kernel module
+/// and pinning host memory hold the driver's lock, stalling every other thread's device work). A call
+/// holds a block only while it copies, so a few serve many callers; one that finds none free copies
+/// from pageable memory instead. Throws cdt::DeviceError.
 void prepare_trixel_sums(std::size_t callers);
 
 } // namespace vectorize::gpu

@@ -244,8 +244,9 @@ bool shares_cdt(const BatchOptions& options, std::size_t num_jobs) {
 // it). Until the device is up, a worker triangulates its image on the CPU instead: the CDT is the
 // same on every backend, so the SVG is too (the report names the backend each image used). Whether
 // there is a device at all is settled first, and takes a fraction of the start: without one the
-// images go to the GPU backend as asked, and fail with its error. The start also readies the trixel
-// colours on the device for the workers (prepare_trixels_on_device).
+// images go to the GPU backend as asked, and fail with its error. The start also readies the edges and
+// the trixel colours on the device for the workers (prepare_edges_on_device,
+// prepare_trixels_on_device).
 class DeviceStart {
 public:
   /// `workers`: the threads that will make trixel colours on the device at once.
@@ -256,7 +257,10 @@ public:
         const bool found = cdt::gpu_device_count() > 0;
         state_.store(found ? kStarting : kUp);
         state_.notify_all();
-        if (found && cdt::start_gpu()) prepare_trixels_on_device(workers);
+        if (found && cdt::start_gpu()) {
+          prepare_trixels_on_device(workers);
+          prepare_edges_on_device();
+        }
         state_.store(kUp);
         state_.notify_all();
       });

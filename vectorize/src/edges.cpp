@@ -214,6 +214,19 @@ EdgeMap detect_edges(const Image& image, const EdgeOptions& options, unsigned th
   return map;
 }
 
+bool prepare_edges_on_device() noexcept {
+#if TRIXEL_HAVE_CUDA
+  try {
+    gpu::prepare_edge_classes();
+    return true;
+  } catch (...) {
+    return false; // a device that fails here fails again, with its error, in detect_edges
+  }
+#else
+  return false;
+#endif
+}
+
 void set_opencv_threads(unsigned threads) {
   // No more than the machine runs at once: OpenCV's TBB back end refuses (and prints a warning for)
   // more workers than that.

@@ -57,6 +57,11 @@ enum class EdgeDevice { cpu, gpu };
 EdgeMap detect_edges(const Image& image, const EdgeOptions& options = {}, unsigned threads = 1,
                      EdgeDevice device = EdgeDevice::cpu);
 
+/// Prepares EdgeDevice::gpu: loads its device code, so that a first image does not wait for it (its
+/// copies go through the pinned blocks prepare_trixels_on_device sets aside). Returns false, doing
+/// nothing, in a build without CUDA or without a device; never throws.
+bool prepare_edges_on_device() noexcept;
+
 /// Process-wide: how many threads OpenCV's own parallel functions (the distance transform that fills
 /// no-shape pixels' colours) may use; 0 or 1 runs
 /// them on the calling thread. OpenCV's pool is global, so a program sets it once, before converting:

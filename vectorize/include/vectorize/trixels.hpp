@@ -58,9 +58,9 @@ TrixelColours colour_trixels(const Image& image, const cdt::Triangulation& t, un
                              TrixelDevice device = TrixelDevice::cpu);
 
 /// Prepares TrixelDevice::gpu for `callers` threads calling colour_trixels() at once: loads its device
-/// code and pins host memory for their copies (16 MB per caller, at most 256 MB), so that their images
-/// do not wait for either. Returns false, doing nothing, in a build without CUDA or without a device;
-/// never throws.
+/// code and pins host memory for their copies (16 MB per caller, at most 64 MB; the edges' copies on
+/// the device use it too), so that their images do not wait for either. Returns false, doing nothing, in a
+/// build without CUDA or without a device; never throws.
 bool prepare_trixels_on_device(unsigned callers) noexcept;
 
 /// The triangle that owns each pixel centre, row-major from the top-left (width * height entries),
