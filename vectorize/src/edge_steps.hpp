@@ -37,8 +37,9 @@ namespace vectorize::detail {
 constexpr float kEdgeScale = 255.0f * 16.0f;
 /// Thresholds are given in the units of a Sobel filter on 8-bit values.
 constexpr double kEdgeThresholdScale = kEdgeScale / 255.0;
-/// The widest blur: taps reach at most this many pixels from the centre (sigma up to 16).
-constexpr int kMaxBlurRadius = 64;
+/// The widest blur: taps reach at most this many pixels from the centre (sigma up to 50, the most
+/// vectorize's --blur takes).
+constexpr int kMaxBlurRadius = 200;
 
 /// A Gaussian's taps: weight[0] at the centre, weight[i] at distance i, for i <= radius.
 struct BlurTaps {

@@ -43,7 +43,7 @@ enum class EdgeDevice { cpu, gpu };
 
 /// Edge pixels of the image: Canny (non-maximum suppression and hysteresis) on the per-pixel gradient
 /// of the colour channel with the largest gradient magnitude, after a Gaussian blur (taps reaching
-/// about 4 sigma, at most 64 pixels); blur and 3x3 Sobel filter replicate the border. Pixels with
+/// about 4 sigma, at most 200 pixels); blur and 3x3 Sobel filter replicate the border. Pixels with
 /// alpha < 0.5 are "no shape": they are never edges, their colour is replaced by the nearest shape
 /// pixel's so that it neither makes edges in the transparent area nor at its border, and the shape
 /// pixels that have a no-shape 4-neighbour (the inside of the shape's outline) are always edges. Grey
