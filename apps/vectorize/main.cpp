@@ -281,7 +281,7 @@ int main(int argc, char** argv) {
                  "Batch mode: cores to use, one image at a time on each (default: every core; with fewer "
                  "images than cores, each image gets several). Memory grows with it: about "
                  "64 bytes per pixel of the largest image per worker, plus 20 MB (a 3072 x 2048 photo "
-                 "peaks at 400 MB); with a shared CDT (--batch-cdt) up to 4 N images (7 at -j 1) are "
+                 "peaks at 400 MB); with a shared CDT (--batch-cdt) up to 6 N images (11 at -j 1) are "
                  "held, each about 20 bytes per pixel while it waits for its CDT; with --backend gpu, "
                  "16 MB of pinned memory per worker (at most 64 MB) for copies to the device")
       ->check(CLI::Range(0u, 1024u));
