@@ -299,6 +299,53 @@ TEST(Edges, GradientRowsFollowThePerPixelSteps) {
   EXPECT_EQ(compared, 6 * (1 + 9 + 9 + 6) + 5 * (17 * 12 + 40 * 33));
 }
 
+// The suppression over rows (its inner pixels without bounds checks and without branches, also built
+// for AVX2) against suppress() pixel by pixel: the same classes, with ties between neighbours,
+// magnitudes at the thresholds, gradients on the sectors' borders and images down to one pixel.
+TEST(Edges, SuppressionRowsFollowTheStep) {
+  namespace d = vectorize::detail;
+  std::mt19937 random(13);
+  // Derivatives near the sectors' borders (tan 22.5 and tan 67.5 degrees), zeros, both signs.
+  const int derivatives[] = {0, 1, -1, 5, -5, 12, -12, 29, -29, 70, -70, 169, -169, 408, -408, 32767, -32768};
+  int compared = 0;
+  for (const auto& [width, height] :
+       std::vector<std::pair<int, int>>{{1, 1}, {1, 5}, {5, 1}, {2, 2}, {3, 3}, {23, 9}, {64, 17}}) {
+    const std::size_t n = static_cast<std::size_t>(width) * height;
+    for (int trial = 0; trial < 40; ++trial) {
+      std::vector<std::int16_t> dx(n), dy(n);
+      std::vector<std::uint32_t> magnitude(n);
+      for (std::size_t i = 0; i < n; ++i) {
+        dx[i] = static_cast<std::int16_t>(random() % 2 ? derivatives[random() % std::size(derivatives)]
+                                                       : static_cast<int>(random() % 801) - 400);
+        dy[i] = static_cast<std::int16_t>(random() % 2 ? derivatives[random() % std::size(derivatives)]
+                                                       : static_cast<int>(random() % 801) - 400);
+        magnitude[i] = random() % 24; // small: many ties, and values at both thresholds
+      }
+      const d::SquaredThresholds t{static_cast<std::uint64_t>(random() % 8),
+                                   static_cast<std::uint64_t>(8 + random() % 10)};
+      std::vector<std::uint8_t> classes(n, 0x55);
+      const int r0 = static_cast<int>(random() % height);
+      const int r1 = r0 + 1 + static_cast<int>(random() % (height - r0));
+      d::suppress_rows(dx.data(), dy.data(), magnitude.data(), width, height, t, r0, r1, classes.data());
+      for (int y = 0; y < height; ++y)
+        for (int x = 0; x < width; ++x) {
+          const std::size_t i = static_cast<std::size_t>(y) * width + x;
+          if (y < r0 || y >= r1) {
+            ASSERT_EQ(classes[i], 0x55) << "row " << y << " outside [" << r0 << ", " << r1 << ")";
+            continue;
+          }
+          const std::uint32_t* mid = magnitude.data() + static_cast<std::size_t>(y) * width;
+          const std::uint8_t expected = d::suppress(dx[i], dy[i], magnitude[i], y > 0 ? mid - width : nullptr,
+                                                    mid, y + 1 < height ? mid + width : nullptr, x, width, t);
+          ASSERT_EQ(classes[i], expected) << width << "x" << height << " trial " << trial << " at " << x
+                                          << "," << y << " dx " << dx[i] << " dy " << dy[i];
+          ++compared;
+        }
+    }
+  }
+  EXPECT_GT(compared, 10000);
+}
+
 // The hysteresis keeps the candidates 8-connected to a strong pixel through candidates, diagonals
 // included, and drops the others.
 TEST(Edges, HysteresisKeepsCandidatesConnectedToStrongPixels) {
