@@ -282,14 +282,17 @@ int main(int argc, char** argv) {
                  "images than cores, each image gets several). Memory grows with it: about "
                  "64 bytes per pixel of the largest image per worker, plus 20 MB (a 3072 x 2048 photo "
                  "peaks at 400 MB); with a shared CDT (--batch-cdt) up to 6 N images (11 at -j 1) are "
-                 "held, each about 20 bytes per pixel while it waits for its CDT; with --backend gpu, "
+                 "held, each about 20 bytes per pixel while it waits for its CDT; with the device shared, "
                  "16 MB of pinned memory per worker (at most 64 MB) for copies to the device")
       ->check(CLI::Range(0u, 1024u));
   app.add_option("--batch-cdt", batch.cdt,
-                 "Batch mode: auto (shared with --backend gpu), shared (the images' PSLGs triangulated "
-                 "together, about N per call, on threads of their own; a worker sets its image aside "
-                 "meanwhile and takes another), own (each worker triangulates its image's PSLG). The "
-                 "SVGs are the same")
+                 "Batch mode: auto (shared with --backend gpu, and with --backend auto in a batch of "
+                 "at least " +
+                     std::to_string(vectorize::kDeviceBatchImagesPerWorker) +
+                     " images per worker), shared (the images' PSLGs triangulated "
+                     "together, about N per call, on threads of their own; a worker sets its image aside "
+                     "meanwhile and takes another), own (each worker triangulates its image's PSLG). The "
+                     "SVGs are the same")
       ->check(CLI::IsMember({"auto", "shared", "own"}))
       ->capture_default_str();
   app.add_flag("--skip-existing", batch.skip_existing,
@@ -333,10 +336,12 @@ int main(int argc, char** argv) {
   app.add_option("--backend", backend_name,
                  "CDT engine: auto (the GPU when present, for PSLGs of " +
                      std::to_string(vectorize::kDevicePslgPoints) +
-                     " points or more; the CPU below), cpu or gpu (the edges too are then found on "
-                     "the device, and an image whose CDT was made there gets its colours there; in batch "
-                     "mode, images that come before the device has started stay on the CPU: the same "
-                     "result)")
+                     " points or more; the CPU below; in a batch of at least " +
+                     std::to_string(vectorize::kDeviceBatchImagesPerWorker) +
+                     " images per worker, as gpu when there is a device), cpu or gpu (the edges too are "
+                     "then found on the device, and an image whose CDT was made there gets its colours "
+                     "there; in batch mode, images that come before the device has started stay on the "
+                     "CPU: the same result)")
       ->check(CLI::IsMember({"auto", "cpu", "gpu"}))
       ->capture_default_str();
   app.add_option("--stats", stats_format, "Print per-stage times and counts to stderr: text or json")

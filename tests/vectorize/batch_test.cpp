@@ -243,6 +243,49 @@ TEST(VectorizeBatch, SharedCdtGivesTheSameBytes) {
   EXPECT_EQ(run(common + " --batch-cdt sometimes -o " + shell_quote(dir / "x")).exit_code, 2);
 }
 
+// Counts `"key":value` in a report.
+std::size_t count_in_report(const std::string& report, const std::string& key_value) {
+  std::size_t n = 0;
+  for (std::size_t at = report.find(key_value); at != std::string::npos; at = report.find(key_value, at + 1))
+    ++n;
+  return n;
+}
+
+// The automatic backend (the default) in a batch of at least 16 images per worker shares the device
+// when there is one, as the GPU backend does; the SVGs are the CPU backend's either way, a bad image
+// fails alone, and without a device nothing fails for the want of one: each worker triangulates its
+// own images on the CPU, unless --batch-cdt shared asks for them to be triangulated together.
+TEST(VectorizeBatch, AutomaticBackendInALargeBatchGivesTheCpuBytes) {
+  ScratchDir dir;
+  fs::create_directories(dir / "in");
+  for (const char* name : {"logo.png", "photo.png", "strokes.png", "gradient.png"}) {
+    for (int copy = 0; copy < 8; ++copy)
+      fs::copy_file(kSamples / name, dir / "in" / (std::to_string(copy) + "-" + name));
+  }
+  std::ofstream(dir / "in" / "truncated.png") << read_all(kSamples / "photo.png").substr(0, 2000);
+  const std::string common = shell_quote(kBin) + " " + shell_quote(dir / "in") + " -q -j 2";
+  const auto cpu = run(common + " --backend cpu -o " + shell_quote(dir / "cpu"));
+  const auto automatic =
+      run(common + " -o " + shell_quote(dir / "auto") + " --report " + shell_quote(dir / "auto.json"));
+  EXPECT_EQ(cpu.exit_code, 1) << cpu.output;
+  EXPECT_EQ(automatic.exit_code, 1) << automatic.output;
+  EXPECT_NE(automatic.output.find("truncated.png"), std::string::npos) << automatic.output;
+  const auto names = files_under(dir / "cpu");
+  ASSERT_EQ(names.size(), 32u);
+  EXPECT_EQ(names, files_under(dir / "auto"));
+  for (const auto& n : names) EXPECT_EQ(read_all(dir / "cpu" / n), read_all(dir / "auto" / n)) << n;
+  if (cdt::gpu_device_count() > 0) return;
+  const std::string report = read_all(dir / "auto.json");
+  EXPECT_EQ(count_in_report(report, "\"cdt_backend\":\"cpu\""), 32u) << report;
+  EXPECT_EQ(count_in_report(report, "\"cdt_inputs\":1,"), 32u) << report;
+  // Asked for, the CDTs are shared on the CPU too.
+  const auto shared = run(common + " --batch-cdt shared -o " + shell_quote(dir / "shared") + " --report " +
+                          shell_quote(dir / "shared.json"));
+  EXPECT_EQ(shared.exit_code, 1) << shared.output;
+  EXPECT_LT(count_in_report(read_all(dir / "shared.json"), "\"cdt_inputs\":1,"), 32u);
+  for (const auto& n : names) EXPECT_EQ(read_all(dir / "cpu" / n), read_all(dir / "shared" / n)) << n;
+}
+
 TEST(VectorizeBatch, InputListFromStandardInput) {
   ScratchDir dir;
   const auto r = run("printf '%s\\n# a comment\\n\\n%s\\n' " + shell_quote(kSamples / "logo.png") + " " +

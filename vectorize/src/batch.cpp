@@ -236,28 +236,49 @@ bool shares_cdt(const BatchOptions& options, std::size_t num_jobs) {
   case BatchOptions::SharedCdt::automatic:
     break;
   }
-  return options.conversion.backend == cdt::Backend::gpu;
+  switch (options.conversion.backend) {
+  case cdt::Backend::gpu:
+    return true;
+  case cdt::Backend::automatic:
+    return num_jobs >= kDeviceBatchImagesPerWorker * batch_workers(options, num_jobs);
+  case cdt::Backend::cpu:
+    return false;
+  }
+  return false;
 }
+
+// How a batch uses the CUDA device.
+enum class DeviceUse {
+  never,     ///< the CPU backend, or the automatic one with each worker triangulating its own images
+  later,     ///< the GPU backend for one image: the first use starts CUDA
+  gpu,       ///< the GPU backend: started as the batch begins; images fail with its error without a device
+  automatic, ///< the automatic backend with a shared CDT: started as the batch begins when there is a
+             ///< device, and the CPU for everything when there is none
+};
 
 // CUDA started on a side thread while the first images are decoded (0.3-0.4 s on the H200 machine,
 // the device count alone 0.1-0.25 s of it; the first triangulations on the device would wait for
 // it). Until the device is up, a worker triangulates its image on the CPU instead: the CDT is the
 // same on every backend, so the SVG is too (the report names the backend each image used). Whether
 // there is a device at all is settled first, and takes a fraction of the start: without one the
-// images go to the GPU backend as asked, and fail with its error. The start also readies the edges and
-// the trixel colours on the device for the workers (prepare_edges_on_device,
-// prepare_trixels_on_device).
+// images go to the GPU backend as asked, and fail with its error, or with the automatic backend stay
+// on the CPU. The start also readies the edges and the trixel colours on the device for the workers
+// (prepare_edges_on_device, prepare_trixels_on_device).
 class DeviceStart {
 public:
-  /// `workers`: the threads that will make trixel colours on the device at once.
-  DeviceStart(bool wanted, unsigned workers) {
-    if (!wanted) return;
+  /// `workers`: the threads that will make trixel colours on the device at once. `share_without`: with
+  /// DeviceUse::automatic and no device, whether the images' CDTs are still triangulated together (on
+  /// the CPU; asked for by --batch-cdt shared) rather than each by its worker.
+  DeviceStart(DeviceUse use, unsigned workers, bool share_without = false)
+      : use_(use), share_without_(share_without) {
+    if (use != DeviceUse::gpu && use != DeviceUse::automatic) return;
     try {
       thread_ = std::thread([this, workers] {
         const bool found = cdt::gpu_device_count() > 0;
-        state_.store(found ? kStarting : kUp);
+        state_.store(found ? kStarting : kNone);
         state_.notify_all();
-        if (found && cdt::start_gpu()) {
+        if (!found) return;
+        if (cdt::start_gpu()) {
           prepare_trixels_on_device(workers);
           prepare_edges_on_device();
         }
@@ -275,16 +296,32 @@ public:
     if (thread_.joinable()) thread_.join();
   }
 
-  /// The backend to triangulate with now instead of `asked`: the CPU while the device is starting.
+  /// The backend to triangulate with now instead of `asked`: the CPU while the device is starting, and
+  /// with DeviceUse::automatic, the CPU without a device (unless the CDTs are shared without one).
   cdt::Backend backend_now(cdt::Backend asked) {
-    if (asked != cdt::Backend::gpu) return asked;
+    if (asked == cdt::Backend::cpu || !started()) return asked;
     state_.wait(kCounting);
-    return state_.load() == kStarting ? cdt::Backend::cpu : asked;
+    const int state = state_.load();
+    if (state == kStarting) return cdt::Backend::cpu;
+    if (state == kNone && use_ == DeviceUse::automatic && !share_without_) return cdt::Backend::cpu;
+    return asked;
   }
 
-  /// Whether the device may be used now without waiting for its start: it is up (or was never to be
-  /// started here, so that a first use starts it). Never blocks.
-  bool ready() const { return !thread_.joinable() || state_.load() == kUp; }
+  /// Whether the edges of an image may be found on the device now: it is up (with DeviceUse::later,
+  /// whenever: a first use starts it). Never blocks.
+  bool ready() const {
+    switch (use_) {
+    case DeviceUse::never:
+      return false;
+    case DeviceUse::later:
+      return true;
+    case DeviceUse::gpu: // without a device, the edges too fail with its error, as asked
+      return !thread_.joinable() || state_.load() == kUp || state_.load() == kNone;
+    case DeviceUse::automatic:
+      return state_.load() == kUp;
+    }
+    return false;
+  }
 
   /// Once the batch needs the device no more: gives it back (cdt::stop_gpu) after the start-up is
   /// done, on a thread of its own, so that the driver's cleanup (0.1-0.15 s on the H100 machine)
@@ -294,8 +331,8 @@ public:
   void stop() {
     if (!thread_.joinable() || stopper_.joinable()) return;
     const auto give_back = [this] {
-      for (int s = state_.load(); s != kUp; s = state_.load()) state_.wait(s);
-      cdt::stop_gpu();
+      for (int s = state_.load(); s == kCounting || s == kStarting; s = state_.load()) state_.wait(s);
+      if (state_.load() == kUp) cdt::stop_gpu();
     };
     try {
       stopper_ = std::thread(give_back);
@@ -305,7 +342,11 @@ public:
   }
 
 private:
-  enum State : int { kCounting, kStarting, kUp };
+  bool started() const { return use_ == DeviceUse::gpu || use_ == DeviceUse::automatic; }
+
+  enum State : int { kCounting, kStarting, kUp, kNone };
+  const DeviceUse use_;
+  const bool share_without_;
   std::atomic<int> state_{kCounting};
   std::thread thread_;
   std::thread stopper_;
@@ -523,10 +564,14 @@ std::vector<JobResult> run_batch(const std::vector<BatchJob>& jobs, const BatchO
     if (options.on_done) options.on_done(results[k], done, jobs.size());
   };
 
-  // With the GPU backend and more than one image, CUDA starts on a side thread, and images whose CDT
-  // comes before it is up are triangulated on the CPU.
-  DeviceStart device(conversion.backend == cdt::Backend::gpu && jobs.size() > 1, workers);
-  if (shares_cdt(options, jobs.size())) {
+  // With the GPU backend and more than one image, or the automatic one and a shared CDT, CUDA starts
+  // on a side thread, and images whose CDT comes before it is up are triangulated on the CPU.
+  const bool shared = shares_cdt(options, jobs.size());
+  DeviceUse use = DeviceUse::never;
+  if (conversion.backend == cdt::Backend::gpu) use = jobs.size() > 1 ? DeviceUse::gpu : DeviceUse::later;
+  if (conversion.backend == cdt::Backend::automatic && shared) use = DeviceUse::automatic;
+  DeviceStart device(use, workers, options.shared_cdt == BatchOptions::SharedCdt::always);
+  if (shared) {
     SharedCdtBatch(jobs, options, conversion, workers, report, device).run();
   } else {
     std::atomic<std::size_t> next{0};

@@ -13,6 +13,7 @@
 #include <stdexcept>
 #include <system_error>
 
+#include "cdt/errors.hpp"
 #include "vectorize/chains.hpp"
 #include "vectorize/errors.hpp"
 #include "vectorize/polygons.hpp"
@@ -88,6 +89,37 @@ private:
   Clock::time_point last_;
 };
 
+// The edges on the device when the backend is not the CPU's and `device_ready`, else on the CPU. With
+// the automatic backend a device that fails (out of memory, say, when other processes hold it) leaves
+// them to the CPU, as it leaves the CDT: the same edges.
+EdgeMap find_edges(const Image& image, const Options& options, bool device_ready) {
+  if (options.backend == cdt::Backend::cpu || !device_ready)
+    return detect_edges(image, options.edges, options.threads, EdgeDevice::cpu);
+  if (options.backend == cdt::Backend::gpu)
+    return detect_edges(image, options.edges, options.threads, EdgeDevice::gpu);
+  try {
+    return detect_edges(image, options.edges, options.threads, EdgeDevice::gpu);
+  } catch (const cdt::DeviceError&) {
+    return detect_edges(image, options.edges, options.threads, EdgeDevice::cpu);
+  }
+}
+
+// Where the CDT was made, the trixels' sums are made: a CDT from the device says it is up, and there
+// the sums take it a fraction of what they take a core. The colours are the same either way; with the
+// automatic backend a failing device leaves them to the CPU.
+TrixelColours add_up_trixels(const Image& image, const cdt::Triangulation& triangulation,
+                             const Options& options) {
+  if (!triangulation.stats.backend.starts_with("gpu"))
+    return colour_trixels(image, triangulation, options.threads, TrixelDevice::cpu);
+  if (options.backend == cdt::Backend::gpu)
+    return colour_trixels(image, triangulation, options.threads, TrixelDevice::gpu);
+  try {
+    return colour_trixels(image, triangulation, options.threads, TrixelDevice::gpu);
+  } catch (const cdt::DeviceError&) {
+    return colour_trixels(image, triangulation, options.threads, TrixelDevice::cpu);
+  }
+}
+
 } // namespace
 
 PslgStage convert_to_pslg(const Image& image, const Options& options, StageRecord* record,
@@ -99,9 +131,7 @@ PslgStage convert_to_pslg(const Image& image, const Options& options, StageRecor
   stats.height = image.height;
   StageTimer timer(stats);
 
-  const EdgeDevice edge_device =
-      options.backend == cdt::Backend::gpu && device_ready ? EdgeDevice::gpu : EdgeDevice::cpu;
-  const EdgeMap edges = detect_edges(image, options.edges, options.threads, edge_device);
+  const EdgeMap edges = find_edges(image, options, device_ready);
   for (const std::uint8_t e : edges.on) stats.edge_pixels += e;
   timer.end("edges");
   const std::vector<Chain> chains = trace_chains(edges);
@@ -151,11 +181,7 @@ Conversion finish_conversion(const Image& image, const Options& options, PslgSta
     stats.cdt_phases.push_back({phase.name, phase.milliseconds});
   timer.end("cdt");
 
-  // Where the CDT was made, the trixels' sums are made: a CDT from the device says it is up, and there
-  // the sums take it a fraction of what they take a core. The colours are the same either way.
-  const TrixelDevice trixel_device =
-      triangulation.stats.backend.starts_with("gpu") ? TrixelDevice::gpu : TrixelDevice::cpu;
-  const TrixelColours trixels = colour_trixels(image, triangulation, options.threads, trixel_device);
+  const TrixelColours trixels = add_up_trixels(image, triangulation, options);
   if (device_done) device_done();
   timer.end("trixels");
   const Regions regions = group_trixels(triangulation, trixels, options.grouping, options.threads);
@@ -183,7 +209,7 @@ Conversion finish_conversion(const Image& image, const Options& options, PslgSta
 }
 
 Conversion convert(const Image& image, const Options& options, StageRecord* record) {
-  PslgStage first = convert_to_pslg(image, options, record);
+  PslgStage first = convert_to_pslg(image, options, record, options.backend == cdt::Backend::gpu);
   cdt::Triangulation triangulation =
       cdt::triangulate(first.pslg.points, first.pslg.segments, first.cdt_options);
   return finish_conversion(image, options, std::move(first), std::move(triangulation), record);

@@ -31,9 +31,9 @@ enum class Preset {
   photo,        ///< smooth shading everywhere: dense interior points, fine colour tolerance
 };
 
-/// The size of PSLG from which the automatic backend triangulates on the GPU. A photograph's PSLG
-/// (10-50K points for 0.4-1.6 megapixels) converts faster on the CPU when a batch's workers share the
-/// device, and one image loses only milliseconds. Which backend runs changes no output.
+/// The size of PSLG from which the automatic backend triangulates one image on the GPU. A photograph's
+/// PSLG (10-50K points for 0.4-1.6 megapixels) alone converts about as fast on the CPU, without CUDA's
+/// start (0.3-0.4 s). Which backend runs changes no output.
 inline constexpr std::size_t kDevicePslgPoints = 50000;
 
 /// Every knob of the pipeline, in human units (pixels, Delta E).
@@ -45,10 +45,11 @@ struct Options {
   GroupingOptions grouping;
   SvgOptions svg;
   /// cdt::Backend::automatic takes the GPU, when there is one, for PSLGs of kDevicePslgPoints points or
-  /// more, and the CPU below that; cpu and gpu are taken as they are. The SVG is the same whichever
-  /// runs: the CDT is unique, and the pipeline puts it in canonical order (cdt::canonicalize). An image
-  /// whose CDT was made on the device has its trixel colours added up there too (TrixelDevice::gpu);
-  /// with cdt::Backend::gpu its edges are found there as well (EdgeDevice::gpu), the same edges.
+  /// more, and the CPU below that (a batch large enough to share the device takes it for every image:
+  /// see run_batch); cpu and gpu are taken as they are. The SVG is the same whichever runs: the CDT is
+  /// unique, and the pipeline puts it in canonical order (cdt::canonicalize). An image whose CDT was
+  /// made on the device has its trixel colours added up there too (TrixelDevice::gpu); with
+  /// cdt::Backend::gpu its edges are found there as well (EdgeDevice::gpu), the same edges.
   cdt::Backend backend = cdt::Backend::automatic;
   /// Threads one conversion may use (simplification, the CDT engine's CPU executor, trixel colours);
   /// 0 uses every hardware thread. The output is the same for any number.
@@ -125,10 +126,12 @@ struct PslgStage {
 };
 
 /// The stages of convert() up to the PSLG (edges, chains, simplification, PSLG); `record` gets theirs.
-/// With options.backend cdt::Backend::gpu the edges are found on the device unless `device_ready` is
-/// false (a batch whose device is still starting finds them on the CPU meanwhile: the same edges).
+/// With `device_ready` and options.backend other than cdt::Backend::cpu the edges are found on the
+/// device (with the automatic backend, on the CPU should the device fail); else on the CPU (a batch
+/// whose device is still starting finds them there meanwhile): the same edges either way. convert()
+/// passes true for the GPU backend.
 PslgStage convert_to_pslg(const Image& image, const Options& options = {}, StageRecord* record = nullptr,
-                          bool device_ready = true);
+                          bool device_ready = false);
 
 /// The rest of convert() given the PSLG's CDT: canonical order, trixel colours, grouping, polygons, SVG.
 /// The CDT stage's time runs from the end of the first half, so it includes any wait for the CDT.
