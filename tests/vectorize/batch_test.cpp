@@ -218,15 +218,28 @@ TEST(VectorizeBatch, PslgsOfImagesTriangulatedTogetherGiveTheirOwnCdts) {
   }
 }
 
+// `copies` copies of each of the four samples in `in`, named COPY-NAME.
+void copy_samples(const fs::path& in, int copies) {
+  fs::create_directories(in);
+  for (const char* name : {"logo.png", "photo.png", "strokes.png", "gradient.png"}) {
+    for (int copy = 0; copy < copies; ++copy)
+      fs::copy_file(kSamples / name, in / (std::to_string(copy) + "-" + name));
+  }
+}
+
+// Both folders hold the same `count` files, byte for byte.
+void expect_same_files(const fs::path& a, const fs::path& b, std::size_t count) {
+  const auto names = files_under(a);
+  ASSERT_EQ(names.size(), count);
+  EXPECT_EQ(names, files_under(b));
+  for (const auto& n : names) EXPECT_EQ(read_all(a / n), read_all(b / n)) << n;
+}
+
 // A shared CDT (several workers' PSLGs per call; four workers: two CDT threads) changes no byte, and a
 // bad image still fails alone.
 TEST(VectorizeBatch, SharedCdtGivesTheSameBytes) {
   ScratchDir dir;
-  fs::create_directories(dir / "in");
-  for (const char* name : {"logo.png", "photo.png", "strokes.png", "gradient.png"}) {
-    for (int copy = 0; copy < 3; ++copy)
-      fs::copy_file(kSamples / name, dir / "in" / (std::to_string(copy) + "-" + name));
-  }
+  copy_samples(dir / "in", 3);
   std::ofstream(dir / "in" / "corrupt.png") << "this is not a PNG";
   const std::string common = shell_quote(kBin) + " " + shell_quote(dir / "in") + " -q --backend cpu -j 4";
   const auto own = run(common + " --batch-cdt own -o " + shell_quote(dir / "own"));
@@ -235,10 +248,7 @@ TEST(VectorizeBatch, SharedCdtGivesTheSameBytes) {
   EXPECT_EQ(own.exit_code, 1) << own.output;
   EXPECT_EQ(shared.exit_code, 1) << shared.output;
   EXPECT_NE(shared.output.find("corrupt.png"), std::string::npos) << shared.output;
-  const auto names = files_under(dir / "own");
-  ASSERT_EQ(names.size(), 12u);
-  EXPECT_EQ(names, files_under(dir / "shared"));
-  for (const auto& n : names) EXPECT_EQ(read_all(dir / "own" / n), read_all(dir / "shared" / n)) << n;
+  expect_same_files(dir / "own", dir / "shared", 12);
   EXPECT_NE(read_all(dir / "report.json").find("\"cdt_inputs\":"), std::string::npos);
   EXPECT_EQ(run(common + " --batch-cdt sometimes -o " + shell_quote(dir / "x")).exit_code, 2);
 }
@@ -257,11 +267,7 @@ std::size_t count_in_report(const std::string& report, const std::string& key_va
 // own images on the CPU, unless --batch-cdt shared asks for them to be triangulated together.
 TEST(VectorizeBatch, AutomaticBackendInALargeBatchGivesTheCpuBytes) {
   ScratchDir dir;
-  fs::create_directories(dir / "in");
-  for (const char* name : {"logo.png", "photo.png", "strokes.png", "gradient.png"}) {
-    for (int copy = 0; copy < 8; ++copy)
-      fs::copy_file(kSamples / name, dir / "in" / (std::to_string(copy) + "-" + name));
-  }
+  copy_samples(dir / "in", 8);
   std::ofstream(dir / "in" / "truncated.png") << read_all(kSamples / "photo.png").substr(0, 2000);
   const std::string common = shell_quote(kBin) + " " + shell_quote(dir / "in") + " -q -j 2";
   const auto cpu = run(common + " --backend cpu -o " + shell_quote(dir / "cpu"));
@@ -270,10 +276,7 @@ TEST(VectorizeBatch, AutomaticBackendInALargeBatchGivesTheCpuBytes) {
   EXPECT_EQ(cpu.exit_code, 1) << cpu.output;
   EXPECT_EQ(automatic.exit_code, 1) << automatic.output;
   EXPECT_NE(automatic.output.find("truncated.png"), std::string::npos) << automatic.output;
-  const auto names = files_under(dir / "cpu");
-  ASSERT_EQ(names.size(), 32u);
-  EXPECT_EQ(names, files_under(dir / "auto"));
-  for (const auto& n : names) EXPECT_EQ(read_all(dir / "cpu" / n), read_all(dir / "auto" / n)) << n;
+  expect_same_files(dir / "cpu", dir / "auto", 32);
   if (cdt::gpu_device_count() > 0) return;
   const std::string report = read_all(dir / "auto.json");
   EXPECT_EQ(count_in_report(report, "\"cdt_backend\":\"cpu\""), 32u) << report;
@@ -283,7 +286,7 @@ TEST(VectorizeBatch, AutomaticBackendInALargeBatchGivesTheCpuBytes) {
                           shell_quote(dir / "shared.json"));
   EXPECT_EQ(shared.exit_code, 1) << shared.output;
   EXPECT_LT(count_in_report(read_all(dir / "shared.json"), "\"cdt_inputs\":1,"), 32u);
-  for (const auto& n : names) EXPECT_EQ(read_all(dir / "cpu" / n), read_all(dir / "shared" / n)) << n;
+  expect_same_files(dir / "cpu", dir / "shared", 32);
 }
 
 TEST(VectorizeBatch, InputListFromStandardInput) {
