@@ -111,8 +111,10 @@ unsigned threads_per_conversion(const BatchOptions& options, std::size_t num_job
 /// Runs the jobs on min(options.workers, jobs) threads, each converting one image at a time (so memory
 /// stays bounded by the workers x one image's working set; with a shared CDT, see
 /// BatchOptions::shared_cdt, up to 5 x max(2, workers) + workers images are held), the cores of
-/// options.workers shared out between them. Every job's result is returned in the order of `jobs`; jobs never
-/// started because of `stop` are absent.
+/// options.workers shared out between them. With a shared CDT and the device in use, the workers lower
+/// their threads' priority (10 nice levels) below the CDT threads' and the device start's, which the
+/// batch waits on. Every job's result is returned in the order of `jobs`; jobs never started because
+/// of `stop` are absent.
 std::vector<JobResult> run_batch(const std::vector<BatchJob>& jobs, const BatchOptions& options);
 
 /// The results as a JSON report (one object per image: input, output, status, error, when it started
