@@ -285,12 +285,16 @@ public:
         state_.store(found ? kStarting : kNone);
         state_.notify_all();
         if (!found) return;
-        if (cdt::start_gpu()) {
+        // A device that does not start (in use by another process in exclusive mode, say) counts as
+        // none: the GPU backend's images fail with its error, the automatic backend's use the CPU.
+        const bool started = cdt::start_gpu();
+        if (started) {
           prepare_trixels_on_device(workers);
           prepare_edges_on_device();
         }
-        state_.store(kUp);
+        state_.store(started ? kUp : kNone);
         state_.notify_all();
+        if (!started) return;
         // Then gives the device back when the batch says so (stop), or leaves that to the process's exit.
         end_.wait(kRunning);
         if (end_.load() == kGiveBack) cdt::stop_gpu();
