@@ -16,6 +16,9 @@
 #   many       cdt::triangulate_many against one call per input (bench_cdt --together N), on the
 #              photographs' PSLGs in .carry/pslg/*.poly when carried (the `pslg.poly` of `vectorize
 #              --debug` folders), with the GPU backend and the CPU executor
+#   batch-compare (not in the default list) the batch benchmark of an earlier tree's bundle
+#              (.carry/base/vectorize, built by scripts/device-bundle.sh from that tree) against this
+#              one's (.carry/bundle/vectorize), rounds alternating: scripts/batch-compare.sh
 #   compare    (not in the default list) an earlier tree against this one on the same machine, whose
 #              timings vary 10-25% between calls: TRIXEL_BASE (default .carry/base) holds a copy of it
 #              (`git archive REV | tar -x -C .carry/base`, carried); both bench_cdt builds run in turn,
@@ -114,6 +117,11 @@ if want batch && [ -x .carry/bundle/vectorize ] && [ -d .carry/kodak ]; then
   }
   step svgs-cpu-gpu same_svgs
 fi
+if want batch-compare && [ -x .carry/base/vectorize ] && [ -x .carry/bundle/vectorize ]; then
+  export LD_LIBRARY_PATH=$PWD/.carry/bundle/lib${LD_LIBRARY_PATH:+:$LD_LIBRARY_PATH}
+  step batch-compare bash scripts/batch-compare.sh .carry/base/vectorize .carry/bundle/vectorize \
+    --images .carry/kodak
+fi
 if want many && compgen -G ".carry/pslg/*.poly" >/dev/null; then
   [ -x build-gpu/bin/bench_cdt ] || step build-bench cmake --build build-gpu -j "$(nproc)" --target bench_cdt
   files=()
@@ -172,6 +180,7 @@ done
 for log in bench-batch bench-batch-cpu bench-batch-own; do
   [ -f "$logs/$log.log" ] && { echo "$log:"; grep -h '^|' "$logs/$log.log" || true; }
 done
+[ -f "$logs/batch-compare.log" ] && { echo "batch-compare (base = .carry/base, new = this tree):"; grep -h '^|' "$logs/batch-compare.log" || true; }
 [ -f "$logs/bench-many.log" ] && { echo "bench-many:"; grep -h -e '^backend' -e '^|' "$logs/bench-many.log" || true; }
 [ -f "$logs/gpu-tests.log" ] && { grep -h -E 'tests passed|tests failed|Skipped|Not Run' "$logs/gpu-tests.log" || true; }
 grep -q FAIL <<<"${status[*]}" && exit 1
