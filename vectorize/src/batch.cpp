@@ -414,8 +414,8 @@ public:
   void run() {
     std::vector<std::thread> cdt_threads;
     for (unsigned c = 0; c < cdt_threads_; ++c) cdt_threads.emplace_back([this] { triangulate_queued(); });
-    // The workers on threads of their own: they lower their priority (yield_to_cdt_threads), which
-    // this thread keeps for the next batch (a thread cannot raise it again).
+    // The workers run on threads of their own, so that the batch's thread keeps its priority: a worker
+    // may lower its own (yield_to_cdt_threads), and a thread cannot raise it again.
     std::vector<std::thread> pool;
     for (unsigned w = 0; w < workers_; ++w) pool.emplace_back([this] { work(); });
     for (auto& t : pool) t.join();
