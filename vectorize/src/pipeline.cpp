@@ -89,34 +89,17 @@ private:
   Clock::time_point last_;
 };
 
-// The edges on the device when the backend is not the CPU's and `device_ready`, else on the CPU. With
-// the automatic backend a device that fails (out of memory, say, when other processes hold it) leaves
-// them to the CPU, as it leaves the CDT: the same edges.
-EdgeMap find_edges(const Image& image, const Options& options, bool device_ready) {
-  if (options.backend == cdt::Backend::cpu || !device_ready)
-    return detect_edges(image, options.edges, options.threads, EdgeDevice::cpu);
-  if (options.backend == cdt::Backend::gpu)
-    return detect_edges(image, options.edges, options.threads, EdgeDevice::gpu);
+// step(true) runs a stage on the device, step(false) on the CPU (the same result). On the device when
+// `on_device`; with the automatic backend a device that fails there (out of memory, say, when other
+// processes hold it) leaves the stage to the CPU, as it leaves the CDT.
+template <class Step>
+auto on_device_or_cpu(cdt::Backend backend, bool on_device, const Step& step) {
+  if (!on_device) return step(false);
+  if (backend != cdt::Backend::automatic) return step(true);
   try {
-    return detect_edges(image, options.edges, options.threads, EdgeDevice::gpu);
+    return step(true);
   } catch (const cdt::DeviceError&) {
-    return detect_edges(image, options.edges, options.threads, EdgeDevice::cpu);
-  }
-}
-
-// Where the CDT was made, the trixels' sums are made: a CDT from the device says it is up, and there
-// the sums take it a fraction of what they take a core. The colours are the same either way; with the
-// automatic backend a failing device leaves them to the CPU.
-TrixelColours add_up_trixels(const Image& image, const cdt::Triangulation& triangulation,
-                             const Options& options) {
-  if (!triangulation.stats.backend.starts_with("gpu"))
-    return colour_trixels(image, triangulation, options.threads, TrixelDevice::cpu);
-  if (options.backend == cdt::Backend::gpu)
-    return colour_trixels(image, triangulation, options.threads, TrixelDevice::gpu);
-  try {
-    return colour_trixels(image, triangulation, options.threads, TrixelDevice::gpu);
-  } catch (const cdt::DeviceError&) {
-    return colour_trixels(image, triangulation, options.threads, TrixelDevice::cpu);
+    return step(false);
   }
 }
 
@@ -131,7 +114,12 @@ PslgStage convert_to_pslg(const Image& image, const Options& options, StageRecor
   stats.height = image.height;
   StageTimer timer(stats);
 
-  const EdgeMap edges = find_edges(image, options, device_ready);
+  // On the device when it is ready and the backend is not the CPU's.
+  const EdgeMap edges = on_device_or_cpu(
+      options.backend, options.backend != cdt::Backend::cpu && device_ready, [&](bool device) {
+        return detect_edges(image, options.edges, options.threads,
+                            device ? EdgeDevice::gpu : EdgeDevice::cpu);
+      });
   for (const std::uint8_t e : edges.on) stats.edge_pixels += e;
   timer.end("edges");
   const std::vector<Chain> chains = trace_chains(edges);
@@ -181,7 +169,13 @@ Conversion finish_conversion(const Image& image, const Options& options, PslgSta
     stats.cdt_phases.push_back({phase.name, phase.milliseconds});
   timer.end("cdt");
 
-  const TrixelColours trixels = add_up_trixels(image, triangulation, options);
+  // Where the CDT was made, the trixels' sums are made: a CDT from the device says it is up, and there
+  // the sums take it a fraction of what they take a core. The colours are the same either way.
+  const TrixelColours trixels =
+      on_device_or_cpu(options.backend, triangulation.stats.backend.starts_with("gpu"), [&](bool device) {
+        return colour_trixels(image, triangulation, options.threads,
+                              device ? TrixelDevice::gpu : TrixelDevice::cpu);
+      });
   if (device_done) device_done();
   timer.end("trixels");
   const Regions regions = group_trixels(triangulation, trixels, options.grouping, options.threads);

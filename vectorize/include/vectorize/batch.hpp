@@ -84,10 +84,10 @@ struct BatchOptions {
   /// The SVGs are the same either way.
   enum class SharedCdt {
     /// with the GPU backend (cdt::Backend::gpu) and more than one image, or with the automatic backend
-    /// and at least kDeviceBatchImagesPerWorker images per worker: the batch then starts CUDA as it begins
-    /// and, when there is a
-    /// device, converts as with the GPU backend (edges, CDT and trixel colours there, the CPU until it
-    /// is up); without one, each worker triangulates its own images on the CPU
+    /// and at least kDeviceBatchImagesPerWorker images per worker: the batch then starts CUDA as it
+    /// begins and, when there is a device, converts as with the GPU backend (edges, CDT and trixel
+    /// colours there, the CPU until it is up); without one, each worker triangulates its own images on
+    /// the CPU
     automatic,
     always, ///< with any backend, the CPU's too (more than one image)
     never,
