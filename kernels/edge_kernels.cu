@@ -1,12 +1,14 @@
 // Stage 2 (edge pixels) on the device: one thread per pixel runs the host's steps for it
 // (vectorize/src/edge_steps.hpp) in the host's order: the blur along x, the blur along y, the Sobel
 // derivatives and the strongest channel, then, with the thresholds the host takes from the squared
-// magnitudes, the suppression.
+// magnitudes (their quantile selected on the device too), the suppression.
 #include "edge_kernels.hpp"
 
 #include <cuda_runtime.h>
 
+#include <algorithm>
 #include <cstring>
+#include <stdexcept>
 #include <vector>
 
 #include "cdt/errors.hpp"
@@ -79,9 +81,105 @@ __global__ void gradient_kernel(const float* __restrict__ blurred, int width, in
   magnitude[i] = g.magnitude;
 }
 
+// The k-th smallest of n values by radix selection, all on the device: three passes count the values
+// that agree with the bits found so far by their next bits (11, 11 and 10 from the top), each count
+// in a block's shared memory first, and a one-block step after each finds the bin of rank k among
+// them. Exactly the k-th smallest, whatever the values.
+struct Selection {
+  std::uint32_t prefix;    // the bits of the k-th value found so far
+  std::uint32_t mask;      // which bits those are
+  unsigned long long rank; // the value's rank among those that agree with them
+};
+constexpr int kSelectBins = 2048;
+constexpr int kSelectThreads = 1024;
+struct SelectPass {
+  int shift;
+  int bits;
+};
+constexpr SelectPass kSelectPasses[] = {{21, 11}, {10, 11}, {0, 10}};
+
+__global__ void select_start_kernel(Selection* selection, unsigned long long* counts, unsigned long long k) {
+  for (int b = threadIdx.x; b < kSelectBins; b += blockDim.x) counts[b] = 0;
+  if (threadIdx.x == 0) *selection = {0, 0, k};
+}
+
+__global__ void select_count_kernel(const std::uint32_t* __restrict__ values, std::size_t n,
+                                    const Selection* __restrict__ selection, int shift,
+                                    std::uint32_t bin_mask, unsigned long long* __restrict__ counts) {
+  __shared__ unsigned long long local[kSelectBins];
+  for (int b = threadIdx.x; b < kSelectBins; b += blockDim.x) local[b] = 0;
+  __syncthreads();
+  const std::uint32_t prefix = selection->prefix;
+  const std::uint32_t mask = selection->mask;
+  for (std::size_t i = blockIdx.x * static_cast<std::size_t>(blockDim.x) + threadIdx.x; i < n;
+       i += static_cast<std::size_t>(gridDim.x) * blockDim.x) {
+    const std::uint32_t v = values[i];
+    if ((v & mask) == prefix) atomicAdd(&local[(v >> shift) & bin_mask], 1ull);
+  }
+  __syncthreads();
+  for (int b = threadIdx.x; b < kSelectBins; b += blockDim.x)
+    if (local[b] != 0) atomicAdd(&counts[b], local[b]);
+}
+
+// One block of kSelectThreads: the counts' running sums, the bin whose range holds the rank, and the
+// counts zeroed for the next pass.
+__global__ void select_pick_kernel(unsigned long long* __restrict__ counts, int shift, int bits,
+                                   Selection* __restrict__ selection) {
+  __shared__ unsigned long long sums[kSelectBins];
+  const Selection s = *selection;
+  for (int b = threadIdx.x; b < kSelectBins; b += blockDim.x) {
+    sums[b] = counts[b];
+    counts[b] = 0;
+  }
+  __syncthreads();
+  for (int offset = 1; offset < kSelectBins; offset <<= 1) {
+    unsigned long long add[kSelectBins / kSelectThreads];
+    for (int j = 0; j < kSelectBins / kSelectThreads; ++j) {
+      const int b = threadIdx.x + j * kSelectThreads;
+      add[j] = b >= offset ? sums[b - offset] : 0;
+    }
+    __syncthreads();
+    for (int j = 0; j < kSelectBins / kSelectThreads; ++j) sums[threadIdx.x + j * kSelectThreads] += add[j];
+    __syncthreads();
+  }
+  for (int j = 0; j < kSelectBins / kSelectThreads; ++j) {
+    const int b = threadIdx.x + j * kSelectThreads;
+    const unsigned long long below = b > 0 ? sums[b - 1] : 0;
+    if (below <= s.rank && s.rank < sums[b]) {
+      const std::uint32_t bin_mask = ((1u << bits) - 1) << shift;
+      *selection = {s.prefix | static_cast<std::uint32_t>(b) << shift, s.mask | bin_mask, s.rank - below};
+    }
+  }
+}
+
+// Enqueues on `stream` the selection of the k-th smallest of the n values (k < n) into
+// selection->prefix.
+void enqueue_kth_smallest(const std::uint32_t* values, std::size_t n, std::size_t k, Selection* selection,
+                          unsigned long long* counts, cudaStream_t stream) {
+  select_start_kernel<<<1, kSelectThreads, 0, stream>>>(selection, counts, k);
+  CDT_CUDA_CHECK_LAUNCH("select_start_kernel");
+  // Enough blocks to fill the device a few times over, each counting a stretch of values.
+  constexpr std::size_t kValuesPerBlock = 16 * kSelectThreads;
+  const auto blocks =
+      static_cast<unsigned>(std::min<std::size_t>((n + kValuesPerBlock - 1) / kValuesPerBlock, 256));
+  for (const SelectPass& pass : kSelectPasses) {
+    select_count_kernel<<<blocks, kSelectThreads, 0, stream>>>(values, n, selection, pass.shift,
+                                                               (1u << pass.bits) - 1, counts);
+    CDT_CUDA_CHECK_LAUNCH("select_count_kernel");
+    select_pick_kernel<<<1, kSelectThreads, 0, stream>>>(counts, pass.shift, pass.bits, selection);
+    CDT_CUDA_CHECK_LAUNCH("select_pick_kernel");
+  }
+}
+
+// The thresholds of `rule`, with the selected quantile when there is one (the automatic rule).
+__global__ void thresholds_kernel(detail::ThresholdRule rule, const Selection* selection,
+                                  detail::SquaredThresholds* thresholds) {
+  *thresholds = detail::thresholds_from_quantile(rule, selection != nullptr ? selection->prefix : 0u);
+}
+
 __global__ void suppress_kernel(const std::int16_t* __restrict__ dx, const std::int16_t* __restrict__ dy,
                                 const std::uint32_t* __restrict__ magnitude, int width, int height,
-                                std::size_t pixels, detail::SquaredThresholds thresholds,
+                                std::size_t pixels, const detail::SquaredThresholds* __restrict__ thresholds,
                                 std::uint8_t* __restrict__ classes) {
   const std::size_t i = blockIdx.x * static_cast<std::size_t>(blockDim.x) + threadIdx.x;
   if (i >= pixels) return;
@@ -90,7 +188,7 @@ __global__ void suppress_kernel(const std::int16_t* __restrict__ dx, const std::
   const std::uint32_t* mid = magnitude + (i - static_cast<std::size_t>(x));
   const std::uint32_t* up = y > 0 ? mid - width : nullptr;
   const std::uint32_t* down = y + 1 < height ? mid + width : nullptr;
-  classes[i] = detail::suppress(dx[i], dy[i], mid[x], up, mid, down, x, width, thresholds);
+  classes[i] = detail::suppress(dx[i], dy[i], mid[x], up, mid, down, x, width, *thresholds);
 }
 
 } // namespace
@@ -134,26 +232,23 @@ void edge_classes(const float* rgba, int width, int height, const detail::BlurTa
                                                    d_dy.data(), d_magnitude.data());
   CDT_CUDA_CHECK_LAUNCH("gradient_kernel");
 
-  // Automatic thresholds need every squared magnitude on the host, for the quantile; read where they
-  // land (after the upload has read the block, in stream order).
-  const bool automatic = rule.low == 0.0 && rule.high == 0.0;
-  std::vector<std::uint32_t> pageable;
-  const std::uint32_t* magnitudes = nullptr;
-  if (automatic) {
-    void* landing = block.get();
-    if (landing == nullptr) {
-      pageable.resize(pixels);
-      landing = pageable.data();
-    }
-    CDT_CUDA_CHECK(cudaMemcpyAsync(landing, d_magnitude.data(), pixels * sizeof(std::uint32_t),
-                                   cudaMemcpyDeviceToHost, stream));
-    CDT_CUDA_CHECK(cudaStreamSynchronize(stream));
-    magnitudes = static_cast<const std::uint32_t*>(landing);
+  // The automatic thresholds come from the quantile of every squared magnitude, selected where they are
+  // (the host's quantile() in edge_thresholds gives the same value): the host waits once, for the
+  // classes.
+  DeviceBuffer<detail::SquaredThresholds> d_thresholds(1);
+  DeviceBuffer<Selection> d_selection;
+  DeviceBuffer<unsigned long long> d_counts;
+  if (detail::automatic_thresholds(rule)) {
+    d_selection.resize(1);
+    d_counts.resize(kSelectBins);
+    // The rank quantile() takes.
+    const auto k = static_cast<std::size_t>(rule.non_edge_fraction * static_cast<double>(pixels - 1));
+    enqueue_kth_smallest(d_magnitude.data(), pixels, k, d_selection.data(), d_counts.data(), stream);
   }
-  const detail::SquaredThresholds thresholds =
-      detail::edge_thresholds(rule, magnitudes, automatic ? pixels : 0);
+  thresholds_kernel<<<1, 1, 0, stream>>>(rule, d_selection.data(), d_thresholds.data());
+  CDT_CUDA_CHECK_LAUNCH("thresholds_kernel");
   suppress_kernel<<<blocks, kThreads, 0, stream>>>(d_dx.data(), d_dy.data(), d_magnitude.data(), width,
-                                                   height, pixels, thresholds, d_classes.data());
+                                                   height, pixels, d_thresholds.data(), d_classes.data());
   CDT_CUDA_CHECK_LAUNCH("suppress_kernel");
   CDT_CUDA_CHECK(cudaMemcpyAsync(block.get() != nullptr ? static_cast<void*>(block.get()) : classes,
                                  d_classes.data(), pixels, cudaMemcpyDeviceToHost, stream));
@@ -169,6 +264,27 @@ void prepare_edge_classes() {
   CDT_CUDA_CHECK(cudaFuncGetAttributes(&attributes, blur_down_kernel));
   CDT_CUDA_CHECK(cudaFuncGetAttributes(&attributes, gradient_kernel));
   CDT_CUDA_CHECK(cudaFuncGetAttributes(&attributes, suppress_kernel));
+  CDT_CUDA_CHECK(cudaFuncGetAttributes(&attributes, select_start_kernel));
+  CDT_CUDA_CHECK(cudaFuncGetAttributes(&attributes, select_count_kernel));
+  CDT_CUDA_CHECK(cudaFuncGetAttributes(&attributes, select_pick_kernel));
+  CDT_CUDA_CHECK(cudaFuncGetAttributes(&attributes, thresholds_kernel));
+}
+
+std::uint32_t kth_smallest(const std::uint32_t* values, std::size_t n, std::size_t k) {
+  if (k >= n) throw std::invalid_argument("kth_smallest: k must be below n");
+  if (cdt::gpu::device_count() == 0) throw cdt::DeviceError("kth_smallest: no CUDA device is available");
+  const cudaStream_t stream = cudaStreamPerThread;
+  DeviceBuffer<std::uint32_t> d_values(n);
+  DeviceBuffer<Selection> d_selection(1);
+  DeviceBuffer<unsigned long long> d_counts(kSelectBins);
+  CDT_CUDA_CHECK(
+      cudaMemcpyAsync(d_values.data(), values, n * sizeof(std::uint32_t), cudaMemcpyHostToDevice, stream));
+  enqueue_kth_smallest(d_values.data(), n, k, d_selection.data(), d_counts.data(), stream);
+  Selection selection{};
+  CDT_CUDA_CHECK(
+      cudaMemcpyAsync(&selection, d_selection.data(), sizeof selection, cudaMemcpyDeviceToHost, stream));
+  CDT_CUDA_CHECK(cudaStreamSynchronize(stream));
+  return selection.prefix;
 }
 
 } // namespace vectorize::gpu

@@ -2,6 +2,7 @@
 // Host-callable entry point of stage 2 (edge pixels) on the device. This header includes no CUDA
 // header.
 
+#include <cstddef>
 #include <cstdint>
 
 #include "edge_steps.hpp" // vectorize/src: the steps, shared with the host
@@ -17,6 +18,11 @@ namespace vectorize::gpu {
 /// copies use. Throws cdt::DeviceError on any CUDA failure.
 void edge_classes(const float* rgba, int width, int height, const detail::BlurTaps& taps,
                   const detail::ThresholdRule& rule, std::uint8_t* classes);
+
+/// The k-th smallest (from 0) of the n values, selected on the device as edge_classes selects the
+/// automatic thresholds' quantile (for tests). Throws std::invalid_argument unless k < n, and
+/// cdt::DeviceError on any CUDA failure.
+std::uint32_t kth_smallest(const std::uint32_t* values, std::size_t n, std::size_t k);
 
 /// Loads edge_classes' device code, so that a first call does not wait for it (loading a kernel holds
 /// the driver's lock, stalling every other thread's device work). Its copies use the staging blocks

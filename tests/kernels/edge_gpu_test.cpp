@@ -8,6 +8,7 @@
 #include <cmath>
 #include <cstdint>
 #include <random>
+#include <stdexcept>
 #include <string>
 #include <utility>
 #include <vector>
@@ -118,6 +119,38 @@ TEST_F(EdgesGpu, SameClassesAsTheHost) {
                                           std::to_string(sigma) + ", thresholds " + name);
       }
   EXPECT_GT(strong, 1000u); // edges were found, not only compared
+}
+
+// The device's selection of the automatic thresholds' quantile against std::nth_element, on values
+// that stress its three passes: all equal, ties at a bin's edges, the extremes of 32 bits, one value.
+TEST_F(EdgesGpu, KthSmallestIsExact) {
+  std::mt19937 rng(7);
+  std::vector<std::vector<std::uint32_t>> sets = {
+      {5}, {0, 0, 0}, {0xffffffffu, 0, 0x80000000u, 0x7fffffffu}, std::vector<std::uint32_t>(1000, 12345)};
+  for (const int n : {2, 17, 1000, 100000}) {
+    std::vector<std::uint32_t> wide(n), small(n), bins(n), squares(n);
+    for (int i = 0; i < n; ++i) {
+      wide[i] = rng();
+      small[i] = rng() % 7;
+      // values one apart across the passes' bin boundaries (bits 10 and 21)
+      bins[i] = (i % 2 ? 1u << 21 : 1u << 10) + rng() % 3 - 1;
+      const std::uint32_t m = rng() % 46341;
+      squares[i] = m * m;
+    }
+    for (auto* v : {&wide, &small, &bins, &squares}) sets.push_back(*v);
+  }
+  for (const auto& values : sets) {
+    std::vector<std::size_t> ranks = {
+        0, values.size() - 1, values.size() / 2,
+        static_cast<std::size_t>(0.85 * static_cast<double>(values.size() - 1))};
+    for (const std::size_t k : ranks) {
+      std::vector<std::uint32_t> sorted = values;
+      std::nth_element(sorted.begin(), sorted.begin() + static_cast<std::ptrdiff_t>(k), sorted.end());
+      EXPECT_EQ(vectorize::gpu::kth_smallest(values.data(), values.size(), k), sorted[k])
+          << values.size() << " values, k " << k;
+    }
+  }
+  EXPECT_THROW(vectorize::gpu::kth_smallest(sets[0].data(), 1, 1), std::invalid_argument);
 }
 
 TEST_F(EdgesGpu, SameClassesAtAPhotographsSize) {

@@ -200,32 +200,51 @@ inline std::uint32_t quantile(const std::uint32_t* values, std::size_t n, double
   return *nth;
 }
 
-/// The squared thresholds for an image whose squared magnitudes (at its shape pixels) are `squared`:
-/// both thresholds 0 takes the high one from the non_edge_fraction quantile of the magnitudes (at
-/// least min_auto_high) and the low one as 0.4 of it; one of them 0 takes it from the other by that
-/// ratio.
-inline SquaredThresholds edge_thresholds(const ThresholdRule& rule, const std::uint32_t* squared,
-                                         std::size_t n) {
+/// The squared thresholds for `rule`, given the non_edge_fraction quantile of the image's squared
+/// magnitudes when both of the rule's thresholds are 0 (the automatic rule; otherwise unused): the
+/// high one from the quantile (at least min_auto_high) and the low one as 0.4 of it; one of them 0
+/// takes it from the other by that ratio. The same operations on the host and the device (an exactly
+/// rounded square root, products and floors), so the same thresholds.
+CDT_HD_INLINE SquaredThresholds thresholds_from_quantile(const ThresholdRule& rule,
+                                                         std::uint32_t squared_quantile) {
   constexpr double kLowRatio = 0.4;
   double high = rule.high * kEdgeThresholdScale;
   double low = rule.low * kEdgeThresholdScale;
   if (high == 0.0 && low == 0.0) {
     // The square root is monotonic, so the quantile of the magnitudes is the root of their squares'.
-    const double q = std::sqrt(static_cast<double>(quantile(squared, n, rule.non_edge_fraction)));
-    high = std::max(q, rule.min_auto_high * kEdgeThresholdScale);
+    const double q = sqrt(static_cast<double>(squared_quantile));
+    const double least = rule.min_auto_high * kEdgeThresholdScale;
+    high = q > least ? q : least;
     low = kLowRatio * high;
   } else if (high == 0.0) {
     high = low / kLowRatio;
   } else if (low == 0.0) {
     low = kLowRatio * high;
   }
-  if (low > high) std::swap(low, high);
+  if (low > high) {
+    const double swapped = low;
+    low = high;
+    high = swapped;
+  }
   // A squared magnitude is an integer, so exceeding x is exceeding floor(x); beyond 2^62 nothing is.
   const auto squared_floor = [](double v) {
-    const double s = std::floor(v * v);
+    const double s = floor(v * v);
     return s >= 0x1p62 ? std::uint64_t{1} << 62 : static_cast<std::uint64_t>(s);
   };
   return {squared_floor(low), squared_floor(high)};
+}
+
+/// Whether `rule` takes its thresholds from the magnitudes' quantile.
+CDT_HD_INLINE bool automatic_thresholds(const ThresholdRule& rule) {
+  return rule.low == 0.0 && rule.high == 0.0;
+}
+
+/// The squared thresholds for an image whose squared magnitudes (at its shape pixels) are `squared`
+/// (thresholds_from_quantile, with the quantile of the n values when the rule is automatic).
+inline SquaredThresholds edge_thresholds(const ThresholdRule& rule, const std::uint32_t* squared,
+                                         std::size_t n) {
+  return thresholds_from_quantile(
+      rule, automatic_thresholds(rule) ? quantile(squared, n, rule.non_edge_fraction) : 0u);
 }
 
 /// Hysteresis: every candidate 8-connected through candidates to a strong pixel becomes strong. After
