@@ -192,6 +192,19 @@ TEST(VectorizeBatch, GpuBackendGivesTheCpuBytesOrFailsEveryImageClearly) {
 
 // The pipeline's PSLGs are framed by the image border, so cdt::triangulate_many triangulates them
 // together, and each gets the CDT it gets alone.
+// The stages skip reading the alphas of an image whose reader knows them all to be 1 (RGB and grey
+// files), and convert it as when they read them.
+TEST(VectorizePipeline, KnownOpaqueImagesConvertAsWhenTheirAlphasAreRead) {
+  EXPECT_FALSE(vectorize::load_image(kSamples / "logo.png").known_opaque); // RGBA
+  for (const char* name : {"photo.png", "strokes.png", "gradient.png"}) {
+    const vectorize::Image image = vectorize::load_image(kSamples / name);
+    ASSERT_TRUE(image.known_opaque) << name;
+    vectorize::Image unknown = image;
+    unknown.known_opaque = false;
+    EXPECT_EQ(vectorize::convert(image).svg, vectorize::convert(unknown).svg) << name;
+  }
+}
+
 TEST(VectorizeBatch, PslgsOfImagesTriangulatedTogetherGiveTheirOwnCdts) {
   std::vector<vectorize::Pslg> pslgs;
   for (const char* name : {"logo.png", "photo.png", "strokes.png", "gradient.png"}) {

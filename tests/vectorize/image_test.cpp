@@ -53,6 +53,7 @@ TEST(LoadImage, ReadsEightBitRgb) {
   EXPECT_NEAR(image.pixel(2, 1)[1], 20 / 255.0f, 1e-6);
   EXPECT_NEAR(image.pixel(2, 1)[2], 200 / 255.0f, 1e-6);
   EXPECT_EQ(image.pixel(4, 2)[3], 1.0f); // no alpha in the file: opaque
+  EXPECT_TRUE(image.known_opaque);
 }
 
 TEST(LoadImage, ReadsSixteenBitGreyAsRgb) {
@@ -86,6 +87,7 @@ TEST(LoadImage, ColourUnderPartialAlphaIsUnassociated) {
   const auto image = vectorize::load_image(dir / "half.png");
   EXPECT_NEAR(image.pixel(1, 1)[0], 200 / 255.0f, 1e-6);
   EXPECT_NEAR(image.pixel(1, 1)[3], 128 / 255.0f, 1e-6);
+  EXPECT_FALSE(image.known_opaque);
 }
 
 TEST(LoadImage, ReadsJpegAndTiff) {

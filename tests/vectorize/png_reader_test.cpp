@@ -181,6 +181,7 @@ TEST(PngReader, PaletteWithTransparencyBecomesRgba) {
   ASSERT_EQ(image.width, 4);
   ASSERT_EQ(image.height, 1);
   EXPECT_EQ(image.source_channels, 4);
+  EXPECT_FALSE(image.known_opaque);
   EXPECT_EQ(image.pixel(0, 0)[0], 1.0f);
   EXPECT_EQ(image.pixel(0, 0)[3], 1.0f);
   EXPECT_EQ(image.pixel(1, 0)[1], 1.0f);
@@ -196,6 +197,7 @@ TEST(PngReader, OneBitGreyExpandsToBlackAndWhite) {
   write_bytes(dir / "g.png", make_png(8, 2, 1, 0, {0b10100000, 0b01010000}));
   const auto image = vectorize::load_png(dir / "g.png");
   EXPECT_EQ(image.source_channels, 1);
+  EXPECT_TRUE(image.known_opaque);
   EXPECT_EQ(image.pixel(0, 0)[0], 1.0f);
   EXPECT_EQ(image.pixel(1, 0)[1], 0.0f);
   EXPECT_EQ(image.pixel(2, 0)[2], 1.0f);
@@ -210,6 +212,7 @@ TEST(PngReader, SixteenBitGreyAlphaKeepsItsPrecision) {
   write_bytes(dir / "ga.png", make_png(2, 1, 16, 4, {0x12, 0x34, 0xFF, 0xFF, 0xFF, 0xFF, 0x01, 0x01}));
   const auto image = vectorize::load_png(dir / "ga.png");
   EXPECT_EQ(image.source_channels, 2);
+  EXPECT_FALSE(image.known_opaque);
   EXPECT_FLOAT_EQ(image.pixel(0, 0)[0], 0x1234 / 65535.0f);
   EXPECT_EQ(image.pixel(0, 0)[3], 1.0f);
   EXPECT_FLOAT_EQ(image.pixel(1, 0)[3], 0x0101 / 65535.0f);
@@ -239,6 +242,7 @@ void expect_same_as_openimageio(const fs::path& path) {
   ASSERT_EQ(a.width, b.width) << path;
   ASSERT_EQ(a.height, b.height) << path;
   EXPECT_EQ(a.source_channels, b.source_channels) << path;
+  EXPECT_EQ(a.known_opaque, b.known_opaque) << path;
   std::size_t differing = 0;
   for (std::size_t i = 0; i < a.rgba.size(); ++i) differing += a.rgba[i] != b.rgba[i];
   EXPECT_EQ(differing, 0u) << path;
@@ -351,6 +355,8 @@ TEST(PngReader, DirectDecoderUndoesEveryFilterAsLibpngDoes) {
           EXPECT_EQ(direct.width, width);
           EXPECT_EQ(direct.height, height);
           EXPECT_EQ(direct.source_channels, channels);
+          EXPECT_EQ(direct.known_opaque, channels == 1 || channels == 3);
+          EXPECT_EQ(direct.known_opaque, libpng.known_opaque);
           EXPECT_EQ(direct.rgba, expected_rgba(rows, channels, bit_depth))
               << "depth " << bit_depth << " type " << colour_type << " filter " << filters.front();
           EXPECT_EQ(direct.rgba, libpng.rgba);

@@ -71,6 +71,7 @@ Image load(const std::filesystem::path& path, std::size_t max_pixels) {
   image.width = spec.width;
   image.height = spec.height;
   image.source_channels = channels;
+  image.known_opaque = alpha < 0; // every alpha set to 1 below
   image.rgba.resize(pixels * 4);
   for (std::size_t i = 0; i < pixels; ++i) {
     const float* src = raw.data() + i * static_cast<std::size_t>(channels);

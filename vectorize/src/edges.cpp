@@ -165,18 +165,23 @@ EdgeMap detect_edges(const Image& image, const EdgeOptions& options, unsigned th
   map.on.assign(static_cast<std::size_t>(image.width) * image.height, 0);
   if (image.width == 0 || image.height == 0) return map;
 
-  cv::Mat shape_mask(image.height, image.width, CV_8UC1);
-  int num_shape = 0;
-  for (int y = 0; y < image.height; ++y) {
-    const float* rgba = image.pixel(0, y);
-    auto* shape = shape_mask.ptr<std::uint8_t>(y);
-    int row_shape = 0;
-    for (int x = 0; x < image.width; ++x) {
-      const int s = rgba[4 * x + 3] >= 0.5f ? 1 : 0; // alpha >= 1/2: shape
-      shape[x] = static_cast<std::uint8_t>(s);
-      row_shape += s;
+  // The shape's pixels (alpha >= 1/2), unless the reader knows every alpha is 1.
+  cv::Mat shape_mask;
+  int num_shape = image.width * image.height;
+  if (!image.known_opaque) {
+    shape_mask.create(image.height, image.width, CV_8UC1);
+    num_shape = 0;
+    for (int y = 0; y < image.height; ++y) {
+      const float* rgba = image.pixel(0, y);
+      auto* shape = shape_mask.ptr<std::uint8_t>(y);
+      int row_shape = 0;
+      for (int x = 0; x < image.width; ++x) {
+        const int s = rgba[4 * x + 3] >= 0.5f ? 1 : 0; // alpha >= 1/2: shape
+        shape[x] = static_cast<std::uint8_t>(s);
+        row_shape += s;
+      }
+      num_shape += row_shape;
     }
-    num_shape += row_shape;
   }
   if (num_shape == 0) return map;
 

@@ -149,6 +149,7 @@ Image detail::load_png_with_libpng(const std::filesystem::path& path, std::size_
   image.width = static_cast<int>(header.width);
   image.height = static_cast<int>(header.height);
   image.source_channels = header.source_channels;
+  image.known_opaque = header.channels == 1 || header.channels == 3; // samples_to_rgba sets alpha 1
   image.rgba.resize(pixels * 4);
   detail::samples_to_rgba(data.data(), pixels, header.channels, header.bit_depth, image.rgba.data());
   return image;

@@ -68,6 +68,7 @@ PointPlacement::PointPlacement(const Image& image) : image_(image.rgba.empty() ?
   const std::size_t pixels = image.rgba.size() / 4;
   const float* rgba = image.rgba.data();
   constexpr std::size_t kBlock = 4096;
+  if (image.known_opaque) return; // every alpha is 1: no pixel is outside the shape
   for (std::size_t first = 0; first < pixels && !has_outline_; first += kBlock) {
     const std::size_t last = std::min(pixels, first + kBlock);
     unsigned clear = 0;

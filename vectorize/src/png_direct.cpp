@@ -259,6 +259,7 @@ bool decode_png_direct(std::span<const unsigned char> file, std::size_t max_pixe
   decoded.width = static_cast<int>(header.width);
   decoded.height = static_cast<int>(header.height);
   decoded.source_channels = header.channels;
+  decoded.known_opaque = header.channels == 1 || header.channels == 3; // no tRNS here: alpha 1
   decoded.rgba.resize(pixels * 4);
   const std::vector<unsigned char> zero_row(row_bytes + kSlack, 0);
   const unsigned char* above = zero_row.data();

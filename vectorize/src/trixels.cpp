@@ -200,7 +200,8 @@ bool prepare_trixels_on_device(unsigned callers) noexcept {
 TrixelColours colour_trixels(const Image& image, const cdt::Triangulation& t, unsigned threads,
                              TrixelDevice device) {
   bool opaque = true;
-  for (std::size_t i = 3; i < image.rgba.size() && opaque; i += 4) opaque = image.rgba[i] == 1.0f;
+  if (!image.known_opaque)
+    for (std::size_t i = 3; i < image.rgba.size() && opaque; i += 4) opaque = image.rgba[i] == 1.0f;
   const std::size_t count = t.triangles.size();
   std::vector<detail::TrixelSums> sums(count);
   if (device == TrixelDevice::gpu) {

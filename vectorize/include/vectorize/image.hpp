@@ -15,6 +15,10 @@ struct Image {
   std::vector<float> rgba;
   /// Channels of the source file (1 grey, 2 grey+alpha, 3 RGB, 4 RGBA), for reporting.
   int source_channels = 0;
+  /// True when every alpha is 1 and the reader knows it without looking: the file had neither an alpha
+  /// channel nor a transparent colour, and the reader set them to 1. False says nothing either way
+  /// (the stages then read the alphas). Spares three passes over a photograph's pixels.
+  bool known_opaque = false;
 
   float* pixel(int x, int y) { return rgba.data() + 4 * (static_cast<std::size_t>(y) * width + x); }
   const float* pixel(int x, int y) const {

@@ -41,7 +41,8 @@ public:
   /// Every point at its pixel's centre.
   PointPlacement() = default;
   /// Outline pixels of `image` moved as described; the image must outlive the placement. Reads the
-  /// alpha of every pixel once: an image with no no-shape pixel has no outline to move points to.
+  /// alpha of every pixel once (unless Image::known_opaque): an image with no no-shape pixel has no
+  /// outline to move points to.
   explicit PointPlacement(const Image& image);
 
   /// The point of pixel p (inside the image).
