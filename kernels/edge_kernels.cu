@@ -7,6 +7,7 @@
 #include <cuda_runtime.h>
 
 #include <algorithm>
+#include <atomic>
 #include <cstring>
 #include <stdexcept>
 #include <vector>
@@ -193,15 +194,52 @@ __global__ void suppress_kernel(const std::int16_t* __restrict__ dx, const std::
 
 } // namespace
 
+namespace {
+std::atomic<std::size_t> g_kept_bytes{0}; // held by the DeviceImages alive
+} // namespace
+
+DeviceImage::~DeviceImage() {
+  if (pixels_ == nullptr) return;
+  cdt::gpu::detail::device_release(pixels_, pooled_);
+  g_kept_bytes.fetch_sub(4 * static_cast<std::size_t>(width_) * height_ * sizeof(float));
+}
+
 void edge_classes(const float* rgba, int width, int height, const detail::BlurTaps& taps,
                   const detail::ThresholdRule& rule, std::uint8_t* classes) {
+  edge_classes(rgba, width, height, taps, rule, classes, nullptr);
+}
+
+void edge_classes(const float* rgba, int width, int height, const detail::BlurTaps& taps,
+                  const detail::ThresholdRule& rule, std::uint8_t* classes,
+                  std::unique_ptr<DeviceImage>* kept) {
+  if (kept != nullptr) kept->reset();
   if (width <= 0 || height <= 0) return;
   if (cdt::gpu::device_count() == 0)
     throw cdt::DeviceError("edges on the device: no CUDA device is available");
   const cudaStream_t stream = cudaStreamPerThread;
   const std::size_t pixels = static_cast<std::size_t>(width) * height;
   const std::size_t image_bytes = 4 * pixels * sizeof(float);
-  DeviceBuffer<float> d_rgba(4 * pixels);
+  // The image's device copy: kept for the trixel colours when asked and within the bound, else a
+  // buffer of this call.
+  std::unique_ptr<DeviceImage> keep;
+  if (kept != nullptr && g_kept_bytes.fetch_add(image_bytes) + image_bytes <= kKeptImageBytes) {
+    keep.reset(new DeviceImage);
+    void* d_pixels = nullptr;
+    const cudaError_t status = cdt::gpu::detail::device_allocate(&d_pixels, image_bytes, keep->pooled_);
+    if (status != cudaSuccess) {
+      g_kept_bytes.fetch_sub(image_bytes);
+      keep.reset();
+      cudaGetLastError(); // not sticky; the buffer below tries again and reports a failure
+    } else {
+      keep->pixels_ = static_cast<float*>(d_pixels);
+      keep->width_ = width;
+      keep->height_ = height;
+    }
+  } else if (kept != nullptr) {
+    g_kept_bytes.fetch_sub(image_bytes);
+  }
+  DeviceBuffer<float> d_own(keep ? 0 : 4 * pixels);
+  float* const d_rgba = keep ? keep->pixels_ : d_own.data();
   DeviceBuffer<float> d_across(taps.radius > 0 ? 3 * pixels : 0);
   DeviceBuffer<float> d_blurred(3 * pixels);
   DeviceBuffer<std::int16_t> d_dx(pixels);
@@ -213,19 +251,19 @@ void edge_classes(const float* rgba, int width, int height, const detail::BlurTa
   // driver's path for pageable memory, which serialises the copies of a batch's many workers.
   const HeldStagingBlock block(image_bytes <= cdt::gpu::detail::kStagingBytes);
   if (block.get() != nullptr) std::memcpy(block.get(), rgba, image_bytes);
-  CDT_CUDA_CHECK(cudaMemcpyAsync(d_rgba.data(),
+  CDT_CUDA_CHECK(cudaMemcpyAsync(d_rgba,
                                  block.get() != nullptr ? static_cast<const void*>(block.get()) : rgba,
                                  image_bytes, cudaMemcpyHostToDevice, stream));
   constexpr int kThreads = 256;
   const auto blocks = static_cast<unsigned>((pixels + kThreads - 1) / kThreads);
   if (taps.radius > 0) {
-    blur_across_kernel<<<blocks, kThreads, 0, stream>>>(d_rgba.data(), width, pixels, taps, d_across.data());
+    blur_across_kernel<<<blocks, kThreads, 0, stream>>>(d_rgba, width, pixels, taps, d_across.data());
     CDT_CUDA_CHECK_LAUNCH("blur_across_kernel");
     blur_down_kernel<<<blocks, kThreads, 0, stream>>>(d_across.data(), width, height, pixels, taps,
                                                       d_blurred.data());
     CDT_CUDA_CHECK_LAUNCH("blur_down_kernel");
   } else {
-    blur_across_kernel<<<blocks, kThreads, 0, stream>>>(d_rgba.data(), width, pixels, taps, d_blurred.data());
+    blur_across_kernel<<<blocks, kThreads, 0, stream>>>(d_rgba, width, pixels, taps, d_blurred.data());
     CDT_CUDA_CHECK_LAUNCH("blur_across_kernel");
   }
   gradient_kernel<<<blocks, kThreads, 0, stream>>>(d_blurred.data(), width, height, pixels, d_dx.data(),
@@ -254,6 +292,7 @@ void edge_classes(const float* rgba, int width, int height, const detail::BlurTa
                                  d_classes.data(), pixels, cudaMemcpyDeviceToHost, stream));
   CDT_CUDA_CHECK(cudaStreamSynchronize(stream));
   if (block.get() != nullptr) std::memcpy(classes, block.get(), pixels);
+  if (kept != nullptr) *kept = std::move(keep);
 }
 
 void prepare_edge_classes() {

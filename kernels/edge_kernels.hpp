@@ -4,6 +4,7 @@
 
 #include <cstddef>
 #include <cstdint>
+#include <memory>
 
 #include "edge_steps.hpp" // vectorize/src: the steps, shared with the host
 
@@ -18,6 +19,37 @@ namespace vectorize::gpu {
 /// copies use. Throws cdt::DeviceError on any CUDA failure.
 void edge_classes(const float* rgba, int width, int height, const detail::BlurTaps& taps,
                   const detail::ThresholdRule& rule, std::uint8_t* classes);
+
+/// An image's RGBA floats left on the device by edge_classes, so that trixel_sums need not copy them
+/// there again; its device memory is freed with it (before the device is given back, then). Made by
+/// edge_classes only.
+class DeviceImage {
+public:
+  DeviceImage(const DeviceImage&) = delete;
+  DeviceImage& operator=(const DeviceImage&) = delete;
+  ~DeviceImage();
+  const float* data() const { return pixels_; }
+  int width() const { return width_; }
+  int height() const { return height_; }
+
+private:
+  friend void edge_classes(const float*, int, int, const detail::BlurTaps&, const detail::ThresholdRule&,
+                           std::uint8_t*, std::unique_ptr<DeviceImage>*);
+  DeviceImage() = default;
+  float* pixels_ = nullptr;
+  int width_ = 0;
+  int height_ = 0;
+  bool pooled_ = false;
+};
+
+/// edge_classes, leaving the image on the device in *kept for a later trixel_sums, unless the images
+/// kept at once would take more than kKeptImageBytes (*kept is then empty).
+void edge_classes(const float* rgba, int width, int height, const detail::BlurTaps& taps,
+                  const detail::ThresholdRule& rule, std::uint8_t* classes,
+                  std::unique_ptr<DeviceImage>* kept);
+
+/// The most device memory the images kept by edge_classes hold at once.
+inline constexpr std::size_t kKeptImageBytes = std::size_t{1} << 30;
 
 /// The k-th smallest (from 0) of the n values, selected on the device as edge_classes selects the
 /// automatic thresholds' quantile (for tests). Throws std::invalid_argument unless k < n, and

@@ -49,7 +49,7 @@ constexpr std::size_t kMaxStagingBlocks = 4;
 
 void trixel_sums(const float* rgba, int width, int height, const cdt::Point* vertices,
                  std::size_t num_vertices, const std::array<std::uint32_t, 3>* triangles,
-                 std::size_t num_triangles, bool opaque, detail::TrixelSums* sums) {
+                 std::size_t num_triangles, bool opaque, detail::TrixelSums* sums, const float* device_rgba) {
   if (num_triangles == 0) return;
   if (cdt::gpu::device_count() == 0)
     throw cdt::DeviceError("trixel colours on the device: no CUDA device is available");
@@ -61,7 +61,8 @@ void trixel_sums(const float* rgba, int width, int height, const cdt::Point* ver
   const std::size_t vertex_bytes = num_vertices * sizeof(cdt::Point);
   const std::size_t triangle_bytes = num_triangles * sizeof(triangles[0]);
   const std::size_t sum_bytes = num_triangles * sizeof(detail::TrixelSums);
-  DeviceBuffer<float> d_rgba(4 * pixels);
+  DeviceBuffer<float> d_own(device_rgba != nullptr ? 0 : 4 * pixels);
+  const float* d_rgba = device_rgba != nullptr ? device_rgba : d_own.data();
   DeviceBuffer<cdt::Point> d_vertices(num_vertices);
   DeviceBuffer<std::uint32_t> d_triangles(3 * num_triangles);
   DeviceBuffer<detail::TrixelSums> d_sums(num_triangles);
@@ -69,7 +70,7 @@ void trixel_sums(const float* rgba, int width, int height, const cdt::Point* ver
   // A photograph's copies fit a pinned staging block: through it they skip the driver's path for
   // pageable memory, which serialises the copies of a batch's many workers (H200 machine, sixteen
   // workers: an image's upload took 3.9 ms against 0.8 alone, and the stage 11 ms against 8 staged).
-  const std::size_t vertex_at = aligned(image_bytes);
+  const std::size_t vertex_at = device_rgba != nullptr ? 0 : aligned(image_bytes); // after the image's
   const std::size_t triangle_at = vertex_at + aligned(vertex_bytes);
   const HeldStagingBlock block(std::max(triangle_at + triangle_bytes, sum_bytes) <=
                                cdt::gpu::detail::kStagingBytes);
@@ -81,17 +82,17 @@ void trixel_sums(const float* rgba, int width, int height, const cdt::Point* ver
     }
     CDT_CUDA_CHECK(cudaMemcpyAsync(d_dst, h_src, bytes, cudaMemcpyHostToDevice, stream));
   };
-  upload(d_rgba.data(), rgba, image_bytes, 0);
+  if (device_rgba == nullptr) upload(d_own.data(), rgba, image_bytes, 0);
   upload(d_vertices.data(), vertices, vertex_bytes, vertex_at);
   upload(d_triangles.data(), triangles, triangle_bytes, triangle_at);
   constexpr int kThreads = 128;
   const auto blocks = static_cast<unsigned>((num_triangles + kThreads - 1) / kThreads);
   if (opaque)
     trixel_sums_kernel<true><<<blocks, kThreads, 0, stream>>>(
-        d_rgba.data(), width, height, d_vertices.data(), d_triangles.data(), num_triangles, d_sums.data());
+        d_rgba, width, height, d_vertices.data(), d_triangles.data(), num_triangles, d_sums.data());
   else
     trixel_sums_kernel<false><<<blocks, kThreads, 0, stream>>>(
-        d_rgba.data(), width, height, d_vertices.data(), d_triangles.data(), num_triangles, d_sums.data());
+        d_rgba, width, height, d_vertices.data(), d_triangles.data(), num_triangles, d_sums.data());
   CDT_CUDA_CHECK_LAUNCH("trixel_sums_kernel");
   // In stream order, after the uploads have read the block.
   CDT_CUDA_CHECK(cudaMemcpyAsync(block.get() != nullptr ? static_cast<void*>(block.get()) : sums,

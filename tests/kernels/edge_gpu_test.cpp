@@ -7,6 +7,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
+#include <memory>
 #include <random>
 #include <stdexcept>
 #include <string>
@@ -151,6 +152,30 @@ TEST_F(EdgesGpu, KthSmallestIsExact) {
     }
   }
   EXPECT_THROW(vectorize::gpu::kth_smallest(sets[0].data(), 1, 1), std::invalid_argument);
+}
+
+// The images edge_classes keeps on the device for the trixel colours take at most kKeptImageBytes
+// at once: beyond it the image is not kept (its edges are made all the same), and a kept image freed
+// makes room again.
+TEST_F(EdgesGpu, KeptImagesStayWithinTheirBound) {
+  const int side = 2048;
+  const Raster r = test_image(side, side, 5);
+  const std::size_t bytes = 4 * sizeof(float) * side * side;
+  const std::size_t room = vectorize::gpu::kKeptImageBytes / bytes;
+  const d::BlurTaps taps = d::blur_taps(1.0);
+  const std::vector<std::uint8_t> expected = host_classes(r, taps, {});
+  std::vector<std::unique_ptr<vectorize::gpu::DeviceImage>> kept;
+  std::vector<std::uint8_t> classes(expected.size());
+  for (std::size_t k = 0; k <= room; ++k) {
+    kept.emplace_back();
+    vectorize::gpu::edge_classes(r.rgba.data(), side, side, taps, {}, classes.data(), &kept.back());
+    EXPECT_EQ(classes, expected) << "image " << k;
+    EXPECT_EQ(kept.back() != nullptr, k < room) << "image " << k;
+  }
+  kept.front().reset();
+  std::unique_ptr<vectorize::gpu::DeviceImage> again;
+  vectorize::gpu::edge_classes(r.rgba.data(), side, side, taps, {}, classes.data(), &again);
+  EXPECT_NE(again, nullptr);
 }
 
 TEST_F(EdgesGpu, SameClassesAtAPhotographsSize) {

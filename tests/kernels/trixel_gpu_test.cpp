@@ -2,17 +2,19 @@
 // same per-triangle code (vectorize/src/trixel_runs.hpp) in triangle order, as colour_trixels does:
 // equal to the bit, on meshes whose vertices are off the fine grid (the exact orient2d path), on it
 // (the half-plane path, many vertices and edges right on pixel centres), with and without
-// transparency.
+// transparency; and from the image edge_classes left on the device.
 #include <gtest/gtest.h>
 
 #include <cmath>
 #include <cstdint>
 #include <cstring>
+#include <memory>
 #include <random>
 #include <string>
 #include <vector>
 
 #include "cdt/cdt.hpp"
+#include "edge_kernels.hpp"
 #include "trixel_kernels.hpp"
 
 namespace {
@@ -81,11 +83,8 @@ std::vector<TrixelSums> host_sums(const Raster& r, const cdt::Triangulation& t, 
   return sums;
 }
 
-void expect_same_sums(const Raster& r, const cdt::Triangulation& t, bool opaque, const std::string& what) {
-  const std::vector<TrixelSums> expected = host_sums(r, t, opaque);
-  std::vector<TrixelSums> got(t.triangles.size());
-  vectorize::gpu::trixel_sums(r.rgba.data(), r.width, r.height, t.vertices.data(), t.vertices.size(),
-                              t.triangles.data(), t.triangles.size(), opaque, got.data());
+void expect_equal(const std::vector<TrixelSums>& expected, const std::vector<TrixelSums>& got,
+                  const Raster& r, const std::string& what) {
   std::uint64_t pixels = 0;
   for (std::size_t tri = 0; tri < expected.size(); ++tri) {
     const TrixelSums& e = expected[tri];
@@ -101,6 +100,28 @@ void expect_same_sums(const Raster& r, const cdt::Triangulation& t, bool opaque,
   }
   // The mesh covers the image: every pixel centre counted once.
   EXPECT_EQ(pixels, static_cast<std::uint64_t>(r.width) * r.height) << what;
+}
+
+// The device's sums equal the host's, with the image copied by trixel_sums and with the image that
+// edge_classes left on the device.
+void expect_same_sums(const Raster& r, const cdt::Triangulation& t, bool opaque, const std::string& what) {
+  const std::vector<TrixelSums> expected = host_sums(r, t, opaque);
+  std::vector<TrixelSums> got(t.triangles.size());
+  vectorize::gpu::trixel_sums(r.rgba.data(), r.width, r.height, t.vertices.data(), t.vertices.size(),
+                              t.triangles.data(), t.triangles.size(), opaque, got.data());
+  expect_equal(expected, got, r, what);
+
+  std::unique_ptr<vectorize::gpu::DeviceImage> kept;
+  std::vector<std::uint8_t> classes(static_cast<std::size_t>(r.width) * r.height);
+  vectorize::gpu::edge_classes(r.rgba.data(), r.width, r.height, vectorize::detail::blur_taps(1.0), {},
+                               classes.data(), &kept);
+  ASSERT_NE(kept, nullptr) << what;
+  EXPECT_EQ(kept->width(), r.width);
+  EXPECT_EQ(kept->height(), r.height);
+  std::vector<TrixelSums> from_kept(t.triangles.size());
+  vectorize::gpu::trixel_sums(nullptr, r.width, r.height, t.vertices.data(), t.vertices.size(),
+                              t.triangles.data(), t.triangles.size(), opaque, from_kept.data(), kept->data());
+  expect_equal(expected, from_kept, r, what + ", the image kept on the device");
 }
 
 class TrixelSumsGpu : public ::testing::Test {

@@ -218,6 +218,7 @@ void end_job(Flight& f, const BatchOptions& options, const Options& conversion,
   } catch (...) {
     fail(f.result);
   }
+  f.first.device_pixels.reset(); // a failed image's too, before the device may be given back
   set_seconds(f);
 }
 

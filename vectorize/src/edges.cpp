@@ -77,11 +77,17 @@ cv::Mat shape_colours(const Image& image, const cv::Mat& shape_mask) {
 
 // The suppression's classes of an opaque image on the device (EdgeDevice::gpu).
 void gpu_edge_classes(const Image& image, const detail::BlurTaps& taps, const detail::ThresholdRule& rule,
-                      std::uint8_t* classes) {
+                      std::uint8_t* classes, DevicePixels* keep) {
 #if TRIXEL_HAVE_CUDA
-  gpu::edge_classes(image.rgba.data(), image.width, image.height, taps, rule, classes);
+  if (keep == nullptr) {
+    gpu::edge_classes(image.rgba.data(), image.width, image.height, taps, rule, classes);
+    return;
+  }
+  std::unique_ptr<gpu::DeviceImage> kept;
+  gpu::edge_classes(image.rgba.data(), image.width, image.height, taps, rule, classes, &kept);
+  *keep = std::move(kept);
 #else
-  (void)image, (void)taps, (void)rule, (void)classes;
+  (void)image, (void)taps, (void)rule, (void)classes, (void)keep;
   throw cdt::DeviceError("edges on the device: this build has no CUDA support");
 #endif
 }
@@ -149,7 +155,9 @@ void cpu_edge_classes(const Image& image, const cv::Mat& shape_mask, bool opaque
 
 } // namespace
 
-EdgeMap detect_edges(const Image& image, const EdgeOptions& options, unsigned threads, EdgeDevice device) {
+EdgeMap detect_edges(const Image& image, const EdgeOptions& options, unsigned threads, EdgeDevice device,
+                     DevicePixels* keep) {
+  if (keep != nullptr) keep->reset();
   if (image.width < 0 || image.height < 0 ||
       image.rgba.size() != static_cast<std::size_t>(image.width) * image.height * 4)
     throw std::invalid_argument("detect_edges: image.rgba must hold width * height * 4 values");
@@ -193,7 +201,7 @@ EdgeMap detect_edges(const Image& image, const EdgeOptions& options, unsigned th
   // The device takes opaque images; the others need the nearest-shape-pixel colours (OpenCV's distance
   // transform) and stay on the CPU. The classes are the same either way.
   if (device == EdgeDevice::gpu && opaque)
-    gpu_edge_classes(image, taps, rule, classes.get());
+    gpu_edge_classes(image, taps, rule, classes.get(), keep);
   else
     cpu_edge_classes(image, shape_mask, opaque, taps, rule, threads, classes.get());
   detail::hysteresis(classes.get(), image.width, image.height);

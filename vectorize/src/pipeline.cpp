@@ -117,8 +117,8 @@ PslgStage convert_to_pslg(const Image& image, const Options& options, StageRecor
   // On the device when it is ready and the backend is not the CPU's.
   const EdgeMap edges = on_device_or_cpu(
       options.backend, options.backend != cdt::Backend::cpu && device_ready, [&](bool device) {
-        return detect_edges(image, options.edges, options.threads,
-                            device ? EdgeDevice::gpu : EdgeDevice::cpu);
+        return detect_edges(image, options.edges, options.threads, device ? EdgeDevice::gpu : EdgeDevice::cpu,
+                            device ? &out.device_pixels : nullptr);
       });
   for (const std::uint8_t e : edges.on) stats.edge_pixels += e;
   timer.end("edges");
@@ -174,8 +174,9 @@ Conversion finish_conversion(const Image& image, const Options& options, PslgSta
   const TrixelColours trixels =
       on_device_or_cpu(options.backend, triangulation.stats.backend.starts_with("gpu"), [&](bool device) {
         return colour_trixels(image, triangulation, options.threads,
-                              device ? TrixelDevice::gpu : TrixelDevice::cpu);
+                              device ? TrixelDevice::gpu : TrixelDevice::cpu, first.device_pixels);
       });
+  first.device_pixels.reset(); // its device memory freed before the device may be given back
   if (device_done) device_done();
   timer.end("trixels");
   const Regions regions = group_trixels(triangulation, trixels, options.grouping, options.threads);

@@ -18,6 +18,7 @@
 #include "trixel_runs.hpp"
 
 #if TRIXEL_HAVE_CUDA
+#include "edge_kernels.hpp"
 #include "trixel_kernels.hpp"
 #endif
 
@@ -39,12 +40,16 @@ void for_each_run(int width, int height, const cdt::Triangulation& t, Visit&& vi
 
 // Each triangle's sums on the device (TrixelDevice::gpu).
 void gpu_trixel_sums(const Image& image, const cdt::Triangulation& t, bool opaque,
-                     std::vector<detail::TrixelSums>& sums) {
+                     std::vector<detail::TrixelSums>& sums, const DevicePixels& on_device) {
 #if TRIXEL_HAVE_CUDA
+  // Only edge_classes makes the handle: it holds a gpu::DeviceImage.
+  const auto* kept = static_cast<const gpu::DeviceImage*>(on_device.get());
+  const bool same = kept != nullptr && kept->width() == image.width && kept->height() == image.height;
   gpu::trixel_sums(image.rgba.data(), image.width, image.height, t.vertices.data(), t.vertices.size(),
-                   t.triangles.data(), t.triangles.size(), opaque, sums.data());
+                   t.triangles.data(), t.triangles.size(), opaque, sums.data(),
+                   same ? kept->data() : nullptr);
 #else
-  (void)image, (void)t, (void)opaque, (void)sums;
+  (void)image, (void)t, (void)opaque, (void)sums, (void)on_device;
   throw cdt::DeviceError("trixel colours on the device: this build has no CUDA support");
 #endif
 }
@@ -198,14 +203,14 @@ bool prepare_trixels_on_device(unsigned callers) noexcept {
 }
 
 TrixelColours colour_trixels(const Image& image, const cdt::Triangulation& t, unsigned threads,
-                             TrixelDevice device) {
+                             TrixelDevice device, const DevicePixels& on_device) {
   bool opaque = true;
   if (!image.known_opaque)
     for (std::size_t i = 3; i < image.rgba.size() && opaque; i += 4) opaque = image.rgba[i] == 1.0f;
   const std::size_t count = t.triangles.size();
   std::vector<detail::TrixelSums> sums(count);
   if (device == TrixelDevice::gpu) {
-    gpu_trixel_sums(image, t, opaque, sums);
+    gpu_trixel_sums(image, t, opaque, sums, on_device);
   } else {
     // Each triangle's sums are its own and are added up by one thread in row order, so the result is
     // the same for any number of threads.

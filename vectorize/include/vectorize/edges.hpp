@@ -53,9 +53,11 @@ enum class EdgeDevice { cpu, gpu };
 /// (0: every hardware thread). EdgeDevice::gpu makes the edges of an image without no-shape pixels on
 /// the device (`threads` unused; other images stay on the CPU) and throws cdt::DeviceError on a CUDA
 /// failure or in a build without CUDA. The result depends on neither `threads` nor `device`, nor on
-/// the processor's vector instructions.
+/// the processor's vector instructions. With `keep` given, an image whose edges are made on the device
+/// is left there in *keep for colour_trixels (within a bound on the device memory that images kept at
+/// once take; else *keep is empty).
 EdgeMap detect_edges(const Image& image, const EdgeOptions& options = {}, unsigned threads = 1,
-                     EdgeDevice device = EdgeDevice::cpu);
+                     EdgeDevice device = EdgeDevice::cpu, DevicePixels* keep = nullptr);
 
 /// Prepares EdgeDevice::gpu: loads its device code, so that a first image does not wait for it (its
 /// copies go through the pinned blocks prepare_trixels_on_device sets aside). Returns false, doing

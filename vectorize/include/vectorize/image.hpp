@@ -3,6 +3,7 @@
 
 #include <cstddef>
 #include <filesystem>
+#include <memory>
 #include <vector>
 
 namespace vectorize {
@@ -25,6 +26,11 @@ struct Image {
     return rgba.data() + 4 * (static_cast<std::size_t>(y) * width + x);
   }
 };
+
+/// An image's pixels kept on the CUDA device from one stage to another (by detect_edges, for
+/// colour_trixels), so that they are copied there once; device memory, held while a copy of the handle
+/// lives (drop it before the device is given back). Empty when there is none.
+using DevicePixels = std::shared_ptr<const void>;
 
 /// Reads any format OpenImageIO reads (PNG, JPEG, TIFF, BMP, WebP, ...), 8/16-bit or float, grey,
 /// grey+alpha, RGB or RGBA; grey is replicated to RGB and a missing alpha is 1. Only the first

@@ -123,6 +123,9 @@ struct PslgStage {
   Stats stats;
   std::chrono::steady_clock::time_point started;     ///< when the conversion began
   std::chrono::steady_clock::time_point stages_done; ///< when this half ended: the CDT stage's start
+  /// The image left on the device by its edges, for its trixel colours (finish_conversion drops it
+  /// once they are made); empty when its edges were found on the CPU.
+  DevicePixels device_pixels;
 };
 
 /// The stages of convert() up to the PSLG (edges, chains, simplification, PSLG); `record` gets theirs.

@@ -52,10 +52,11 @@ enum class TrixelDevice { cpu, gpu };
 /// violated precondition) are ignored. Time O(pixels + triangles + the summed heights of the
 /// triangles in pixel rows), memory O(triangles). `threads` > 1 shares the triangles among that many
 /// threads (0: every hardware thread); the result does not depend on it, nor on `device`. With
-/// TrixelDevice::gpu the sums are made on the device (the image and the mesh copied there; `threads`
-/// unused); that throws cdt::DeviceError on a CUDA failure or in a build without CUDA.
+/// TrixelDevice::gpu the sums are made on the device (the image and the mesh copied there, the image
+/// unless `on_device` holds it already, as detect_edges left it; `threads` unused); that throws
+/// cdt::DeviceError on a CUDA failure or in a build without CUDA.
 TrixelColours colour_trixels(const Image& image, const cdt::Triangulation& t, unsigned threads = 1,
-                             TrixelDevice device = TrixelDevice::cpu);
+                             TrixelDevice device = TrixelDevice::cpu, const DevicePixels& on_device = {});
 
 /// Prepares TrixelDevice::gpu for `callers` threads calling colour_trixels() at once: loads its device
 /// code and pins host memory for their copies (16 MB per caller, at most 64 MB; the edges' copies on
