@@ -188,10 +188,9 @@ Conversion finish_conversion(const Image& image, const Options& options, PslgSta
   timer.end("polygons");
   out.svg = svg_document(polygons, regions, image.width, image.height, options.svg);
   stats.bytes = out.svg.size();
-  // Drawn paths: each has a fill; the paths of the underlay's mask (transparent areas) do not.
-  for (std::size_t at = out.svg.find("<path"); at != std::string::npos; at = out.svg.find("<path", at + 5)) {
-    if (out.svg.compare(at, 8, "<path d=") != 0) ++stats.paths;
-  }
+  // Drawn paths: one per opaque region with rings (transparent ones only mask the underlay).
+  for (const RegionPolygon& polygon : polygons)
+    stats.paths += !regions.regions[polygon.region].transparent && !polygon.rings.empty() ? 1 : 0;
   timer.end("svg");
   timer.finish();
   if (record != nullptr) {

@@ -92,7 +92,8 @@ private:
 };
 
 void append_path_data(std::string& text, const RegionPolygon& polygon, int precision) {
-  const double scale = std::pow(10.0, precision);
+  static constexpr double kPowersOfTen[] = {1.0, 10.0, 100.0, 1e3, 1e4, 1e5, 1e6}; // precision 0 to 6
+  const double scale = kPowersOfTen[precision];
   PathData d(text, precision);
   for (const Ring& ring : polygon.rings) {
     std::int64_t x = std::llround(ring.points.front().x * scale);
