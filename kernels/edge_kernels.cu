@@ -204,9 +204,23 @@ DeviceImage::~DeviceImage() {
   g_kept_bytes.fetch_sub(4 * static_cast<std::size_t>(width_) * height_ * sizeof(float));
 }
 
-void edge_classes(const float* rgba, int width, int height, const detail::BlurTaps& taps,
-                  const detail::ThresholdRule& rule, std::uint8_t* classes) {
-  edge_classes(rgba, width, height, taps, rule, classes, nullptr);
+std::unique_ptr<DeviceImage> DeviceImage::make(int width, int height) {
+  const std::size_t bytes = 4 * static_cast<std::size_t>(width) * height * sizeof(float);
+  if (g_kept_bytes.fetch_add(bytes) + bytes > kKeptImageBytes) {
+    g_kept_bytes.fetch_sub(bytes);
+    return nullptr;
+  }
+  std::unique_ptr<DeviceImage> image(new DeviceImage);
+  void* pixels = nullptr;
+  if (cdt::gpu::detail::device_allocate(&pixels, bytes, image->pooled_) != cudaSuccess) {
+    cudaGetLastError(); // not sticky: the caller's own buffer tries again and reports a failure
+    g_kept_bytes.fetch_sub(bytes);
+    return nullptr;
+  }
+  image->pixels_ = static_cast<float*>(pixels);
+  image->width_ = width;
+  image->height_ = height;
+  return image;
 }
 
 void edge_classes(const float* rgba, int width, int height, const detail::BlurTaps& taps,
@@ -221,23 +235,7 @@ void edge_classes(const float* rgba, int width, int height, const detail::BlurTa
   const std::size_t image_bytes = 4 * pixels * sizeof(float);
   // The image's device copy: kept for the trixel colours when asked and within the bound, else a
   // buffer of this call.
-  std::unique_ptr<DeviceImage> keep;
-  if (kept != nullptr && g_kept_bytes.fetch_add(image_bytes) + image_bytes <= kKeptImageBytes) {
-    keep.reset(new DeviceImage);
-    void* d_pixels = nullptr;
-    const cudaError_t status = cdt::gpu::detail::device_allocate(&d_pixels, image_bytes, keep->pooled_);
-    if (status != cudaSuccess) {
-      g_kept_bytes.fetch_sub(image_bytes);
-      keep.reset();
-      cudaGetLastError(); // not sticky; the buffer below tries again and reports a failure
-    } else {
-      keep->pixels_ = static_cast<float*>(d_pixels);
-      keep->width_ = width;
-      keep->height_ = height;
-    }
-  } else if (kept != nullptr) {
-    g_kept_bytes.fetch_sub(image_bytes);
-  }
+  std::unique_ptr<DeviceImage> keep = kept != nullptr ? DeviceImage::make(width, height) : nullptr;
   DeviceBuffer<float> d_own(keep ? 0 : 4 * pixels);
   float* const d_rgba = keep ? keep->pixels_ : d_own.data();
   DeviceBuffer<float> d_across(taps.radius > 0 ? 3 * pixels : 0);

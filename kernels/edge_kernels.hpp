@@ -10,16 +10,6 @@
 
 namespace vectorize::gpu {
 
-/// The suppression's classes (detail::kNotEdge, kCandidate or kStrong, before the hysteresis), width *
-/// height of them row-major, of the opaque width x height image of RGBA floats `rgba` (row-major), as
-/// the host makes them with detail::gradient_rows (the colour scaled by detail::kEdgeScale),
-/// detail::edge_thresholds over every pixel's squared magnitude and detail::suppress_rows: the same
-/// classes. Runs on the calling thread's default stream (cudaStreamPerThread) and returns when they are
-/// in host memory; copies that fit go through a free one of the pinned staging blocks the CDT engine's
-/// copies use. Throws cdt::DeviceError on any CUDA failure.
-void edge_classes(const float* rgba, int width, int height, const detail::BlurTaps& taps,
-                  const detail::ThresholdRule& rule, std::uint8_t* classes);
-
 /// An image's RGBA floats left on the device by edge_classes, so that trixel_sums need not copy them
 /// there again; its device memory is freed with it (before the device is given back, then). Made by
 /// edge_classes only.
@@ -36,17 +26,27 @@ private:
   friend void edge_classes(const float*, int, int, const detail::BlurTaps&, const detail::ThresholdRule&,
                            std::uint8_t*, std::unique_ptr<DeviceImage>*);
   DeviceImage() = default;
+  /// Device memory for a width x height image, or null when the images kept at once would take more
+  /// than kKeptImageBytes or the memory is not there.
+  static std::unique_ptr<DeviceImage> make(int width, int height);
   float* pixels_ = nullptr;
   int width_ = 0;
   int height_ = 0;
   bool pooled_ = false;
 };
 
-/// edge_classes, leaving the image on the device in *kept for a later trixel_sums, unless the images
-/// kept at once would take more than kKeptImageBytes (*kept is then empty).
+/// The suppression's classes (detail::kNotEdge, kCandidate or kStrong, before the hysteresis), width *
+/// height of them row-major, of the opaque width x height image of RGBA floats `rgba` (row-major), as
+/// the host makes them with detail::gradient_rows (the colour scaled by detail::kEdgeScale),
+/// detail::edge_thresholds over every pixel's squared magnitude and detail::suppress_rows: the same
+/// classes. Runs on the calling thread's default stream (cudaStreamPerThread) and returns when they are
+/// in host memory; copies that fit go through a free one of the pinned staging blocks the CDT engine's
+/// copies use. With `kept` given, the image is left on the device in *kept for a later trixel_sums,
+/// unless the images kept at once would take more than kKeptImageBytes (*kept is then empty). Throws
+/// cdt::DeviceError on any CUDA failure.
 void edge_classes(const float* rgba, int width, int height, const detail::BlurTaps& taps,
                   const detail::ThresholdRule& rule, std::uint8_t* classes,
-                  std::unique_ptr<DeviceImage>* kept);
+                  std::unique_ptr<DeviceImage>* kept = nullptr);
 
 /// The most device memory the images kept by edge_classes hold at once.
 inline constexpr std::size_t kKeptImageBytes = std::size_t{1} << 30;

@@ -200,6 +200,11 @@ inline std::uint32_t quantile(const std::uint32_t* values, std::size_t n, double
   return *nth;
 }
 
+/// Whether `rule` takes its thresholds from the magnitudes' quantile.
+CDT_HD_INLINE bool automatic_thresholds(const ThresholdRule& rule) {
+  return rule.low == 0.0 && rule.high == 0.0;
+}
+
 /// The squared thresholds for `rule`, given the non_edge_fraction quantile of the image's squared
 /// magnitudes when both of the rule's thresholds are 0 (the automatic rule; otherwise unused): the
 /// high one from the quantile (at least min_auto_high) and the low one as 0.4 of it; one of them 0
@@ -210,7 +215,7 @@ CDT_HD_INLINE SquaredThresholds thresholds_from_quantile(const ThresholdRule& ru
   constexpr double kLowRatio = 0.4;
   double high = rule.high * kEdgeThresholdScale;
   double low = rule.low * kEdgeThresholdScale;
-  if (high == 0.0 && low == 0.0) {
+  if (automatic_thresholds(rule)) {
     // The square root is monotonic, so the quantile of the magnitudes is the root of their squares'.
     const double q = sqrt(static_cast<double>(squared_quantile));
     const double least = rule.min_auto_high * kEdgeThresholdScale;
@@ -232,11 +237,6 @@ CDT_HD_INLINE SquaredThresholds thresholds_from_quantile(const ThresholdRule& ru
     return s >= 0x1p62 ? std::uint64_t{1} << 62 : static_cast<std::uint64_t>(s);
   };
   return {squared_floor(low), squared_floor(high)};
-}
-
-/// Whether `rule` takes its thresholds from the magnitudes' quantile.
-CDT_HD_INLINE bool automatic_thresholds(const ThresholdRule& rule) {
-  return rule.low == 0.0 && rule.high == 0.0;
 }
 
 /// The squared thresholds for an image whose squared magnitudes (at its shape pixels) are `squared`

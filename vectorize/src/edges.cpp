@@ -79,13 +79,10 @@ cv::Mat shape_colours(const Image& image, const cv::Mat& shape_mask) {
 void gpu_edge_classes(const Image& image, const detail::BlurTaps& taps, const detail::ThresholdRule& rule,
                       std::uint8_t* classes, DevicePixels* keep) {
 #if TRIXEL_HAVE_CUDA
-  if (keep == nullptr) {
-    gpu::edge_classes(image.rgba.data(), image.width, image.height, taps, rule, classes);
-    return;
-  }
   std::unique_ptr<gpu::DeviceImage> kept;
-  gpu::edge_classes(image.rgba.data(), image.width, image.height, taps, rule, classes, &kept);
-  *keep = std::move(kept);
+  gpu::edge_classes(image.rgba.data(), image.width, image.height, taps, rule, classes,
+                    keep != nullptr ? &kept : nullptr);
+  if (keep != nullptr) *keep = std::move(kept);
 #else
   (void)image, (void)taps, (void)rule, (void)classes, (void)keep;
   throw cdt::DeviceError("edges on the device: this build has no CUDA support");
