@@ -190,8 +190,6 @@ TEST(VectorizeBatch, GpuBackendGivesTheCpuBytesOrFailsEveryImageClearly) {
   }
 }
 
-// The pipeline's PSLGs are framed by the image border, so cdt::triangulate_many triangulates them
-// together, and each gets the CDT it gets alone.
 // The stages skip reading the alphas of an image whose reader knows them all to be 1 (RGB and grey
 // files), and convert it as when they read them.
 TEST(VectorizePipeline, KnownOpaqueImagesConvertAsWhenTheirAlphasAreRead) {
@@ -205,6 +203,8 @@ TEST(VectorizePipeline, KnownOpaqueImagesConvertAsWhenTheirAlphasAreRead) {
   }
 }
 
+// The pipeline's PSLGs are framed by the image border, so cdt::triangulate_many triangulates them
+// together, and each gets the CDT it gets alone.
 TEST(VectorizeBatch, PslgsOfImagesTriangulatedTogetherGiveTheirOwnCdts) {
   std::vector<vectorize::Pslg> pslgs;
   for (const char* name : {"logo.png", "photo.png", "strokes.png", "gradient.png"}) {
