@@ -1,13 +1,21 @@
 #pragma once
-// The executor's steps inside one thread block: for the last rounds of a round loop, whose lists are
-// so short that a round of separate launches (each a few microseconds of the host's time, with a wait
-// for every count) costs far more than its work. A single block runs such rounds back to back, its
-// barriers taking the place of the launches' boundaries and its ordered compaction the place of CUB's,
-// so the rounds are the same as the launches would make.
+// The executor's steps inside one thread block or one cooperative grid: for the rounds of a round
+// loop whose lists are too short to fill the device, where a round of separate launches (each a few
+// microseconds of the host's time, with a wait for every count) costs far more than its work. One
+// block (the last rounds) or one grid of resident blocks (the middle ones) runs such rounds back to
+// back, its barriers taking the place of the launches' boundaries and its ordered compaction the place
+// of CUB's, so the rounds are the same as the launches would make.
 
+#include <cooperative_groups.h>
 #include <cub/block/block_scan.cuh>
 
+#include <algorithm>
+#include <atomic>
 #include <cstdint>
+#include <optional>
+#include <type_traits>
+
+#include "cuda_check.cuh"
 
 namespace cdt::gpu::detail {
 
@@ -61,6 +69,140 @@ __device__ inline std::uint32_t block_exclusive_scan(const std::uint32_t* in, st
   }
   __syncthreads();
   return base;
+}
+
+/// The block's steps as a team: one block of kBlockRoundThreads threads that runs rounds alone. The
+/// round loops are written once over a team (this or GridTeam): for_each, sync, ordered compact, a
+/// leader for the results, and `word`, a word every thread of the team sees (here in shared memory).
+struct BlockTeam {
+  BlockCompactStorage& storage;
+  std::uint32_t* word;
+  __device__ bool leader() const { return threadIdx.x == 0; }
+  __device__ void sync() const { __syncthreads(); }
+  template <class F>
+  __device__ void for_each(std::uint32_t n, F f) const {
+    block_for_each(n, f);
+  }
+  template <class Pred>
+  __device__ std::uint32_t compact(std::uint32_t n, Pred keep, std::uint32_t* out) const {
+    return block_compact(n, keep, out, storage);
+  }
+};
+
+/// Blocks of a GridTeam at most (its compaction sums the blocks' counts in one block scan).
+constexpr unsigned kMaxGridTeamBlocks = kBlockRoundThreads;
+
+/// The whole grid of a cooperative launch (every block resident at once) as one team, for the middle
+/// rounds of a loop: lists too long for one block and too short to fill the device, where a round of
+/// separate launches costs 100-150 microseconds of the host's launches and waits whatever its work. Its
+/// barrier is the grid's, its compaction ordered like CUB's (each block takes a contiguous range of
+/// the indices, counts what it keeps, and writes after the counts of the blocks before it), so the
+/// rounds are the ones the launches would make. `counts` holds kMaxGridTeamBlocks words and `word`
+/// one, in device memory.
+struct GridTeam {
+  BlockCompactStorage& storage;
+  std::uint32_t* counts;
+  std::uint32_t* word;
+  __device__ bool leader() const { return blockIdx.x == 0 && threadIdx.x == 0; }
+  __device__ void sync() const { cooperative_groups::this_grid().sync(); }
+  template <class F>
+  __device__ void for_each(std::uint32_t n, F f) const {
+    const std::uint32_t stride = gridDim.x * kBlockRoundThreads;
+    for (std::uint32_t i = blockIdx.x * kBlockRoundThreads + threadIdx.x; i < n; i += stride) f(i);
+  }
+  /// Writes the i in [0, n) with keep(i) to out in increasing order and returns how many, to every
+  /// thread; keep is called twice per index (counting, then writing), so it must not change between.
+  /// Ends with the grid's barrier.
+  template <class Pred>
+  __device__ std::uint32_t compact(std::uint32_t n, Pred keep, std::uint32_t* out) const {
+    using Scan = cub::BlockScan<std::uint32_t, kBlockRoundThreads>;
+    const std::uint32_t tiles = (n + kBlockRoundThreads - 1) / kBlockRoundThreads;
+    const std::uint32_t span = (tiles + gridDim.x - 1) / gridDim.x * kBlockRoundThreads;
+    const std::uint32_t begin = min(n, blockIdx.x * span);
+    const std::uint32_t end = min(n, begin + span);
+    std::uint32_t kept = 0;
+    for (std::uint32_t i = begin + threadIdx.x; i < end; i += kBlockRoundThreads) kept += keep(i) ? 1u : 0u;
+    std::uint32_t ignored = 0, block_kept = 0;
+    Scan(storage.scan).ExclusiveSum(kept, ignored, block_kept);
+    if (threadIdx.x == 0) counts[blockIdx.x] = block_kept;
+    sync();
+    // The blocks before this one, then all of them: each total goes to every thread of the block.
+    const std::uint32_t count = threadIdx.x < gridDim.x ? counts[threadIdx.x] : 0u;
+    std::uint32_t base = 0, total = 0;
+    Scan(storage.scan).ExclusiveSum(threadIdx.x < blockIdx.x ? count : 0u, ignored, base);
+    __syncthreads();
+    Scan(storage.scan).ExclusiveSum(count, ignored, total);
+    for (std::uint32_t first = begin; first < end; first += kBlockRoundThreads) {
+      const std::uint32_t i = first + threadIdx.x;
+      const std::uint32_t flag = i < end && keep(i) ? 1u : 0u;
+      std::uint32_t position = 0, tile_kept = 0;
+      __syncthreads(); // the scan's storage is used again
+      Scan(storage.scan).ExclusiveSum(flag, position, tile_kept);
+      if (flag != 0) out[base + position] = i;
+      base += tile_kept;
+    }
+    sync();
+    return total;
+  }
+};
+
+/// Blocks of a cooperative grid of `kernel` (kBlockRoundThreads threads each, no dynamic shared
+/// memory): one per multiprocessor (two per multiprocessor made the rounds slower: the grid's barrier
+/// costs more), or 0 when the current device cannot launch such a grid. Computed once per device and
+/// kernel.
+template <class Kernel>
+unsigned grid_team_blocks(Kernel kernel) {
+  constexpr int kDevices = 64;
+  static std::atomic<int> known[kDevices] = {};
+  int device = 0;
+  if (cudaGetDevice(&device) != cudaSuccess || device < 0 || device >= kDevices) return 0;
+  int blocks = known[device].load(std::memory_order_relaxed);
+  if (blocks == 0) {
+    int cooperative = 0, sms = 0, per_sm = 0;
+    if (cudaDeviceGetAttribute(&cooperative, cudaDevAttrCooperativeLaunch, device) != cudaSuccess ||
+        cudaDeviceGetAttribute(&sms, cudaDevAttrMultiProcessorCount, device) != cudaSuccess ||
+        cudaOccupancyMaxActiveBlocksPerMultiprocessor(&per_sm, kernel, kBlockRoundThreads, 0) != cudaSuccess)
+      cooperative = 0;
+    blocks = cooperative != 0 && per_sm > 0 ? std::min(sms, static_cast<int>(kMaxGridTeamBlocks)) : -1;
+    known[device].store(blocks, std::memory_order_relaxed);
+  }
+  return blocks > 0 ? static_cast<unsigned>(blocks) : 0u;
+}
+
+/// A GridTeam's device words: the blocks' counts and the team's word.
+struct GridTeamScratch {
+  DeviceBuffer<std::uint32_t> words{kMaxGridTeamBlocks + 1};
+  std::uint32_t* counts() { return words.data(); }
+  std::uint32_t* word() { return words.data() + kMaxGridTeamBlocks; }
+};
+
+/// Launches kernel(args...) as a cooperative grid of `blocks` blocks of kBlockRoundThreads threads on
+/// `stream` (checked like every launch). The arguments are converted to the kernel's parameter types
+/// here, as a launch with <<<>>> would: the launch copies them by address.
+template <class... Params>
+void launch_grid_team(void (*kernel)(Params...), unsigned blocks, cudaStream_t stream, const char* name,
+                      std::type_identity_t<Params>... args) {
+  void* params[] = {static_cast<void*>(&args)...};
+  CDT_CUDA_CHECK(cudaLaunchCooperativeKernel(reinterpret_cast<const void*>(kernel), dim3(blocks),
+                                             dim3(kBlockRoundThreads), params, 0, stream));
+  check_launch(name, __FILE__, __LINE__);
+}
+
+/// Launches a round loop on `args` (nothing waits for it): in one block (block_kernel) when in_block,
+/// else as a cooperative grid of grid_blocks blocks (grid_kernel, with the words of `scratch`, made on
+/// first use). `name` names the launch in errors.
+template <class Args, class End>
+void launch_team_rounds(bool in_block, void (*block_kernel)(Args, End*),
+                        void (*grid_kernel)(Args, End*, std::uint32_t*, std::uint32_t*), unsigned grid_blocks,
+                        std::optional<GridTeamScratch>& scratch, cudaStream_t stream, const char* name,
+                        const Args& args, End* end) {
+  if (in_block) {
+    block_kernel<<<1, kBlockRoundThreads, 0, stream>>>(args, end);
+    check_launch(name, __FILE__, __LINE__);
+    return;
+  }
+  if (!scratch) scratch.emplace();
+  launch_grid_team(grid_kernel, grid_blocks, stream, name, args, end, scratch->counts(), scratch->word());
 }
 
 } // namespace cdt::gpu::detail

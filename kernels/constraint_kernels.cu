@@ -3,11 +3,13 @@
 // (walk_piece, propose_constraint_flip, mark_after_flip) and the flips are FlipBatch's; the driver runs
 // the same steps as the CPU executor's insert_constraints (cdt/src/gcd/constraints.cpp) in the same
 // order with the same ordered compactions, so both insert the pieces by the same flips. Inner iterations
-// on short lists run in one thread block (constraint_rounds_in_block, the same steps).
+// on short lists run in one thread block (constraint_rounds_in_block), on middle ones in one cooperative
+// grid (constraint_rounds_in_grid), the same steps.
 
 #include <algorithm>
 #include <cstddef>
 #include <cstdint>
+#include <optional>
 #include <string>
 #include <utility>
 
@@ -51,7 +53,10 @@ __device__ bool is_error(ConstraintStatus s) { return s >= ConstraintStatus::ver
 /// Lists of at most this many marked triangles run their inner iterations in constraint_rounds_in_block.
 constexpr std::uint32_t kConstraintBlockLimit = 4096;
 
-/// insert_constraints' buffers and state, for constraint_rounds_in_block.
+/// Lists of at most this many run them in constraint_rounds_in_grid when the device can.
+constexpr std::uint32_t kConstraintGridLimit = std::uint32_t{1} << 18;
+
+/// insert_constraints' buffers and state, for constraint_rounds_in_block and _in_grid.
 struct ConstraintRounds {
   MeshView m;
   const ConstraintPiece2* piece;
@@ -87,12 +92,11 @@ struct ConstraintRoundsEnd {
   std::uint32_t error_piece; ///< and its piece; with lost_link: the flipped pair's edge
 };
 
-/// insert_constraints' inner iterations (Algorithm 5), the same steps in the same order, by one block
-/// while the list has at most kConstraintBlockLimit triangles.
-__global__ void __launch_bounds__(kBlockRoundThreads)
-    constraint_rounds_in_block(ConstraintRounds a, ConstraintRoundsEnd* end) {
-  __shared__ BlockCompactStorage storage;
-  __shared__ std::uint32_t first;
+/// insert_constraints' inner iterations (Algorithm 5), the same steps in the same order, by a team
+/// (BlockTeam or GridTeam) while the list has more than `lo` and at most `hi` triangles.
+template <class Team>
+__device__ void constraint_rounds(const Team& team, const ConstraintRounds& a, std::uint32_t lo,
+                                  std::uint32_t hi, ConstraintRoundsEnd* end) {
   const MeshView m = a.m;
   std::uint32_t* act = a.active;
   std::uint32_t* next = a.next_active;
@@ -100,20 +104,20 @@ __global__ void __launch_bounds__(kBlockRoundThreads)
   std::uint32_t error_at = kNoId, error_piece = kNoId;
   unsigned long long flips = 0;
   ConstraintStop stop = ConstraintStop::none;
-  while (na > 0 && na <= kConstraintBlockLimit && iterations < a.iterations_left) {
+  while (na > lo && na <= hi && iterations < a.iterations_left) {
     if (iterations == a.allowed) {
       stop = ConstraintStop::too_many;
       break;
     }
     ++iterations;
-    if (threadIdx.x == 0) first = kNoId;
-    __syncthreads();
+    if (team.leader()) *team.word = kNoId;
+    team.sync();
     // Algorithm 5, lines 2-11: cases, then claims by atomic minimum of the label.
-    block_for_each(na, [&](std::uint32_t k) {
+    team.for_each(na, [&](std::uint32_t k) {
       const std::uint32_t A = act[k];
       FlipProposal proposal;
       a.status[k] = ::cdt::detail::propose_constraint_flip(m, a.cmark, a.piece, A, proposal);
-      if (is_error(a.status[k])) atomicMin(&first, k);
+      if (is_error(a.status[k])) atomicMin(team.word, k);
       a.edge[k] = proposal.edge;
       a.prev_tri[k] = proposal.prev;
       a.next_tri[k] = kNoId;
@@ -125,15 +129,15 @@ __global__ void __launch_bounds__(kBlockRoundThreads)
       atomicMin(a.claim + C, a.label[k]);
       if (proposal.prev != kNoId) atomicMin(a.claim + proposal.prev, a.label[k]);
     });
-    __syncthreads();
-    if (first != kNoId) {
+    team.sync();
+    if (const std::uint32_t first = *static_cast<volatile std::uint32_t*>(team.word); first != kNoId) {
       stop = ConstraintStop::proposal_error;
       error_at = first;
       error_piece = a.cmark[act[first]];
       break;
     }
     // Algorithm 5, line 13: flip only where every claim held.
-    block_for_each(na, [&](std::uint32_t k) {
+    team.for_each(na, [&](std::uint32_t k) {
       if (a.next_tri[k] == kNoId) {
         a.own[k] = 0;
         return;
@@ -143,46 +147,45 @@ __global__ void __launch_bounds__(kBlockRoundThreads)
           (a.claim[act[k]] == mine ? 1u : 0u) | (a.claim[a.next_tri[k]] == mine ? 2u : 0u) |
           (a.prev_tri[k] != kNoId && a.claim[a.prev_tri[k]] == mine ? 4u : 0u));
     });
-    __syncthreads();
+    team.sync();
     std::uint32_t* winners = a.picked;
-    const std::uint32_t num_winners = block_compact(
+    const std::uint32_t num_winners = team.compact(
         na,
         [&](std::uint32_t k) {
           return a.next_tri[k] != kNoId && a.own[k] == (a.prev_tri[k] != kNoId ? 7u : 3u);
         },
-        winners, storage);
-    block_for_each(na, [&](std::uint32_t k) {
+        winners);
+    team.for_each(na, [&](std::uint32_t k) {
       if (a.own[k] & 1u) a.claim[act[k]] = kNoId;
       if (a.own[k] & 2u) a.claim[a.next_tri[k]] = kNoId;
       if (a.own[k] & 4u) a.claim[a.prev_tri[k]] = kNoId;
     });
-    __syncthreads();
+    team.sync();
     if (num_winners == 0) { // the lowest label holds all its claims: nothing was flippable
       stop = ConstraintStop::no_winners;
       break;
     }
-    const std::uint32_t lost = block_apply_flips(
-        m, a.partner, a.last, num_last, a.fix, num_winners,
-        [&](std::uint32_t k) { return a.edge[winners[k]]; }, first);
+    const std::uint32_t lost = team_apply_flips(team, m, a.partner, a.last, num_last, a.fix, num_winners,
+                                                [&](std::uint32_t k) { return a.edge[winners[k]]; });
     if (lost != kNoId) {
       stop = ConstraintStop::lost_link;
       error_piece = a.edge[winners[lost]];
       break;
     }
-    block_for_each(num_winners, [&](std::uint32_t k) {
+    team.for_each(num_winners, [&](std::uint32_t k) {
       const std::uint32_t A = act[winners[k]];
       ::cdt::detail::mark_after_flip(m, a.cmark, a.piece, A, a.partner[A], a.cmark[A]);
       a.flipped[A] = a.flipped[a.partner[A]] = 1;
     });
-    __syncthreads();
+    team.sync();
     flips += num_winners;
     // The stalled rule of constraints.cpp: marking again beats proposing over stuck triangles.
     const bool stalled = static_cast<std::uint64_t>(num_winners) * kStalledShare < na;
     std::uint32_t* still = a.picked;
-    const std::uint32_t num_still = block_compact(
-        na, [&](std::uint32_t k) { return a.cmark[act[k]] != kNoId; }, still, storage);
-    block_for_each(num_still, [&](std::uint32_t k) { next[k] = act[still[k]]; });
-    __syncthreads();
+    const std::uint32_t num_still = team.compact(
+        na, [&](std::uint32_t k) { return a.cmark[act[k]] != kNoId; }, still);
+    team.for_each(num_still, [&](std::uint32_t k) { next[k] = act[still[k]]; });
+    team.sync();
     std::uint32_t* const swap = act;
     act = next;
     next = swap;
@@ -193,8 +196,25 @@ __global__ void __launch_bounds__(kBlockRoundThreads)
       break;
     }
   }
-  if (threadIdx.x == 0)
+  if (team.leader())
     *end = ConstraintRoundsEnd{na, in_next, iterations, num_last, flips, stop, error_at, error_piece};
+}
+
+/// The inner iterations on lists of at most kConstraintBlockLimit triangles, in one block.
+__global__ void __launch_bounds__(kBlockRoundThreads)
+    constraint_rounds_in_block(ConstraintRounds a, ConstraintRoundsEnd* end) {
+  __shared__ BlockCompactStorage storage;
+  __shared__ std::uint32_t word;
+  constraint_rounds(BlockTeam{storage, &word}, a, 0, kConstraintBlockLimit, end);
+}
+
+/// The inner iterations on lists of more than kConstraintBlockLimit and at most kConstraintGridLimit
+/// triangles, by a cooperative grid.
+__global__ void __launch_bounds__(kBlockRoundThreads)
+    constraint_rounds_in_grid(ConstraintRounds a, ConstraintRoundsEnd* end, std::uint32_t* counts,
+                              std::uint32_t* word) {
+  __shared__ BlockCompactStorage storage;
+  constraint_rounds(GridTeam{storage, counts, word}, a, kConstraintBlockLimit, kConstraintGridLimit, end);
 }
 
 } // namespace
@@ -322,9 +342,12 @@ ConstraintStats insert_constraints(DeviceMesh::State& s, std::span<const Constra
         slots, [=] __device__(std::size_t t) { return cmark[t] != kNoId; }, d_active.data());
     std::uint64_t outer_flips = 0;
     DeviceBuffer<ConstraintRoundsEnd> d_block_end(1);
+    const unsigned grid_blocks = grid_team_blocks(constraint_rounds_in_grid);
+    std::optional<GridTeamScratch> grid_scratch;
     unsigned iteration = 0;
     while (iteration < inner_limit && na > 0) {
-      if (na <= kConstraintBlockLimit) {
+      const bool in_block = na <= kConstraintBlockLimit;
+      if (in_block || (grid_blocks != 0 && na <= kConstraintGridLimit)) {
         const std::uint64_t allowed =
             max_inner_iterations - std::min(max_inner_iterations, stats.inner_iterations);
         const ConstraintRounds args{m,
@@ -348,8 +371,8 @@ ConstraintStats insert_constraints(DeviceMesh::State& s, std::span<const Constra
                                     d_label.data(),
                                     d_picked.data(),
                                     d_own.data()};
-        constraint_rounds_in_block<<<1, kBlockRoundThreads, 0, executor.stream()>>>(args, d_block_end.data());
-        check_launch("constraint_rounds_in_block", __FILE__, __LINE__);
+        launch_team_rounds(in_block, constraint_rounds_in_block, constraint_rounds_in_grid, grid_blocks,
+                           grid_scratch, executor.stream(), "constraint_rounds", args, d_block_end.data());
         ConstraintRoundsEnd end{};
         executor.download(&end, d_block_end.data(), 1);
         iteration += end.iterations;

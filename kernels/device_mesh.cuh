@@ -44,19 +44,20 @@ struct DeviceFlipBatch {
 void apply_flips(CudaExecutor& executor, DeviceFlipBatch& batch, const ::cdt::detail::MeshView& m,
                  const std::uint32_t* edges, std::uint32_t n);
 
-/// apply_flips by one whole block (every thread calls it, with the same arguments): flips the pairs
-/// across edge_of(k) for k in [0, n) with the batch's partner, last (num_last of them from the last
-/// batch, updated) and fix arrays. Returns to every thread the lowest k whose pair lost a link, or
-/// kNoId; `failed` is a shared word for it. Ends with a barrier.
-template <class EdgeOf>
-__device__ std::uint32_t block_apply_flips(const ::cdt::detail::MeshView& m, std::uint32_t* partner,
-                                           std::uint32_t* last, std::uint32_t& num_last, std::uint8_t* fix,
-                                           std::uint32_t n, EdgeOf edge_of, std::uint32_t& failed) {
+/// apply_flips by a whole team (BlockTeam or GridTeam; every thread calls it, with the same
+/// arguments): flips the pairs across edge_of(k) for k in [0, n) with the batch's partner, last
+/// (num_last of them from the last batch, updated) and fix arrays. Returns to every thread the lowest k
+/// whose pair lost a link, or kNoId (in the team's word). Ends with the team's barrier.
+template <class Team, class EdgeOf>
+__device__ std::uint32_t team_apply_flips(const Team& team, const ::cdt::detail::MeshView& m,
+                                          std::uint32_t* partner, std::uint32_t* last,
+                                          std::uint32_t& num_last, std::uint8_t* fix, std::uint32_t n,
+                                          EdgeOf edge_of) {
   using ::cdt::detail::edge_tri;
-  block_for_each(num_last, [&](std::uint32_t k) { partner[last[k]] = ::cdt::detail::kNoId; });
-  if (threadIdx.x == 0) failed = ::cdt::detail::kNoId;
-  __syncthreads();
-  block_for_each(n, [&](std::uint32_t k) {
+  team.for_each(num_last, [&](std::uint32_t k) { partner[last[k]] = ::cdt::detail::kNoId; });
+  if (team.leader()) *team.word = ::cdt::detail::kNoId;
+  team.sync();
+  team.for_each(n, [&](std::uint32_t k) {
     const std::uint32_t e = edge_of(k);
     const std::uint32_t t = edge_tri(e);
     const std::uint32_t u = edge_tri(m.adj[e]);
@@ -66,14 +67,15 @@ __device__ std::uint32_t block_apply_flips(const ::cdt::detail::MeshView& m, std
     last[2 * k + 1] = u;
   });
   num_last = 2 * n;
-  __syncthreads();
-  block_for_each(n, [&](std::uint32_t k) { fix[k] = ::cdt::detail::flip_pair_contents(m, edge_of(k)); });
-  __syncthreads();
-  block_for_each(n, [&](std::uint32_t k) {
-    if (!::cdt::detail::relink_flipped_pair(m, partner, edge_tri(edge_of(k)), fix[k])) atomicMin(&failed, k);
+  team.sync();
+  team.for_each(n, [&](std::uint32_t k) { fix[k] = ::cdt::detail::flip_pair_contents(m, edge_of(k)); });
+  team.sync();
+  team.for_each(n, [&](std::uint32_t k) {
+    if (!::cdt::detail::relink_flipped_pair(m, partner, edge_tri(edge_of(k)), fix[k]))
+      atomicMin(team.word, k);
   });
-  __syncthreads();
-  return failed;
+  team.sync();
+  return *static_cast<volatile std::uint32_t*>(team.word);
 }
 
 /// check_constraint_pieces' test of every piece, on the device's copy of host_pieces (one pass instead of

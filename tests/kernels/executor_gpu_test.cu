@@ -1,7 +1,7 @@
 // The CUDA executor's primitives against host computations: for_each, exclusive scan, stream
-// compaction, sorts, atomic minimum under contention, the device-memory check and CUDA errors turned
-// into DeviceError. Device lambdas live in free functions: nvcc does not allow them in the private
-// TestBody of a gtest fixture.
+// compaction (also by a block and by a cooperative grid as teams), sorts, atomic minimum under
+// contention, the device-memory check and CUDA errors turned into DeviceError. Device lambdas live in
+// free functions: nvcc does not allow them in the private TestBody of a gtest fixture.
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -11,6 +11,7 @@
 #include <utility>
 #include <vector>
 
+#include "block_steps.cuh"
 #include "cdt/cdt.hpp"
 #include "cdt/errors.hpp"
 #include "cdt_kernels.hpp"
@@ -67,6 +68,60 @@ std::vector<std::uint32_t> compact_multiples_of(CudaExecutor& ex, const std::vec
   const std::uint32_t count = ex.compact(
       h.size(), [=] __device__(std::size_t i) { return in[i] % k == 0; }, d_out.data());
   return to_host(ex, d_out, count);
+}
+
+/// Two ordered compactions by a team, back to back: the i in [0, n) with in[i] % k == 0 to out, then
+/// the j of those whose out[j] is even to out + n; the counts to count[0, 2).
+template <class Team>
+__device__ void team_compactions(const Team& team, const std::uint32_t* in, std::uint32_t n, std::uint32_t k,
+                                 std::uint32_t* out, std::uint32_t* count) {
+  const std::uint32_t kept = team.compact(
+      n, [&](std::uint32_t i) { return in[i] % k == 0; }, out);
+  const std::uint32_t even = team.compact(
+      kept, [&](std::uint32_t j) { return out[j] % 2 == 0; }, out + n);
+  if (team.leader()) {
+    count[0] = kept;
+    count[1] = even;
+  }
+}
+
+__global__ void __launch_bounds__(cdt::gpu::detail::kBlockRoundThreads)
+    block_team_compactions(const std::uint32_t* in, std::uint32_t n, std::uint32_t k, std::uint32_t* out,
+                           std::uint32_t* count) {
+  __shared__ cdt::gpu::detail::BlockCompactStorage storage;
+  __shared__ std::uint32_t word;
+  team_compactions(cdt::gpu::detail::BlockTeam{storage, &word}, in, n, k, out, count);
+}
+
+__global__ void __launch_bounds__(cdt::gpu::detail::kBlockRoundThreads)
+    grid_team_compactions(const std::uint32_t* in, std::uint32_t n, std::uint32_t k, std::uint32_t* out,
+                          std::uint32_t* count, std::uint32_t* counts, std::uint32_t* word) {
+  __shared__ cdt::gpu::detail::BlockCompactStorage storage;
+  team_compactions(cdt::gpu::detail::GridTeam{storage, counts, word}, in, n, k, out, count);
+}
+
+/// team_compactions by one block (blocks == 0) or a cooperative grid of `blocks` blocks: the two lists.
+std::pair<std::vector<std::uint32_t>, std::vector<std::uint32_t>>
+team_compacted(CudaExecutor& ex, const std::vector<std::uint32_t>& h, std::uint32_t k, unsigned blocks) {
+  const auto n = static_cast<std::uint32_t>(h.size());
+  DeviceBuffer<std::uint32_t> d_in = to_device(ex, h);
+  DeviceBuffer<std::uint32_t> d_out(2 * std::size_t{n} + 1), d_count(2);
+  if (blocks == 0) {
+    block_team_compactions<<<1, cdt::gpu::detail::kBlockRoundThreads, 0, ex.stream()>>>(
+        d_in.data(), n, k, d_out.data(), d_count.data());
+    CDT_CUDA_CHECK_LAUNCH("block_team_compactions");
+  } else {
+    cdt::gpu::detail::GridTeamScratch scratch;
+    cdt::gpu::detail::launch_grid_team(grid_team_compactions, blocks, ex.stream(), "grid_team_compactions",
+                                       d_in.data(), n, k, d_out.data(), d_count.data(), scratch.counts(),
+                                       scratch.word());
+    ex.synchronize(); // before the scratch goes
+  }
+  const auto count = to_host(ex, d_count, 2);
+  std::vector<std::uint32_t> kept(count[0]), even(count[1]);
+  if (count[0] != 0) ex.download(kept.data(), d_out.data(), count[0]);
+  if (count[1] != 0) ex.download(even.data(), d_out.data() + n, count[1]);
+  return {kept, even};
 }
 
 /// Every thread lowers slot i % slots to its value; returns the slots and, per thread, the value it saw.
@@ -130,6 +185,30 @@ TEST_F(GpuExecutor, CompactKeepsSelectedIndicesInOrder) {
       for (std::size_t i = 0; i < n; ++i)
         if (h[i] % k == 0) expected.push_back(static_cast<std::uint32_t>(i));
       EXPECT_EQ(compact_multiples_of(ex, h, k), expected) << "n " << n << " k " << k;
+    }
+  }
+}
+
+TEST_F(GpuExecutor, TeamsCompactInOrderLikeCub) {
+  CudaExecutor ex;
+  const unsigned device_blocks = cdt::gpu::detail::grid_team_blocks(grid_team_compactions);
+  if (device_blocks == 0) GTEST_SKIP() << "this device cannot launch cooperative grids";
+  // One block, grids of a few blocks (uneven ranges, some empty) and the device's whole grid; lengths
+  // around the block's and the grid's widths.
+  for (const std::size_t n : {std::size_t{0}, std::size_t{1}, std::size_t{1023}, std::size_t{1025},
+                              std::size_t{5000}, std::size_t{(1u << 18) + 3}, std::size_t{3'000'001}}) {
+    const auto h = random_values<std::uint32_t>(n, 29 + n, 1000);
+    for (const std::uint32_t k : {1u, 3u, 1001u}) { // all, a third, none
+      std::vector<std::uint32_t> kept, even;
+      for (std::size_t i = 0; i < n; ++i)
+        if (h[i] % k == 0) kept.push_back(static_cast<std::uint32_t>(i));
+      for (std::size_t j = 0; j < kept.size(); ++j)
+        if (kept[j] % 2 == 0) even.push_back(static_cast<std::uint32_t>(j));
+      for (const unsigned blocks : {0u, 3u, 7u, device_blocks}) {
+        const auto [got_kept, got_even] = team_compacted(ex, h, k, blocks);
+        EXPECT_EQ(got_kept, kept) << "n " << n << " k " << k << " blocks " << blocks;
+        EXPECT_EQ(got_even, even) << "n " << n << " k " << k << " blocks " << blocks;
+      }
     }
   }
 }
