@@ -79,6 +79,8 @@ struct BlockTeam {
   std::uint32_t* word;
   __device__ bool leader() const { return threadIdx.x == 0; }
   __device__ void sync() const { __syncthreads(); }
+  /// The word as the team left it at its last barrier.
+  __device__ std::uint32_t word_value() const { return *static_cast<volatile std::uint32_t*>(word); }
   template <class F>
   __device__ void for_each(std::uint32_t n, F f) const {
     block_for_each(n, f);
@@ -105,6 +107,8 @@ struct GridTeam {
   std::uint32_t* word;
   __device__ bool leader() const { return blockIdx.x == 0 && threadIdx.x == 0; }
   __device__ void sync() const { cooperative_groups::this_grid().sync(); }
+  /// The word as the team left it at its last barrier (read from memory, not from a cached copy).
+  __device__ std::uint32_t word_value() const { return *static_cast<volatile std::uint32_t*>(word); }
   template <class F>
   __device__ void for_each(std::uint32_t n, F f) const {
     const std::uint32_t stride = gridDim.x * kBlockRoundThreads;

@@ -130,7 +130,7 @@ __device__ void constraint_rounds(const Team& team, const ConstraintRounds& a, s
       if (proposal.prev != kNoId) atomicMin(a.claim + proposal.prev, a.label[k]);
     });
     team.sync();
-    if (const std::uint32_t first = *static_cast<volatile std::uint32_t*>(team.word); first != kNoId) {
+    if (const std::uint32_t first = team.word_value(); first != kNoId) {
       stop = ConstraintStop::proposal_error;
       error_at = first;
       error_piece = a.cmark[act[first]];
@@ -278,6 +278,10 @@ ConstraintStats insert_constraints(DeviceMesh::State& s, std::span<const Constra
   DeviceBuffer<ConstraintStatus> d_prop_status(slots);
   DeviceBuffer<std::uint32_t> d_error_at(1);
   DeviceBuffer<unsigned long long> d_sum(1);
+  // The inner iterations in a block or a grid, for every outer iteration.
+  DeviceBuffer<ConstraintRoundsEnd> d_block_end(1);
+  const unsigned grid_blocks = grid_team_blocks(constraint_rounds_in_grid);
+  std::optional<GridTeamScratch> grid_scratch;
   std::uint32_t* error_at = d_error_at.data();
 
   for (;;) {
@@ -341,9 +345,6 @@ ConstraintStats insert_constraints(DeviceMesh::State& s, std::span<const Constra
     std::uint32_t na = executor.compact(
         slots, [=] __device__(std::size_t t) { return cmark[t] != kNoId; }, d_active.data());
     std::uint64_t outer_flips = 0;
-    DeviceBuffer<ConstraintRoundsEnd> d_block_end(1);
-    const unsigned grid_blocks = grid_team_blocks(constraint_rounds_in_grid);
-    std::optional<GridTeamScratch> grid_scratch;
     unsigned iteration = 0;
     while (iteration < inner_limit && na > 0) {
       const bool in_block = na <= kConstraintBlockLimit;

@@ -75,7 +75,7 @@ __device__ std::uint32_t team_apply_flips(const Team& team, const ::cdt::detail:
       atomicMin(team.word, k);
   });
   team.sync();
-  return *static_cast<volatile std::uint32_t*>(team.word);
+  return team.word_value();
 }
 
 /// check_constraint_pieces' test of every piece, on the device's copy of host_pieces (one pass instead of
