@@ -192,21 +192,51 @@ void launch_grid_team(void (*kernel)(Params...), unsigned blocks, cudaStream_t s
   check_launch(name, __FILE__, __LINE__);
 }
 
-/// Launches a round loop on `args` (nothing waits for it): in one block (block_kernel) when in_block,
-/// else as a cooperative grid of grid_blocks blocks (grid_kernel, with the words of `scratch`, made on
-/// first use). `name` names the launch in errors.
-template <class Args, class End>
-void launch_team_rounds(bool in_block, void (*block_kernel)(Args, End*),
-                        void (*grid_kernel)(Args, End*, std::uint32_t*, std::uint32_t*), unsigned grid_blocks,
-                        std::optional<GridTeamScratch>& scratch, cudaStream_t stream, const char* name,
-                        const Args& args, End* end) {
-  if (in_block) {
-    block_kernel<<<1, kBlockRoundThreads, 0, stream>>>(args, end);
-    check_launch(name, __FILE__, __LINE__);
-    return;
-  }
-  if (!scratch) scratch.emplace();
-  launch_grid_team(grid_kernel, grid_blocks, stream, name, args, end, scratch->counts(), scratch->word());
+/// A round loop's kernel for lists of at most kBlockLimit elements, in one block. Loop{}(team, a, lo,
+/// hi, end) runs the loop's rounds by `team` while its list has more than lo and at most hi elements,
+/// and leaves what the host needs in *end.
+template <class Loop, class Args, class End, std::uint32_t kBlockLimit>
+__global__ void __launch_bounds__(kBlockRoundThreads) rounds_in_block(Args a, End* end) {
+  __shared__ BlockCompactStorage storage;
+  __shared__ std::uint32_t word;
+  Loop{}(BlockTeam{storage, &word}, a, 0, kBlockLimit, end);
 }
+
+/// The same loop's kernel for lists of more than kBlockLimit and at most kGridLimit elements, as a
+/// cooperative grid.
+template <class Loop, class Args, class End, std::uint32_t kBlockLimit, std::uint32_t kGridLimit>
+__global__ void __launch_bounds__(kBlockRoundThreads)
+    rounds_in_grid(Args a, End* end, std::uint32_t* counts, std::uint32_t* word) {
+  __shared__ BlockCompactStorage storage;
+  Loop{}(GridTeam{storage, counts, word}, a, kBlockLimit, kGridLimit, end);
+}
+
+/// The host's side of a round loop that runs its short lists in one block and its middle ones in a
+/// cooperative grid (where the device can launch one); longer lists are the caller's, as launches.
+template <class Loop, class Args, class End, std::uint32_t kBlockLimit, std::uint32_t kGridLimit>
+class TeamRounds {
+public:
+  TeamRounds() : grid_blocks_(grid_team_blocks(rounds_in_grid<Loop, Args, End, kBlockLimit, kGridLimit>)) {}
+
+  /// Whether a list of n elements runs in the block or the grid.
+  bool takes(std::uint32_t n) const { return n <= kBlockLimit || (grid_blocks_ != 0 && n <= kGridLimit); }
+
+  /// Launches the rounds on a list of n elements that takes() accepts (nothing waits for them). `name`
+  /// names the launch in errors.
+  void launch(std::uint32_t n, const Args& args, End* end, cudaStream_t stream, const char* name) {
+    if (n <= kBlockLimit) {
+      rounds_in_block<Loop, Args, End, kBlockLimit><<<1, kBlockRoundThreads, 0, stream>>>(args, end);
+      check_launch(name, __FILE__, __LINE__);
+      return;
+    }
+    if (!scratch_) scratch_.emplace();
+    launch_grid_team(rounds_in_grid<Loop, Args, End, kBlockLimit, kGridLimit>, grid_blocks_, stream, name,
+                     args, end, scratch_->counts(), scratch_->word());
+  }
+
+private:
+  unsigned grid_blocks_;
+  std::optional<GridTeamScratch> scratch_;
+};
 
 } // namespace cdt::gpu::detail

@@ -3,13 +3,12 @@
 // (walk_piece, propose_constraint_flip, mark_after_flip) and the flips are FlipBatch's; the driver runs
 // the same steps as the CPU executor's insert_constraints (cdt/src/gcd/constraints.cpp) in the same
 // order with the same ordered compactions, so both insert the pieces by the same flips. Inner iterations
-// on short lists run in one thread block (constraint_rounds_in_block), on middle ones in one cooperative
-// grid (constraint_rounds_in_grid), the same steps.
+// on short lists run in one thread block, on middle ones in one cooperative grid (ConstraintLoop, run by
+// TeamRounds), the same steps.
 
 #include <algorithm>
 #include <cstddef>
 #include <cstdint>
-#include <optional>
 #include <string>
 #include <utility>
 
@@ -50,13 +49,14 @@ __device__ bool is_error(ConstraintStatus s) { return s >= ConstraintStatus::ver
               ", " + std::to_string(p.b) + "): " + ::cdt::detail::constraint_status_message(status));
 }
 
-/// Lists of at most this many marked triangles run their inner iterations in constraint_rounds_in_block.
+/// Lists of at most this many marked triangles run their inner iterations in one block
+/// (ConstraintLoop).
 constexpr std::uint32_t kConstraintBlockLimit = 4096;
 
-/// Lists of at most this many run them in constraint_rounds_in_grid when the device can.
+/// Lists of at most this many run them in a cooperative grid when the device can.
 constexpr std::uint32_t kConstraintGridLimit = std::uint32_t{1} << 18;
 
-/// insert_constraints' buffers and state, for constraint_rounds_in_block and _in_grid.
+/// insert_constraints' buffers and state, for ConstraintLoop.
 struct ConstraintRounds {
   MeshView m;
   const ConstraintPiece2* piece;
@@ -77,10 +77,10 @@ struct ConstraintRounds {
   std::uint8_t* own;
 };
 
-/// Why constraint_rounds_in_block stopped, besides the list's length or the inner limit.
+/// Why ConstraintLoop stopped, besides the list's length or the inner limit.
 enum class ConstraintStop : std::uint32_t { none, no_winners, stalled, proposal_error, lost_link, too_many };
 
-/// What constraint_rounds_in_block leaves for the host.
+/// What ConstraintLoop leaves for the host.
 struct ConstraintRoundsEnd {
   std::uint32_t na;         ///< marked triangles left in the list
   std::uint32_t in_next;    ///< 1 when the list is in `next_active`
@@ -94,9 +94,15 @@ struct ConstraintRoundsEnd {
 
 /// insert_constraints' inner iterations (Algorithm 5), the same steps in the same order, by a team
 /// (BlockTeam or GridTeam) while the list has more than `lo` and at most `hi` triangles.
+struct ConstraintLoop {
+  template <class Team>
+  __device__ void operator()(const Team& team, const ConstraintRounds& a, std::uint32_t lo, std::uint32_t hi,
+                             ConstraintRoundsEnd* end) const;
+};
+
 template <class Team>
-__device__ void constraint_rounds(const Team& team, const ConstraintRounds& a, std::uint32_t lo,
-                                  std::uint32_t hi, ConstraintRoundsEnd* end) {
+__device__ void ConstraintLoop::operator()(const Team& team, const ConstraintRounds& a, std::uint32_t lo,
+                                           std::uint32_t hi, ConstraintRoundsEnd* end) const {
   const MeshView m = a.m;
   std::uint32_t* act = a.active;
   std::uint32_t* next = a.next_active;
@@ -200,22 +206,8 @@ __device__ void constraint_rounds(const Team& team, const ConstraintRounds& a, s
     *end = ConstraintRoundsEnd{na, in_next, iterations, num_last, flips, stop, error_at, error_piece};
 }
 
-/// The inner iterations on lists of at most kConstraintBlockLimit triangles, in one block.
-__global__ void __launch_bounds__(kBlockRoundThreads)
-    constraint_rounds_in_block(ConstraintRounds a, ConstraintRoundsEnd* end) {
-  __shared__ BlockCompactStorage storage;
-  __shared__ std::uint32_t word;
-  constraint_rounds(BlockTeam{storage, &word}, a, 0, kConstraintBlockLimit, end);
-}
-
-/// The inner iterations on lists of more than kConstraintBlockLimit and at most kConstraintGridLimit
-/// triangles, by a cooperative grid.
-__global__ void __launch_bounds__(kBlockRoundThreads)
-    constraint_rounds_in_grid(ConstraintRounds a, ConstraintRoundsEnd* end, std::uint32_t* counts,
-                              std::uint32_t* word) {
-  __shared__ BlockCompactStorage storage;
-  constraint_rounds(GridTeam{storage, counts, word}, a, kConstraintBlockLimit, kConstraintGridLimit, end);
-}
+using ConstraintTeamRounds = TeamRounds<ConstraintLoop, ConstraintRounds, ConstraintRoundsEnd,
+                                        kConstraintBlockLimit, kConstraintGridLimit>;
 
 } // namespace
 
@@ -280,8 +272,7 @@ ConstraintStats insert_constraints(DeviceMesh::State& s, std::span<const Constra
   DeviceBuffer<unsigned long long> d_sum(1);
   // The inner iterations in a block or a grid, for every outer iteration.
   DeviceBuffer<ConstraintRoundsEnd> d_block_end(1);
-  const unsigned grid_blocks = grid_team_blocks(constraint_rounds_in_grid);
-  std::optional<GridTeamScratch> grid_scratch;
+  ConstraintTeamRounds team_rounds;
   std::uint32_t* error_at = d_error_at.data();
 
   for (;;) {
@@ -347,8 +338,7 @@ ConstraintStats insert_constraints(DeviceMesh::State& s, std::span<const Constra
     std::uint64_t outer_flips = 0;
     unsigned iteration = 0;
     while (iteration < inner_limit && na > 0) {
-      const bool in_block = na <= kConstraintBlockLimit;
-      if (in_block || (grid_blocks != 0 && na <= kConstraintGridLimit)) {
+      if (team_rounds.takes(na)) {
         const std::uint64_t allowed =
             max_inner_iterations - std::min(max_inner_iterations, stats.inner_iterations);
         const ConstraintRounds args{m,
@@ -372,8 +362,7 @@ ConstraintStats insert_constraints(DeviceMesh::State& s, std::span<const Constra
                                     d_label.data(),
                                     d_picked.data(),
                                     d_own.data()};
-        launch_team_rounds(in_block, constraint_rounds_in_block, constraint_rounds_in_grid, grid_blocks,
-                           grid_scratch, executor.stream(), "constraint_rounds", args, d_block_end.data());
+        team_rounds.launch(na, args, d_block_end.data(), executor.stream(), "ConstraintLoop");
         ConstraintRoundsEnd end{};
         executor.download(&end, d_block_end.data(), 1);
         iteration += end.iterations;

@@ -3,13 +3,12 @@
 // (delaunay_flip_candidate, flip_pair_contents, relink_flipped_pair), and the driver below runs the
 // same steps as the CPU executor's flip_to_delaunay (cdt/src/gcd/flip.cpp) in the same order, with the
 // same compactions, so both flip the same pairs in every round and end with the same mesh. The last
-// rounds, on short lists, run in one thread block (flip_rounds_in_block), the middle ones in one
-// cooperative grid (flip_rounds_in_grid), the same steps.
+// rounds, on short lists, run in one thread block, the middle ones in one cooperative grid (FlipLoop,
+// run by TeamRounds), the same steps.
 
 #include <chrono>
 #include <cstddef>
 #include <cstdint>
-#include <optional>
 #include <string>
 #include <utility>
 
@@ -90,17 +89,17 @@ void apply_flips(CudaExecutor& executor, DeviceFlipBatch& batch, const MeshView&
   }
 }
 
-/// Lists of at most this many triangles are flipped by flip_rounds_in_block: its rounds take 10-30
+/// Lists of at most this many triangles are flipped by one block (FlipLoop): its rounds take 10-30
 /// microseconds, against 100-150 as separate launches (each a few microseconds of the host's time, and
 /// three waits for counts).
 constexpr std::uint32_t kFlipBlockLimit = 4096;
 
-/// Lists of more than kFlipBlockLimit and at most this many triangles are flipped by
-/// flip_rounds_in_grid, where the device can launch it: on the H200 machine the coastlines' nine middle
+/// Lists of more than kFlipBlockLimit and at most this many triangles are flipped by a cooperative grid
+/// (FlipLoop), where the device can launch one: on the H200 machine the coastlines' nine middle
 /// rounds of Phase 5 (197251 triangles down to 4655) took 1.17 ms there against 1.80 as launches.
 constexpr std::uint32_t kFlipGridLimit = std::uint32_t{1} << 18;
 
-/// flip_mesh's buffers and state, for flip_rounds_in_block and flip_rounds_in_grid.
+/// flip_mesh's buffers and state, for FlipLoop.
 struct FlipRounds {
   MeshView m;
   std::uint32_t first_fake;
@@ -120,7 +119,7 @@ struct FlipRounds {
   std::uint32_t* waiting;
 };
 
-/// What flip_rounds_in_block leaves for the host.
+/// What FlipLoop leaves for the host.
 struct FlipRoundsEnd {
   std::uint32_t n;        ///< the list's length (0: done, else above the limit)
   std::uint32_t in_next;  ///< 1 when the list is in `next`
@@ -135,9 +134,15 @@ constexpr std::uint32_t kNoPair = 2;
 
 /// flip_mesh's rounds, the same steps in the same order, by a team (BlockTeam or GridTeam) while the
 /// list has more than `lo` and at most `hi` triangles.
+struct FlipLoop {
+  template <class Team>
+  __device__ void operator()(const Team& team, const FlipRounds& a, std::uint32_t lo, std::uint32_t hi,
+                             FlipRoundsEnd* end) const;
+};
+
 template <class Team>
-__device__ void flip_rounds(const Team& team, const FlipRounds& a, std::uint32_t lo, std::uint32_t hi,
-                            FlipRoundsEnd* end) {
+__device__ void FlipLoop::operator()(const Team& team, const FlipRounds& a, std::uint32_t lo,
+                                     std::uint32_t hi, FlipRoundsEnd* end) const {
   const MeshView m = a.m;
   std::uint32_t* list = a.list;
   std::uint32_t* next = a.next;
@@ -216,19 +221,7 @@ __device__ void flip_rounds(const Team& team, const FlipRounds& a, std::uint32_t
   if (team.leader()) *end = FlipRoundsEnd{n, in_next, num_last, rounds, flips, error, error_edge};
 }
 
-/// The rounds of at most kFlipBlockLimit triangles, in one block.
-__global__ void __launch_bounds__(kBlockRoundThreads) flip_rounds_in_block(FlipRounds a, FlipRoundsEnd* end) {
-  __shared__ BlockCompactStorage storage;
-  __shared__ std::uint32_t word;
-  flip_rounds(BlockTeam{storage, &word}, a, 0, kFlipBlockLimit, end);
-}
-
-/// The rounds of more than kFlipBlockLimit and at most kFlipGridLimit triangles, by a cooperative grid.
-__global__ void __launch_bounds__(kBlockRoundThreads)
-    flip_rounds_in_grid(FlipRounds a, FlipRoundsEnd* end, std::uint32_t* counts, std::uint32_t* word) {
-  __shared__ BlockCompactStorage storage;
-  flip_rounds(GridTeam{storage, counts, word}, a, kFlipBlockLimit, kFlipGridLimit, end);
-}
+using FlipTeamRounds = TeamRounds<FlipLoop, FlipRounds, FlipRoundsEnd, kFlipBlockLimit, kFlipGridLimit>;
 
 /// The flips on a mesh on the device: flip_to_delaunay's rounds, the first over the live slots t with
 /// only[t] != 0 when only is given. With first_fake given, the fake fans' flips instead
@@ -279,17 +272,14 @@ FlipResult flip_mesh(DeviceMesh::State& s, const std::uint8_t* only, std::uint32
   std::uint32_t* waiting = d_waiting.data();
 
   DeviceBuffer<FlipRoundsEnd> d_end(1);
-  const unsigned grid_blocks = grid_team_blocks(flip_rounds_in_grid);
-  std::optional<GridTeamScratch> grid_scratch;
+  FlipTeamRounds team_rounds;
   while (n > 0) {
-    const bool in_block = n <= kFlipBlockLimit;
-    if (in_block || (grid_blocks != 0 && n <= kFlipGridLimit)) {
-      launch_team_rounds(in_block, flip_rounds_in_block, flip_rounds_in_grid, grid_blocks, grid_scratch,
-                         executor.stream(), "flip_rounds",
+    if (team_rounds.takes(n)) {
+      team_rounds.launch(n,
                          FlipRounds{m, first_fake, list, next, n, active_flag, marks, batch.partner.data(),
                                     batch.last.data(), batch.num_last, batch.fix.data(), cand, nbr, own,
                                     winners, waiting},
-                         d_end.data());
+                         d_end.data(), executor.stream(), "FlipLoop");
       FlipRoundsEnd end{};
       executor.download(&end, d_end.data(), 1);
       result.rounds += end.rounds;

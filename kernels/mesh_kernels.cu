@@ -4,7 +4,8 @@
 // steps as its CPU executor twin (cdt/src/gcd/shift.cpp, insert.cpp) in the same order with the same
 // ordered compactions, so both executors leave the same mesh slot for slot. The fake boundary's removal
 // is the exception: its fans go to the host, whose edits come back (DeviceMesh::remove_fake_boundary).
-// The deletions' and insertions' last rounds, on short lists, run in one thread block (block_steps.cuh).
+// The deletions', shifts' and insertions' last rounds, on short lists, run in one thread block, and the
+// shifts' and insertions' middle rounds in one cooperative grid (block_steps.cuh).
 
 #include <algorithm>
 #include <array>
@@ -454,10 +455,12 @@ std::uint32_t sites_in_slot_order(DeviceMesh::State& s, std::uint32_t num_sites,
   return n;
 }
 
-/// Lists of at most this many unchecked points are shifted by shift_rounds_in_block.
+/// Lists of at most this many unchecked points are shifted by one block (ShiftLoop).
 constexpr std::uint32_t kShiftBlockLimit = 4096;
+/// Lists of at most this many run them in a cooperative grid when the device can.
+constexpr std::uint32_t kShiftGridLimit = std::uint32_t{1} << 18;
 
-/// shift's buffers and state, for shift_rounds_in_block.
+/// shift's buffers and state, for ShiftLoop.
 struct ShiftRounds {
   MeshView m;
   const double* tx;
@@ -471,7 +474,7 @@ struct ShiftRounds {
   std::uint32_t n;
 };
 
-/// What shift_rounds_in_block leaves for the host.
+/// What ShiftLoop leaves for the host.
 struct ShiftRoundsEnd {
   std::uint32_t n;       ///< points left unchecked
   std::uint32_t in_next; ///< 1 when the lists are in the next_ arrays
@@ -480,55 +483,60 @@ struct ShiftRoundsEnd {
   std::uint32_t stuck;  ///< 1 when a round checked no point
 };
 
-/// shift's rounds (Algorithm 1), the same steps in the same order, by one block while at most
-/// kShiftBlockLimit points are unchecked.
-__global__ void __launch_bounds__(kBlockRoundThreads)
-    shift_rounds_in_block(ShiftRounds a, ShiftRoundsEnd* end) {
+/// shift's rounds (Algorithm 1), the same steps in the same order, by a team (BlockTeam or GridTeam)
+/// while more than `lo` and at most `hi` points are unchecked.
+struct ShiftLoop {
+  template <class Team>
+  __device__ void operator()(const Team& team, const ShiftRounds& a, std::uint32_t lo, std::uint32_t hi,
+                             ShiftRoundsEnd* end) const;
+};
+
+template <class Team>
+__device__ void ShiftLoop::operator()(const Team& team, const ShiftRounds& a, std::uint32_t lo,
+                                      std::uint32_t hi, ShiftRoundsEnd* end) const {
   using ::cdt::detail::kBad;
   using ::cdt::detail::kGood;
-  __shared__ BlockCompactStorage storage;
-  __shared__ std::uint32_t failure;
   const MeshView m = a.m;
   std::uint32_t *list = a.list, *cursor = a.cursor, *ends = a.end;
   std::uint32_t *next_list = a.next_list, *next_cursor = a.next_cursor, *next_end = a.next_end;
   std::uint32_t n = a.n, rounds = 0, in_next = 0, status = 0, stuck = 0;
-  while (n > 0 && n <= kShiftBlockLimit) {
+  while (n > lo && n <= hi) {
     ++rounds;
-    if (threadIdx.x == 0) failure = 0;
-    block_for_each(n, [&](std::uint32_t i) {
+    if (team.leader()) *team.word = 0;
+    team.for_each(n, [&](std::uint32_t i) {
       a.ready[i] = ::cdt::detail::shift_ready(a.lower, cursor[i], ends[i], a.state) ? 1 : 0;
     });
-    __syncthreads();
-    block_for_each(n, [&](std::uint32_t i) {
+    team.sync();
+    team.for_each(n, [&](std::uint32_t i) {
       if (!a.ready[i]) return;
       const std::uint32_t v = list[i];
       bool good = false;
       const WorkStatus s = ::cdt::detail::shift_is_good(m, v, a.tx[v], a.ty[v], good);
-      if (s != WorkStatus::ok) atomicCAS(&failure, 0u, static_cast<std::uint32_t>(s));
+      if (s != WorkStatus::ok) atomicCAS(team.word, 0u, static_cast<std::uint32_t>(s));
       if (good) {
         m.x[v] = a.tx[v];
         m.y[v] = a.ty[v];
       }
       a.state[v] = good ? kGood : kBad;
     });
-    __syncthreads();
-    if (failure != 0) {
+    team.sync();
+    if (const std::uint32_t failure = team.word_value(); failure != 0) {
       status = failure;
       break;
     }
     // The lowest-priority unchecked point is always ready, so every round checks at least one point.
-    const std::uint32_t num_rest = block_compact(
-        n, [&](std::uint32_t i) { return a.ready[i] == 0; }, a.rest, storage);
+    const std::uint32_t num_rest = team.compact(
+        n, [&](std::uint32_t i) { return a.ready[i] == 0; }, a.rest);
     if (num_rest == n) {
       stuck = 1;
       break;
     }
-    block_for_each(num_rest, [&](std::uint32_t r) {
+    team.for_each(num_rest, [&](std::uint32_t r) {
       next_list[r] = list[a.rest[r]];
       next_cursor[r] = cursor[a.rest[r]];
       next_end[r] = ends[a.rest[r]];
     });
-    __syncthreads();
+    team.sync();
     const auto swap = [](std::uint32_t*& x, std::uint32_t*& y) {
       std::uint32_t* const z = x;
       x = y;
@@ -540,8 +548,10 @@ __global__ void __launch_bounds__(kBlockRoundThreads)
     in_next ^= 1u;
     n = num_rest;
   }
-  if (threadIdx.x == 0) *end = ShiftRoundsEnd{n, in_next, rounds, status, stuck};
+  if (team.leader()) *end = ShiftRoundsEnd{n, in_next, rounds, status, stuck};
 }
+
+using ShiftTeamRounds = TeamRounds<ShiftLoop, ShiftRounds, ShiftRoundsEnd, kShiftBlockLimit, kShiftGridLimit>;
 
 /// Shifting with the sites' true positions tx, ty on the device (num_sites each).
 ShiftStats shift(DeviceMesh::State& s, std::uint32_t num_sites, const double* tx, const double* ty,
@@ -613,8 +623,9 @@ ShiftStats shift(DeviceMesh::State& s, std::uint32_t num_sites, const double* tx
   const std::uint32_t* lower = d_lower.data();
   std::uint8_t* ready = d_ready.data();
   DeviceBuffer<ShiftRoundsEnd> d_block_end(1);
+  ShiftTeamRounds team_rounds;
   while (num > 0) {
-    if (num <= kShiftBlockLimit) {
+    if (team_rounds.takes(num)) {
       const ShiftRounds args{m,
                              tx,
                              ty,
@@ -629,8 +640,7 @@ ShiftStats shift(DeviceMesh::State& s, std::uint32_t num_sites, const double* tx
                              d_next_cursor.data(),
                              d_next_end.data(),
                              num};
-      shift_rounds_in_block<<<1, kBlockRoundThreads, 0, executor.stream()>>>(args, d_block_end.data());
-      check_launch("shift_rounds_in_block", __FILE__, __LINE__);
+      team_rounds.launch(num, args, d_block_end.data(), executor.stream(), "ShiftLoop");
       ShiftRoundsEnd end{};
       executor.download(&end, d_block_end.data(), 1);
       if (end.stuck != 0)
@@ -720,10 +730,12 @@ ShiftStats shift(DeviceMesh::State& s, std::uint32_t num_sites, const double* tx
   return stats;
 }
 
-/// Lists of at most this many missing points are inserted by insert_rounds_in_block.
+/// Lists of at most this many missing points are inserted by one block (InsertLoop).
 constexpr std::uint32_t kInsertBlockLimit = 4096;
+/// Lists of at most this many run them in a cooperative grid when the device can.
+constexpr std::uint32_t kInsertGridLimit = std::uint32_t{1} << 18;
 
-/// insert's buffers and state, for insert_rounds_in_block.
+/// insert's buffers and state, for InsertLoop.
 struct InsertRounds {
   MeshView m;
   const MissingPoint* points;
@@ -744,10 +756,10 @@ struct InsertRounds {
   std::uint32_t* winners;
 };
 
-/// Which step of insert_rounds_in_block failed.
+/// Which step of InsertLoop failed.
 enum class InsertStep : std::uint32_t { none, location, stuck, slots };
 
-/// What insert_rounds_in_block leaves for the host.
+/// What InsertLoop leaves for the host.
 struct InsertRoundsEnd {
   std::uint32_t n;       ///< points left
   std::uint32_t in_rest; ///< 1 when the list is in `rest`
@@ -758,12 +770,17 @@ struct InsertRoundsEnd {
   std::uint32_t status; ///< with InsertStep::location: a WorkStatus
 };
 
-/// insert's rounds (Algorithm 3), the same steps in the same order, by one block while the list has at
-/// most kInsertBlockLimit points.
-__global__ void __launch_bounds__(kBlockRoundThreads)
-    insert_rounds_in_block(InsertRounds a, InsertRoundsEnd* end) {
-  __shared__ BlockCompactStorage storage;
-  __shared__ std::uint32_t failure;
+/// insert's rounds (Algorithm 3), the same steps in the same order, by a team (BlockTeam or GridTeam)
+/// while the list has more than `lo` and at most `hi` points.
+struct InsertLoop {
+  template <class Team>
+  __device__ void operator()(const Team& team, const InsertRounds& a, std::uint32_t lo, std::uint32_t hi,
+                             InsertRoundsEnd* end) const;
+};
+
+template <class Team>
+__device__ void InsertLoop::operator()(const Team& team, const InsertRounds& a, std::uint32_t lo,
+                                       std::uint32_t hi, InsertRoundsEnd* end) const {
   const MeshView m = a.m;
   const std::uint32_t nv = m.num_vertices;
   std::uint32_t* remaining = a.remaining;
@@ -771,13 +788,14 @@ __global__ void __launch_bounds__(kBlockRoundThreads)
   std::uint32_t n = a.n, cursor = a.cursor;
   std::uint32_t rounds = 0, in_rest = 0, inserted = 0;
   InsertStep step = InsertStep::none;
+  std::uint32_t location_status = 0;
   const ::cdt::detail::InsertRound round{a.loc_t, a.loc_e, a.loc_u, a.loc_j, a.new0, a.new1, a.mark, a.flags};
-  while (n > 0 && n <= kInsertBlockLimit) {
+  while (n > lo && n <= hi) {
     ++rounds;
-    if (threadIdx.x == 0) failure = 0;
-    __syncthreads();
+    if (team.leader()) *team.word = 0;
+    team.sync();
     // Lines 2-5: locate and mark the containers.
-    block_for_each(n, [&](std::uint32_t r) {
+    team.for_each(n, [&](std::uint32_t r) {
       const std::uint32_t q = remaining[r];
       a.flags[q] = 0;
       a.loc_t[q] = kNoId;
@@ -790,7 +808,7 @@ __global__ void __launch_bounds__(kBlockRoundThreads)
       const std::uint32_t v = a.points[q].vertex;
       const ::cdt::detail::MissingPointPlace at = ::cdt::detail::place_missing_point(m, o, m.x[v], m.y[v]);
       if (at.status != WorkStatus::ok) {
-        atomicCAS(&failure, 0u, static_cast<std::uint32_t>(at.status));
+        atomicCAS(team.word, 0u, static_cast<std::uint32_t>(at.status));
         return;
       }
       a.loc_t[q] = at.tri;
@@ -801,13 +819,14 @@ __global__ void __launch_bounds__(kBlockRoundThreads)
       atomicMin(a.mark + at.tri, key);
       if (at.u != kNoId) atomicMin(a.mark + at.u, key);
     });
-    __syncthreads();
-    if (failure != 0) {
+    team.sync();
+    if (const std::uint32_t failure = team.word_value(); failure != 0) {
       step = InsertStep::location;
+      location_status = failure;
       break;
     }
     // Lines 6-13: winners, and a start for the losers next round.
-    block_for_each(n, [&](std::uint32_t r) {
+    team.for_each(n, [&](std::uint32_t r) {
       const std::uint32_t q = remaining[r];
       const std::uint32_t t = a.loc_t[q], u = a.loc_u[q];
       if (t == kNoId) return;
@@ -819,8 +838,8 @@ __global__ void __launch_bounds__(kBlockRoundThreads)
           static_cast<std::uint8_t>((holds_t ? kHoldsT : 0) | (holds_u ? kHoldsU : 0) | (wins ? kWins : 0));
       if (!wins) a.start[q] = m.tri[3 * t];
     });
-    __syncthreads();
-    block_for_each(n, [&](std::uint32_t r) {
+    team.sync();
+    team.for_each(n, [&](std::uint32_t r) {
       const std::uint32_t q = remaining[r];
       if (a.loc_t[q] == kNoId || (a.flags[q] & kWins) != 0) return;
       const std::uint32_t containers[2] = {a.loc_t[q], a.loc_u[q]};
@@ -833,9 +852,9 @@ __global__ void __launch_bounds__(kBlockRoundThreads)
         }
       }
     });
-    __syncthreads();
-    const std::uint32_t num_winners = block_compact(
-        n, [&](std::uint32_t r) { return (a.flags[remaining[r]] & kWins) != 0; }, a.picked, storage);
+    team.sync();
+    const std::uint32_t num_winners = team.compact(
+        n, [&](std::uint32_t r) { return (a.flags[remaining[r]] & kWins) != 0; }, a.picked);
     if (num_winners == 0) {
       step = InsertStep::stuck;
       break;
@@ -844,18 +863,18 @@ __global__ void __launch_bounds__(kBlockRoundThreads)
       step = InsertStep::slots;
       break;
     }
-    block_for_each(num_winners, [&](std::uint32_t r) { a.winners[r] = remaining[a.picked[r]]; });
-    __syncthreads();
+    team.for_each(num_winners, [&](std::uint32_t r) { a.winners[r] = remaining[a.picked[r]]; });
+    team.sync();
     // Lines 14-16: slots by rank, and who rewrites each corner's vert_tri.
-    block_for_each(num_winners, [&](std::uint32_t r) {
+    team.for_each(num_winners, [&](std::uint32_t r) {
       const std::uint32_t q = a.winners[r];
       a.new0[q] = a.free_slots[cursor + 2 * r];
       a.new1[q] = a.free_slots[cursor + 2 * r + 1];
       a.own[q] = ::cdt::detail::split_corner_owners(m, round, q);
     });
-    __syncthreads();
+    team.sync();
     // Lines 17-19: split the containers.
-    block_for_each(num_winners, [&](std::uint32_t r) {
+    team.for_each(num_winners, [&](std::uint32_t r) {
       const std::uint32_t q = a.winners[r];
       const std::uint32_t v = a.points[q].vertex;
       if (a.loc_e[q] == 3)
@@ -867,32 +886,33 @@ __global__ void __launch_bounds__(kBlockRoundThreads)
       a.made[a.loc_t[q]] = a.made[a.new0[q]] = a.made[a.new1[q]] = 1;
       if (a.loc_u[q] != kNoId) a.made[a.loc_u[q]] = 1;
     });
-    __syncthreads();
+    team.sync();
     // Lines 20-22: outer links.
-    block_for_each(num_winners,
-                   [&](std::uint32_t r) { ::cdt::detail::link_split_outer_edges(m, round, a.winners[r]); });
-    __syncthreads();
-    block_for_each(n, [&](std::uint32_t r) {
+    team.for_each(num_winners,
+                  [&](std::uint32_t r) { ::cdt::detail::link_split_outer_edges(m, round, a.winners[r]); });
+    team.sync();
+    team.for_each(n, [&](std::uint32_t r) {
       const std::uint32_t q = remaining[r];
       if (a.flags[q] & kHoldsT) a.mark[a.loc_t[q]] = kNoId;
       if (a.flags[q] & kHoldsU) a.mark[a.loc_u[q]] = kNoId;
     });
     cursor += 2 * num_winners;
     inserted += num_winners;
-    const std::uint32_t num_rest = block_compact(
-        n, [&](std::uint32_t r) { return (a.flags[remaining[r]] & kWins) == 0; }, a.picked, storage);
-    block_for_each(num_rest, [&](std::uint32_t r) { rest[r] = remaining[a.picked[r]]; });
-    __syncthreads();
+    const std::uint32_t num_rest = team.compact(
+        n, [&](std::uint32_t r) { return (a.flags[remaining[r]] & kWins) == 0; }, a.picked);
+    team.for_each(num_rest, [&](std::uint32_t r) { rest[r] = remaining[a.picked[r]]; });
+    team.sync();
     std::uint32_t* const swap = remaining;
     remaining = rest;
     rest = swap;
     in_rest ^= 1u;
     n = num_rest;
   }
-  if (threadIdx.x == 0)
-    *end = InsertRoundsEnd{
-        n, in_rest, rounds, cursor, inserted, step, step == InsertStep::location ? failure : 0u};
+  if (team.leader()) *end = InsertRoundsEnd{n, in_rest, rounds, cursor, inserted, step, location_status};
 }
+
+using InsertTeamRounds =
+    TeamRounds<InsertLoop, InsertRounds, InsertRoundsEnd, kInsertBlockLimit, kInsertGridLimit>;
 
 InsertStats insert(DeviceMesh::State& s, std::span<const MissingPoint> missing,
                    const HostParallelFor& parallel) {
@@ -1005,8 +1025,9 @@ InsertStats insert(DeviceMesh::State& s, std::span<const MissingPoint> missing,
   std::size_t cursor = 0;
 
   DeviceBuffer<InsertRoundsEnd> d_end(1);
+  InsertTeamRounds team_rounds;
   while (n > 0) {
-    if (n <= kInsertBlockLimit) {
+    if (team_rounds.takes(n)) {
       const InsertRounds args{m,
                               points,
                               d_remaining.data(),
@@ -1030,8 +1051,7 @@ InsertStats insert(DeviceMesh::State& s, std::span<const MissingPoint> missing,
                               own,
                               d_picked.data(),
                               d_winners.data()};
-      insert_rounds_in_block<<<1, kBlockRoundThreads, 0, executor.stream()>>>(args, d_end.data());
-      check_launch("insert_rounds_in_block", __FILE__, __LINE__);
+      team_rounds.launch(n, args, d_end.data(), executor.stream(), "InsertLoop");
       InsertRoundsEnd end{};
       executor.download(&end, d_end.data(), 1);
       switch (end.step) {
