@@ -192,6 +192,96 @@ __global__ void suppress_kernel(const std::int16_t* __restrict__ dx, const std::
   classes[i] = detail::suppress(dx[i], dy[i], mid[x], up, mid, down, x, width, *thresholds);
 }
 
+// The hysteresis (detail::hysteresis's result) as connected components: every edge pixel (candidate
+// or strong) starts as its own set, sets of 8-neighbours are joined (a union-find whose links only
+// ever point to lower pixel indices, joined by compare-and-swap, so concurrent joins need no lock),
+// and a candidate in a set with a strong pixel becomes strong. The components are unique, so the
+// classes are the host's whatever order the joins take.
+constexpr std::uint32_t kNoLabel = 0xFFFFFFFFu;
+
+// Volatile reads: the links other threads' joins are changing come from memory, not an old copy.
+__device__ std::uint32_t label_root(const volatile std::uint32_t* label, std::uint32_t i) {
+  for (std::uint32_t up = label[i]; up != i; up = label[i]) i = up;
+  return i;
+}
+
+__device__ void join_labels(std::uint32_t* label, std::uint32_t a, std::uint32_t b) {
+  for (;;) {
+    a = label_root(label, a);
+    b = label_root(label, b);
+    if (a == b) return;
+    if (a > b) {
+      const std::uint32_t t = a;
+      a = b;
+      b = t;
+    }
+    // b is a root: link it below a unless another join linked it first.
+    const std::uint32_t was = atomicCAS(label + b, b, a);
+    if (was == b) return;
+    b = was;
+  }
+}
+
+__global__ void hysteresis_labels_kernel(const std::uint8_t* __restrict__ classes, std::size_t pixels,
+                                         std::uint32_t* __restrict__ label) {
+  const std::size_t i = blockIdx.x * static_cast<std::size_t>(blockDim.x) + threadIdx.x;
+  if (i >= pixels) return;
+  label[i] = classes[i] != detail::kNotEdge ? static_cast<std::uint32_t>(i) : kNoLabel;
+}
+
+__global__ void hysteresis_join_kernel(const std::uint8_t* __restrict__ classes, int width, int height,
+                                       std::size_t pixels, std::uint32_t* label) {
+  const std::size_t i = blockIdx.x * static_cast<std::size_t>(blockDim.x) + threadIdx.x;
+  if (i >= pixels || classes[i] == detail::kNotEdge) return;
+  const int x = static_cast<int>(i % static_cast<std::size_t>(width));
+  const int y = static_cast<int>(i / static_cast<std::size_t>(width));
+  // Four of the eight neighbours: the other four join this pixel from their side.
+  const int dxs[4] = {1, -1, 0, 1};
+  const int dys[4] = {0, 1, 1, 1};
+  for (int k = 0; k < 4; ++k) {
+    const int nx = x + dxs[k];
+    const int ny = y + dys[k];
+    if (nx < 0 || nx >= width || ny >= height) continue;
+    const std::size_t j = static_cast<std::size_t>(ny) * width + nx;
+    if (classes[j] != detail::kNotEdge)
+      join_labels(label, static_cast<std::uint32_t>(i), static_cast<std::uint32_t>(j));
+  }
+}
+
+__global__ void hysteresis_roots_kernel(const std::uint8_t* __restrict__ classes, std::size_t pixels,
+                                        std::uint32_t* label, std::uint8_t* __restrict__ strong_root) {
+  const std::size_t i = blockIdx.x * static_cast<std::size_t>(blockDim.x) + threadIdx.x;
+  if (i >= pixels || classes[i] == detail::kNotEdge) return;
+  const std::uint32_t root = label_root(label, static_cast<std::uint32_t>(i));
+  label[i] = root; // still a link to an ancestor for the others' walks
+  if (classes[i] == detail::kStrong) strong_root[root] = 1;
+}
+
+__global__ void hysteresis_apply_kernel(std::uint8_t* __restrict__ classes, std::size_t pixels,
+                                        const std::uint32_t* __restrict__ label,
+                                        const std::uint8_t* __restrict__ strong_root) {
+  const std::size_t i = blockIdx.x * static_cast<std::size_t>(blockDim.x) + threadIdx.x;
+  if (i >= pixels || classes[i] != detail::kCandidate) return;
+  if (strong_root[label[i]] != 0) classes[i] = detail::kStrong;
+}
+
+/// Queues the hysteresis of the width x height classes d_classes on `stream`, with d_label (a word per
+/// pixel) and d_strong_root (a byte per pixel) as scratch.
+void enqueue_hysteresis(std::uint8_t* d_classes, int width, int height, std::uint32_t* d_label,
+                        std::uint8_t* d_strong_root, cudaStream_t stream) {
+  const std::size_t pixels = static_cast<std::size_t>(width) * height;
+  constexpr int kThreads = 256;
+  const auto blocks = static_cast<unsigned>((pixels + kThreads - 1) / kThreads);
+  CDT_CUDA_CHECK(cudaMemsetAsync(d_strong_root, 0, pixels, stream));
+  hysteresis_labels_kernel<<<blocks, kThreads, 0, stream>>>(d_classes, pixels, d_label);
+  CDT_CUDA_CHECK_LAUNCH("hysteresis_labels_kernel");
+  hysteresis_join_kernel<<<blocks, kThreads, 0, stream>>>(d_classes, width, height, pixels, d_label);
+  CDT_CUDA_CHECK_LAUNCH("hysteresis_join_kernel");
+  hysteresis_roots_kernel<<<blocks, kThreads, 0, stream>>>(d_classes, pixels, d_label, d_strong_root);
+  CDT_CUDA_CHECK_LAUNCH("hysteresis_roots_kernel");
+  hysteresis_apply_kernel<<<blocks, kThreads, 0, stream>>>(d_classes, pixels, d_label, d_strong_root);
+  CDT_CUDA_CHECK_LAUNCH("hysteresis_apply_kernel");
+}
 } // namespace
 
 namespace {
@@ -286,6 +376,9 @@ void edge_classes(const float* rgba, int width, int height, const detail::BlurTa
   suppress_kernel<<<blocks, kThreads, 0, stream>>>(d_dx.data(), d_dy.data(), d_magnitude.data(), width,
                                                    height, pixels, d_thresholds.data(), d_classes.data());
   CDT_CUDA_CHECK_LAUNCH("suppress_kernel");
+  // The magnitudes are read: their buffer takes the hysteresis' labels.
+  DeviceBuffer<std::uint8_t> d_strong_root(pixels);
+  enqueue_hysteresis(d_classes.data(), width, height, d_magnitude.data(), d_strong_root.data(), stream);
   CDT_CUDA_CHECK(cudaMemcpyAsync(block.get() != nullptr ? static_cast<void*>(block.get()) : classes,
                                  d_classes.data(), pixels, cudaMemcpyDeviceToHost, stream));
   CDT_CUDA_CHECK(cudaStreamSynchronize(stream));
@@ -305,6 +398,23 @@ void prepare_edge_classes() {
   CDT_CUDA_CHECK(cudaFuncGetAttributes(&attributes, select_count_kernel));
   CDT_CUDA_CHECK(cudaFuncGetAttributes(&attributes, select_pick_kernel));
   CDT_CUDA_CHECK(cudaFuncGetAttributes(&attributes, thresholds_kernel));
+  CDT_CUDA_CHECK(cudaFuncGetAttributes(&attributes, hysteresis_labels_kernel));
+  CDT_CUDA_CHECK(cudaFuncGetAttributes(&attributes, hysteresis_join_kernel));
+  CDT_CUDA_CHECK(cudaFuncGetAttributes(&attributes, hysteresis_roots_kernel));
+  CDT_CUDA_CHECK(cudaFuncGetAttributes(&attributes, hysteresis_apply_kernel));
+}
+
+void hysteresis(std::uint8_t* classes, int width, int height) {
+  if (width <= 0 || height <= 0) return;
+  if (cdt::gpu::device_count() == 0) throw cdt::DeviceError("hysteresis: no CUDA device is available");
+  const cudaStream_t stream = cudaStreamPerThread;
+  const std::size_t pixels = static_cast<std::size_t>(width) * height;
+  DeviceBuffer<std::uint8_t> d_classes(pixels), d_strong_root(pixels);
+  DeviceBuffer<std::uint32_t> d_label(pixels);
+  CDT_CUDA_CHECK(cudaMemcpyAsync(d_classes.data(), classes, pixels, cudaMemcpyHostToDevice, stream));
+  enqueue_hysteresis(d_classes.data(), width, height, d_label.data(), d_strong_root.data(), stream);
+  CDT_CUDA_CHECK(cudaMemcpyAsync(classes, d_classes.data(), pixels, cudaMemcpyDeviceToHost, stream));
+  CDT_CUDA_CHECK(cudaStreamSynchronize(stream));
 }
 
 std::uint32_t kth_smallest(const std::uint32_t* values, std::size_t n, std::size_t k) {

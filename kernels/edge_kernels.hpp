@@ -35,15 +35,15 @@ private:
   bool pooled_ = false;
 };
 
-/// The suppression's classes (detail::kNotEdge, kCandidate or kStrong, before the hysteresis), width *
-/// height of them row-major, of the opaque width x height image of RGBA floats `rgba` (row-major), as
-/// the host makes them with detail::gradient_rows (the colour scaled by detail::kEdgeScale),
-/// detail::edge_thresholds over every pixel's squared magnitude and detail::suppress_rows: the same
-/// classes. Runs on the calling thread's default stream (cudaStreamPerThread) and returns when they are
-/// in host memory; copies that fit go through a free one of the pinned staging blocks the CDT engine's
-/// copies use. With `kept` given, the image is left on the device in *kept for a later trixel_sums,
-/// unless the images kept at once would take more than kKeptImageBytes (*kept is then empty). Throws
-/// cdt::DeviceError on any CUDA failure.
+/// The edge classes (detail::kNotEdge, kCandidate or kStrong, after the hysteresis: the edges are the
+/// strong pixels), width * height of them row-major, of the opaque width x height image of RGBA floats
+/// `rgba` (row-major), as the host makes them with detail::gradient_rows (the colour scaled by
+/// detail::kEdgeScale), detail::edge_thresholds over every pixel's squared magnitude,
+/// detail::suppress_rows and detail::hysteresis: the same classes. Runs on the calling thread's default
+/// stream (cudaStreamPerThread) and returns when they are in host memory; copies that fit go through a free
+/// one of the pinned staging blocks the CDT engine's copies use. With `kept` given, the image is left on the
+/// device in *kept for a later trixel_sums, unless the images kept at once would take more than
+/// kKeptImageBytes (*kept is then empty). Throws cdt::DeviceError on any CUDA failure.
 void edge_classes(const float* rgba, int width, int height, const detail::BlurTaps& taps,
                   const detail::ThresholdRule& rule, std::uint8_t* classes,
                   std::unique_ptr<DeviceImage>* kept = nullptr);
@@ -55,6 +55,10 @@ inline constexpr std::size_t kKeptImageBytes = std::size_t{1} << 30;
 /// automatic thresholds' quantile (for tests). Throws std::invalid_argument unless k < n, and
 /// cdt::DeviceError on any CUDA failure.
 std::uint32_t kth_smallest(const std::uint32_t* values, std::size_t n, std::size_t k);
+
+/// detail::hysteresis of the width x height classes, on the device (for tests): the same classes.
+/// Throws cdt::DeviceError on any CUDA failure.
+void hysteresis(std::uint8_t* classes, int width, int height);
 
 /// Loads edge_classes' device code, so that a first call does not wait for it (loading a kernel holds
 /// the driver's lock, stalling every other thread's device work). Its copies use the staging blocks

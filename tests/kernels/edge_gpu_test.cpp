@@ -1,6 +1,6 @@
 // Stage 2's edges on the device (vectorize::gpu::edge_classes) against the host running the same steps
-// (vectorize/src/edge_steps.hpp: gradient_rows in bands, edge_thresholds, suppress_rows): the same
-// classes, pixel for pixel, with and without blur (up to the widest, sigma 50), with automatic and
+// (vectorize/src/edge_steps.hpp: gradient_rows in bands, edge_thresholds, suppress_rows, hysteresis):
+// the same classes, pixel for pixel, with and without blur (up to the widest, sigma 50), with automatic and
 // given thresholds, on images down to one pixel wide or high and at a photograph's size.
 #include <gtest/gtest.h>
 
@@ -74,6 +74,7 @@ std::vector<std::uint8_t> host_classes(const Raster& r, const d::BlurTaps& taps,
   const d::SquaredThresholds t = d::edge_thresholds(rule, magnitude.data(), n);
   std::vector<std::uint8_t> classes(n);
   d::suppress_rows(dx.data(), dy.data(), magnitude.data(), r.width, r.height, t, 0, r.height, classes.data());
+  d::hysteresis(classes.data(), r.width, r.height);
   return classes;
 }
 
@@ -120,6 +121,57 @@ TEST_F(EdgesGpu, SameClassesAsTheHost) {
                                           std::to_string(sigma) + ", thresholds " + name);
       }
   EXPECT_GT(strong, 1000u); // edges were found, not only compared
+}
+
+// The device's hysteresis (connected components) against the host's (a flood from the strong pixels)
+// on class fields made to stress it: random candidates near the density where 8-connected clusters
+// span the field, a few strong seeds; a spiral of candidates one pixel wide with its one strong pixel at
+// the centre (a component thousands of pixels long); fields one pixel wide or high; no strong pixel.
+TEST_F(EdgesGpu, HysteresisMatchesTheHost) {
+  std::mt19937 rng(11);
+  std::size_t promoted = 0;
+  const auto check = [&](std::vector<std::uint8_t> classes, int width, int height, const std::string& what) {
+    std::vector<std::uint8_t> expected = classes;
+    d::hysteresis(expected.data(), width, height);
+    const auto before = static_cast<std::size_t>(std::count(classes.begin(), classes.end(), d::kStrong));
+    vectorize::gpu::hysteresis(classes.data(), width, height);
+    EXPECT_EQ(classes, expected) << what;
+    promoted += static_cast<std::size_t>(std::count(expected.begin(), expected.end(), d::kStrong)) - before;
+  };
+  for (const auto& [width, height] :
+       std::vector<std::pair<int, int>>{{1, 1}, {1, 300}, {300, 1}, {257, 129}, {1000, 700}})
+    for (const double density : {0.3, 0.45, 0.6}) {
+      std::vector<std::uint8_t> classes(static_cast<std::size_t>(width) * height);
+      std::bernoulli_distribution candidate(density), strong(0.002);
+      for (std::uint8_t& c : classes)
+        c = strong(rng) ? d::kStrong : candidate(rng) ? d::kCandidate : d::kNotEdge;
+      check(classes, width, height,
+            std::to_string(width) + "x" + std::to_string(height) + ", density " + std::to_string(density));
+      std::replace(classes.begin(), classes.end(), d::kStrong, d::kCandidate);
+      check(classes, width, height,
+            "no strong pixel, " + std::to_string(width) + "x" + std::to_string(height));
+    }
+  // A square spiral: rings of candidates two pixels apart, joined at one corner each.
+  const int side = 301;
+  std::vector<std::uint8_t> spiral(static_cast<std::size_t>(side) * side, d::kNotEdge);
+  int x = 0, y = 0, step_x = 1, step_y = 0, lo = 0, hi = side - 1;
+  for (int k = 0; k < side * side / 2; ++k) {
+    spiral[static_cast<std::size_t>(y) * side + x] = d::kCandidate;
+    if (step_x == 1 && x == hi)
+      step_x = 0, step_y = 1;
+    else if (step_y == 1 && y == hi)
+      step_x = -1, step_y = 0;
+    else if (step_x == -1 && x == lo)
+      step_x = 0, step_y = -1, lo += 2;
+    else if (step_y == -1 && y == lo)
+      step_x = 1, step_y = 0, hi -= 2;
+    if (lo > hi) break;
+    x += step_x;
+    y += step_y;
+  }
+  spiral[static_cast<std::size_t>(y) * side + x] = d::kStrong;
+  check(spiral, side, side, "spiral");
+  EXPECT_GT(promoted, 10000u); // candidates were promoted, not only left alone
 }
 
 // The device's selection of the automatic thresholds' quantile against std::nth_element, on values

@@ -75,7 +75,7 @@ cv::Mat shape_colours(const Image& image, const cv::Mat& shape_mask) {
   return colour;
 }
 
-// The suppression's classes of an opaque image on the device (EdgeDevice::gpu).
+// The edge classes of an opaque image on the device (EdgeDevice::gpu), after the hysteresis.
 void gpu_edge_classes(const Image& image, const detail::BlurTaps& taps, const detail::ThresholdRule& rule,
                       std::uint8_t* classes, DevicePixels* keep) {
 #if TRIXEL_HAVE_CUDA
@@ -196,12 +196,14 @@ EdgeMap detect_edges(const Image& image, const EdgeOptions& options, unsigned th
                                    options.min_auto_high};
   const auto classes = std::make_unique_for_overwrite<std::uint8_t[]>(map.on.size());
   // The device takes opaque images; the others need the nearest-shape-pixel colours (OpenCV's distance
-  // transform) and stay on the CPU. The classes are the same either way.
-  if (device == EdgeDevice::gpu && opaque)
+  // transform) and stay on the CPU. The classes are the same either way; the device's come after the
+  // hysteresis.
+  if (device == EdgeDevice::gpu && opaque) {
     gpu_edge_classes(image, taps, rule, classes.get(), keep);
-  else
+  } else {
     cpu_edge_classes(image, shape_mask, opaque, taps, rule, threads, classes.get());
-  detail::hysteresis(classes.get(), image.width, image.height);
+    detail::hysteresis(classes.get(), image.width, image.height);
+  }
 
   // Without a no-shape pixel there is no outline, and the edges are Canny's.
   for (int y = 0; y < image.height; ++y) {
