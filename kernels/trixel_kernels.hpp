@@ -18,12 +18,14 @@ namespace vectorize::gpu {
 /// thread's default stream (cudaStreamPerThread) and returns when the sums are in host memory; copies
 /// that fit go through a free one of the pinned staging blocks the CDT engine's copies use
 /// (cdt::gpu::reserve_memory, prepare_trixel_sums). `device_rgba`, when not null, holds the same
-/// pixels on the device already (a DeviceImage of edge_classes), which are then not copied. Throws
-/// cdt::DeviceError on any CUDA failure.
+/// pixels on the device already (a DeviceImage of edge_classes), which are then not copied. `lab`,
+/// when not null, receives for each triangle that owns pixels the CIELAB of its colour
+/// (detail::trixel_rgba, then detail::lab_of_rgb with detail::srgb_linear_table: the host's values to
+/// the bit), and zeros for the others. Throws cdt::DeviceError on any CUDA failure.
 void trixel_sums(const float* rgba, int width, int height, const cdt::Point* vertices,
                  std::size_t num_vertices, const std::array<std::uint32_t, 3>* triangles,
                  std::size_t num_triangles, bool opaque, detail::TrixelSums* sums,
-                 const float* device_rgba = nullptr);
+                 const float* device_rgba = nullptr, std::array<double, 3>* lab = nullptr);
 
 /// Loads trixel_sums' device code and pins a staging block (16 MB) for each of `callers` threads that
 /// will call it at once, at most 4, so that the calls do not wait for either (loading a kernel module

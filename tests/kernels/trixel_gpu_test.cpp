@@ -2,9 +2,10 @@
 // same per-triangle code (vectorize/src/trixel_runs.hpp) in triangle order, as colour_trixels does:
 // equal to the bit, on meshes whose vertices are off the fine grid (the exact orient2d path), on it
 // (the half-plane path, many vertices and edges right on pixel centres), with and without
-// transparency; and from the image edge_classes left on the device.
+// transparency; and from the image edge_classes left on the device, with the colours' CIELAB.
 #include <gtest/gtest.h>
 
+#include <array>
 #include <cmath>
 #include <cstdint>
 #include <cstring>
@@ -14,6 +15,7 @@
 #include <vector>
 
 #include "cdt/cdt.hpp"
+#include "colour_lab.hpp"
 #include "edge_kernels.hpp"
 #include "trixel_kernels.hpp"
 
@@ -119,9 +121,22 @@ void expect_same_sums(const Raster& r, const cdt::Triangulation& t, bool opaque,
   EXPECT_EQ(kept->width(), r.width);
   EXPECT_EQ(kept->height(), r.height);
   std::vector<TrixelSums> from_kept(t.triangles.size());
+  std::vector<std::array<double, 3>> lab(t.triangles.size(), {-1.0, -1.0, -1.0});
   vectorize::gpu::trixel_sums(nullptr, r.width, r.height, t.vertices.data(), t.vertices.size(),
-                              t.triangles.data(), t.triangles.size(), opaque, from_kept.data(), kept->data());
+                              t.triangles.data(), t.triangles.size(), opaque, from_kept.data(), kept->data(),
+                              lab.data());
   expect_equal(expected, from_kept, r, what + ", the image kept on the device");
+  // The colours' CIELAB: the host's, to the bit, where a triangle owns pixels; zeros elsewhere.
+  for (std::size_t tri = 0; tri < expected.size(); ++tri) {
+    std::array<double, 3> want{};
+    if (expected[tri].pixel_count > 0) {
+      float colour[4];
+      vectorize::detail::trixel_rgba(expected[tri], opaque, colour);
+      vectorize::detail::lab_of_rgb(colour, vectorize::detail::srgb_linear_table(), want.data());
+    }
+    ASSERT_EQ(std::memcmp(lab[tri].data(), want.data(), sizeof want), 0)
+        << what << ", triangle " << tri << ": L " << lab[tri][0] << " against " << want[0];
+  }
 }
 
 class TrixelSumsGpu : public ::testing::Test {

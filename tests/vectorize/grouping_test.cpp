@@ -181,6 +181,29 @@ TEST(Grouping, ToleranceDecidesWhetherCloseColoursJoin) {
   expect_consistent(t, trixels, regions);
 }
 
+// A trixel's CIELAB given with its colour (lab_known, as the device's trixel stage gives it) is the one
+// the grouping compares: two triangles of greys 0.02 apart join at tolerance 5 (as above), but not when
+// their given CIELABs are far apart; given as srgb_to_lab makes them, the regions are those made
+// without.
+TEST(Grouping, GivenLabIsTheOneCompared) {
+  const auto t = triangulate_rectangle(4, 4, {}); // two triangles, one each side of a diagonal
+  ASSERT_EQ(t.triangles.size(), 2u);
+  auto trixels = paint(t, [](cdt::Point) { return std::array<float, 4>{0.50f, 0.50f, 0.50f, 1}; });
+  trixels[1].rgba = {0.52f, 0.52f, 0.52f, 1};
+  GroupingOptions options;
+  options.min_region_area = 0;
+  options.colour_tolerance = 5;
+  const auto computed = vectorize::group_trixels(t, trixels, options);
+  ASSERT_EQ(computed.regions.size(), 1u);
+  for (auto& trixel : trixels) {
+    trixel.lab = vectorize::srgb_to_lab(std::array<float, 3>{trixel.rgba[0], trixel.rgba[1], trixel.rgba[2]});
+    trixel.lab_known = true;
+  }
+  EXPECT_EQ(vectorize::group_trixels(t, trixels, options).region_of_triangle, computed.region_of_triangle);
+  trixels[1].lab[0] += 50.0;
+  EXPECT_EQ(vectorize::group_trixels(t, trixels, options).regions.size(), 2u);
+}
+
 // Region means are compared, not neighbouring trixels: a slow ramp must not chain into one region.
 TEST(Grouping, GradientDoesNotChainIntoOneRegion) {
   std::vector<cdt::Point> points;

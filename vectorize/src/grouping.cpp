@@ -17,6 +17,7 @@
 #include <tuple>
 #include <utility>
 
+#include "colour_lab.hpp"
 #include "parallel.hpp"
 
 namespace vectorize {
@@ -119,47 +120,6 @@ private:
   std::vector<std::uint32_t> parent_;
   std::vector<Totals> totals_;
 };
-
-double srgb_to_linear_exact(double c) {
-  return c <= 0.04045 ? c / 12.92 : std::pow((c + 0.055) / 1.055, 2.4);
-}
-
-// The sRGB transfer curve, tabulated: grouping converts a colour at every join, and pow() dominated.
-// Linear interpolation between 4096 samples is within 1e-6 of the curve, far below what Delta E can
-// tell apart. c in [0, 1].
-double srgb_to_linear(double c) {
-  constexpr int kSamples = 4096;
-  static const auto table = [] {
-    std::array<double, kSamples + 1> t{};
-    for (int i = 0; i <= kSamples; ++i) t[i] = srgb_to_linear_exact(static_cast<double>(i) / kSamples);
-    return t;
-  }();
-  const double x = c * kSamples;
-  const int i = std::min(static_cast<int>(x), kSamples - 1);
-  const double f = x - i;
-  return table[i] + (table[i + 1] - table[i]) * f;
-}
-
-// The cube root of t > 0 (finite): an estimate from t's bits (its exponent divided by three, a few
-// per cent off), then three steps of Halley's iteration, each cubing the error, the last one's
-// correction small against the estimate. Within 3 units in the last place, and the correctly rounded
-// root for 9 in 10 arguments (glibc's std::cbrt: 1 unit, correctly rounded for about half); three
-// times as fast as std::cbrt, which was a fifth of the grouping's time (two conversions per triangle
-// of a photograph, three roots each).
-double cube_root(double t) {
-  constexpr std::uint64_t kThirdOfOneBits = 0x2A9F7893782DA1CE; // cbrt's exponent bias, and a tweak
-  double y = std::bit_cast<double>(std::bit_cast<std::uint64_t>(t) / 3 + kThirdOfOneBits);
-  for (int step = 0; step < 3; ++step) {
-    const double y3 = y * y * y;
-    y -= y * (y3 - t) / (2.0 * y3 + t);
-  }
-  return y;
-}
-
-double lab_f(double t) {
-  constexpr double delta = 6.0 / 29.0;
-  return t > delta * delta * delta ? cube_root(t) : t / (3 * delta * delta) + 4.0 / 29.0;
-}
 
 // A candidate join: the edge `edge` of `triangle` and the colour distance across it.
 struct Candidate {
@@ -289,17 +249,9 @@ void merge_small_regions(const cdt::Triangulation& t, RegionForest& forest, doub
 } // namespace
 
 std::array<double, 3> srgb_to_lab(const std::array<float, 3>& rgb) {
-  const double r = srgb_to_linear(std::clamp(static_cast<double>(rgb[0]), 0.0, 1.0));
-  const double g = srgb_to_linear(std::clamp(static_cast<double>(rgb[1]), 0.0, 1.0));
-  const double b = srgb_to_linear(std::clamp(static_cast<double>(rgb[2]), 0.0, 1.0));
-  // sRGB (D65) to XYZ, normalised by the D65 white point.
-  const double x = (0.4124564 * r + 0.3575761 * g + 0.1804375 * b) / 0.95047;
-  const double y = 0.2126729 * r + 0.7151522 * g + 0.0721750 * b;
-  const double z = (0.0193339 * r + 0.1191920 * g + 0.9503041 * b) / 1.08883;
-  const double fx = lab_f(x);
-  const double fy = lab_f(y);
-  const double fz = lab_f(z);
-  return {116.0 * fy - 16.0, 500.0 * (fx - fy), 200.0 * (fy - fz)};
+  std::array<double, 3> lab{};
+  detail::lab_of_rgb(rgb.data(), detail::srgb_linear_table(), lab.data());
+  return lab;
 }
 
 // A plain square root of the sum of squares: CIELAB differences are far from overflow or underflow,
@@ -320,7 +272,9 @@ Regions group_trixels(const cdt::Triangulation& t, const TrixelColours& trixels,
   std::vector<std::array<double, 3>> lab(n);
   for_each_part(n, parts, [&](std::size_t first, std::size_t last, unsigned) {
     for (std::size_t tri = first; tri < last; ++tri)
-      lab[tri] = srgb_to_lab({trixels[tri].rgba[0], trixels[tri].rgba[1], trixels[tri].rgba[2]});
+      lab[tri] = trixels[tri].lab_known
+                     ? trixels[tri].lab
+                     : srgb_to_lab({trixels[tri].rgba[0], trixels[tri].rgba[1], trixels[tri].rgba[2]});
   });
   RegionForest forest(trixels, lab, parts);
 

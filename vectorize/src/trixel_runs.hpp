@@ -206,4 +206,19 @@ CDT_HD_INLINE void add_run_opaque(TrixelSums& s, const float* row, int begin, in
   s.pixel_count += static_cast<std::uint32_t>(end - begin);
 }
 
+// The colour of a triangle that owns pixels (s.pixel_count > 0) from its sums: alpha the plain mean,
+// RGB the alpha-weighted mean (the plain one where every alpha is 0); with `opaque` (every alpha of the
+// image 1, only the straight sums made) the plain mean and alpha 1.
+CDT_HD_INLINE void trixel_rgba(const TrixelSums& s, bool opaque, float* rgba) {
+  const double n = s.pixel_count;
+  if (opaque) {
+    for (int ch = 0; ch < 3; ++ch) rgba[ch] = static_cast<float>(s.straight[ch] / n);
+    rgba[3] = 1.0f;
+    return;
+  }
+  for (int ch = 0; ch < 3; ++ch)
+    rgba[ch] = static_cast<float>(s.alpha > 0 ? s.premultiplied[ch] / s.alpha : s.straight[ch] / n);
+  rgba[3] = static_cast<float>(s.alpha / n);
+}
+
 } // namespace vectorize::detail

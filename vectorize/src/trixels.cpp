@@ -38,18 +38,21 @@ void for_each_run(int width, int height, const cdt::Triangulation& t, Visit&& vi
   }
 }
 
-// Each triangle's sums on the device (TrixelDevice::gpu).
+// Each triangle's sums on the device (TrixelDevice::gpu), and the CIELAB of the colour of each that
+// owns pixels.
 void gpu_trixel_sums(const Image& image, const cdt::Triangulation& t, bool opaque,
-                     std::vector<detail::TrixelSums>& sums, const DevicePixels& on_device) {
+                     std::vector<detail::TrixelSums>& sums, std::vector<std::array<double, 3>>& lab,
+                     const DevicePixels& on_device) {
 #if TRIXEL_HAVE_CUDA
   // Only edge_classes makes the handle: it holds a gpu::DeviceImage.
   const auto* kept = static_cast<const gpu::DeviceImage*>(on_device.get());
   const bool same = kept != nullptr && kept->width() == image.width && kept->height() == image.height;
+  lab.resize(sums.size());
   gpu::trixel_sums(image.rgba.data(), image.width, image.height, t.vertices.data(), t.vertices.size(),
-                   t.triangles.data(), t.triangles.size(), opaque, sums.data(),
-                   same ? kept->data() : nullptr);
+                   t.triangles.data(), t.triangles.size(), opaque, sums.data(), same ? kept->data() : nullptr,
+                   lab.data());
 #else
-  (void)image, (void)t, (void)opaque, (void)sums, (void)on_device;
+  (void)image, (void)t, (void)opaque, (void)sums, (void)lab, (void)on_device;
   throw cdt::DeviceError("trixel colours on the device: this build has no CUDA support");
 #endif
 }
@@ -164,6 +167,8 @@ void colour_slivers(const Image& image, const cdt::Triangulation& t, TrixelColou
     if (settled.empty()) break;
     for (const auto& [tri, donor] : settled) {
       trixels[tri].rgba = trixels[donor].rgba;
+      trixels[tri].lab = trixels[donor].lab;
+      trixels[tri].lab_known = trixels[donor].lab_known;
       done[tri] = 1;
     }
     frontier = std::move(rest);
@@ -209,8 +214,9 @@ TrixelColours colour_trixels(const Image& image, const cdt::Triangulation& t, un
     for (std::size_t i = 3; i < image.rgba.size() && opaque; i += 4) opaque = image.rgba[i] == 1.0f;
   const std::size_t count = t.triangles.size();
   std::vector<detail::TrixelSums> sums(count);
+  std::vector<std::array<double, 3>> lab; // from the device: the colours' CIELAB
   if (device == TrixelDevice::gpu) {
-    gpu_trixel_sums(image, t, opaque, sums, on_device);
+    gpu_trixel_sums(image, t, opaque, sums, lab, on_device);
   } else {
     // Each triangle's sums are its own and are added up by one thread in row order, so the result is
     // the same for any number of threads.
@@ -246,16 +252,12 @@ TrixelColours colour_trixels(const Image& image, const cdt::Triangulation& t, un
     trixel.pixel_count = s.pixel_count;
     trixel.covers_solid = s.covers_solid != 0;
     if (trixel.pixel_count == 0) continue;
-    const double n = trixel.pixel_count;
-    if (opaque) {
-      for (int ch = 0; ch < 3; ++ch) trixel.rgba[ch] = static_cast<float>(s.straight[ch] / n);
-      trixel.rgba[3] = 1.0f;
-      trixel.covers_solid = true;
-      continue;
+    detail::trixel_rgba(s, opaque, trixel.rgba.data());
+    if (opaque) trixel.covers_solid = true;
+    if (!lab.empty()) {
+      trixel.lab = lab[tri];
+      trixel.lab_known = true;
     }
-    for (int ch = 0; ch < 3; ++ch)
-      trixel.rgba[ch] = static_cast<float>(s.alpha > 0 ? s.premultiplied[ch] / s.alpha : s.straight[ch] / n);
-    trixel.rgba[3] = static_cast<float>(s.alpha / n);
   }
   colour_slivers(image, t, trixels);
   mark_solid_cover(image, t, trixels, !opaque);

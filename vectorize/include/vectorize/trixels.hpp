@@ -30,6 +30,10 @@ struct Trixel {
   bool covers_solid = false;
   /// Geometric area in square pixels (positive).
   double area = 0.0;
+  /// When lab_known: the CIELAB of rgba's RGB, as srgb_to_lab (grouping.hpp) gives it, made where that
+  /// is cheaper than in the grouping (on the device, beside the sums); else the grouping makes it.
+  std::array<double, 3> lab{};
+  bool lab_known = false;
   /// A trixel whose mean alpha is below one half is "no shape" (DESIGN.md, stage 1).
   /// No shape: alpha below one half, unless the triangle covers part of a solid pixel and is not
   /// nearly clear itself (a rim triangle averaging a solid pixel with the anti-aliased ones beside it
