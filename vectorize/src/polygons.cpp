@@ -67,22 +67,54 @@ std::vector<RegionPolygon> trace_polygons(const cdt::Triangulation& t, const Reg
   for (std::uint32_t r = 0; r < by_region.size(); ++r) by_region[r].region = r;
 
   const Tracer tracer(t, region_of);
-  std::vector<std::array<bool, 3>> visited(t.triangles.size(), {false, false, false});
-  std::vector<std::uint32_t> walked; // a ring's vertices, collected here and then copied at their size
+  // Each triangle's boundary edges (bits 0-2) and those walked (bits 3-5); and the boundary edges by
+  // the vertex they start at (tri * 3 + edge, grouped by vertex): where a region leaves a vertex by one
+  // boundary edge only (everywhere but at its pinches), that edge follows the region's boundary edge
+  // that ends there, found without walking round the vertex through the triangles outside the region
+  // (the walk's scattered reads were most of this stage).
+  const std::size_t n = t.triangles.size();
+  std::vector<std::uint8_t> flags(n, 0);
+  std::vector<std::uint32_t> first_leaving(t.vertices.size() + 1, 0);
+  for (std::uint32_t tri = 0; tri < n; ++tri)
+    for (std::uint32_t edge = 0; edge < 3; ++edge)
+      if (tracer.is_boundary(tri, edge)) {
+        flags[tri] |= static_cast<std::uint8_t>(1u << edge);
+        ++first_leaving[t.triangles[tri][(edge + 1) % 3] + 1];
+      }
+  for (std::size_t v = 0; v + 1 < first_leaving.size(); ++v) first_leaving[v + 1] += first_leaving[v];
+  std::vector<std::uint32_t> leaving(first_leaving.back());
+  {
+    std::vector<std::uint32_t> cursor(first_leaving.begin(), first_leaving.end() - 1);
+    for (std::uint32_t tri = 0; tri < n; ++tri)
+      for (std::uint32_t edge = 0; edge < 3; ++edge)
+        if ((flags[tri] >> edge) & 1u) leaving[cursor[t.triangles[tri][(edge + 1) % 3]]++] = 3 * tri + edge;
+  }
+  const auto next = [&](std::uint32_t tri, std::uint32_t edge) -> std::pair<std::uint32_t, std::uint32_t> {
+    const std::uint32_t region = region_of[tri];
+    const std::uint32_t vertex = t.triangles[tri][(edge + 2) % 3];
+    std::uint32_t found = cdt::kNone;
+    for (std::uint32_t k = first_leaving[vertex]; k < first_leaving[vertex + 1]; ++k) {
+      if (region_of[leaving[k] / 3] != region) continue;
+      if (found != cdt::kNone) return tracer.next(tri, edge); // a pinch: the walk decides
+      found = leaving[k];
+    }
+    return {found / 3, found % 3};
+  };
 
-  for (std::uint32_t tri = 0; tri < t.triangles.size(); ++tri) {
+  std::vector<std::uint32_t> walked; // a ring's vertices, collected here and then copied at their size
+  for (std::uint32_t tri = 0; tri < n; ++tri) {
     const std::uint32_t r = region_of[tri];
     if (transparent == TransparentRegions::skip && regions.regions[r].transparent) continue;
     for (std::uint32_t edge = 0; edge < 3; ++edge) {
-      if (visited[tri][edge] || !tracer.is_boundary(tri, edge)) continue;
+      if ((flags[tri] & (9u << edge)) != (1u << edge)) continue; // not a boundary edge, or walked
       Ring ring;
       std::uint32_t cur_tri = tri;
       std::uint32_t cur_edge = edge;
       walked.clear();
       do {
-        visited[cur_tri][cur_edge] = true;
+        flags[cur_tri] |= static_cast<std::uint8_t>(8u << cur_edge);
         walked.push_back(t.triangles[cur_tri][(cur_edge + 1) % 3]);
-        std::tie(cur_tri, cur_edge) = tracer.next(cur_tri, cur_edge);
+        std::tie(cur_tri, cur_edge) = next(cur_tri, cur_edge);
       } while (cur_tri != tri || cur_edge != edge);
       ring.vertices.assign(walked.begin(), walked.end());
 

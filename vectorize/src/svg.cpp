@@ -20,8 +20,9 @@ namespace {
 constexpr std::size_t kCompactDecimalChars = 48;
 
 // compact_decimal() written into out (kCompactDecimalChars at least), without allocating: the path data
-// of an image has hundreds of thousands of numbers. Returns the length.
-std::size_t write_compact_decimal(std::int64_t units, int decimals, char* out) {
+// of an image has hundreds of thousands of numbers. Returns the length; *has_point, when given, says
+// whether the number has a decimal point.
+std::size_t write_compact_decimal(std::int64_t units, int decimals, char* out, bool* has_point = nullptr) {
   decimals = std::clamp(decimals, 0, 18);
   char digits[kCompactDecimalChars];
   const std::uint64_t magnitude =
@@ -47,7 +48,19 @@ std::size_t write_compact_decimal(std::int64_t units, int decimals, char* out) {
     std::memcpy(out + length, digits + whole, fraction);
     length += fraction;
   }
+  if (has_point != nullptr) *has_point = fraction > 0;
   return length;
+}
+
+// std::llround(v) (halves away from zero), without the library call where v is below 2^52 in magnitude:
+// there the integer part converts exactly and v minus it is exact. Path data rounds two coordinates per
+// vertex.
+std::int64_t round_to_integer(double v) {
+  constexpr double kExact = 4503599627370496.0; // 2^52
+  if (!(std::abs(v) < kExact)) return std::llround(v);
+  const auto whole = static_cast<std::int64_t>(v); // towards zero
+  const double rest = v - static_cast<double>(whole);
+  return rest >= 0.5 ? whole + 1 : rest <= -0.5 ? whole - 1 : whole;
 }
 
 // Appends path commands and numbers, leaving out every separator the SVG path grammar can do without.
@@ -73,13 +86,14 @@ public:
   }
 
   void number(std::int64_t units) {
-    char buffer[kCompactDecimalChars];
-    const std::string_view n(buffer, write_compact_decimal(units, decimals_, buffer));
-    const bool needs_separator =
-        !after_command_ && n.front() != '-' && !(n.front() == '.' && previous_had_point_);
-    if (needs_separator) text_ += ' ';
-    text_ += n;
-    previous_had_point_ = n.find('.') != std::string_view::npos;
+    char buffer[kCompactDecimalChars + 1];
+    bool has_point = false;
+    const std::size_t length = write_compact_decimal(units, decimals_, buffer + 1, &has_point);
+    const char front = buffer[1];
+    const bool needs_separator = !after_command_ && front != '-' && !(front == '.' && previous_had_point_);
+    buffer[0] = ' ';
+    text_.append(needs_separator ? buffer : buffer + 1, length + (needs_separator ? 1 : 0));
+    previous_had_point_ = has_point;
     after_command_ = false;
   }
 
@@ -96,14 +110,14 @@ void append_path_data(std::string& text, const RegionPolygon& polygon, int preci
   const double scale = kPowersOfTen[precision];
   PathData d(text, precision);
   for (const Ring& ring : polygon.rings) {
-    std::int64_t x = std::llround(ring.points.front().x * scale);
-    std::int64_t y = std::llround(ring.points.front().y * scale);
+    std::int64_t x = round_to_integer(ring.points.front().x * scale);
+    std::int64_t y = round_to_integer(ring.points.front().y * scale);
     d.command('M');
     d.number(x);
     d.number(y);
     for (std::size_t k = 1; k < ring.points.size(); ++k) {
-      const std::int64_t nx = std::llround(ring.points[k].x * scale);
-      const std::int64_t ny = std::llround(ring.points[k].y * scale);
+      const std::int64_t nx = round_to_integer(ring.points[k].x * scale);
+      const std::int64_t ny = round_to_integer(ring.points[k].y * scale);
       const std::int64_t dx = nx - x;
       const std::int64_t dy = ny - y;
       if (dx == 0 && dy == 0) continue; // two vertices closer than the precision: one is enough
