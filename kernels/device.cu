@@ -462,6 +462,10 @@ int device_count() noexcept {
   return count;
 }
 
+void set_waits_asleep() noexcept {
+  if (cudaSetDeviceFlags(cudaDeviceScheduleBlockingSync) != cudaSuccess) cudaGetLastError();
+}
+
 std::string device_description() {
   if (device_count() == 0) throw DeviceError("no CUDA device is available");
   cudaDeviceProp prop{};
