@@ -41,12 +41,6 @@ using HostParallelFor = std::function<void(std::size_t parts, const std::functio
 /// Number of CUDA devices this process can use; 0 without a device or driver. Never throws.
 int device_count() noexcept;
 
-/// Makes every later wait of the process for the device (a stream's, an event's, a copy's) put the
-/// waiting thread to sleep until the device is done (blocking synchronisation), where the runtime's
-/// default here spins on a core; for a process whose other threads keep every core busy, at a few
-/// microseconds more per wait. Best effort (a device that cannot take it keeps spinning); never throws.
-void set_waits_asleep() noexcept;
-
 /// "NAME (compute capability X.Y, N SMs, M MiB)" for device 0; throws DeviceError without a device.
 std::string device_description();
 

@@ -60,12 +60,6 @@ void* try_take_staging_block() noexcept;
 /// Gives a block of take_staging_block or try_take_staging_block back to the pool.
 void return_staging_block(void* block) noexcept;
 
-/// Waits until the work queued on `stream` so far is done, the calling thread asleep meanwhile (an
-/// event with blocking synchronisation) rather than spinning as the runtime's waits do here: for a
-/// batch's workers, whose waits of a millisecond or more for their edges and trixels would otherwise
-/// take a core from the workers beside them. Throws cdt::DeviceError on a CUDA failure.
-void wait_asleep(cudaStream_t stream);
-
 /// A free staging block held for one call (try_take_staging_block), or none when `wanted` is false or
 /// every block is in use: nothing is pinned on the way, which would stall the other threads' device
 /// work.

@@ -391,15 +391,6 @@ float DeviceEvent::since(const DeviceEvent& start) const {
 
 void CudaExecutor::synchronize() { CDT_CUDA_CHECK(cudaStreamSynchronize(stream_)); }
 
-void wait_asleep(cudaStream_t stream) {
-  cudaEvent_t event = nullptr;
-  CDT_CUDA_CHECK(cudaEventCreateWithFlags(&event, cudaEventBlockingSync | cudaEventDisableTiming));
-  cudaError_t status = cudaEventRecord(event, stream);
-  if (status == cudaSuccess) status = cudaEventSynchronize(event);
-  cudaEventDestroy(event);
-  CDT_CUDA_CHECK(status);
-}
-
 } // namespace detail
 
 void reserve_memory(std::size_t staging_blocks, std::size_t device_bytes) {
@@ -460,10 +451,6 @@ int device_count() noexcept {
     return 0;
   }
   return count;
-}
-
-void set_waits_asleep() noexcept {
-  if (cudaSetDeviceFlags(cudaDeviceScheduleBlockingSync) != cudaSuccess) cudaGetLastError();
 }
 
 std::string device_description() {

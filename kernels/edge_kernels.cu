@@ -381,7 +381,7 @@ void edge_classes(const float* rgba, int width, int height, const detail::BlurTa
   enqueue_hysteresis(d_classes.data(), width, height, d_magnitude.data(), d_strong_root.data(), stream);
   CDT_CUDA_CHECK(cudaMemcpyAsync(block.get() != nullptr ? static_cast<void*>(block.get()) : classes,
                                  d_classes.data(), pixels, cudaMemcpyDeviceToHost, stream));
-  cdt::gpu::detail::wait_asleep(stream);
+  CDT_CUDA_CHECK(cudaStreamSynchronize(stream));
   if (block.get() != nullptr) std::memcpy(classes, block.get(), pixels);
   if (kept != nullptr) *kept = std::move(keep);
 }

@@ -126,7 +126,7 @@ void trixel_sums(const float* rgba, int width, int height, const cdt::Point* ver
   };
   download(sums, d_sums.data(), sum_bytes, 0);
   download(lab, d_lab.data(), lab_bytes, lab_at);
-  cdt::gpu::detail::wait_asleep(stream);
+  CDT_CUDA_CHECK(cudaStreamSynchronize(stream));
   if (block.get() != nullptr) {
     std::memcpy(sums, block.get(), sum_bytes);
     if (lab_bytes != 0) std::memcpy(lab, block.get() + lab_at, lab_bytes);

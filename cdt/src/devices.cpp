@@ -17,13 +17,8 @@ int gpu_device_count() noexcept {
 #endif
 }
 
-bool start_gpu(GpuWaits waits) noexcept {
+bool start_gpu() noexcept {
   if (gpu_device_count() == 0) return false;
-#if defined(TRIXEL_HAVE_CUDA)
-  if (waits == GpuWaits::asleep) gpu::set_waits_asleep();
-#else
-  (void)waits;
-#endif
   // A small PSLG with a segment crossing another and points on a segment: the triangulation goes
   // through every phase, which loads the kernels a small input launches (CUDA loads each kernel on its
   // first launch; a large input's first rounds may still load a few).

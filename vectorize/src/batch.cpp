@@ -288,11 +288,7 @@ public:
         if (!found) return;
         // A device that does not start (in use by another process in exclusive mode, say) counts as
         // none: the GPU backend's images fail with its error, the automatic backend's use the CPU.
-        // With a worker on every core, the device's waiters sleep rather than spin: a spinning CDT
-        // thread, above the workers' priority, would take a core from them for the whole of each call.
-        const bool started = cdt::start_gpu(workers >= std::max(1u, std::thread::hardware_concurrency())
-                                                ? cdt::GpuWaits::asleep
-                                                : cdt::GpuWaits::spinning);
+        const bool started = cdt::start_gpu();
         if (started) {
           prepare_trixels_on_device(workers);
           prepare_edges_on_device();

@@ -169,13 +169,7 @@ int gpu_device_count() noexcept;
 /// triangulations (with several threads, each thread's first one) do not wait for the start-up.
 /// Returns false, and does nothing else, without a device; never throws (a device that fails here
 /// fails again, with its error, in triangulate()).
-///
-/// With GpuWaits::asleep, every later wait of the process for the device puts the waiting thread to
-/// sleep instead of spinning on a core (blocking synchronisation): for a program whose other threads
-/// keep every core busy meanwhile, such as a batch converting images on all cores, at a few
-/// microseconds more per wait.
-enum class GpuWaits { spinning, asleep };
-bool start_gpu(GpuWaits waits = GpuWaits::spinning) noexcept;
+bool start_gpu() noexcept;
 
 /// Gives back what the process holds on the device (pinned host memory, device memory kept for reuse,
 /// the device's context), which the driver otherwise frees at the process's exit. A program done with
