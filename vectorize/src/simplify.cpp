@@ -410,13 +410,16 @@ void for_each_segment_start(const ChainState& s, F&& f) {
 }
 
 // Simplifies some chains (its own: no other simplifier touches them meanwhile) around others that
-// stay as they are (fixed: read only, so simplifiers with disjoint own chains may run at once).
+// stay as they are (fixed: read only, so simplifiers with disjoint own chains may run at once). With
+// `adoptable`, the fixed chains' segments are linked to their points as the own chains' are, so that
+// a later run() may take some of them as its own (no other simplifier may read them then).
 class Simplifier {
 public:
   Simplifier(std::vector<ChainState>& states, const std::vector<std::uint32_t>& own,
-             const std::vector<std::uint32_t>& fixed, double tolerance, const PointPlacement& placement)
+             const std::vector<std::uint32_t>& fixed, double tolerance, const PointPlacement& placement,
+             bool adoptable = false)
       : tolerance_(tolerance), squared_tolerance_(tolerance * tolerance), placement_(placement),
-        states_(states), own_(own) {
+        states_(states), own_(&own) {
     Vec lo{std::numeric_limits<double>::infinity(), std::numeric_limits<double>::infinity()};
     Vec hi{-lo.x, -lo.y};
     for (const auto* list : {&own, &fixed})
@@ -438,9 +441,19 @@ public:
           s, [&](int i) { s.link[i].segment_from = add_segment(s.points[i], s.points[s.link[i].next]); });
     }
     for (const std::uint32_t c : fixed) {
-      const ChainState& s = states_[c];
-      for_each_segment_start(s, [&](int i) { add_segment(s.points[i], s.points[s.link[i].next]); });
+      ChainState& s = states_[c];
+      for_each_segment_start(s, [&](int i) {
+        const std::uint32_t id = add_segment(s.points[i], s.points[s.link[i].next]);
+        if (adoptable) s.link[i].segment_from = id;
+      });
     }
+  }
+
+  // Simplifies `chains` (fixed ones of an adoptable simplifier, or its own) around all the others, as
+  // a simplifier with them as its own and the others as fixed would: the same removals.
+  void run(const std::vector<std::uint32_t>& chains) {
+    own_ = &chains;
+    run();
   }
 
   void run() {
@@ -452,7 +465,7 @@ public:
     for (int pass = 0; pass < 8; ++pass) {
       std::priority_queue<Candidate> queue;
       if (pass == 0) {
-        for (const std::uint32_t c : own_)
+        for (const std::uint32_t c : *own_)
           for (int v = 0; v < static_cast<int>(states_[c].points.size()); ++v) push(queue, c, v);
       } else {
         for (const Candidate& b : blocked) push(queue, b.chain(), static_cast<int>(b.vertex()));
@@ -580,7 +593,7 @@ private:
   double squared_tolerance_;
   PointPlacement placement_;
   std::vector<ChainState>& states_;
-  const std::vector<std::uint32_t>& own_;
+  const std::vector<std::uint32_t>* own_;
   std::vector<Segment> segments_;
   std::vector<std::uint8_t> segment_alive_; // by segment id
   std::optional<SegmentGrid> grid_;
@@ -630,25 +643,34 @@ std::vector<Polyline> simplify_chains(const std::vector<Chain>& chains, double t
     simplifier.run();
   };
   if (threads == 0) threads = std::max(1u, std::thread::hardware_concurrency());
-  if (threads >= 2 && !left.empty() && !right.empty()) {
-    std::exception_ptr failure;
-    std::thread worker([&] {
-      try {
-        simplify(right, across);
-      } catch (...) {
-        failure = std::current_exception();
-      }
-    });
-    simplify(left, across);
-    worker.join();
-    if (failure) std::rethrow_exception(failure);
-  } else {
-    simplify(left, across);
-    simplify(right, across);
-  }
   std::vector<std::uint32_t> sides = left;
   sides.insert(sides.end(), right.begin(), right.end());
-  simplify(across, sides);
+  if (threads < 2) {
+    // The left and the right chains never meet, so one pass over both around the crossing chains makes
+    // the removals that a pass over each would; the crossing chains are then simplified around the
+    // result in the same grid, whose segments they already are.
+    Simplifier simplifier(states, sides, across, tolerance_px, placement, true);
+    simplifier.run();
+    if (!across.empty()) simplifier.run(across);
+  } else {
+    if (!left.empty() && !right.empty()) {
+      std::exception_ptr failure;
+      std::thread worker([&] {
+        try {
+          simplify(right, across);
+        } catch (...) {
+          failure = std::current_exception();
+        }
+      });
+      simplify(left, across);
+      worker.join();
+      if (failure) std::rethrow_exception(failure);
+    } else {
+      simplify(left, across);
+      simplify(right, across);
+    }
+    simplify(across, sides);
+  }
 
   std::vector<Polyline> out(states.size());
   for (std::size_t c = 0; c < states.size(); ++c) {
