@@ -98,6 +98,7 @@ std::vector<RegionPolygon> trace_polygons(const cdt::Triangulation& t, const Reg
       if (found != cdt::kNone) return tracer.next(tri, edge); // a pinch: the walk decides
       found = leaving[k];
     }
+    if (found == cdt::kNone) return tracer.next(tri, edge); // cannot happen on a valid mesh
     return {found / 3, found % 3};
   };
 
