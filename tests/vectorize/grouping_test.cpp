@@ -7,6 +7,7 @@
 #include <array>
 #include <cmath>
 #include <functional>
+#include <limits>
 #include <queue>
 #include <random>
 #include <vector>
@@ -181,10 +182,10 @@ TEST(Grouping, ToleranceDecidesWhetherCloseColoursJoin) {
   expect_consistent(t, trixels, regions);
 }
 
-// A trixel's CIELAB given with its colour (lab_known, as the device's trixel stage gives it) is the one
-// the grouping compares: two triangles of greys 0.02 apart join at tolerance 5 (as above), but not when
-// their given CIELABs are far apart; given as srgb_to_lab makes them, the regions are those made
-// without.
+// A trixel's CIELAB given with its colour (as colour_trixels gives it with the device's sums) is the
+// one the grouping compares: two triangles of greys 0.02 apart join at tolerance 5 (as above), but not
+// when their given CIELABs are far apart; given as srgb_to_lab makes them, or NaN (not known), the
+// regions are those made without.
 TEST(Grouping, GivenLabIsTheOneCompared) {
   const auto t = triangulate_rectangle(4, 4, {}); // two triangles, one each side of a diagonal
   ASSERT_EQ(t.triangles.size(), 2u);
@@ -195,13 +196,16 @@ TEST(Grouping, GivenLabIsTheOneCompared) {
   options.colour_tolerance = 5;
   const auto computed = vectorize::group_trixels(t, trixels, options);
   ASSERT_EQ(computed.regions.size(), 1u);
-  for (auto& trixel : trixels) {
-    trixel.lab = vectorize::srgb_to_lab(std::array<float, 3>{trixel.rgba[0], trixel.rgba[1], trixel.rgba[2]});
-    trixel.lab_known = true;
-  }
-  EXPECT_EQ(vectorize::group_trixels(t, trixels, options).region_of_triangle, computed.region_of_triangle);
-  trixels[1].lab[0] += 50.0;
-  EXPECT_EQ(vectorize::group_trixels(t, trixels, options).regions.size(), 2u);
+  vectorize::TrixelLab lab;
+  for (const auto& trixel : trixels)
+    lab.push_back(
+        vectorize::srgb_to_lab(std::array<float, 3>{trixel.rgba[0], trixel.rgba[1], trixel.rgba[2]}));
+  EXPECT_EQ(vectorize::group_trixels(t, trixels, options, 1, &lab).region_of_triangle,
+            computed.region_of_triangle);
+  lab[1][0] += 50.0;
+  EXPECT_EQ(vectorize::group_trixels(t, trixels, options, 1, &lab).regions.size(), 2u);
+  lab[1].fill(std::numeric_limits<double>::quiet_NaN());
+  EXPECT_EQ(vectorize::group_trixels(t, trixels, options, 1, &lab).regions.size(), 1u);
 }
 
 // Region means are compared, not neighbouring trixels: a slow ramp must not chain into one region.

@@ -4,12 +4,14 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstring>
 #include <random>
 #include <vector>
 
 #include "cdt/detail/predicates.hpp"
 #include "cdt/errors.hpp"
 #include "stage_test_util.hpp"
+#include "vectorize/grouping.hpp"
 
 namespace {
 
@@ -337,8 +339,8 @@ TEST(TrixelColours, OpaqueImagesGiveTheGeneralPathsColoursToTheBit) {
 namespace {
 
 // TrixelDevice::gpu adds up the pixels on the device with the host's code: the same trixels, field for
-// field and bit for bit, where there is a device; without one (or without CUDA in the build) a clear
-// cdt::DeviceError rather than another answer.
+// field and bit for bit, and the colours' CIELAB as the grouping makes it, where there is a device; without
+// one (or without CUDA in the build) a clear cdt::DeviceError rather than another answer.
 TEST(TrixelColours, OnTheDeviceTheSameTrixelsOrAClearError) {
   const int width = 53;
   const int height = 41;
@@ -350,15 +352,29 @@ TEST(TrixelColours, OnTheDeviceTheSameTrixelsOrAClearError) {
       EXPECT_THROW(vectorize::colour_trixels(image, t, 1, vectorize::TrixelDevice::gpu), cdt::DeviceError);
       continue;
     }
-    const auto on_cpu = vectorize::colour_trixels(image, t, 1);
-    const auto on_gpu = vectorize::colour_trixels(image, t, 1, vectorize::TrixelDevice::gpu);
+    vectorize::TrixelLab lab_cpu, lab_gpu;
+    const auto on_cpu = vectorize::colour_trixels(image, t, 1, vectorize::TrixelDevice::cpu, {}, &lab_cpu);
+    const auto on_gpu = vectorize::colour_trixels(image, t, 1, vectorize::TrixelDevice::gpu, {}, &lab_gpu);
+    EXPECT_TRUE(lab_cpu.empty());
     ASSERT_EQ(on_cpu.size(), on_gpu.size());
+    ASSERT_EQ(lab_gpu.size(), on_gpu.size());
     for (std::size_t tri = 0; tri < on_cpu.size(); ++tri) {
       EXPECT_EQ(on_cpu[tri].rgba, on_gpu[tri].rgba) << tri;
       EXPECT_EQ(on_cpu[tri].pixel_count, on_gpu[tri].pixel_count) << tri;
       EXPECT_EQ(on_cpu[tri].covers_solid, on_gpu[tri].covers_solid) << tri;
       EXPECT_EQ(on_cpu[tri].area, on_gpu[tri].area) << tri;
+      // The CIELAB made with the colours is the grouping's, to the bit (NaN only for sampled slivers).
+      if (std::isnan(lab_gpu[tri][0])) {
+        EXPECT_EQ(on_gpu[tri].pixel_count, 0u) << tri;
+        continue;
+      }
+      const auto want =
+          vectorize::srgb_to_lab({on_gpu[tri].rgba[0], on_gpu[tri].rgba[1], on_gpu[tri].rgba[2]});
+      EXPECT_EQ(std::memcmp(lab_gpu[tri].data(), want.data(), sizeof want), 0) << tri;
     }
+    // And the grouping with them is the grouping without.
+    EXPECT_EQ(vectorize::group_trixels(t, on_gpu, {}, 1, &lab_gpu).region_of_triangle,
+              vectorize::group_trixels(t, on_cpu).region_of_triangle);
   }
 }
 

@@ -264,16 +264,17 @@ double delta_e(const std::array<double, 3>& lab1, const std::array<double, 3>& l
 }
 
 Regions group_trixels(const cdt::Triangulation& t, const TrixelColours& trixels,
-                      const GroupingOptions& options, unsigned threads) {
+                      const GroupingOptions& options, unsigned threads, const TrixelLab* known) {
   const std::size_t n = t.triangles.size();
   // Each thread takes a contiguous run of triangles; two per thread at the least, or it is not worth it.
   const auto parts = static_cast<unsigned>(
       std::min<std::size_t>(resolve_threads(threads), std::max<std::size_t>(1, n / 8192)));
+  const bool given = known != nullptr && known->size() == n;
   std::vector<std::array<double, 3>> lab(n);
   for_each_part(n, parts, [&](std::size_t first, std::size_t last, unsigned) {
     for (std::size_t tri = first; tri < last; ++tri)
-      lab[tri] = trixels[tri].lab_known
-                     ? trixels[tri].lab
+      lab[tri] = given && !std::isnan((*known)[tri][0])
+                     ? (*known)[tri]
                      : srgb_to_lab({trixels[tri].rgba[0], trixels[tri].rgba[1], trixels[tri].rgba[2]});
   });
   RegionForest forest(trixels, lab, parts);

@@ -171,15 +171,16 @@ Conversion finish_conversion(const Image& image, const Options& options, PslgSta
 
   // Where the CDT was made, the trixels' sums are made: a CDT from the device says it is up, and there
   // the sums take it a fraction of what they take a core. The colours are the same either way.
+  TrixelLab lab; // the colours' CIELAB, where the device made it with them
   const TrixelColours trixels =
       on_device_or_cpu(options.backend, triangulation.stats.backend.starts_with("gpu"), [&](bool device) {
         return colour_trixels(image, triangulation, options.threads,
-                              device ? TrixelDevice::gpu : TrixelDevice::cpu, first.device_pixels);
+                              device ? TrixelDevice::gpu : TrixelDevice::cpu, first.device_pixels, &lab);
       });
   first.device_pixels.reset(); // its device memory freed before the device may be given back
   if (device_done) device_done();
   timer.end("trixels");
-  const Regions regions = group_trixels(triangulation, trixels, options.grouping, options.threads);
+  const Regions regions = group_trixels(triangulation, trixels, options.grouping, options.threads, &lab);
   stats.regions = regions.regions.size();
   timer.end("grouping");
   // Transparent regions too: the SVG does not draw them, but keeps its seam underlay off them.

@@ -9,6 +9,7 @@
 #include <cmath>
 #include <cstddef>
 #include <cstdint>
+#include <limits>
 #include <utility>
 #include <vector>
 
@@ -41,8 +42,7 @@ void for_each_run(int width, int height, const cdt::Triangulation& t, Visit&& vi
 // Each triangle's sums on the device (TrixelDevice::gpu), and the CIELAB of the colour of each that
 // owns pixels.
 void gpu_trixel_sums(const Image& image, const cdt::Triangulation& t, bool opaque,
-                     std::vector<detail::TrixelSums>& sums, std::vector<std::array<double, 3>>& lab,
-                     const DevicePixels& on_device) {
+                     std::vector<detail::TrixelSums>& sums, TrixelLab& lab, const DevicePixels& on_device) {
 #if TRIXEL_HAVE_CUDA
   // Only edge_classes makes the handle: it holds a gpu::DeviceImage.
   const auto* kept = static_cast<const gpu::DeviceImage*>(on_device.get());
@@ -135,14 +135,17 @@ void mark_solid_cover(const Image& image, const cdt::Triangulation& t, TrixelCol
 // so they are the same area of the image, whereas a sample at the sliver's centroid may fall on the
 // other side of the edge the sliver follows (an outline sliver would turn transparent and let the
 // background through the shape's rim). Slivers walled in by constraints are sampled.
-void colour_slivers(const Image& image, const cdt::Triangulation& t, TrixelColours& trixels) {
+// Their CIELAB, where `lab` holds the others' (not empty), is their donor's, or NaN for a sample.
+void colour_slivers(const Image& image, const cdt::Triangulation& t, TrixelColours& trixels, TrixelLab& lab) {
   std::vector<std::uint32_t> frontier;
   std::vector<std::uint8_t> done(trixels.size(), 0);
   for (std::uint32_t tri = 0; tri < trixels.size(); ++tri) {
-    if (trixels[tri].pixel_count > 0)
+    if (trixels[tri].pixel_count > 0) {
       done[tri] = 1;
-    else
+    } else {
       frontier.push_back(tri);
+      if (!lab.empty()) lab[tri].fill(std::numeric_limits<double>::quiet_NaN());
+    }
   }
   // Each pass settles the slivers next to a settled triangle, from the state before the pass, so the
   // result does not depend on the order of the slivers.
@@ -167,8 +170,7 @@ void colour_slivers(const Image& image, const cdt::Triangulation& t, TrixelColou
     if (settled.empty()) break;
     for (const auto& [tri, donor] : settled) {
       trixels[tri].rgba = trixels[donor].rgba;
-      trixels[tri].lab = trixels[donor].lab;
-      trixels[tri].lab_known = trixels[donor].lab_known;
+      if (!lab.empty()) lab[tri] = lab[donor];
       done[tri] = 1;
     }
     frontier = std::move(rest);
@@ -208,13 +210,13 @@ bool prepare_trixels_on_device(unsigned callers) noexcept {
 }
 
 TrixelColours colour_trixels(const Image& image, const cdt::Triangulation& t, unsigned threads,
-                             TrixelDevice device, const DevicePixels& on_device) {
+                             TrixelDevice device, const DevicePixels& on_device, TrixelLab* lab_out) {
   bool opaque = true;
   if (!image.known_opaque)
     for (std::size_t i = 3; i < image.rgba.size() && opaque; i += 4) opaque = image.rgba[i] == 1.0f;
   const std::size_t count = t.triangles.size();
   std::vector<detail::TrixelSums> sums(count);
-  std::vector<std::array<double, 3>> lab; // from the device: the colours' CIELAB
+  TrixelLab lab; // from the device: the colours' CIELAB
   if (device == TrixelDevice::gpu) {
     gpu_trixel_sums(image, t, opaque, sums, lab, on_device);
   } else {
@@ -254,13 +256,10 @@ TrixelColours colour_trixels(const Image& image, const cdt::Triangulation& t, un
     if (trixel.pixel_count == 0) continue;
     detail::trixel_rgba(s, opaque, trixel.rgba.data());
     if (opaque) trixel.covers_solid = true;
-    if (!lab.empty()) {
-      trixel.lab = lab[tri];
-      trixel.lab_known = true;
-    }
   }
-  colour_slivers(image, t, trixels);
+  colour_slivers(image, t, trixels, lab);
   mark_solid_cover(image, t, trixels, !opaque);
+  if (lab_out != nullptr) *lab_out = std::move(lab);
   return trixels;
 }
 

@@ -64,8 +64,11 @@ struct Regions {
 /// Deterministic: the colours and the sorted candidates are computed on up to `threads` threads (0:
 /// every hardware thread) with the same result for any number. Preconditions: trixels.size() ==
 /// t.triangles.size(); t as triangulate() returns it. Time O(n log n) for n triangles.
+/// `lab`, when given and not empty, holds the trixels' CIELAB where it is known already (colour_trixels
+/// with TrixelDevice::gpu makes it); the others' are made here.
 Regions group_trixels(const cdt::Triangulation& t, const TrixelColours& trixels,
-                      const GroupingOptions& options = {}, unsigned threads = 1);
+                      const GroupingOptions& options = {}, unsigned threads = 1,
+                      const TrixelLab* lab = nullptr);
 
 /// CIELAB (D65 white) of a non-premultiplied sRGB colour with channels in [0, 1].
 std::array<double, 3> srgb_to_lab(const std::array<float, 3>& rgb);

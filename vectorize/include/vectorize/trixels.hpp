@@ -30,10 +30,6 @@ struct Trixel {
   bool covers_solid = false;
   /// Geometric area in square pixels (positive).
   double area = 0.0;
-  /// When lab_known: the CIELAB of rgba's RGB, as srgb_to_lab (grouping.hpp) gives it, made where that
-  /// is cheaper than in the grouping (on the device, beside the sums); else the grouping makes it.
-  std::array<double, 3> lab{};
-  bool lab_known = false;
   /// A trixel whose mean alpha is below one half is "no shape" (DESIGN.md, stage 1).
   /// No shape: alpha below one half, unless the triangle covers part of a solid pixel and is not
   /// nearly clear itself (a rim triangle averaging a solid pixel with the anti-aliased ones beside it
@@ -43,6 +39,12 @@ struct Trixel {
 
 /// One Trixel per triangle, indexed like Triangulation::triangles.
 using TrixelColours = std::vector<Trixel>;
+
+/// The CIELAB of each trixel's colour (its RGB as srgb_to_lab in grouping.hpp gives it), indexed like
+/// TrixelColours, where it was made with the colours (on the device, beside their sums: cheaper there
+/// than in the grouping); NaN where it was not (the grouping then makes it). Empty: none known. Kept
+/// apart from Trixel, which the grouping reads several times over.
+using TrixelLab = std::vector<std::array<double, 3>>;
 
 /// Where colour_trixels() adds up each triangle's pixels: on the CPU, or on the CUDA device (a build
 /// with CUDA; the same sums to the bit, the same rule and order of operations).
@@ -58,9 +60,12 @@ enum class TrixelDevice { cpu, gpu };
 /// threads (0: every hardware thread); the result does not depend on it, nor on `device`. With
 /// TrixelDevice::gpu the sums are made on the device (the image and the mesh copied there, the image
 /// unless `on_device` holds it already, as detect_edges left it; `threads` unused); that throws
-/// cdt::DeviceError on a CUDA failure or in a build without CUDA.
+/// cdt::DeviceError on a CUDA failure or in a build without CUDA. `lab`, when given, receives the
+/// colours' CIELAB that were made with them (TrixelLab: with TrixelDevice::gpu, of the triangles that
+/// own pixels and of those that take a neighbour's colour; empty with TrixelDevice::cpu).
 TrixelColours colour_trixels(const Image& image, const cdt::Triangulation& t, unsigned threads = 1,
-                             TrixelDevice device = TrixelDevice::cpu, const DevicePixels& on_device = {});
+                             TrixelDevice device = TrixelDevice::cpu, const DevicePixels& on_device = {},
+                             TrixelLab* lab = nullptr);
 
 /// Prepares TrixelDevice::gpu for `callers` threads calling colour_trixels() at once: loads its device
 /// code and pins host memory for their copies (16 MB per caller, at most 64 MB; the edges' copies on
