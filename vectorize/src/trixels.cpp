@@ -39,18 +39,18 @@ void for_each_run(int width, int height, const cdt::Triangulation& t, Visit&& vi
   }
 }
 
-// Each triangle's sums on the device (TrixelDevice::gpu), and the CIELAB of the colour of each that
-// owns pixels.
+// Each triangle's sums on the device (TrixelDevice::gpu), and, when `lab` is given, the CIELAB of the
+// colour of each that owns pixels.
 void gpu_trixel_sums(const Image& image, const cdt::Triangulation& t, bool opaque,
-                     std::vector<detail::TrixelSums>& sums, TrixelLab& lab, const DevicePixels& on_device) {
+                     std::vector<detail::TrixelSums>& sums, TrixelLab* lab, const DevicePixels& on_device) {
 #if TRIXEL_HAVE_CUDA
   // Only edge_classes makes the handle: it holds a gpu::DeviceImage.
   const auto* kept = static_cast<const gpu::DeviceImage*>(on_device.get());
   const bool same = kept != nullptr && kept->width() == image.width && kept->height() == image.height;
-  lab.resize(sums.size());
+  if (lab != nullptr) lab->resize(sums.size());
   gpu::trixel_sums(image.rgba.data(), image.width, image.height, t.vertices.data(), t.vertices.size(),
                    t.triangles.data(), t.triangles.size(), opaque, sums.data(), same ? kept->data() : nullptr,
-                   lab.data());
+                   lab != nullptr ? lab->data() : nullptr);
 #else
   (void)image, (void)t, (void)opaque, (void)sums, (void)lab, (void)on_device;
   throw cdt::DeviceError("trixel colours on the device: this build has no CUDA support");
@@ -216,9 +216,9 @@ TrixelColours colour_trixels(const Image& image, const cdt::Triangulation& t, un
     for (std::size_t i = 3; i < image.rgba.size() && opaque; i += 4) opaque = image.rgba[i] == 1.0f;
   const std::size_t count = t.triangles.size();
   std::vector<detail::TrixelSums> sums(count);
-  TrixelLab lab; // from the device: the colours' CIELAB
+  TrixelLab lab; // from the device, when the caller asks for it: the colours' CIELAB
   if (device == TrixelDevice::gpu) {
-    gpu_trixel_sums(image, t, opaque, sums, lab, on_device);
+    gpu_trixel_sums(image, t, opaque, sums, lab_out != nullptr ? &lab : nullptr, on_device);
   } else {
     // Each triangle's sums are its own and are added up by one thread in row order, so the result is
     // the same for any number of threads.
