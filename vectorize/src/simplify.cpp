@@ -645,7 +645,7 @@ std::vector<Polyline> simplify_chains(const std::vector<Chain>& chains, double t
   if (threads == 0) threads = std::max(1u, std::thread::hardware_concurrency());
   std::vector<std::uint32_t> sides = left;
   sides.insert(sides.end(), right.begin(), right.end());
-  if (threads < 2) {
+  if (threads < 2 || left.empty() || right.empty()) {
     // The left and the right chains never meet, so one pass over both around the crossing chains makes
     // the removals that a pass over each would; the crossing chains are then simplified around the
     // result in the same grid, whose segments they already are.
@@ -653,22 +653,18 @@ std::vector<Polyline> simplify_chains(const std::vector<Chain>& chains, double t
     simplifier.run();
     if (!across.empty()) simplifier.run(across);
   } else {
-    if (!left.empty() && !right.empty()) {
-      std::exception_ptr failure;
-      std::thread worker([&] {
-        try {
-          simplify(right, across);
-        } catch (...) {
-          failure = std::current_exception();
-        }
-      });
-      simplify(left, across);
-      worker.join();
-      if (failure) std::rethrow_exception(failure);
-    } else {
-      simplify(left, across);
-      simplify(right, across);
-    }
+    // The two sides on two threads, then the crossing chains around them.
+    std::exception_ptr failure;
+    std::thread worker([&] {
+      try {
+        simplify(right, across);
+      } catch (...) {
+        failure = std::current_exception();
+      }
+    });
+    simplify(left, across);
+    worker.join();
+    if (failure) std::rethrow_exception(failure);
     simplify(across, sides);
   }
 
