@@ -88,6 +88,31 @@ if(NOT TRIXEL_VECTORIZE STREQUAL "OFF")
   endif()
 endif()
 
+# --- mimalloc (optional, libmimalloc-dev): the vectorize app's allocator -------------------------
+# A batch's workers allocate and free many small blocks (rings, chains, queues) at once; mimalloc's
+# per-thread heaps do that faster than the C library's arenas. Linked into the app only (the libraries
+# and tests keep the C library's allocator), never beside a sanitizer, which brings its own.
+set(TRIXEL_HAVE_MIMALLOC OFF)
+set(TRIXEL_ALLOCATOR "the C library's")
+if(TRIXEL_HAVE_VECTORIZE AND NOT TRIXEL_MIMALLOC STREQUAL "OFF")
+  if(TRIXEL_SANITIZE)
+    if(TRIXEL_MIMALLOC STREQUAL "ON")
+      message(FATAL_ERROR "TRIXEL_MIMALLOC=ON cannot be combined with TRIXEL_SANITIZE")
+    endif()
+    set(TRIXEL_ALLOCATOR "the C library's (sanitizers on)")
+  else()
+    find_package(mimalloc 2 CONFIG QUIET)
+    if(TARGET mimalloc)
+      set(TRIXEL_HAVE_MIMALLOC ON)
+      set(TRIXEL_ALLOCATOR "mimalloc ${mimalloc_VERSION}")
+    elseif(TRIXEL_MIMALLOC STREQUAL "ON")
+      message(FATAL_ERROR "TRIXEL_MIMALLOC=ON but mimalloc 2 was not found (libmimalloc-dev)")
+    else()
+      set(TRIXEL_ALLOCATOR "the C library's (mimalloc not found)")
+    endif()
+  endif()
+endif()
+
 # --- tests and benchmarks ------------------------------------------------------------------------
 set(TRIXEL_HAVE_GTEST OFF)
 if(TRIXEL_BUILD_TESTS)

@@ -15,13 +15,16 @@ set_property(CACHE TRIXEL_IMAGE_IO PROPERTY STRINGS oiio png)
 
 set(TRIXEL_CPU_LEVEL x86-64-v2 CACHE STRING
     "Instruction set of host code on x86-64 (-march=...): x86-64-v2 (SSE4.2 and POPCNT, every x86-64 CPU since about 2010; inline rounding for the per-pixel loops), x86-64-v3, native, or none for the compiler's default")
+set(TRIXEL_MIMALLOC AUTO CACHE STRING
+    "Link the vectorize app with mimalloc, an allocator that keeps its worker threads' many small allocations apart: AUTO (when found and no sanitizers are on), ON (fail without it), OFF (the C library's)")
+set_property(CACHE TRIXEL_MIMALLOC PROPERTY STRINGS AUTO ON OFF)
 option(TRIXEL_BUILD_TESTS "Build the GoogleTest suites" ${TRIXEL_TOP_LEVEL})
 option(TRIXEL_BUILD_BENCHMARKS "Build the benchmark programs" ${TRIXEL_TOP_LEVEL})
 option(TRIXEL_WERROR "Treat compiler warnings as errors (CI turns this on)" OFF)
 set(TRIXEL_SANITIZE "" CACHE STRING
     "Sanitizers for host code, e.g. 'address,undefined' (CUDA is turned off in such a build)")
 
-foreach(opt TRIXEL_CUDA TRIXEL_VECTORIZE)
+foreach(opt TRIXEL_CUDA TRIXEL_VECTORIZE TRIXEL_MIMALLOC)
   string(TOUPPER "${${opt}}" _v)
   if(NOT _v MATCHES "^(AUTO|ON|OFF)$")
     message(FATAL_ERROR "${opt} must be AUTO, ON or OFF (got '${${opt}}')")

@@ -7,6 +7,7 @@ message(STATUS "  TRIXEL_IMAGE_IO=${TRIXEL_IMAGE_IO}        -> image reader of v
 if(TRIXEL_HAVE_VECTORIZE AND NOT TRIXEL_IMAGE_IO STREQUAL "oiio")
   message(STATUS "  skipped: the vectorize tests (they write their test images through OpenImageIO)")
 endif()
+message(STATUS "  TRIXEL_MIMALLOC=${TRIXEL_MIMALLOC}        -> allocator of the vectorize app: ${TRIXEL_ALLOCATOR}")
 message(STATUS "  TRIXEL_BUILD_TESTS=${TRIXEL_BUILD_TESTS}       CGAL oracle: ${TRIXEL_HAVE_CGAL}")
 message(STATUS "  TRIXEL_BUILD_BENCHMARKS=${TRIXEL_BUILD_BENCHMARKS}")
 message(STATUS "  TRIXEL_WERROR=${TRIXEL_WERROR}           TRIXEL_SANITIZE='${TRIXEL_SANITIZE}'")

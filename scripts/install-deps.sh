@@ -7,6 +7,7 @@ packages=(
   build-essential cmake ninja-build pkg-config git   # toolchain
   libopencv-dev libopenimageio-dev libcairo2-dev     # vectorize: edges, image I/O, overlays
   libpng-dev libdeflate-dev                          # vectorize: PNG reading
+  libmimalloc-dev                                    # vectorize app: the allocator
   libcli11-dev                                       # command-line parsing
   libgtest-dev libcgal-dev                           # tests; CGAL is a test and benchmark oracle only
   clang-format                                       # the format check of the test suite

@@ -29,6 +29,18 @@ TEST(VectorizeCli, VersionExits0) {
   EXPECT_NE(r.output.find("vectorize "), std::string::npos);
 }
 
+// A build with mimalloc must really allocate through it (every library's malloc bound to it), and
+// one without names the C library's.
+TEST(VectorizeCli, VersionNamesTheAllocatorInUse) {
+  const auto r = run(shell_quote(kBin) + " --version");
+  ASSERT_EQ(r.exit_code, 0);
+#if TRIXEL_TEST_MIMALLOC
+  EXPECT_NE(r.output.find("(allocator: mimalloc 2."), std::string::npos) << r.output;
+#else
+  EXPECT_NE(r.output.find("(allocator: the C library's)"), std::string::npos) << r.output;
+#endif
+}
+
 TEST(VectorizeCli, MissingArgumentsAreUsageErrors) {
   EXPECT_EQ(run(shell_quote(kBin)).exit_code, 2);
   EXPECT_EQ(run(shell_quote(kBin) + " only-one.png").exit_code, 2);
