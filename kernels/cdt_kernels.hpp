@@ -109,6 +109,10 @@ public:
   void prepare(std::uint32_t m, ::cdt::detail::GridMapping& mapping, ::cdt::detail::Box& bounds,
                IndexArray& site_vertex, IndexArray& site_of_vertex, ::cdt::detail::FlagArray& kept,
                ::cdt::detail::MissingArray& missing, const HostParallelFor& parallel = {});
+  /// prepare() fills site_vertex and site_of_vertex on a thread of its own, after it returns: waits for
+  /// them (throws DeviceError should their copy have failed). Call before reading them; the
+  /// destructor waits too.
+  void finish_downloads();
   /// The largest absolute coordinate of the sites (after prepare): what the split's snap tolerance
   /// is made from (cdt::detail::split_pieces), known here without a pass over the vertices.
   double magnitude() const;

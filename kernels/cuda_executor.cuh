@@ -22,6 +22,7 @@
 #include <cstdint>
 #include <limits>
 #include <string>
+#include <vector>
 
 #include "cdt_kernels.hpp"
 #include "cuda_check.cuh"
@@ -89,6 +90,38 @@ public:
 
 private:
   cudaEvent_t event_ = nullptr;
+};
+
+/// Copies of device arrays to host memory made on a thread of their own, after the work queued so far
+/// on the calling thread's stream: for results the host reads only much later, so that the device's
+/// next steps and the host's part of the copies run side by side. Both sides of every copy must stay
+/// allocated, and untouched by the host, until wait() returns or the object is destroyed.
+class LateDownloads {
+public:
+  LateDownloads() = default;
+  ~LateDownloads(); ///< waits for the copies; a failure is dropped (wait() reports it)
+  LateDownloads(const LateDownloads&) = delete;
+  LateDownloads& operator=(const LateDownloads&) = delete;
+
+  /// Queues a copy of n elements, started by start().
+  template <class T>
+  void add(T* h_dst, const T* d_src, std::size_t n) {
+    if (n > 0) copies_.push_back({h_dst, d_src, n * sizeof(T)});
+  }
+  /// Starts the queued copies, once the work queued so far on the calling thread's stream is done.
+  void start();
+  /// Waits for the copies; throws DeviceError should one have failed. Nothing to wait for: returns.
+  void wait();
+
+private:
+  struct Copy {
+    void* h_dst;
+    const void* d_src;
+    std::size_t bytes;
+  };
+  struct Worker;
+  std::vector<Copy> copies_;
+  Worker* worker_ = nullptr;
 };
 
 class CudaExecutor {
@@ -215,6 +248,12 @@ public:
       copy_to_host(h_dst, d_src, n * sizeof(T), parallel);
     else
       timed("download", [&] { copy_to_host(h_dst, d_src, n * sizeof(T), parallel); });
+  }
+
+  /// download() without a profile row: for a thread of its own beside the one profiled.
+  template <class T>
+  void download_unprofiled(T* h_dst, const T* d_src, std::size_t n) {
+    copy_to_host(h_dst, d_src, n * sizeof(T), nullptr);
   }
 
   /// Sets n elements of d_dst to the byte value `byte` (0 or 0xFF fill 32-bit words with 0 or kNone).

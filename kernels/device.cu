@@ -7,10 +7,13 @@
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
+#include <exception>
 #include <limits>
 #include <map>
+#include <memory>
 #include <mutex>
 #include <string>
+#include <thread>
 #include <utility>
 #include <vector>
 
@@ -390,6 +393,56 @@ float DeviceEvent::since(const DeviceEvent& start) const {
 }
 
 void CudaExecutor::synchronize() { CDT_CUDA_CHECK(cudaStreamSynchronize(stream_)); }
+
+struct LateDownloads::Worker {
+  cudaEvent_t ready = nullptr; ///< recorded on the starting thread's stream after the data's steps
+  std::exception_ptr failure;
+  std::thread thread;
+};
+
+void LateDownloads::start() {
+  if (copies_.empty() || worker_ != nullptr) return;
+  int device = 0;
+  CDT_CUDA_CHECK(cudaGetDevice(&device));
+  auto worker = std::make_unique<Worker>();
+  CDT_CUDA_CHECK(cudaEventCreateWithFlags(&worker->ready, cudaEventDisableTiming));
+  if (const cudaError_t status = cudaEventRecord(worker->ready, cudaStreamPerThread); status != cudaSuccess) {
+    cudaEventDestroy(worker->ready);
+    CDT_CUDA_CHECK(status);
+  }
+  Worker* w = worker.get();
+  w->thread = std::thread([this, w, device] {
+    try {
+      CDT_CUDA_CHECK(cudaSetDevice(device)); // the current device is each thread's own
+      CudaExecutor executor;                 // this thread's stream and staging blocks
+      CDT_CUDA_CHECK(cudaStreamWaitEvent(executor.stream(), w->ready, 0));
+      for (const Copy& c : copies_)
+        executor.download_unprofiled(static_cast<unsigned char*>(c.h_dst),
+                                     static_cast<const unsigned char*>(c.d_src), c.bytes);
+    } catch (...) {
+      w->failure = std::current_exception();
+    }
+  });
+  worker_ = worker.release();
+}
+
+void LateDownloads::wait() {
+  if (worker_ == nullptr) return;
+  std::unique_ptr<Worker> worker(worker_);
+  worker_ = nullptr;
+  worker->thread.join();
+  copies_.clear();
+  cudaEventDestroy(worker->ready);
+  if (worker->failure) std::rethrow_exception(worker->failure);
+}
+
+LateDownloads::~LateDownloads() {
+  try {
+    wait();
+  } catch (...) {
+    // Reported by wait() when the owner asks; a destructor has no one to tell.
+  }
+}
 
 } // namespace detail
 

@@ -397,9 +397,9 @@ void prepare_sites(DeviceSites::State& s, std::uint32_t m, GridMapping& mapping,
   // Renumbering: site k is the vertex at place order[k]; its true position read from the vertices.
   // The numbering stays on the device for the output (DeviceMesh::take_vertex_ids).
   s.site_vertex.resize(n);
-  DeviceBuffer<std::uint32_t> d_site_of_vertex(nv);
+  s.site_of_vertex.resize(nv);
   std::uint32_t* vertex_of = s.site_vertex.data();
-  std::uint32_t* site_of = d_site_of_vertex.data();
+  std::uint32_t* site_of = s.site_of_vertex.data();
   s.true_x.resize(n);
   s.true_y.resize(n);
   double* tx = s.true_x.data();
@@ -478,11 +478,14 @@ void prepare_sites(DeviceSites::State& s, std::uint32_t m, GridMapping& mapping,
   // pages) for the first of them. The room beyond the missing points is never written unless used.
   missing.reserve(n);
   missing.resize(num_missing);
-  executor.download(site_vertex.data(), vertex_of, n, &parallel);
-  executor.download(site_of_vertex.data(), site_of, nv, &parallel);
   executor.download(kept.data(), keep, n, &parallel);
   executor.download(reinterpret_cast<std::uint32_t*>(missing.data()), pairs,
                     2 * static_cast<std::size_t>(num_missing), &parallel);
+  // The vertex maps are first read on the host after the Delaunay mesh is made (by the split, the
+  // added vertices and the output): they come down on a thread of their own meanwhile.
+  s.late.add(site_vertex.data(), vertex_of, n);
+  s.late.add(site_of_vertex.data(), site_of, nv);
+  s.late.start();
   s.vertex_xy = {};
   s.site_list = {};
   trace.mark("downloaded");
@@ -525,6 +528,11 @@ void DeviceSites::prepare(std::uint32_t m, GridMapping& mapping, ::cdt::detail::
 }
 
 double DeviceSites::magnitude() const { return state_->magnitude; }
+
+void DeviceSites::finish_downloads() {
+  state_->late.wait();
+  state_->site_of_vertex = {};
+}
 
 DeviceSites::~DeviceSites() = default;
 DeviceSites::DeviceSites(DeviceSites&&) noexcept = default;

@@ -392,6 +392,18 @@ Triangulation triangulate_on(std::span<const Point> points, std::span<const Segm
   std::vector<std::uint32_t> colour;
   double sites_magnitude = -1.0; // the largest absolute coordinate of the sites, where the device gives it
 #if defined(TRIXEL_HAVE_CUDA)
+  // The device fills site_vertex and site_of_vertex on a thread of its own after prepare() returns;
+  // should anything throw before they are waited for, this waits before they go.
+  struct LateCopiesGuard {
+    std::optional<gpu::DeviceSites>& sites;
+    ~LateCopiesGuard() {
+      if (!sites) return;
+      try {
+        sites->finish_downloads();
+      } catch (...) { // the exception under way is the one to report
+      }
+    }
+  } late_copies_guard{device_sites};
   std::optional<gpu::DeviceVoronoi> device_diagram; // Phase 1's colouring stays on the device for Phase 2
   if (on_gpu) {
     if (device_sites) {
@@ -510,6 +522,7 @@ Triangulation triangulate_on(std::span<const Point> points, std::span<const Segm
         removed_on_device = true;
       } else {
         // Declined: the CPU executor's dualize below, from host copies, from now on.
+        device_sites->finish_downloads();
         device_sites->positions(x, y, nullptr, nullptr, parallel);
         device_diagram->site_cells(grid.gx, grid.gy, parallel);
         colour = device_diagram->colour();
@@ -570,6 +583,7 @@ Triangulation triangulate_on(std::span<const Point> points, std::span<const Segm
 #if defined(TRIXEL_HAVE_CUDA)
   if (on_gpu) {
     shift = device_mesh->shift(n, *device_sites, missing);
+    device_sites->finish_downloads();            // the vertex maps are on the host from here on
     device_mesh->take_vertex_ids(*device_sites); // for the output, which then uploads only added ones
     device_sites.reset();                        // its device memory is free for the later phases
   }

@@ -326,6 +326,55 @@ TEST_F(GpuExecutor, LargeAndSmallCopiesRoundTrip) {
   }
 }
 
+// p[i] the 400th step of a hash chain from i, p2[i] its complement: slow enough that a copy not waiting
+// for it would read what was there before.
+void make_slow_values(CudaExecutor& ex, std::uint32_t* p, std::uint32_t* p2, std::size_t n) {
+  ex.for_each(n, [=] __device__(std::size_t i) {
+    std::uint32_t h = static_cast<std::uint32_t>(i);
+    for (int r = 0; r < 400; ++r) h = h * 2654435761u + 0x9E3779B9u;
+    p[i] = h;
+    p2[i] = h ^ 0xFFFFFFFFu;
+  });
+}
+
+void fill_indices(CudaExecutor& ex, std::uint32_t* p, std::size_t n) {
+  ex.for_each(n, [=] __device__(std::size_t i) { p[i] = static_cast<std::uint32_t>(i); });
+}
+
+// LateDownloads copy on a thread of their own what the stream made before start(), however long that
+// takes, small copies and copies through the staging blocks alike; the destructor waits as wait() does.
+TEST_F(GpuExecutor, LateDownloadsCopyWhatTheStreamMadeBeforeThem) {
+  using cdt::gpu::detail::LateDownloads;
+  CudaExecutor ex;
+  for (const std::size_t n : {std::size_t{5}, std::size_t{9'000'001}}) {
+    DeviceBuffer<std::uint32_t> d(n), d2(n), d3(n);
+    std::uint32_t* p = d.data();
+    std::uint32_t* p2 = d2.data();
+    std::uint32_t* p3 = d3.data();
+    make_slow_values(ex, p, p2, n);
+    std::vector<std::uint32_t> h(n, 0), h2(n, 0);
+    {
+      LateDownloads late;
+      late.add(h.data(), p, n);
+      late.start();
+      LateDownloads left; // waited for by its destructor alone
+      left.add(h2.data(), p2, n);
+      left.start();
+      fill_indices(ex, p3, n); // the stream goes on meanwhile
+      late.wait();
+      late.wait(); // nothing left to wait for
+    }
+    const auto expect_made = [&](std::size_t i) {
+      std::uint32_t want = static_cast<std::uint32_t>(i);
+      for (int r = 0; r < 400; ++r) want = want * 2654435761u + 0x9E3779B9u;
+      EXPECT_EQ(h[i], want) << "n " << n << ", element " << i;
+      EXPECT_EQ(h2[i], want ^ 0xFFFFFFFFu) << "n " << n << ", element " << i;
+    };
+    for (std::size_t i = 0; i < n; i += n < 10000 ? 1 : 997) expect_made(i); // a sample of the long one
+    expect_made(n - 1);
+  }
+}
+
 TEST_F(GpuExecutor, DebugSyncStillGivesTheSameResults) {
   cdt::gpu::set_debug_sync(true);
   CudaExecutor ex;

@@ -145,6 +145,37 @@ TEST_F(TriangulateGpu, LatticesMatchTheCpuBackend) {
   expect_same_as_cpu(bare.points, bare.segments, "lattice 128 without segments");
 }
 
+// The output's segment words come down as a list of the constrained ones where most are not, and whole
+// where most are: a lattice whose every triangle edge is a segment (each cell split by a diagonal,
+// alternating) takes the second way, a few segments the first.
+TEST_F(TriangulateGpu, EveryEdgeASegmentMatchesTheCpuBackend) {
+  constexpr std::uint32_t k = 120;
+  trixel_gen::Pslg all = trixel_gen::lattice(k);
+  const auto id = [&](std::uint32_t x, std::uint32_t y) { return y * k + x; };
+  for (std::uint32_t y = 0; y < k; ++y) {
+    for (std::uint32_t x = 0; x < k; ++x) {
+      if (x + 1 < k) all.segments.push_back({id(x, y), id(x + 1, y)});
+      if (y + 1 < k) all.segments.push_back({id(x, y), id(x, y + 1)});
+      if (x + 1 < k && y + 1 < k) {
+        if ((x + y) % 2 == 0)
+          all.segments.push_back({id(x, y), id(x + 1, y + 1)});
+        else
+          all.segments.push_back({id(x + 1, y), id(x, y + 1)});
+      }
+    }
+  }
+  expect_same_as_cpu(all.points, all.segments, "lattice with every edge a segment");
+  cdt::Options gpu;
+  gpu.backend = cdt::Backend::gpu;
+  const cdt::Triangulation t = cdt::triangulate(all.points, all.segments, gpu);
+  std::size_t constrained = 0;
+  for (const auto& words : t.segment_of_edge)
+    for (const std::uint32_t w : words) constrained += w != cdt::kNone ? 1 : 0;
+  EXPECT_EQ(constrained, 3 * t.triangles.size()); // every word a segment's: the whole array came down
+  const auto few = trixel_gen::lattice_with_segments(k, 5, 9);
+  expect_same_as_cpu(few.points, few.segments, "lattice with five segments");
+}
+
 TEST_F(TriangulateGpu, ArtemOgreFilesMatchTheCpuBackend) {
   const int files =
       trixel_test::for_each_artem_ogre_file([](const std::string& name, const cdt::io::Pslg& in) {
