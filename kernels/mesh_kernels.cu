@@ -1622,51 +1622,14 @@ void DeviceMesh::output(std::span<const std::uint32_t> vertex_of,
         ::cdt::detail::output_triangle(m, order[k], v_of, index, s_of, c + 3 * k, nb + 3 * k, sg + 3 * k);
       },
       "output_triangles");
-  // Most edges are no segment's: the segments' words come down as (word, segment) pairs when those are
-  // fewer bytes than the whole array (10M points + 1M segments: about 16 MB instead of 240).
-  detail::DeviceBuffer<std::uint32_t> constrained(words + 1);
-  const std::uint32_t num_constrained = executor.compact(
-      words, [=] __device__(std::size_t w) { return sg[w] != kNoId; }, constrained.data());
-  const bool sparse = 2 * static_cast<std::size_t>(num_constrained) < words;
   triangles.resize(count);
   neighbors.resize(count);
   segment_of_edge.resize(count);
   trace.mark("host arrays sized");
   executor.download(reinterpret_cast<std::uint32_t*>(triangles.data()), c, words, &parallel);
   executor.download(reinterpret_cast<std::uint32_t*>(neighbors.data()), nb, words, &parallel);
-  if (!sparse) {
-    executor.download(reinterpret_cast<std::uint32_t*>(segment_of_edge.data()), sg, words, &parallel);
-    trace.mark("made and downloaded");
-    return;
-  }
-  // The corners are on the host: their buffer (words + 1 entries) takes the segments of the listed
-  // words, so both lists come down as they are.
-  const std::uint32_t* at = constrained.data();
-  std::uint32_t* value = c;
-  executor.for_each(
-      num_constrained, [=] __device__(std::size_t k) { value[k] = sg[at[k]]; }, "constrained_segments");
-  IndexArray word_of(num_constrained), segment_of(num_constrained);
-  executor.download(word_of.data(), at, num_constrained, &parallel);
-  executor.download(segment_of.data(), value, num_constrained, &parallel);
+  executor.download(reinterpret_cast<std::uint32_t*>(segment_of_edge.data()), sg, words, &parallel);
   trace.mark("made and downloaded");
-  // Every word kNoId, then the listed words set: in parts of the array, each finding its listed words by
-  // binary search (the list is in word order).
-  std::uint32_t* out = reinterpret_cast<std::uint32_t*>(segment_of_edge.data());
-  constexpr std::size_t kPartWords = std::size_t{1} << 17;
-  const std::size_t parts = (words + kPartWords - 1) / kPartWords;
-  const auto fill = [&](std::size_t p) {
-    const std::size_t lo = p * kPartWords;
-    const std::size_t hi = std::min(words, lo + kPartWords);
-    std::fill(out + lo, out + hi, kNoId);
-    auto k = static_cast<std::size_t>(std::lower_bound(word_of.begin(), word_of.end(), lo) - word_of.begin());
-    for (; k < word_of.size() && word_of[k] < hi; ++k) out[word_of[k]] = segment_of[k];
-  };
-  if (parallel) {
-    parallel(parts, fill);
-  } else {
-    for (std::size_t p = 0; p < parts; ++p) fill(p);
-  }
-  trace.mark("segments spread");
 }
 
 void DeviceMesh::download(::cdt::detail::Mesh& mesh) const {

@@ -145,9 +145,8 @@ TEST_F(TriangulateGpu, LatticesMatchTheCpuBackend) {
   expect_same_as_cpu(bare.points, bare.segments, "lattice 128 without segments");
 }
 
-// The output's segment words come down as a list of the constrained ones where most are not, and whole
-// where most are: a lattice whose every triangle edge is a segment (each cell split by a diagonal,
-// alternating) takes the second way, a few segments the first.
+// Co-circular everywhere and every edge constrained: a lattice whose every triangle edge is a segment
+// (each cell split by a diagonal, alternating), and the same lattice with five segments.
 TEST_F(TriangulateGpu, EveryEdgeASegmentMatchesTheCpuBackend) {
   constexpr std::uint32_t k = 120;
   trixel_gen::Pslg all = trixel_gen::lattice(k);
@@ -171,7 +170,7 @@ TEST_F(TriangulateGpu, EveryEdgeASegmentMatchesTheCpuBackend) {
   std::size_t constrained = 0;
   for (const auto& words : t.segment_of_edge)
     for (const std::uint32_t w : words) constrained += w != cdt::kNone ? 1 : 0;
-  EXPECT_EQ(constrained, 3 * t.triangles.size()); // every word a segment's: the whole array came down
+  EXPECT_EQ(constrained, 3 * t.triangles.size()); // every edge of every triangle
   const auto few = trixel_gen::lattice_with_segments(k, 5, 9);
   expect_same_as_cpu(few.points, few.segments, "lattice with five segments");
 }

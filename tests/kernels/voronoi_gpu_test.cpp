@@ -436,6 +436,7 @@ TEST_F(GpuVoronoi, DeviceSitesMatchTheHostSteps) {
         cdt::detail::MissingArray missing;
         cdt::gpu::DeviceSites device(vertices, sites, m, mapping, bounds, site_vertex, site_of_vertex, kept,
                                      missing);
+        device.finish_downloads(); // the vertex maps come down on a thread of their own
         const std::string what =
             std::string(name(layout)) + " m " + std::to_string(m) + (subset ? " subset" : "");
         EXPECT_EQ(mapping.m, h.mapping.m) << what;
@@ -629,8 +630,10 @@ TEST_F(GpuVoronoi, DuplicatesMergeAsOnTheHost) {
     cdt::detail::FlagArray kept, one_kept;
     cdt::detail::MissingArray missing, one_missing;
     device.prepare(m, mapping, bounds, site_vertex, site_of_vertex, kept, missing);
-    const cdt::gpu::DeviceSites one_step(c.points, host.sites, m, one_mapping, one_bounds, one_site_vertex,
-                                         one_site_of_vertex, one_kept, one_missing);
+    cdt::gpu::DeviceSites one_step(c.points, host.sites, m, one_mapping, one_bounds, one_site_vertex,
+                                   one_site_of_vertex, one_kept, one_missing);
+    device.finish_downloads();
+    one_step.finish_downloads();
     EXPECT_EQ(mapping.scale, one_mapping.scale) << c.name;
     EXPECT_EQ(site_vertex, one_site_vertex) << c.name;
     EXPECT_EQ(site_of_vertex, one_site_of_vertex) << c.name;
