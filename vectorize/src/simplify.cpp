@@ -475,6 +475,10 @@ public:
       while (!queue.empty()) {
         const Candidate cand = queue.top();
         queue.pop();
+        if (!queue.empty()) { // the next candidate's links, fetched while this one is checked
+          const Candidate& next = queue.top();
+          __builtin_prefetch(states_[next.chain()].link.data() + next.vertex());
+        }
         ChainState& s = states_[cand.chain()];
         const int v = static_cast<int>(cand.vertex());
         if (!s.link[v].alive || s.link[v].version != cand.version || s.num_alive <= s.min_alive) continue;
