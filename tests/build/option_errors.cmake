@@ -20,3 +20,6 @@ endfunction()
 
 expect_configure_failure(cuda_on_without_nvcc "TRIXEL_CUDA=ON but no CUDA compiler was found" -DTRIXEL_CUDA=ON)
 expect_configure_failure(bad_cuda_value "TRIXEL_CUDA must be AUTO, ON or OFF" -DTRIXEL_CUDA=maybe)
+expect_configure_failure(bad_mimalloc_value "TRIXEL_MIMALLOC must be AUTO, ON or OFF" -DTRIXEL_MIMALLOC=maybe)
+expect_configure_failure(mimalloc_with_sanitizers "TRIXEL_MIMALLOC=ON cannot be combined with TRIXEL_SANITIZE"
+                         -DTRIXEL_MIMALLOC=ON -DTRIXEL_SANITIZE=address)
