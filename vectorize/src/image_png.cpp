@@ -191,38 +191,33 @@ void samples_to_rgba(const unsigned char* samples, std::size_t pixels, int chann
                      float* rgba) {
   const bool has_alpha = channels == 2 || channels == 4;
   const float scale = bit_depth == 16 ? 1.0f / 65535.0f : 1.0f / 255.0f;
-  if (bit_depth == 8 && (channels == 3 || channels == 4)) {
-    // A count of channels known to the compiler, and the product made rather than looked up, so that
-    // the loop runs on vector registers (the same product as the table's below).
+  if (bit_depth == 8) {
+    // The channel count known to the compiler, so that the loop runs on vector registers.
     const auto convert = [&]<int kChannels>() {
+      constexpr float k = 1.0f / 255.0f;
       for (std::size_t i = 0; i < pixels; ++i) {
         const unsigned char* src = samples + i * kChannels;
         float* dst = rgba + i * 4;
-        for (int c = 0; c < 3; ++c) dst[c] = static_cast<float>(src[c]) * (1.0f / 255.0f);
-        dst[3] = kChannels == 4 ? static_cast<float>(src[3]) * (1.0f / 255.0f) : 1.0f;
+        const float first = static_cast<float>(src[0]) * k;
+        dst[0] = first;
+        dst[1] = kChannels >= 3 ? static_cast<float>(src[1]) * k : first;
+        dst[2] = kChannels >= 3 ? static_cast<float>(src[2]) * k : first;
+        dst[3] = kChannels == 2 || kChannels == 4 ? static_cast<float>(src[kChannels - 1]) * k : 1.0f;
       }
     };
-    if (channels == 3)
+    switch (channels) {
+    case 1:
+      convert.template operator()<1>();
+      break;
+    case 2:
+      convert.template operator()<2>();
+      break;
+    case 3:
       convert.template operator()<3>();
-    else
+      break;
+    default:
       convert.template operator()<4>();
-    return;
-  }
-  if (bit_depth == 8) {
-    // Each 8-bit value's float, tabulated (the same product as below).
-    static const auto value_of = [] {
-      std::array<float, 256> table{};
-      for (unsigned v = 0; v < 256; ++v) table[v] = static_cast<float>(v) * (1.0f / 255.0f);
-      return table;
-    }();
-    const unsigned char* src = samples;
-    float* dst = rgba;
-    for (std::size_t i = 0; i < pixels; ++i, src += channels, dst += 4) {
-      const float first = value_of[src[0]];
-      dst[0] = first;
-      dst[1] = channels >= 3 ? value_of[src[1]] : first;
-      dst[2] = channels >= 3 ? value_of[src[2]] : first;
-      dst[3] = has_alpha ? value_of[src[channels - 1]] : 1.0f;
+      break;
     }
     return;
   }
