@@ -2,6 +2,7 @@
 
 #include <gtest/gtest.h>
 
+#include "../../vectorize/src/cpu_level.hpp"
 #include "stage_test_util.hpp"
 #include <algorithm>
 #include <array>
@@ -292,6 +293,48 @@ TEST(Grouping, RandomPaletteKeepsInvariantsAndIsDeterministic) {
           EXPECT_NE(regions.regions[o].transparent, regions.regions[r].transparent);
         }
       }
+    }
+  }
+}
+
+// The grouping's x86-64-v3 copy (cpu_level.hpp) and the baseline one give the same regions to the bit,
+// on random colours and opacities (CIELAB from the grouping itself and given), with the small regions'
+// merge.
+TEST(Grouping, X86V3CopyGivesTheBaselineRegions) {
+  vectorize::detail::set_v3_loops(true);
+  if (!vectorize::detail::v3_loops()) GTEST_SKIP() << "this build or CPU has no x86-64-v3 copy";
+  for (unsigned seed = 1; seed <= 3; ++seed) {
+    SCOPED_TRACE(seed);
+    const auto t = triangulate_rectangle(60, 40, random_points(60, 40, 2000, seed));
+    std::mt19937 rng(seed);
+    std::uniform_real_distribution<float> unit(0.0f, 1.0f);
+    // A gradient with noise: many neighbours' distances near the tolerance.
+    TrixelColours trixels = paint(t, [](cdt::Point p) {
+      return std::array<float, 4>{float(p.x / 60), float(p.y / 40), 0.5f, 1};
+    });
+    for (auto& trixel : trixels) {
+      for (int c = 0; c < 3; ++c) trixel.rgba[c] = std::clamp(trixel.rgba[c] + 0.04f * unit(rng), 0.0f, 1.0f);
+      if (unit(rng) < 0.03f) trixel.rgba[3] = unit(rng) < 0.5f ? 0.0f : 0.6f;
+    }
+    GroupingOptions options;
+    options.min_region_area = 4;
+    options.colour_tolerance = 8;
+    const auto group = [&](bool v3) {
+      vectorize::detail::set_v3_loops(v3);
+      Regions r = vectorize::group_trixels(t, trixels, options);
+      vectorize::detail::set_v3_loops(true);
+      return r;
+    };
+    const Regions fast = group(true);
+    const Regions baseline = group(false);
+    ASSERT_GT(baseline.regions.size(), 10u);
+    ASSERT_LT(baseline.regions.size(), t.triangles.size());
+    EXPECT_EQ(fast.region_of_triangle, baseline.region_of_triangle);
+    ASSERT_EQ(fast.regions.size(), baseline.regions.size());
+    for (std::size_t r = 0; r < fast.regions.size(); ++r) {
+      EXPECT_EQ(fast.regions[r].rgb, baseline.regions[r].rgb);
+      EXPECT_EQ(fast.regions[r].area, baseline.regions[r].area);
+      EXPECT_EQ(fast.regions[r].alpha, baseline.regions[r].alpha);
     }
   }
 }

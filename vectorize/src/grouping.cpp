@@ -18,6 +18,7 @@
 #include <utility>
 
 #include "colour_lab.hpp"
+#include "cpu_level.hpp"
 #include "parallel.hpp"
 
 namespace vectorize {
@@ -263,8 +264,10 @@ double delta_e(const std::array<double, 3>& lab1, const std::array<double, 3>& l
   return std::sqrt(dl * dl + da * da + db * db);
 }
 
-Regions group_trixels(const cdt::Triangulation& t, const TrixelColours& trixels,
-                      const GroupingOptions& options, unsigned threads, const TrixelLab* known) {
+namespace {
+
+Regions group_all(const cdt::Triangulation& t, const TrixelColours& trixels, const GroupingOptions& options,
+                  unsigned threads, const TrixelLab* known) {
   const std::size_t n = t.triangles.size();
   // Each thread takes a contiguous run of triangles; two per thread at the least, or it is not worth it.
   const auto parts = static_cast<unsigned>(
@@ -333,6 +336,24 @@ Regions group_trixels(const cdt::Triangulation& t, const TrixelColours& trixels,
     out.region_of_triangle[tri] = id_of_root[root];
   }
   return out;
+}
+
+#if TRIXEL_HAVE_V3_LOOPS
+TRIXEL_V3_CLONE Regions group_all_v3(const cdt::Triangulation& t, const TrixelColours& trixels,
+                                     const GroupingOptions& options, unsigned threads,
+                                     const TrixelLab* known) {
+  return group_all(t, trixels, options, threads, known);
+}
+#endif
+
+} // namespace
+
+Regions group_trixels(const cdt::Triangulation& t, const TrixelColours& trixels,
+                      const GroupingOptions& options, unsigned threads, const TrixelLab* known) {
+#if TRIXEL_HAVE_V3_LOOPS
+  if (detail::v3_loops()) return group_all_v3(t, trixels, options, threads, known);
+#endif
+  return group_all(t, trixels, options, threads, known);
 }
 
 } // namespace vectorize
