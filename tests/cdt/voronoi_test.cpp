@@ -307,7 +307,7 @@ void expect_valid_mapping(const GridMapping& map, const Box& b, SplitMix64& rng)
   for (const double x : xs) ASSERT_LE(map.grid_x(x), map.grid_x(std::nextafter(x, HUGE_VAL)));
 }
 
-// The documented rule, its clamps, and the exact power-of-two boundary at sqrt(n) = 256.
+// The documented rule, its clamps, the exact power-of-two boundaries, and the coarser step past 2048.
 TEST(GridMap, ChooseGridSizeIsABoundedPowerOfTwo) {
   using cdt::detail::choose_grid_size;
   EXPECT_EQ(choose_grid_size(0), 256u);
@@ -315,16 +315,26 @@ TEST(GridMap, ChooseGridSizeIsABoundedPowerOfTwo) {
   EXPECT_EQ(choose_grid_size(65536), 256u); // sqrt(n) = 256 exactly
   EXPECT_EQ(choose_grid_size(65537), 512u);
   EXPECT_EQ(choose_grid_size(1000000), 1024u);
-  EXPECT_EQ(choose_grid_size(10000000), 4096u);
-  EXPECT_EQ(choose_grid_size(67108864), 8192u); // sqrt(n) = 8192 exactly
-  EXPECT_EQ(choose_grid_size(67108865), 8192u); // clamped
-  EXPECT_EQ(choose_grid_size(std::numeric_limits<std::size_t>::max()), 8192u);
+  EXPECT_EQ(choose_grid_size(4194304), 2048u); // sqrt(n) = 2048 exactly
+  EXPECT_EQ(choose_grid_size(4194305), 2048u); // past 2048: one power of two coarser
+  EXPECT_EQ(choose_grid_size(10000000), 2048u);
+  EXPECT_EQ(choose_grid_size(16777216), 2048u); // sqrt(n) = 4096 exactly
+  EXPECT_EQ(choose_grid_size(16777217), 4096u);
+  EXPECT_EQ(choose_grid_size(67108864), 4096u); // sqrt(n) = 8192 exactly
+  EXPECT_EQ(choose_grid_size(67108865), 8192u);
+  EXPECT_EQ(choose_grid_size(std::numeric_limits<std::size_t>::max()), 8192u); // clamped
   for (std::size_t n = 1; n < 100000000; n = n * 3 + 1) {
     const std::uint32_t m = choose_grid_size(n);
     EXPECT_TRUE(std::has_single_bit(m));
-    if (m > 256 && m < 8192) {
-      EXPECT_GE(static_cast<double>(m), std::sqrt(static_cast<double>(n)));
-      EXPECT_LT(static_cast<double>(m), 2 * std::sqrt(static_cast<double>(n)));
+    const double root = std::sqrt(static_cast<double>(n));
+    if (root <= 2048) {
+      if (m > 256) {
+        EXPECT_GE(static_cast<double>(m), root);
+        EXPECT_LT(static_cast<double>(m), 2 * root);
+      }
+    } else if (m < 8192) {
+      EXPECT_GE(static_cast<double>(m), root / 2);
+      EXPECT_LT(static_cast<double>(m), root);
     }
   }
 }

@@ -103,7 +103,8 @@ int main(int argc, char** argv) {
   bool warmed = false;
   for (const std::uint32_t m : sizes) {
     for (const bool clustered : {false, true}) {
-      // One point per four cells (choose_grid_size picks m ~ sqrt(n): one to four cells per point).
+      // One point per four cells (choose_grid_size picks m ~ sqrt(n) up to 2048: one to four cells per
+      // point; past 2048, a quarter to one).
       const std::size_t n = static_cast<std::size_t>(m) * m / 4;
       std::vector<double> x, y;
       make_points(clustered, n, x, y);

@@ -48,12 +48,15 @@ std::uint32_t choose_grid_size(std::size_t num_points, GridFor target) {
   // coarser than the device's.
   const std::uint32_t min_side = target == GridFor::device ? 256 : 32;
   constexpr std::uint32_t kMax = 8192;
+  // Past this side the device's grid is one power of two coarser (see grid_map.hpp).
+  constexpr std::uint32_t kDeviceFine = 2048;
   // Compare in floating point: sqrt(n) for n near 2^64 does not fit the clamp otherwise.
   const double per_cell = target == GridFor::host ? 8.0 : target == GridFor::host_points ? 16.0 : 1.0;
   const double wanted = std::sqrt(static_cast<double>(num_points) / per_cell);
-  if (wanted >= kMax) return kMax;
-  const auto side = static_cast<std::uint32_t>(std::ceil(wanted));
-  return std::clamp(std::bit_ceil(std::max(side, 1u)), min_side, kMax);
+  std::uint32_t side = 2 * kMax;
+  if (wanted < 2 * kMax) side = std::bit_ceil(std::max(static_cast<std::uint32_t>(std::ceil(wanted)), 1u));
+  if (target == GridFor::device && side > kDeviceFine) side /= 2;
+  return std::clamp(side, min_side, kMax);
 }
 
 GridMapping make_grid_mapping(std::span<const double> x, std::span<const double> y, std::uint32_t m) {

@@ -80,10 +80,15 @@ enum class GridFor {
 };
 
 /// Grid side for num_points input points: a power of two clamped to [256, 8192] for the device and
-/// [32, 8192] for the host. For the device, the
-/// smallest one >= sqrt(num_points), between one and four cells per point: the paper finds larger
-/// grids better for larger inputs on its GPU (fewer missing points, section 5.1.1), as Algorithm 3's
-/// rounds are the device's slowest way to place a point. For the host, the smallest one >=
+/// [32, 8192] for the host. For the device, the smallest one >= sqrt(num_points), between one and four
+/// cells per point, up to 2048; past that, half of it, between 1/4 and 1 cell per point. The paper finds
+/// larger grids better for larger inputs on its GPU (fewer missing points, section 5.1.1), as
+/// Algorithm 3's rounds are the device's slowest way to place a point; but on the H200 machine a grid
+/// of 4096^2 cells costs more in the digital Voronoi diagram and the dual than the missing points it
+/// spares (medians of 3: uniform 10M + 1M 138-142 ms at 2048 against 154-157 at 4096, 10M points 92.8
+/// against 94.1; 8192 was slower still), while below it the finer grid stays the better one on
+/// clustered input (the GSHHG coastlines 58.2-58.4 ms at 2048 against 60.1-65.0 at 1024, Gaussian 1M +
+/// 100K 33.0-34.7 at 1024 against 35.3-36.2 at 512). For the host, the smallest one >=
 /// sqrt(num_points / 8), between 1/8 and 1/2 cell per point: there the parts insert a missing point
 /// with its flips at about the cost of placing it in the diagram, dualizing and shifting it, so a
 /// coarser grid that leaves more points missing is cheaper in all (measured on 2 cores: 1M uniform
