@@ -335,6 +335,10 @@ Triangulation triangulate_on(std::span<const Point> points, std::span<const Segm
   CpuExecutor executor(options.threads);
   StepTrace trace("triangulate");
 
+  // Declared before device_sites: the device fills them on a thread of its own after its prepare()
+  // returns, and its destructor waits for those copies (DeviceSites::finish_downloads).
+  IndexArray site_vertex;    // per site, its vertex
+  IndexArray site_of_vertex; // per vertex, its site (kNoId for duplicates)
 #if defined(TRIXEL_HAVE_CUDA)
   std::optional<gpu::DeviceSites> device_sites;
   const gpu::HostParallelFor parallel = [&](std::size_t parts, const std::function<void(std::size_t)>& body) {
@@ -381,8 +385,6 @@ Triangulation triangulate_on(std::span<const Point> points, std::span<const Segm
                                                                           : GridFor::host);
   stats.grid_size = m;
   GridMapping mapping;
-  IndexArray site_vertex;             // per site, its vertex
-  IndexArray site_of_vertex;          // per vertex, its site (kNoId for duplicates)
   std::vector<double> true_x, true_y; // per site, its true position (CPU executor)
   std::vector<double> x, y;           // per site, its position in the diagram
   FlagArray kept;                     // per site, 1 when it owns its grid cell
@@ -392,18 +394,6 @@ Triangulation triangulate_on(std::span<const Point> points, std::span<const Segm
   std::vector<std::uint32_t> colour;
   double sites_magnitude = -1.0; // the largest absolute coordinate of the sites, where the device gives it
 #if defined(TRIXEL_HAVE_CUDA)
-  // The device fills site_vertex and site_of_vertex on a thread of its own after prepare() returns;
-  // should anything throw before they are waited for, this waits before they go.
-  struct LateCopiesGuard {
-    std::optional<gpu::DeviceSites>& sites;
-    ~LateCopiesGuard() {
-      if (!sites) return;
-      try {
-        sites->finish_downloads();
-      } catch (...) { // the exception under way is the one to report
-      }
-    }
-  } late_copies_guard{device_sites};
   std::optional<gpu::DeviceVoronoi> device_diagram; // Phase 1's colouring stays on the device for Phase 2
   if (on_gpu) {
     if (device_sites) {
