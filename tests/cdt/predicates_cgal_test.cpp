@@ -52,4 +52,50 @@ TEST(PredicatesCgal, IncircleNearCirclesAgreesWithCgal) {
   EXPECT_EQ(wrong, 0);
 }
 
+// incircle's exact fallback on its own, where the filter is not asked first: points near circles of
+// radii from 1e-150 to 1e50 (products of four differences far below the smallest double, and far
+// above 1), and points of unrelated magnitudes, whose differences have tails (two_diff) and whose
+// products span thousands of binary places.
+TEST(PredicatesCgal, IncircleExactAgreesWithCgalAcrossMagnitudes) {
+  trixel_test::Rng rng(13);
+  int wrong = 0;
+  int count = 0;
+  const auto check = [&](const double* p) {
+    const int expected = static_cast<int>(
+        CGAL::side_of_oriented_circle(P(p[0], p[1]), P(p[2], p[3]), P(p[4], p[5]), P(p[6], p[7])));
+    if (cdt::detail::incircle_exact(p[0], p[1], p[2], p[3], p[4], p[5], p[6], p[7]) != expected) ++wrong;
+    ++count;
+  };
+  for (const double scale : {1e-150, 1e-80, 1e-20, 1.0, 1e20, 1e50}) {
+    for (int i = 0; i < 5000; ++i) {
+      const double cx0 = unit(rng) * 1000 * scale, cy0 = unit(rng) * 1000 * scale;
+      const double r = (0.001 + unit(rng) * 10) * scale;
+      double p[8];
+      for (int k = 0; k < 4; ++k) {
+        const double angle = unit(rng) * 6.283185307179586;
+        p[2 * k] = nudge(cx0 + r * std::cos(angle), rng);
+        p[2 * k + 1] = nudge(cy0 + r * std::sin(angle), rng);
+      }
+      check(p);
+    }
+  }
+  for (int i = 0; i < 20000; ++i) {
+    double p[8];
+    for (double& v : p) {
+      v = std::ldexp(unit(rng) + 0.5, static_cast<int>(rng.range(-200, 190)));
+      if (rng.range(0, 1) != 0) v = -v;
+    }
+    check(p);
+  }
+  // Three corners of a rectangle far from the origin and the fourth a few ulps off the circle.
+  for (int i = 0; i < 5000; ++i) {
+    const double x0 = 1e15 + unit(rng), x1 = x0 + 1e-3 + unit(rng), y0 = unit(rng) * 1e-9, y1 = 3 + unit(rng);
+    double p[8] = {x0, y0, x1, y0, x1, y1, x0, y1};
+    const auto k = static_cast<std::size_t>(6 + rng.range(0, 1));
+    p[k] = nudge(p[k], rng);
+    check(p);
+  }
+  EXPECT_EQ(wrong, 0) << "of " << count;
+}
+
 } // namespace

@@ -5,7 +5,9 @@
 #if defined(__CUDACC__)
 #define CDT_HD __host__ __device__
 #define CDT_HD_INLINE __host__ __device__ __forceinline__
+#define CDT_HD_NOINLINE __host__ __device__ __noinline__ inline
 #else
 #define CDT_HD
 #define CDT_HD_INLINE inline
+#define CDT_HD_NOINLINE inline
 #endif

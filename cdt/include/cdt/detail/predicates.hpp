@@ -2,9 +2,10 @@
 // Exact geometric predicates orient2d and incircle for double coordinates.
 //
 // A floating-point filter with a proven error bound answers almost every call; when it cannot decide,
-// the determinant is evaluated exactly with floating-point expansion arithmetic (sums of
+// the determinant is evaluated exactly: orient2d's with floating-point expansion arithmetic (sums of
 // non-overlapping doubles, after Shewchuk, "Adaptive Precision Floating-Point Arithmetic and Fast
-// Robust Geometric Predicates", 1997). The same code runs on the host and on the device.
+// Robust Geometric Predicates", 1997), incircle's as integer products added in one fixed-point
+// accumulator (incircle_detail). The same code runs on the host and on the device.
 //
 // Error-free transformations need every operation rounded exactly once, so fused multiply-add must
 // not be introduced by the compiler: on the device the arithmetic goes through the __d*_rn
@@ -13,6 +14,9 @@
 //
 // Preconditions: finite coordinates whose magnitude stays below about 1e60 (no overflow of the
 // fourth powers in incircle) and differences that do not underflow.
+
+#include <bit>
+#include <cstdint>
 
 #include "cdt/detail/host_device.hpp"
 
@@ -240,56 +244,178 @@ CDT_HD inline int orient2d(double ax, double ay, double bx, double by, double cx
   return orient2d_exact(ax, ay, bx, by, cx, cy);
 }
 
-/// Exact sign of incircle by expansion arithmetic.
-CDT_HD inline int incircle_exact(double ax, double ay, double bx, double by, double cx, double cy, double dx,
-                                 double dy) {
-  const Expansion<2> adx = exact_diff(ax, dx);
-  const Expansion<2> ady = exact_diff(ay, dy);
-  const Expansion<2> bdx = exact_diff(bx, dx);
-  const Expansion<2> bdy = exact_diff(by, dy);
-  const Expansion<2> cdx = exact_diff(cx, dx);
-  const Expansion<2> cdy = exact_diff(cy, dy);
+// --- incircle's exact fallback: products of four doubles in one fixed-point accumulator --------------
+//
+// Written in the coordinate differences, each an exact two-term expansion (two_diff), incircle's
+// determinant is a sum of at most 192 products of four doubles. Each product is formed exactly in
+// integers (four significands of 53 bits make at most 212) and added at its binary position to one
+// two's-complement accumulator wide enough for any sum of such products of finite doubles: 132 words
+// of 64 bits, 1 KiB. Expansion arithmetic needed expansions of up to 1536 doubles here, a 38 KB stack
+// frame per thread on the device, which the driver reserves for every thread the device can hold
+// (10 GB on the H200 machine) as soon as a kernel with the fallback runs.
 
-  // Cross terms (each at most 16 components) and lifts (each at most 16 components).
-  const auto cross = [](const Expansion<2>& px, const Expansion<2>& py, const Expansion<2>& qx,
-                        const Expansion<2>& qy, Expansion<16>& out) {
-    Expansion<8> l;
-    Expansion<8> r;
-    expansion_product(px, qy, l);
-    expansion_product(qx, py, r);
-    expansion_sum(l, negated(r), out);
-  };
-  const auto lift = [](const Expansion<2>& px, const Expansion<2>& py, Expansion<16>& out) {
-    Expansion<8> xx;
-    Expansion<8> yy;
-    expansion_product(px, px, xx);
-    expansion_product(py, py, yy);
-    expansion_sum(xx, yy, out);
-  };
-  Expansion<16> bc;
-  Expansion<16> ca;
-  Expansion<16> ab;
-  cross(bdx, bdy, cdx, cdy, bc);
-  cross(cdx, cdy, adx, ady, ca);
-  cross(adx, ady, bdx, bdy, ab);
-  Expansion<16> alift;
-  Expansion<16> blift;
-  Expansion<16> clift;
-  lift(adx, ady, alift);
-  lift(bdx, bdy, blift);
-  lift(cdx, cdy, clift);
+namespace incircle_detail {
 
-  Expansion<512> ta;
-  Expansion<512> tb;
-  Expansion<512> tc;
-  expansion_product(alift, bc, ta);
-  expansion_product(blift, ca, tb);
-  expansion_product(clift, ab, tc);
-  Expansion<1024> tab;
-  expansion_sum(ta, tb, tab);
-  Expansion<1536> det;
-  expansion_sum(tab, tc, det);
-  return expansion_sign(det);
+/// The accumulator's words: a product of four doubles is m * 2^e with m < 2^212 and e in
+/// [4 * -1074, 4 * 971], so its bits lie below 212 + 4 * 971 + 4 * 1074 = 8392 counted from 2^-4296;
+/// 192 of them need 8 bits more and the sign one: 8401 bits, 132 words.
+inline constexpr int kWords = 132;
+inline constexpr int kLowestExponent = 4 * -1074;
+
+/// |v| = m * 2^e with an integer significand m < 2^53 (subnormals included).
+struct Scaled {
+  std::uint64_t m;
+  int e;
+  bool negative;
+};
+
+CDT_HD_INLINE Scaled scaled(double v) {
+#if defined(__CUDA_ARCH__)
+  const auto bits = static_cast<std::uint64_t>(__double_as_longlong(v));
+#else
+  const auto bits = std::bit_cast<std::uint64_t>(v);
+#endif
+  const auto biased = static_cast<int>((bits >> 52) & 0x7FF);
+  const std::uint64_t fraction = bits & ((std::uint64_t{1} << 52) - 1);
+  if (biased == 0) return {fraction, -1074, (bits >> 63) != 0};
+  return {fraction | (std::uint64_t{1} << 52), biased - 1075, (bits >> 63) != 0};
+}
+
+/// hi * 2^64 + lo = a * b.
+CDT_HD_INLINE void multiply_words(std::uint64_t a, std::uint64_t b, std::uint64_t& hi, std::uint64_t& lo) {
+#if defined(__CUDA_ARCH__)
+  lo = a * b;
+  hi = __umul64hi(a, b);
+#else
+  __extension__ typedef unsigned __int128 Word2; // -Wpedantic: the compiler's 128-bit integer
+  const Word2 product = static_cast<Word2>(a) * b;
+  lo = static_cast<std::uint64_t>(product);
+  hi = static_cast<std::uint64_t>(product >> 64);
+#endif
+}
+
+/// sum += v; returns the carry out (0 or 1).
+CDT_HD_INLINE std::uint64_t add_word(std::uint64_t& sum, std::uint64_t v) {
+  sum += v;
+  return sum < v ? 1u : 0u;
+}
+
+/// The exact product of two doubles: (hi * 2^64 + lo) * 2^e, below 2^106 * 2^e.
+struct Product2 {
+  std::uint64_t hi;
+  std::uint64_t lo;
+  int e;
+  bool negative;
+};
+
+CDT_HD_INLINE Product2 product2(double a, double b, bool negate = false) {
+  const Scaled x = scaled(a);
+  const Scaled y = scaled(b);
+  Product2 p;
+  multiply_words(x.m, y.m, p.hi, p.lo);
+  p.e = x.e + y.e;
+  p.negative = (x.negative != y.negative) != negate;
+  return p;
+}
+
+/// Adds p * q at its binary position. Carries and borrows past the top word are dropped, as
+/// two's-complement arithmetic does; the sum itself always fits (kWords).
+CDT_HD inline void accumulate(std::uint64_t* words, const Product2& p, const Product2& q) {
+  if ((p.hi | p.lo) == 0 || (q.hi | q.lo) == 0) return;
+  // 128 x 128 bits; the product is below 2^212, so the top word cannot overflow.
+  std::uint64_t h00, l00, h01, l01, h10, l10, h11, l11;
+  multiply_words(p.lo, q.lo, h00, l00);
+  multiply_words(p.lo, q.hi, h01, l01);
+  multiply_words(p.hi, q.lo, h10, l10);
+  multiply_words(p.hi, q.hi, h11, l11);
+  std::uint64_t r[5];
+  r[0] = l00;
+  r[1] = h00;
+  const std::uint64_t carry2 = add_word(r[1], l01) + add_word(r[1], l10);
+  r[2] = h01;
+  const std::uint64_t carry3 = add_word(r[2], h10) + add_word(r[2], l11) + add_word(r[2], carry2);
+  r[3] = h11 + carry3;
+  r[4] = 0;
+  const int offset = p.e + q.e - kLowestExponent;
+  const int first = offset >> 6;
+  const int shift = offset & 63;
+  if (shift != 0) {
+    for (int k = 4; k > 0; --k) r[k] = (r[k] << shift) | (r[k - 1] >> (64 - shift));
+    r[0] <<= shift;
+  }
+  const bool subtract = p.negative != q.negative;
+  std::uint64_t carry = 0; // a borrow when subtracting
+  int k = 0;
+  for (; k < 5; ++k) {
+    std::uint64_t& w = words[first + k];
+    if (subtract) {
+      const std::uint64_t before = w;
+      w = before - r[k] - carry;
+      carry = (before < r[k] || (before == r[k] && carry != 0)) ? 1u : 0u;
+    } else {
+      carry = add_word(w, r[k]) + add_word(w, carry);
+    }
+  }
+  for (int i = first + k; carry != 0 && i < kWords; ++i) {
+    if (subtract) {
+      carry = words[i] == 0 ? 1u : 0u;
+      --words[i];
+    } else {
+      ++words[i];
+      carry = words[i] == 0 ? 1u : 0u;
+    }
+  }
+}
+
+} // namespace incircle_detail
+
+/// Exact sign of incircle's determinant (see incircle_detail): exact for all finite coordinates whose
+/// differences do not overflow.
+CDT_HD_NOINLINE int incircle_exact(double ax, double ay, double bx, double by, double cx, double cy,
+                                   double dx, double dy) {
+  using incircle_detail::accumulate;
+  using incircle_detail::product2;
+  using incircle_detail::Product2;
+  // The differences to d, head and tail: diff[p][axis][k] for p = a, b, c.
+  double diff[3][2][2];
+  const double coords[3][2] = {{ax, ay}, {bx, by}, {cx, cy}};
+  for (int p = 0; p < 3; ++p) {
+    two_diff(coords[p][0], dx, diff[p][0][0], diff[p][0][1]);
+    two_diff(coords[p][1], dy, diff[p][1][0], diff[p][1][1]);
+  }
+  // det = lift(a) * cross(b, c) + lift(b) * cross(c, a) + lift(c) * cross(a, b), with lift(p) =
+  // px^2 + py^2 and cross(q, r) = qx * ry - rx * qy, each spelled out in the differences' terms. The
+  // loops stay loops on the device (unroll 1), each term formed where it is added: the fallback is rare,
+  // and the registers it would hold unrolled would be the kernel's for every thread.
+  std::uint64_t words[incircle_detail::kWords];
+  for (std::uint64_t& w : words) w = 0;
+#if defined(__CUDA_ARCH__)
+#pragma unroll 1
+#endif
+  for (int p = 0; p < 3; ++p) {
+    const int q = p == 2 ? 0 : p + 1;
+    const int r = q == 2 ? 0 : q + 1;
+#if defined(__CUDA_ARCH__)
+#pragma unroll 1
+#endif
+    for (int l = 0; l < 8; ++l) {
+      const int axis = l >> 2;
+      const Product2 lift = product2(diff[p][axis][(l >> 1) & 1], diff[p][axis][l & 1]);
+#if defined(__CUDA_ARCH__)
+#pragma unroll 1
+#endif
+      for (int c = 0; c < 8; ++c) {
+        const int i = (c >> 1) & 1, j = c & 1;
+        const Product2 cross =
+            c < 4 ? product2(diff[q][0][i], diff[r][1][j]) : product2(diff[r][0][i], diff[q][1][j], true);
+        accumulate(words, lift, cross);
+      }
+    }
+  }
+  if ((words[incircle_detail::kWords - 1] >> 63) != 0) return -1;
+  for (const std::uint64_t w : words)
+    if (w != 0) return 1;
+  return 0;
 }
 
 /// Sign of incircle: +1 when d lies strictly inside the circle through the counter-clockwise triangle
