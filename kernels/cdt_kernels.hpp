@@ -74,6 +74,11 @@ void orient2d_signs(const double* coords, int* signs, std::size_t num);
 /// (8 * num doubles). Throws DeviceError on any CUDA failure.
 void incircle_signs(const double* coords, int* signs, std::size_t num);
 
+/// Bytes of local memory (stack) a thread of incircle_signs' kernel takes, exact fallback included:
+/// the driver reserves that much for every thread the device can hold once a kernel with the
+/// fallback runs (the flips' proposal has the same code). Throws DeviceError on any CUDA failure.
+std::size_t incircle_local_bytes();
+
 // --- Phase 1 of gCD on the device, first half: the sites, their order and grid cells ------------------
 
 /// The sites of Phase 1 prepared on the device: what cdt::triangulate does on the host before the

@@ -49,4 +49,10 @@ void incircle_signs(const double* coords, int* signs, std::size_t num) {
   run_batch(incircle_kernel, "incircle_kernel", coords, signs, num, 8);
 }
 
+std::size_t incircle_local_bytes() {
+  cudaFuncAttributes attributes{};
+  CDT_CUDA_CHECK(cudaFuncGetAttributes(&attributes, incircle_kernel));
+  return attributes.localSizeBytes;
+}
+
 } // namespace cdt::gpu

@@ -74,6 +74,11 @@ TEST_F(GpuPredicates, ExactPathOnDuplicatePointGivesZero) {
   EXPECT_EQ(sign, 0);
 }
 
+// The driver reserves a kernel's local memory for every thread the device can hold: incircle's exact
+// path in expansions took 38 KB a thread, 10 GB of the H200's memory from the first flip on. The
+// fixed-point accumulator keeps it near 1.5 KB.
+TEST_F(GpuPredicates, ExactFallbackKeepsTheStackSmall) { EXPECT_LE(cdt::gpu::incircle_local_bytes(), 4096u); }
+
 TEST_F(GpuPredicates, EmptyBatchIsANoOp) {
   cdt::gpu::orient2d_signs(nullptr, nullptr, 0);
   SUCCEED();
