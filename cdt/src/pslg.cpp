@@ -635,21 +635,31 @@ PointSplits find_points_on_segments(const SegmentGrid& grid, const SiteCells& si
       }
     }
   };
-  // Splits are rare: the cells are screened in parallel, and the few with a split scanned again in
-  // order, so the lists come out the same for any thread count.
-  const std::vector<std::uint32_t> cells_with_hits = executor.compact(grid.num_cells(), [&](std::size_t c) {
-    bool any = false;
-    scan_cell(c, [&](std::uint32_t, std::uint32_t, bool) { any = true; });
-    return any;
+  // Splits are rare on most inputs but not on all (a lattice's segments pass through many sites): the
+  // cells count theirs in parallel, then each cell with any scans again into its own stretch of the
+  // list, in cell order, so the lists come out the same for any thread count.
+  const std::size_t num_cells = grid.num_cells();
+  std::vector<std::size_t> offset(num_cells + 1, 0);
+  executor.for_each(num_cells, [&](std::size_t c) {
+    std::size_t count = 0;
+    scan_cell(c, [&](std::uint32_t, std::uint32_t, bool) { ++count; });
+    offset[c] = count;
   });
-  for (const std::uint32_t c : cells_with_hits) {
+  hits.resize(executor.exclusive_scan(offset));
+  std::vector<std::uint8_t> hit_snapped(hits.size(), 0);
+  executor.for_each(num_cells, [&](std::size_t c) {
+    std::size_t at = offset[c];
+    if (at == offset[c + 1]) return;
     scan_cell(c, [&](std::uint32_t s, std::uint32_t v, bool snapped) {
-      hits.emplace_back(s, v);
-      if (snapped) {
-        splits.snapped[s] = 1;
-        splits.any_snapped = true;
-      }
+      hits[at] = {s, v};
+      hit_snapped[at] = snapped ? 1 : 0;
+      ++at;
     });
+  });
+  for (std::size_t k = 0; k < hits.size(); ++k) {
+    if (hit_snapped[k] == 0) continue;
+    splits.snapped[hits[k].first] = 1;
+    splits.any_snapped = true;
   }
   splits.lists = group_splits(hits, segs, vertices, executor);
   return splits;
@@ -1072,14 +1082,18 @@ std::vector<WorkSegment> cut_few_segments(const std::vector<WorkSegment>& segs, 
     Place place;
     WorkSegment piece;
   };
-  std::vector<Fresh> fresh;
-  for (const std::uint32_t s : cut) {
-    for_each_piece(segs[s], cuts.of(s), bent[s] != 0, CutAt::crossings,
-                   [&](std::size_t, const WorkSegment& p) {
-                     fresh.push_back({Place{}, p});
-                   });
-  }
-  executor.for_each(fresh.size(), [&](std::size_t k) { fresh[k].place = place_of(fresh[k].piece); });
+  // Counted, then made into each segment's own stretch (in parallel: "few" can be a million).
+  std::vector<std::size_t> first(cut.size() + 1, 0);
+  const auto pieces_of = [&](std::size_t k, auto&& f) {
+    const std::uint32_t s = cut[k];
+    return for_each_piece(segs[s], cuts.of(s), bent[s] != 0, CutAt::crossings, f);
+  };
+  executor.for_each(cut.size(),
+                    [&](std::size_t k) { first[k] = pieces_of(k, [](std::size_t, const WorkSegment&) {}); });
+  std::vector<Fresh> fresh(executor.exclusive_scan(first));
+  executor.for_each(cut.size(), [&](std::size_t k) {
+    pieces_of(k, [&](std::size_t i, const WorkSegment& p) { fresh[first[k] + i] = {place_of(p), p}; });
+  });
   executor.sort(fresh, [](const Fresh& p, const Fresh& q) {
     return p.place != q.place ? p.place < q.place : p.piece.label < q.piece.label;
   });
@@ -1096,7 +1110,7 @@ std::vector<WorkSegment> cut_few_segments(const std::vector<WorkSegment>& segs, 
   // The uncut segments keep their order. After the crossing tests, they are clean unless bent by a
   // snap in this round.
   std::vector<std::uint8_t> is_cut(segs.size(), 0);
-  for (const std::uint32_t s : cut) is_cut[s] = 1;
+  executor.for_each(cut.size(), [&](std::size_t k) { is_cut[cut[k]] = 1; });
   const std::vector<std::uint32_t> kept =
       executor.compact(segs.size(), [&](std::size_t s) { return is_cut[s] == 0; });
   std::vector<WorkSegment> rest(kept.size());
