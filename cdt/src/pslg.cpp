@@ -732,19 +732,31 @@ std::vector<std::pair<std::uint32_t, std::uint32_t>> find_crossings(const Segmen
     });
     crossing = executor.compact(segs.size(), [&](std::size_t k) { return marked[k] != 0; });
   }
-  std::vector<std::pair<std::uint32_t, std::uint32_t>> crossings;
-  std::vector<std::uint32_t> tested_with(segs.size(), std::numeric_limits<std::uint32_t>::max());
-  for (const std::uint32_t i : crossing) {
+  // The pairs of each lower segment i, its partners j in the order its cells first meet them (a pair
+  // met in two cells is listed once): counted, then written into i's own stretch, in parallel.
+  const auto partners_of = [&](std::uint32_t i, std::vector<std::uint32_t>& js) {
+    js.clear();
     const bool dirty = segs[i].dirty;
     grid.for_each_cell(ends[i][0], ends[i][1], [&](std::size_t cell) {
-      for (std::uint32_t j : grid.segments_in(cell)) {
-        if (j <= i || tested_with[j] == i) continue;
-        tested_with[j] = i;
-        if (!dirty && !segs[j].dirty) continue;
-        if (boxes_meet(i, j) && properly_cross(ends[i], ends[j])) crossings.emplace_back(i, j);
+      for (const std::uint32_t j : grid.segments_in(cell)) {
+        if (j <= i || (!dirty && !segs[j].dirty)) continue;
+        if (!boxes_meet(i, j) || !properly_cross(ends[i], ends[j])) continue;
+        if (std::find(js.begin(), js.end(), j) == js.end()) js.push_back(j);
       }
     });
-  }
+  };
+  std::vector<std::size_t> first(crossing.size() + 1, 0);
+  executor.for_each(crossing.size(), [&](std::size_t k) {
+    std::vector<std::uint32_t> js;
+    partners_of(crossing[k], js);
+    first[k] = js.size();
+  });
+  std::vector<std::pair<std::uint32_t, std::uint32_t>> crossings(executor.exclusive_scan(first));
+  executor.for_each(crossing.size(), [&](std::size_t k) {
+    std::vector<std::uint32_t> js;
+    partners_of(crossing[k], js);
+    for (std::size_t m = 0; m < js.size(); ++m) crossings[first[k] + m] = {crossing[k], js[m]};
+  });
   return crossings;
 }
 
