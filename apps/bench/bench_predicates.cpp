@@ -105,5 +105,11 @@ int main(int argc, char** argv) {
     }
 #endif
   }
+#if defined(TRIXEL_HAVE_CUDA)
+  // What the exact fallback costs in device memory: the driver reserves this much for every thread
+  // the device can hold once a kernel that may take the fallback runs.
+  if (cdt::gpu::device_count() > 0)
+    std::printf("\nincircle kernel: %zu bytes of local memory a thread\n", cdt::gpu::incircle_local_bytes());
+#endif
   return 0;
 }
