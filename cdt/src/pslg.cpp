@@ -733,9 +733,8 @@ std::vector<std::pair<std::uint32_t, std::uint32_t>> find_crossings(const Segmen
     crossing = executor.compact(segs.size(), [&](std::size_t k) { return marked[k] != 0; });
   }
   // The pairs of each lower segment i, its partners j in the order its cells first meet them (a pair
-  // met in two cells is listed once): counted, then written into i's own stretch, in parallel.
+  // met in two cells is listed once): found in parallel, then joined in the order of i.
   const auto partners_of = [&](std::uint32_t i, std::vector<std::uint32_t>& js) {
-    js.clear();
     const bool dirty = segs[i].dirty;
     grid.for_each_cell(ends[i][0], ends[i][1], [&](std::size_t cell) {
       for (const std::uint32_t j : grid.segments_in(cell)) {
@@ -745,17 +744,16 @@ std::vector<std::pair<std::uint32_t, std::uint32_t>> find_crossings(const Segmen
       }
     });
   };
+  std::vector<std::vector<std::uint32_t>> partners(crossing.size());
   std::vector<std::size_t> first(crossing.size() + 1, 0);
   executor.for_each(crossing.size(), [&](std::size_t k) {
-    std::vector<std::uint32_t> js;
-    partners_of(crossing[k], js);
-    first[k] = js.size();
+    partners_of(crossing[k], partners[k]);
+    first[k] = partners[k].size();
   });
   std::vector<std::pair<std::uint32_t, std::uint32_t>> crossings(executor.exclusive_scan(first));
   executor.for_each(crossing.size(), [&](std::size_t k) {
-    std::vector<std::uint32_t> js;
-    partners_of(crossing[k], js);
-    for (std::size_t m = 0; m < js.size(); ++m) crossings[first[k] + m] = {crossing[k], js[m]};
+    for (std::size_t m = 0; m < partners[k].size(); ++m)
+      crossings[first[k] + m] = {crossing[k], partners[k][m]};
   });
   return crossings;
 }
