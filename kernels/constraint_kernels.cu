@@ -6,6 +6,9 @@
 // on short lists run in one thread block, on middle ones in one cooperative grid (ConstraintLoop, run by
 // TeamRounds), the same steps.
 
+#include <cooperative_groups.h>
+#include <cooperative_groups/reduce.h>
+
 #include <algorithm>
 #include <cstddef>
 #include <cstdint>
@@ -304,8 +307,17 @@ ConstraintStats insert_constraints(DeviceMesh::State& s, std::span<const Constra
       if (stats.outer_iterations == 1) {
         unsigned long long* sum = d_sum.data();
         executor.fill_bytes(sum, 0, 1);
+        // One atomic a warp: one a piece, all on one address, took 1.3 ms for the coastlines' 1.8
+        // million pieces (H200).
         executor.for_each(
-            np, [=] __device__(std::size_t k) { atomicAdd(sum, static_cast<unsigned long long>(cross[k])); },
+            np,
+            [=] __device__(std::size_t k) {
+              namespace cg = cooperative_groups;
+              const cg::coalesced_group active = cg::coalesced_threads();
+              const unsigned long long total = cg::reduce(active, static_cast<unsigned long long>(cross[k]),
+                                                          cg::plus<unsigned long long>());
+              if (active.thread_rank() == 0) atomicAdd(sum, total);
+            },
             "sum_crossings");
         unsigned long long total = 0;
         executor.download(&total, sum, 1);

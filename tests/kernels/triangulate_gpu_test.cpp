@@ -259,6 +259,18 @@ TEST_F(TriangulateGpu, BadInputsGetTheCpuBackendsErrors) {
   cases.push_back({"no points", {}, {}, int(Kind::too_few_points), 0});
   cases.push_back({"two points", {{0, 0}, {1, 1}}, {{0, 1}}, int(Kind::too_few_points), 2});
   cases.push_back({"collinear", {{0, 0}, {1, 1}, {2, 2}, {3, 3}}, {}, int(Kind::all_collinear), 4});
+  // The first two points one: the line is the first and the next distinct point's.
+  cases.push_back({"collinear, copies first",
+                   {{0, 0}, {0, 0}, {2, 2}, {0, 0}, {1, 1}, {-3, -3}},
+                   {},
+                   int(Kind::all_collinear),
+                   4});
+  cases.push_back({"copies first, then off the line", {{0, 0}, {0, 0}, {2, 2}, {1, 1}, {1, 0}}, {}, none, 0});
+  cases.push_back({"four copies of two points",
+                   {{1, 1}, {1, 1}, {2, 3}, {1, 1}},
+                   {{0, 2}},
+                   int(Kind::too_few_points),
+                   2});
   std::size_t zero_length_seen = 0;
   for (const Case& c : cases) {
     for (const auto crossings : {cdt::CrossingSegments::resolve, cdt::CrossingSegments::reject}) {
