@@ -11,6 +11,31 @@
 
 namespace cdt::gpu {
 
+namespace detail {
+
+/// A bounding box; extended point by point.
+struct Extent {
+  double min_x, min_y, max_x, max_y;
+
+  __host__ __device__ void add(double x, double y) {
+    min_x = x < min_x ? x : min_x;
+    min_y = y < min_y ? y : min_y;
+    max_x = x > max_x ? x : max_x;
+    max_y = y > max_y ? y : max_y;
+  }
+  __host__ __device__ void add(const Extent& e) {
+    add(e.min_x, e.min_y);
+    add(e.max_x, e.max_y);
+  }
+};
+
+/// The box of the points (x[i], y[i]) and, when x2 is given, (x2[i], y2[i]), i in [0, n), n >= 1: a
+/// block's part each on the device, the parts merged on the host (waits for them).
+Extent box_of(CudaExecutor& executor, std::size_t n, const double* x, const double* y,
+              const double* x2 = nullptr, const double* y2 = nullptr);
+
+} // namespace detail
+
 struct DeviceSites::State {
   /// Declared first: destroyed after the buffers queued on its stream. Mutable: copies to the host
   /// from a const DeviceSites queue on it.

@@ -35,22 +35,6 @@ using ::cdt::detail::MissingPoint;
 namespace detail {
 namespace {
 
-/// A bounding box; extended point by point.
-struct Extent {
-  double min_x, min_y, max_x, max_y;
-
-  __host__ __device__ void add(double x, double y) {
-    min_x = x < min_x ? x : min_x;
-    min_y = y < min_y ? y : min_y;
-    max_x = x > max_x ? x : max_x;
-    max_y = y > max_y ? y : max_y;
-  }
-  __host__ __device__ void add(const Extent& e) {
-    add(e.min_x, e.min_y);
-    add(e.max_x, e.max_y);
-  }
-};
-
 /// Vertex maps of at least this many bytes come down on a thread of their own (prepare_sites).
 constexpr std::size_t kLateDownloadBytes = std::size_t{4} << 20;
 
@@ -77,10 +61,10 @@ __global__ void box_kernel(std::size_t n, const double* x, const double* y, cons
   if (threadIdx.x == 0) out[blockIdx.x] = part[0];
 }
 
-/// The box of the points (x[i], y[i]) and, when x2 is given, (x2[i], y2[i]), i in [0, n), n >= 1: a
-/// block's part each on the device, the parts merged here.
-Extent box_of(CudaExecutor& executor, std::size_t n, const double* x, const double* y,
-              const double* x2 = nullptr, const double* y2 = nullptr) {
+} // namespace
+
+Extent box_of(CudaExecutor& executor, std::size_t n, const double* x, const double* y, const double* x2,
+              const double* y2) {
   DeviceBuffer<Extent> d_parts(kBoxBlocks);
   box_kernel<<<kBoxBlocks, kBoxThreads, 0, executor.stream()>>>(n, x, y, x2, y2, d_parts.data());
   CDT_CUDA_CHECK_LAUNCH("site_box");
@@ -90,6 +74,8 @@ Extent box_of(CudaExecutor& executor, std::size_t n, const double* x, const doub
   for (const Extent& p : parts) all.add(p);
   return all;
 }
+
+namespace {
 
 /// The vertices go up as they are (x, y pairs); the list of sites only when some vertex is not a site
 /// (a duplicate).

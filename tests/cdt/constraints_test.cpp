@@ -18,6 +18,7 @@
 #include "cdt/errors.hpp"
 #include "executor/cpu_executor.hpp"
 #include "gcd/flip.hpp"
+#include "gcd/insert.hpp"
 #include "gcd/part_lawson.hpp"
 #include "mesh_test_util.hpp"
 #include "pslg_generators.hpp"
@@ -872,3 +873,113 @@ TEST(ConstraintOneByOne, ViolatedPreconditionsThrowInsteadOfLooping) {
 }
 
 } // namespace
+
+// A long piece's walk cut into parts (the GPU backend's, walk_entry and walk_piece_part, each part
+// starting in the triangle that holds a point of the piece and ending before the next part's) marks
+// the triangles the whole walk marks, counts them once and ends with its status: on a Delaunay mesh of
+// random points and of a lattice (vertices on pieces, corners on the piece's line), with some edges
+// constraints, for pieces between random vertices.
+TEST(ConstraintWalk, PartsOfALongWalkMakeTheWholeWalk) {
+  trixel_gen::Random rng(91);
+  std::vector<double> x, y;
+  for (int i = 0; i < 2500; ++i) {
+    x.push_back(rng.unit());
+    y.push_back(rng.unit());
+  }
+  for (int i = 0; i < 30; ++i) {
+    for (int j = 0; j < 30; ++j) {
+      x.push_back(1.5 + i / 30.0);
+      y.push_back(j / 30.0);
+    }
+  }
+  Mesh mesh = trixel_test::sweep_triangulate(x, y);
+  CpuExecutor executor(2);
+  flip_to_delaunay(mesh, executor);
+  // Some edges constraints, both sides.
+  for (std::uint32_t e = 0; e < mesh.adj.size(); ++e) {
+    if (mesh.adj[e] != kNoId && e < mesh.adj[e] && rng.next() % 40 == 0)
+      mesh.seg[e] = mesh.seg[mesh.adj[e]] = 7;
+  }
+  const MeshView m = mesh.view();
+  const auto n = static_cast<std::uint32_t>(x.size());
+  std::size_t compared = 0, split = 0, errors = 0, skipped_waypoints = 0, entries_checked = 0;
+  for (int trial = 0; trial < 3000; ++trial) {
+    const auto a = static_cast<std::uint32_t>(rng.next() % n);
+    const auto b = static_cast<std::uint32_t>(rng.next() % n);
+    if (a == b) continue;
+    std::vector<std::uint32_t> whole(mesh.num_slots(), 0), parts(mesh.num_slots(), 0);
+    std::uint32_t present = kNoId, crossings = 0;
+    const ConstraintStatus expected = walk_piece(
+        m, a, b, [&](std::uint32_t t) { ++whole[t]; }, present, crossings);
+    // Waypoints at q - 1 inner points of the piece, located from a random vertex.
+    const int q = 2 + static_cast<int>(rng.next() % 12);
+    std::vector<std::uint32_t> start;
+    std::vector<WalkEntry> entry;
+    for (int j = 1; j < q; ++j) {
+      const double s = static_cast<double>(j) / q;
+      const double px = m.x[a] + s * (m.x[b] - m.x[a]), py = m.y[a] + s * (m.y[b] - m.y[a]);
+      const PointLocation loc = locate_point(m, static_cast<std::uint32_t>(rng.next() % n), px, py);
+      WalkEntry at;
+      if (loc.status == WorkStatus::ok && walk_entry(m, a, b, loc.tri, at)) {
+        // Parts must come in the piece's order; a located triangle met again is one part.
+        if (std::find(start.begin(), start.end(), loc.tri) == start.end()) {
+          start.push_back(loc.tri);
+          entry.push_back(at);
+        }
+      } else {
+        ++skipped_waypoints;
+      }
+    }
+    std::uint32_t part_present = kNoId, total = 0, count = 0;
+    bool met = false;
+    const auto mark = [&](std::uint32_t t) { ++parts[t]; };
+    ConstraintStatus got =
+        walk_piece(m, a, b, mark, part_present, count, start.empty() ? kNoId : start[0], &met);
+    total += count;
+    bool in_order = start.empty() || got != ConstraintStatus::ok || met;
+    std::vector<ConstraintStatus> statuses{got};
+    for (std::size_t j = 0; j < start.size(); ++j) {
+      const std::uint32_t stop = j + 1 < start.size() ? start[j + 1] : kNoId;
+      bool met_stop = false;
+      const ConstraintStatus s = walk_piece_part(m, a, b, start[j], entry[j], stop, mark, count, met_stop);
+      total += count;
+      statuses.push_back(s);
+      if (s == ConstraintStatus::ok && stop != kNoId && !met_stop) in_order = false;
+    }
+    if (!in_order) continue; // the located parts out of order: the backend walks such a piece whole
+    ++compared;
+    if (!start.empty()) ++split;
+    ConstraintStatus first = ConstraintStatus::ok;
+    for (const ConstraintStatus s : statuses) {
+      if (s != ConstraintStatus::ok) {
+        first = s;
+        break;
+      }
+    }
+    EXPECT_EQ(first, expected) << "piece " << a << " -> " << b;
+    if (expected != ConstraintStatus::ok) {
+      ++errors;
+      continue;
+    }
+    EXPECT_EQ(total, crossings) << "piece " << a << " -> " << b;
+    for (std::uint32_t t = 0; t < mesh.num_slots(); ++t) {
+      ASSERT_EQ(parts[t], whole[t]) << "piece " << a << " -> " << b << ", triangle " << t;
+    }
+    if (trial % 6 != 0) continue;
+    // walk_entry accepts exactly the triangles the walk crosses with no corner on the piece's line.
+    for (std::uint32_t t = 0; t < mesh.num_slots(); ++t) {
+      bool corner_on_line = false;
+      for (std::uint32_t i = 0; i < 3; ++i)
+        corner_on_line = corner_on_line || trixel_test::orient_of(mesh, a, b, m.v(t, i)) == 0;
+      WalkEntry at;
+      ASSERT_EQ(walk_entry(m, a, b, t, at), whole[t] == 1 && !corner_on_line)
+          << "piece " << a << " -> " << b << ", triangle " << t;
+      ++entries_checked;
+    }
+  }
+  EXPECT_GT(entries_checked, 1000000u);
+  EXPECT_GT(compared, 2500u);
+  EXPECT_GT(split, 1500u);
+  EXPECT_GT(errors, 100u);
+  EXPECT_GT(skipped_waypoints, 10u);
+}

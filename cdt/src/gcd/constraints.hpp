@@ -393,12 +393,48 @@ CDT_HD_INLINE std::uint32_t find_mesh_edge(const MeshView& m, std::uint32_t u, s
   return edge;
 }
 
+/// The walk of a piece a -> b from edge `crossed` on (the encoded edge through which it leaves a triangle
+/// already marked; l and r its ends, left and right of a -> b) towards b: calls mark(t) on every triangle
+/// it enters and counts them in `crossings`, until b, or until it is about to enter triangle `stop`
+/// (not marked; kNoId for none), which sets met_stop. Reads the mesh only.
+template <class MarkFn>
+CDT_HD ConstraintStatus walk_piece_on(const MeshView& m, std::uint32_t a, std::uint32_t b,
+                                      std::uint32_t crossed, std::uint32_t l, std::uint32_t r,
+                                      std::uint32_t stop, MarkFn&& mark, std::uint32_t& crossings,
+                                      bool& met_stop) {
+  for (std::uint32_t steps = 0; steps <= m.num_slots; ++steps) {
+    if (m.seg[crossed] != kNoId) return ConstraintStatus::crosses_constraint;
+    const std::uint32_t e = m.adj[crossed];
+    if (e == kNoId) return ConstraintStatus::leaves_mesh;
+    const std::uint32_t n = edge_tri(e);
+    if (n == stop) {
+      met_stop = true;
+      return ConstraintStatus::ok;
+    }
+    const std::uint32_t apex = m.v(n, edge_index(e));
+    mark(n);
+    ++crossings;
+    if (apex == b) return ConstraintStatus::ok;
+    const int side = orient_vertices(m, a, b, apex);
+    if (side == 0) return ConstraintStatus::vertex_on_piece;
+    // The piece leaves n through the edge joining the apex to the crossed edge's endpoint on the other
+    // side, which is the edge opposite the endpoint on the apex's side.
+    const std::uint32_t opposite = m.index_of(n, side > 0 ? l : r);
+    if (opposite == 3) return ConstraintStatus::corrupt_mesh;
+    crossed = edge_id(n, opposite);
+    (side > 0 ? l : r) = apex;
+  }
+  return ConstraintStatus::corrupt_mesh;
+}
+
 /// Section 4.1 for one piece a -> b: finds the triangle of a's fan that the piece leaves a through and
 /// walks to b, calling mark(t) on every triangle crossed and counting them in `crossings`. Reads the mesh
 /// only. Returns present (with the encoded edge a -> b side in present_edge) when the piece is an edge.
+/// With `stop` (a triangle the piece crosses), the walk ends before it (walk_piece_on; met_stop tells).
 template <class MarkFn>
 CDT_HD ConstraintStatus walk_piece(const MeshView& m, std::uint32_t a, std::uint32_t b, MarkFn&& mark,
-                                   std::uint32_t& present_edge, std::uint32_t& crossings) {
+                                   std::uint32_t& present_edge, std::uint32_t& crossings,
+                                   std::uint32_t stop = kNoId, bool* met_stop = nullptr) {
   present_edge = kNoId;
   crossings = 0;
   const std::uint32_t start = m.vert_tri[a];
@@ -441,29 +477,77 @@ CDT_HD ConstraintStatus walk_piece(const MeshView& m, std::uint32_t a, std::uint
   }
   // Walk: keep the crossed edge's endpoints on the left (l) and right (r) of a -> b.
   const std::uint32_t k = m.index_of(first, a);
-  std::uint32_t r = m.v(first, next3(k)), l = m.v(first, prev3(k));
-  std::uint32_t crossed = edge_id(first, k);
+  if (first == stop) { // the first waypoint's triangle is a's own
+    if (met_stop != nullptr) *met_stop = true;
+    return ConstraintStatus::ok;
+  }
   mark(first);
   crossings = 1;
-  for (std::uint32_t steps = 0; steps <= m.num_slots; ++steps) {
-    if (m.seg[crossed] != kNoId) return ConstraintStatus::crosses_constraint;
-    const std::uint32_t e = m.adj[crossed];
-    if (e == kNoId) return ConstraintStatus::leaves_mesh;
-    const std::uint32_t n = edge_tri(e);
-    const std::uint32_t apex = m.v(n, edge_index(e));
-    mark(n);
-    ++crossings;
-    if (apex == b) return ConstraintStatus::ok;
-    const int side = orient_vertices(m, a, b, apex);
-    if (side == 0) return ConstraintStatus::vertex_on_piece;
-    // The piece leaves n through the edge joining the apex to the crossed edge's endpoint on the other
-    // side, which is the edge opposite the endpoint on the apex's side.
-    const std::uint32_t opposite = m.index_of(n, side > 0 ? l : r);
-    if (opposite == 3) return ConstraintStatus::corrupt_mesh;
-    crossed = edge_id(n, opposite);
-    (side > 0 ? l : r) = apex;
+  bool stopped = false;
+  const ConstraintStatus status = walk_piece_on(m, a, b, edge_id(first, k), m.v(first, prev3(k)),
+                                                m.v(first, next3(k)), stop, mark, crossings, stopped);
+  if (met_stop != nullptr) *met_stop = stopped;
+  return status;
+}
+
+/// Where a part of a long piece's walk may start: a triangle t whose interior the piece a -> b crosses
+/// with no vertex of t on the line through a and b, a and b outside t, the piece entering t through edge
+/// `entry` (from l, left of a -> b, to r, right of it, as walk_piece_on keeps them).
+struct WalkEntry {
+  std::uint32_t entry = 3;
+  std::uint32_t l = kNoId;
+  std::uint32_t r = kNoId;
+};
+
+/// Whether triangle t is such a start for piece a -> b (WalkEntry), found by exact orientation tests:
+/// the line through a and b separates one corner of t from the other two, and the piece's passage
+/// through t lies strictly between a and b (a behind the edge it enters by, b beyond the one it leaves
+/// by). Then walk_piece_part from t makes the walk's part from t on; any t that passes will do.
+CDT_HD inline bool walk_entry(const MeshView& m, std::uint32_t a, std::uint32_t b, std::uint32_t t,
+                              WalkEntry& out) {
+  int side[3];
+  for (std::uint32_t i = 0; i < 3; ++i) {
+    side[i] = orient_vertices(m, a, b, m.v(t, i));
+    if (side[i] == 0) return false;
   }
-  return ConstraintStatus::corrupt_mesh;
+  if (side[0] == side[1] && side[1] == side[2]) return false;
+  // The corner alone on its side of the line.
+  const std::uint32_t k = side[0] == side[1] ? 2u : side[0] == side[2] ? 1u : 0u;
+  // Counter-clockwise corners: the piece enters by the edge from the lone corner to the next one when
+  // the lone corner is on the left, else by the edge from the previous one to the lone corner.
+  const bool lone_left = side[k] > 0;
+  const std::uint32_t l = lone_left ? m.v(t, k) : m.v(t, prev3(k));
+  const std::uint32_t r = lone_left ? m.v(t, next3(k)) : m.v(t, k);
+  const std::uint32_t entry = lone_left ? prev3(k) : next3(k);
+  const std::uint32_t apex = m.v(t, entry);
+  // a behind the entry edge (across it from the apex: the piece crosses l -> r from its right to its
+  // left, where t lies); b beyond the exit edge, the other edge at the lone corner (across it from the
+  // corner not on it).
+  const int a_side = orient_vertices(m, l, r, a), apex_side = orient_vertices(m, l, r, apex);
+  if (a_side == 0 || a_side == apex_side) return false;
+  const std::uint32_t p = lone_left ? l : r; // the lone corner: the exit edge is (apex, p)
+  const std::uint32_t q = lone_left ? r : l; // the corner not on it
+  const int b_side = orient_vertices(m, apex, p, b), q_side = orient_vertices(m, apex, p, q);
+  if (b_side == 0 || b_side == q_side) return false;
+  out = WalkEntry{entry, l, r};
+  return true;
+}
+
+/// A part of piece a -> b's walk: from triangle t (a walk_entry start; marked and counted) towards b,
+/// until b or until about to enter `stop` (walk_piece_on).
+template <class MarkFn>
+CDT_HD ConstraintStatus walk_piece_part(const MeshView& m, std::uint32_t a, std::uint32_t b, std::uint32_t t,
+                                        const WalkEntry& at, std::uint32_t stop, MarkFn&& mark,
+                                        std::uint32_t& crossings, bool& met_stop) {
+  crossings = 1;
+  mark(t);
+  std::uint32_t l = at.l, r = at.r;
+  const std::uint32_t apex = m.v(t, at.entry);
+  const int side = orient_vertices(m, a, b, apex); // not 0: walk_entry checked every corner
+  const std::uint32_t opposite = m.index_of(t, side > 0 ? l : r);
+  if (opposite == 3) return ConstraintStatus::corrupt_mesh;
+  (side > 0 ? l : r) = apex;
+  return walk_piece_on(m, a, b, edge_id(t, opposite), l, r, stop, mark, crossings, met_stop);
 }
 
 } // namespace cdt::detail
