@@ -14,7 +14,6 @@
 #include <exception>
 #include <limits>
 #include <optional>
-#include <queue>
 #include <stdexcept>
 #include <thread>
 #include <utility>
@@ -31,9 +30,16 @@ struct Vec {
   friend bool operator==(const Vec&, const Vec&) = default;
 };
 
-// Exact for any coordinates (orient2d's filter and expansion fallback), so placed points off the pixel
-// grid are tested as exactly as pixel centres.
+// Exact for any coordinates (orient2d's expansion fallback), so placed points off the pixel grid are
+// tested as exactly as pixel centres. orient2d's own filter, with the same error bound, goes by the
+// products' signs first; here one test on the magnitudes settles almost every call, without the
+// branches on signs that the tests' unpredictable outcomes make costly.
 int orient(const Vec& a, const Vec& b, const Vec& c) {
+  const double left = (a.x - c.x) * (b.y - c.y);
+  const double right = (a.y - c.y) * (b.x - c.x);
+  const double det = left - right;
+  if (std::abs(det) > cdt::detail::kOrientBound * (std::abs(left) + std::abs(right)))
+    return (det > 0.0) - (det < 0.0);
   return cdt::detail::orient2d(a.x, a.y, b.x, b.y, c.x, c.y);
 }
 
@@ -152,27 +158,36 @@ public:
 
   // Calls f(id) once for every live segment in the cells met by the polygon (2 or 3 points, convex)
   // whose bounding box meets `box`. The box test dismisses most segments, so it comes before the
-  // check for one seen in an earlier cell.
+  // check for one seen in an earlier cell. Whether an entry is alive and whether it meets the box
+  // vary unpredictably from one entry to the next: the cells are scanned without branching on them,
+  // live entries moved up over dead ones and the ids of those that meet the box gathered, and only
+  // then is f called.
   template <class F>
   void query(const std::array<Vec, 3>& poly, int n, const Box& box, std::size_t num_segments,
              const std::vector<std::uint8_t>& alive, F&& f) {
     ++stamp_;
     if (seen_.size() < num_segments) seen_.resize(num_segments * 2, 0);
+    std::size_t num_hits = 0;
     for_cells(poly, n, [&](std::vector<Entry>& cell) {
-      for (std::size_t i = 0; i < cell.size();) {
-        const Entry& e = cell[i];
-        if (!alive[e.id]) {
-          cell[i] = cell.back();
-          cell.pop_back();
-          continue;
-        }
-        ++i;
-        if (e.x1 < box.x0 || e.x0 > box.x1 || e.y1 < box.y0 || e.y0 > box.y1) continue;
-        if (seen_[e.id] == stamp_) continue;
-        seen_[e.id] = stamp_;
-        f(e.id);
+      if (hits_.size() < num_hits + cell.size()) hits_.resize(2 * (num_hits + cell.size()));
+      std::size_t kept = 0;
+      for (std::size_t i = 0; i < cell.size(); ++i) {
+        const Entry e = cell[i];
+        const bool live = alive[e.id] != 0;
+        cell[kept] = e;
+        kept += live;
+        const bool meets = (e.x1 >= box.x0) & (e.x0 <= box.x1) & (e.y1 >= box.y0) & (e.y0 <= box.y1);
+        hits_[num_hits] = e.id;
+        num_hits += live & meets;
       }
+      cell.resize(kept);
     });
+    for (std::size_t i = 0; i < num_hits; ++i) {
+      const std::uint32_t id = hits_[i];
+      if (seen_[id] == stamp_) continue;
+      seen_[id] = stamp_;
+      f(id);
+    }
   }
 
 private:
@@ -202,18 +217,16 @@ private:
     }
     const int r0 = row(ymin - margin);
     const int r1 = row(ymax + margin);
-    if (r0 == r1) { // most polygons of image chains lie within one cell
+    if (r0 == r1) { // most polygons of image chains lie within one row: its cells are their extent's
       double xmin = poly[0].x;
       double xmax = poly[0].x;
       for (int i = 1; i < n; ++i) {
         xmin = std::min(xmin, poly[i].x);
         xmax = std::max(xmax, poly[i].x);
       }
-      const int c0 = col(xmin - margin);
-      if (c0 == col(xmax + margin)) {
-        f(cells_[static_cast<std::size_t>(r0) * nx_ + c0]);
-        return;
-      }
+      const int c1 = col(xmax + margin);
+      for (int c = col(xmin - margin); c <= c1; ++c) f(cells_[static_cast<std::size_t>(r0) * nx_ + c]);
+      return;
     }
     for (int r = r0; r <= r1; ++r) {
       const double band_lo = std::max(ymin, lo_.y + r * cell_ - margin);
@@ -251,6 +264,7 @@ private:
   int ny_ = 1;
   std::vector<std::vector<Entry>> cells_;
   std::vector<std::uint32_t> seen_;
+  std::vector<std::uint32_t> hits_;
   std::uint32_t stamp_ = 0;
 };
 
@@ -291,6 +305,45 @@ struct Candidate {
   std::uint64_t cost_bits;
   std::uint64_t place; // chain << 32 | vertex
   std::uint32_t version;
+};
+
+// The candidates of a pass, cheapest first. Most are evaluated once, when the pass starts, and taken
+// once: those are sorted, which costs much less than a heap's pushes and pops, and only those
+// evaluated again after a removal go into a heap, much smaller. The next candidate is the cheaper of
+// the two fronts.
+class CandidateQueue {
+public:
+  bool empty() const { return next_ == sorted_.size() && heap_.empty(); }
+  const Candidate& top() const { return from_sorted() ? sorted_[next_] : heap_.front(); }
+
+  // Candidates of the start of the pass, taken in before sort().
+  void add(const Candidate& c) { sorted_.push_back(c); }
+  void sort() {
+    std::sort(sorted_.begin(), sorted_.end(), [](const Candidate& a, const Candidate& b) { return b < a; });
+  }
+
+  void push(const Candidate& c) {
+    heap_.push_back(c);
+    std::push_heap(heap_.begin(), heap_.end());
+  }
+
+  void pop() {
+    if (from_sorted()) {
+      ++next_;
+    } else {
+      std::pop_heap(heap_.begin(), heap_.end());
+      heap_.pop_back();
+    }
+  }
+
+private:
+  bool from_sorted() const {
+    return next_ < sorted_.size() && (heap_.empty() || heap_.front() < sorted_[next_]);
+  }
+
+  std::vector<Candidate> sorted_;
+  std::size_t next_ = 0;
+  std::vector<Candidate> heap_; // a max-heap of Candidate's order: the cheapest on top
 };
 
 constexpr std::uint32_t kNoSegment = std::numeric_limits<std::uint32_t>::max();
@@ -463,13 +516,14 @@ public:
     // that were blocked: only they are evaluated again.
     std::vector<Candidate> blocked;
     for (int pass = 0; pass < 8; ++pass) {
-      std::priority_queue<Candidate> queue;
+      CandidateQueue queue;
       if (pass == 0) {
         for (const std::uint32_t c : *own_)
-          for (int v = 0; v < static_cast<int>(states_[c].points.size()); ++v) push(queue, c, v);
+          for (int v = 0; v < static_cast<int>(states_[c].points.size()); ++v) push(queue, c, v, true);
       } else {
-        for (const Candidate& b : blocked) push(queue, b.chain(), static_cast<int>(b.vertex()));
+        for (const Candidate& b : blocked) push(queue, b.chain(), static_cast<int>(b.vertex()), true);
       }
+      queue.sort();
       blocked.clear();
       std::size_t removed = 0;
       while (!queue.empty()) {
@@ -532,14 +586,20 @@ private:
     return worst;
   }
 
-  void push(std::priority_queue<Candidate>& queue, std::uint32_t c, int v) {
+  // `at_start`: the candidate is one of those the pass starts with (see CandidateQueue).
+  void push(CandidateQueue& queue, std::uint32_t c, int v, bool at_start = false) {
     const ChainState& s = states_[c];
     if (!s.link[v].alive || !interior(s, v) || s.num_alive <= s.min_alive) return;
     const int u = s.link[v].prev;
     const int w = s.link[v].next;
     if (s.pixels[u] == s.pixels[w]) return;
     const double cost = squared_deviation(s, u, w);
-    if (cost <= squared_tolerance_) queue.emplace(cost, c, static_cast<std::uint32_t>(v), s.link[v].version);
+    if (cost > squared_tolerance_) return;
+    const Candidate cand(cost, c, static_cast<std::uint32_t>(v), s.link[v].version);
+    if (at_start)
+      queue.add(cand);
+    else
+      queue.push(cand);
   }
 
   // Whether replacing u-v-w by u-w creates no contact with another segment and sweeps over no point.
