@@ -21,9 +21,8 @@
 #include "cuda_check.cuh"
 #include "cuda_executor.cuh"
 #include "device_mesh.cuh"
-#include "device_sites.cuh"
 #include "gcd/constraints.hpp"
-#include "gcd/insert.hpp"
+#include "walk_parts.cuh"
 
 namespace cdt::gpu {
 
@@ -44,83 +43,6 @@ namespace {
 constexpr std::uint32_t kStalledShare = 16;
 
 __device__ bool is_error(ConstraintStatus s) { return s >= ConstraintStatus::vertex_on_piece; }
-
-// Long walks in parts. A piece's walk (Algorithm 4, line 3) is one thread's chain of dependent loads, a
-// few a triangle, so a walk step lasts as long as its longest walk: on the H200 machine 7.46 ms for the
-// six piece walks at 10M points + 100K segments, the same as with 1M segments (7.1; pieces up to half
-// the square long cross over a thousand triangles). A piece longer than kPartSteps times the
-// vertices' spacing is walked in parts instead, each from a point of the piece on (walk_entry,
-// walk_piece_part), located by a straight walk from a vertex in its cell of a grid, and ending where
-// the next part starts: the same marks and crossings (4.8 ms in all at 10M + 1M). Parts found out of
-// order (a located triangle met before an earlier one's) have their piece walked whole again.
-
-/// Triangles a part walks, about.
-constexpr double kPartSteps = 48.0;
-/// At most this many parts a piece.
-constexpr std::uint32_t kMaxParts = 256;
-
-/// The grid of hints: per cell of a side x side grid over the vertices' box, a vertex in it (any one)
-/// or kNoId; and the length of a part.
-struct WalkHints {
-  double x0 = 0, y0 = 0, inverse_cell = 0;
-  std::uint32_t side = 0;
-  const std::uint32_t* cell = nullptr;
-  double part_length = 0; ///< 0: no parts
-
-  __device__ std::uint32_t cell_of(double x, double y) const {
-    const double cx = (x - x0) * inverse_cell, cy = (y - y0) * inverse_cell;
-    const auto clamp = [&](double v) {
-      return v <= 0.0 ? 0u : v >= side - 1 ? side - 1 : static_cast<std::uint32_t>(v);
-    };
-    return clamp(cy) * side + clamp(cx);
-  }
-  /// How many parts the walk of piece a -> b is cut into.
-  __device__ std::uint32_t parts_of(const MeshView& m, std::uint32_t a, std::uint32_t b) const {
-    if (part_length <= 0.0) return 1;
-    const double dx = m.x[b] - m.x[a], dy = m.y[b] - m.y[a];
-    const double parts = sqrt(dx * dx + dy * dy) / part_length;
-    return parts < 1.0 ? 1u : parts >= kMaxParts - 1 ? kMaxParts : 1u + static_cast<std::uint32_t>(parts);
-  }
-};
-
-/// Where a part starts: a triangle (kNoId: the point was not usable, the part before walks on) and
-/// how the piece enters it.
-struct PartStart {
-  std::uint32_t tri;
-  ::cdt::detail::WalkEntry at;
-};
-
-/// Builds the hints for the vertices of m (waits for them): side about half the square root of the
-/// vertices, kNoId everywhere when the box is a point.
-WalkHints make_walk_hints(CudaExecutor& executor, const MeshView& m, DeviceBuffer<std::uint32_t>& cells) {
-  WalkHints h;
-  if (m.num_vertices < 3) return h;
-  const Extent box = box_of(executor, m.num_vertices, m.x, m.y);
-  const double width = box.max_x - box.min_x, height = box.max_y - box.min_y;
-  const double extent = width > height ? width : height;
-  if (!(extent > 0.0) || !std::isfinite(extent)) return h;
-  h.side = static_cast<std::uint32_t>(std::clamp(std::sqrt(m.num_vertices / 4.0), 1.0, 2048.0));
-  h.x0 = box.min_x;
-  h.y0 = box.min_y;
-  h.inverse_cell = h.side / extent;
-  if (!std::isfinite(h.inverse_cell)) return WalkHints{};
-  // The vertices' spacing, were they spread evenly over the box.
-  const double area = width * height;
-  const double spacing = area > 0.0 ? std::sqrt(area / m.num_vertices) : extent / m.num_vertices;
-  h.part_length = kPartSteps * spacing;
-  cells.resize(static_cast<std::size_t>(h.side) * h.side);
-  executor.fill_bytes(cells.data(), 0xFF, cells.size());
-  std::uint32_t* cell = cells.data();
-  h.cell = cell;
-  const WalkHints hints = h;
-  executor.for_each(
-      m.num_vertices,
-      [=] __device__(std::size_t v) {
-        if (m.vert_tri[v] != kNoId) cell[hints.cell_of(m.x[v], m.y[v])] = static_cast<std::uint32_t>(v);
-      },
-      "walk_hints");
-  return h;
-}
 
 /// The error of element `at` (the lowest failing one) of a step, as the CPU executor reports it.
 [[noreturn]] void fail(CudaExecutor& executor, const ConstraintStatus* d_status, std::uint32_t at,
@@ -294,6 +216,36 @@ using ConstraintTeamRounds = TeamRounds<ConstraintLoop, ConstraintRounds, Constr
 
 } // namespace
 
+WalkHints make_walk_hints(CudaExecutor& executor, const MeshView& m, DeviceBuffer<std::uint32_t>& cells) {
+  WalkHints h;
+  if (m.num_vertices < 3) return h;
+  const Extent box = box_of(executor, m.num_vertices, m.x, m.y);
+  const double width = box.max_x - box.min_x, height = box.max_y - box.min_y;
+  const double extent = width > height ? width : height;
+  if (!(extent > 0.0) || !std::isfinite(extent)) return h;
+  h.side = static_cast<std::uint32_t>(std::clamp(std::sqrt(m.num_vertices / 4.0), 1.0, 2048.0));
+  h.x0 = box.min_x;
+  h.y0 = box.min_y;
+  h.inverse_cell = h.side / extent;
+  if (!std::isfinite(h.inverse_cell)) return WalkHints{};
+  // The vertices' spacing, were they spread evenly over the box.
+  const double area = width * height;
+  const double spacing = area > 0.0 ? std::sqrt(area / m.num_vertices) : extent / m.num_vertices;
+  h.part_length = kPartSteps * spacing;
+  cells.resize(static_cast<std::size_t>(h.side) * h.side);
+  executor.fill_bytes(cells.data(), 0xFF, cells.size());
+  std::uint32_t* cell = cells.data();
+  h.cell = cell;
+  const WalkHints hints = h;
+  executor.for_each(
+      m.num_vertices,
+      [=] __device__(std::size_t v) {
+        if (m.vert_tri[v] != kNoId) cell[hints.cell_of(m.x[v], m.y[v])] = static_cast<std::uint32_t>(v);
+      },
+      "walk_hints");
+  return h;
+}
+
 void check_device_pieces(CudaExecutor& executor, const ConstraintPiece2* pieces,
                          std::span<const ConstraintPiece2> host_pieces, std::uint32_t num_vertices) {
   if (host_pieces.empty()) return;
@@ -357,14 +309,14 @@ ConstraintStats insert_constraints(DeviceMesh::State& s, std::span<const Constra
   DeviceBuffer<ConstraintRoundsEnd> d_block_end(1);
   ConstraintTeamRounds team_rounds;
   std::uint32_t* error_at = d_error_at.data();
-  // The long pieces' parts: per pending piece its first part's end (kNoId: none) and whether its walk
-  // met it; per long piece its place among the pending ones and its first part; per part its piece
-  // (among the long ones), its start, status and crossings.
+  // The long pieces' walks in parts (walk_parts.cuh): the grid of hints, the parts' buffers; per
+  // pending piece whether its first part met the second's start; per part its status and crossings;
+  // per long piece whether it is walked whole again.
   DeviceBuffer<std::uint32_t> d_hint_cells;
   const WalkHints hints = make_walk_hints(executor, m, d_hint_cells);
-  DeviceBuffer<std::uint32_t> d_first_stop, d_long, d_long_first, d_part_of, d_part_cross;
+  WalkParts walk_parts;
+  DeviceBuffer<std::uint32_t> d_part_cross, d_again;
   DeviceBuffer<std::uint8_t> d_met, d_redo;
-  DeviceBuffer<PartStart> d_part_start;
   DeviceBuffer<ConstraintStatus> d_part_status;
 
   for (;;) {
@@ -377,81 +329,12 @@ ConstraintStats insert_constraints(DeviceMesh::State& s, std::span<const Constra
       std::uint32_t* present = d_present.data();
       std::uint32_t* cross = d_crossings.data();
       executor.fill_bytes(error_at, 0xFF, 1);
-      // The long pieces, their parts and where each part starts.
-      std::uint32_t num_long = 0, num_parts = 0;
-      if (hints.part_length > 0.0) {
-        d_long.resize(np);
-        num_long = executor.compact(
-            np,
-            [=] __device__(std::size_t k) {
-              return hints.parts_of(m, piece[pend[k]].a, piece[pend[k]].b) > 1;
-            },
-            d_long.data());
-      }
-      std::uint32_t* first_stop = nullptr;
-      std::uint8_t* met = nullptr;
-      if (num_long > 0) {
-        const std::uint32_t* longs = d_long.data();
-        d_long_first.resize(num_long);
-        std::uint32_t* long_first = d_long_first.data();
-        executor.for_each(
-            num_long,
-            [=] __device__(std::size_t l) {
-              const ConstraintPiece2 p = piece[pend[longs[l]]];
-              long_first[l] = hints.parts_of(m, p.a, p.b) - 1; // the parts after the first
-            },
-            "long_pieces");
-        num_parts = executor.exclusive_scan(long_first, num_long);
-        d_part_of.resize(num_parts);
-        d_part_start.resize(num_parts);
-        std::uint32_t* part_of = d_part_of.data();
-        PartStart* part_start = d_part_start.data();
-        executor.for_each(
-            num_long,
-            [=] __device__(std::size_t l) {
-              const std::uint32_t end = l + 1 < num_long ? long_first[l + 1] : num_parts;
-              for (std::uint32_t u = long_first[l]; u < end; ++u) part_of[u] = static_cast<std::uint32_t>(l);
-            },
-            "part_pieces");
-        executor.for_each(
-            num_parts,
-            [=] __device__(std::size_t u) {
-              const std::uint32_t l = part_of[u];
-              const ConstraintPiece2 p = piece[pend[longs[l]]];
-              const std::uint32_t end = l + 1 < num_long ? long_first[l + 1] : num_parts;
-              const std::uint32_t parts = end - long_first[l] + 1;
-              const double along = static_cast<double>(u - long_first[l] + 1) / parts;
-              const double px = m.x[p.a] + along * (m.x[p.b] - m.x[p.a]);
-              const double py = m.y[p.a] + along * (m.y[p.b] - m.y[p.a]);
-              PartStart start{kNoId, {}};
-              const std::uint32_t from = hints.cell[hints.cell_of(px, py)];
-              if (from != kNoId) {
-                const ::cdt::detail::PointLocation loc = ::cdt::detail::locate_point(m, from, px, py);
-                if (loc.status == ::cdt::detail::WorkStatus::ok &&
-                    ::cdt::detail::walk_entry(m, p.a, p.b, loc.tri, start.at))
-                  start.tri = loc.tri;
-              }
-              part_start[u] = start;
-            },
-            "locate_parts");
-        d_first_stop.resize(np);
-        d_met.resize(np);
-        first_stop = d_first_stop.data();
-        met = d_met.data();
-        executor.fill_bytes(first_stop, 0xFF, np);
-        executor.for_each(
-            num_long,
-            [=] __device__(std::size_t l) {
-              const std::uint32_t end = l + 1 < num_long ? long_first[l + 1] : num_parts;
-              for (std::uint32_t u = long_first[l]; u < end; ++u) {
-                if (part_start[u].tri != kNoId) {
-                  first_stop[longs[l]] = part_start[u].tri;
-                  return;
-                }
-              }
-            },
-            "first_stops");
-      }
+      // The long pieces' walks in parts (walk_parts.cuh): the first part here, the others below.
+      const WalkPartsView parts = plan_walk_parts(
+          executor, m, hints, np, [=] __device__(std::size_t k) { return piece[pend[k]]; },
+          [] __device__(std::size_t) { return true; }, walk_parts);
+      d_met.resize(np);
+      std::uint8_t* met = d_met.data();
       executor.for_each(
           np,
           [=] __device__(std::size_t k) {
@@ -459,17 +342,14 @@ ConstraintStats insert_constraints(DeviceMesh::State& s, std::span<const Constra
             const auto mark = [cmark, i](std::uint32_t t) { atomicMin(cmark + t, i); };
             bool met_stop = false;
             st[k] = ::cdt::detail::walk_piece(m, piece[i].a, piece[i].b, mark, present[k], cross[k],
-                                              first_stop != nullptr ? first_stop[k] : kNoId, &met_stop);
-            if (met != nullptr) met[k] = met_stop ? 1 : 0;
+                                              parts.first_stop_of(k), &met_stop);
+            met[k] = met_stop ? 1 : 0;
             if (is_error(st[k])) atomicMin(error_at, static_cast<std::uint32_t>(k));
           },
           "walk_pieces");
-      if (num_long > 0) {
+      if (parts.num_long > 0) {
         // The parts after the first, each to the next part's start.
-        const std::uint32_t* longs = d_long.data();
-        const std::uint32_t* long_first = d_long_first.data();
-        const std::uint32_t* part_of = d_part_of.data();
-        const PartStart* part_start = d_part_start.data();
+        const std::uint32_t num_long = parts.num_long, num_parts = parts.num_parts;
         d_part_status.resize(num_parts);
         d_part_cross.resize(num_parts);
         ConstraintStatus* part_status = d_part_status.data();
@@ -479,14 +359,10 @@ ConstraintStats insert_constraints(DeviceMesh::State& s, std::span<const Constra
             [=] __device__(std::size_t u) {
               part_status[u] = ConstraintStatus::ok;
               part_cross[u] = 0;
-              const PartStart start = part_start[u];
+              const PartStart start = parts.part_start[u];
               if (start.tri == kNoId) return;
-              const std::uint32_t l = part_of[u];
-              const std::uint32_t i = pend[longs[l]];
-              const std::uint32_t end = l + 1 < num_long ? long_first[l + 1] : num_parts;
-              std::uint32_t stop = kNoId;
-              for (std::uint32_t v = static_cast<std::uint32_t>(u) + 1; v < end && stop == kNoId; ++v)
-                stop = part_start[v].tri;
+              const std::uint32_t i = pend[parts.longs[parts.part_of[u]]];
+              const std::uint32_t stop = parts.stop_after(static_cast<std::uint32_t>(u));
               const auto mark = [cmark, i](std::uint32_t t) { atomicMin(cmark + t, i); };
               bool met_stop = false;
               ConstraintStatus status = ::cdt::detail::walk_piece_part(
@@ -505,15 +381,14 @@ ConstraintStats insert_constraints(DeviceMesh::State& s, std::span<const Constra
         executor.for_each(
             num_long,
             [=] __device__(std::size_t l) {
-              const std::uint32_t k = longs[l];
-              const std::uint32_t end = l + 1 < num_long ? long_first[l + 1] : num_parts;
+              const std::uint32_t k = parts.longs[l];
               redo[l] = 0;
               if (st[k] != ConstraintStatus::ok) return; // present, or an error before the first stop
-              bool in_order = first_stop[k] == kNoId || met[k] != 0;
+              bool in_order = parts.first_stop[k] == kNoId || met[k] != 0;
               ConstraintStatus status = ConstraintStatus::ok;
               std::uint32_t crossings = cross[k];
-              for (std::uint32_t u = long_first[l]; u < end; ++u) {
-                if (part_status[u] == ConstraintStatus::corrupt_mesh && part_start[u].tri != kNoId) {
+              for (std::uint32_t u = parts.long_first[l]; u < parts.end_of(l); ++u) {
+                if (part_status[u] == ConstraintStatus::corrupt_mesh && parts.part_start[u].tri != kNoId) {
                   in_order = false;
                   break;
                 }
@@ -532,14 +407,15 @@ ConstraintStats insert_constraints(DeviceMesh::State& s, std::span<const Constra
               if (is_error(status)) atomicMin(error_at, k);
             },
             "join_parts");
+        d_again.resize(num_long);
         const std::uint32_t num_redo = executor.compact(
-            num_long, [=] __device__(std::size_t l) { return redo[l] != 0; }, d_part_of.data());
+            num_long, [=] __device__(std::size_t l) { return redo[l] != 0; }, d_again.data());
         if (num_redo > 0) {
-          const std::uint32_t* again = d_part_of.data();
+          const std::uint32_t* again = d_again.data();
           executor.for_each(
               num_redo,
               [=] __device__(std::size_t r) {
-                const std::uint32_t k = longs[again[r]];
+                const std::uint32_t k = parts.longs[again[r]];
                 const std::uint32_t i = pend[k];
                 const auto mark = [cmark, i](std::uint32_t t) { atomicMin(cmark + t, i); };
                 st[k] = ::cdt::detail::walk_piece(m, piece[i].a, piece[i].b, mark, present[k], cross[k]);

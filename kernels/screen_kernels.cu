@@ -13,6 +13,7 @@
 #include "device_mesh.cuh"
 #include "gcd/constraints.hpp"
 #include "gcd/screen.hpp"
+#include "walk_parts.cuh"
 
 namespace cdt::gpu {
 
@@ -32,6 +33,54 @@ std::vector<std::uint32_t> flagged(CudaExecutor& executor, const std::uint8_t* f
   std::vector<std::uint32_t> out(count);
   executor.download(out.data(), d_out.data(), count);
   return out;
+}
+
+/// Runs walk(k, part) (a corridor's walk, or its part, returning false when it fails) for every piece
+/// k < n with wanted(k), the long ones in parts (walk_parts.cuh); failed is set to 1 when a walk fails,
+/// again[k] marks the pieces walked whole again after parts out of order. The walks' marks must be
+/// such that a walk made twice changes nothing.
+template <class Wanted, class Walk>
+void walk_corridors(CudaExecutor& executor, const MeshView& m, const WalkHints& hints, WalkParts& buffers,
+                    std::uint32_t n, const ConstraintPiece2* pieces, std::uint8_t* again,
+                    std::uint32_t* failed, Wanted wanted, Walk walk, const char* name,
+                    const char* parts_name) {
+  const WalkPartsView parts = plan_walk_parts(
+      executor, m, hints, n, [=] __device__(std::size_t k) { return pieces[k]; }, wanted, buffers);
+  if (parts.num_long > 0) executor.fill_bytes(again, 0, n);
+  executor.for_each(
+      n,
+      [=] __device__(std::size_t k) {
+        if (!wanted(k)) return;
+        ::cdt::detail::CorridorPart part;
+        part.stop = parts.first_stop_of(k);
+        if (!walk(k, part)) atomicExch(failed, 1u);
+        if (part.stop != kNoId && !part.met_stop) again[k] = 1;
+      },
+      name);
+  if (parts.num_long == 0) return;
+  executor.for_each(
+      parts.num_parts,
+      [=] __device__(std::size_t u) {
+        const PartStart start = parts.part_start[u];
+        if (start.tri == kNoId) return;
+        const std::uint32_t k = parts.longs[parts.part_of[u]];
+        ::cdt::detail::CorridorPart part;
+        part.tri = start.tri;
+        part.at = start.at;
+        part.stop = parts.stop_after(static_cast<std::uint32_t>(u));
+        if (!walk(k, part)) atomicExch(failed, 1u);
+        if (part.stop != kNoId && !part.met_stop) again[k] = 1;
+      },
+      parts_name);
+  executor.for_each(
+      parts.num_long,
+      [=] __device__(std::size_t l) {
+        const std::uint32_t k = parts.longs[l];
+        if (again[k] == 0) return;
+        ::cdt::detail::CorridorPart whole;
+        if (!walk(k, whole)) atomicExch(failed, 1u);
+      },
+      "screen_again");
 }
 
 } // namespace
@@ -89,29 +138,39 @@ ScreenedPieces DeviceMesh::screen(std::span<const ConstraintPiece2> host_pieces,
   mark("edges");
   // The walks set bytes of other pieces and sites: several threads may store 1 to the same byte, which
   // is the only value stored.
-  executor.for_each(
-      np,
-      [=] __device__(std::size_t k) {
-        if (walker[k] == 0) return;
-        const auto flag = [](std::uint8_t& f) { f = 1; };
-        const auto lower = [](std::uint32_t* word, std::uint32_t v) { return detail::atomic_min(word, v); };
-        const auto raise = [](std::uint32_t* word, std::uint32_t v) { return atomicMax(word, v); };
-        if (!::cdt::detail::screen_corridor(m, pieces[k], static_cast<std::uint32_t>(k), piece_on, low, high,
-                                            shared, suspect, site, flag, lower, raise))
-          atomicExch(failed, 1u);
-      },
-      "screen_corridors");
+  // Both passes walk the long pieces in parts (walk_parts.cuh). Their marks are flags, minima and
+  // maxima: a part walked twice, or a piece walked whole again after parts out of order, changes
+  // nothing.
+  detail::DeviceBuffer<std::uint32_t> d_hint_cells;
+  const detail::WalkHints hints = detail::make_walk_hints(executor, m, d_hint_cells);
+  detail::WalkParts walk_parts;
+  DeviceBuffer<std::uint8_t> d_again(np);
+  std::uint8_t* again = d_again.data();
+  const auto walk_all = [&](auto wanted, auto walk, const char* name, const char* parts_name) {
+    detail::walk_corridors(executor, m, hints, walk_parts, static_cast<std::uint32_t>(np), pieces, again,
+                           failed, wanted, walk, name, parts_name);
+  };
+  walk_all([=] __device__(std::size_t k) { return walker[k] != 0; },
+           [=] __device__(std::size_t k, ::cdt::detail::CorridorPart & part) {
+             const auto flag = [](std::uint8_t& f) { f = 1; };
+             const auto lower = [](std::uint32_t* word, std::uint32_t v) {
+               return detail::atomic_min(word, v);
+             };
+             const auto raise = [](std::uint32_t* word, std::uint32_t v) { return atomicMax(word, v); };
+             return ::cdt::detail::screen_corridor(m, pieces[k], static_cast<std::uint32_t>(k), piece_on, low,
+                                                   high, shared, suspect, site, flag, lower, raise,
+                                                   part.tri == kNoId && part.stop == kNoId ? nullptr : &part);
+           },
+           "screen_corridors", "screen_corridor_parts");
   mark("corridors");
-  executor.for_each(
-      np,
-      [=] __device__(std::size_t k) {
-        if (shared[k] == 0) return;
-        const auto flag = [](std::uint8_t& f) { f = 1; };
-        if (!::cdt::detail::screen_shared_triangles(m, pieces, static_cast<std::uint32_t>(k), piece_on, low,
-                                                    high, suspect, site, flag))
-          atomicExch(failed, 1u);
-      },
-      "screen_shared");
+  walk_all([=] __device__(std::size_t k) { return shared[k] != 0; },
+           [=] __device__(std::size_t k, ::cdt::detail::CorridorPart & part) {
+             const auto flag = [](std::uint8_t& f) { f = 1; };
+             return ::cdt::detail::screen_shared_triangles(
+                 m, pieces, static_cast<std::uint32_t>(k), piece_on, low, high, suspect, site, flag,
+                 part.tri == kNoId && part.stop == kNoId ? nullptr : &part);
+           },
+           "screen_shared", "screen_shared_parts");
   mark("shared triangles");
   std::uint32_t walk_failed = 0;
   executor.download(&walk_failed, failed, 1);

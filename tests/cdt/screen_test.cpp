@@ -17,6 +17,8 @@
 #include "cdt/io.hpp"
 #include "cdt/verify.hpp"
 #include "executor/cpu_executor.hpp"
+#include "gcd/flip.hpp"
+#include "gcd/insert.hpp"
 #include "gcd/screen.hpp"
 #include "mesh_test_util.hpp"
 #include "pslg_generators.hpp"
@@ -375,6 +377,91 @@ TEST(TriangulateScreened, RejectedCrossingsNameTheSameSegments) {
     first = {e.first(), e.second()};
   }
   EXPECT_EQ(screened, first);
+}
+
+// A long segment's corridor walked in parts (the GPU backend's, each part from the triangle holding a
+// point of the segment to the next part's) makes the calls of the whole walk, each once: every crossed
+// edge, every edge run along and every vertex passed, on a Delaunay mesh of random points and a
+// lattice (segments through its points and along its lines), for segments between random vertices.
+TEST(ScreenWalk, PartsOfACorridorMakeTheWholeWalk) {
+  using cdt::detail::CorridorPart;
+  using cdt::detail::MeshView;
+  trixel_gen::Random rng(92);
+  std::vector<double> x, y;
+  for (int i = 0; i < 2500; ++i) {
+    x.push_back(rng.unit());
+    y.push_back(rng.unit());
+  }
+  for (int i = 0; i < 30; ++i) {
+    for (int j = 0; j < 30; ++j) {
+      x.push_back(1.5 + i / 30.0);
+      y.push_back(j / 30.0);
+    }
+  }
+  Mesh mesh = sweep_triangulate(x, y);
+  cdt::detail::CpuExecutor executor(2);
+  cdt::detail::flip_to_delaunay(mesh, executor);
+  const MeshView m = mesh.view();
+  const auto n = static_cast<std::uint32_t>(x.size());
+  struct Calls {
+    std::multiset<std::uint32_t> crossed, along, vertices;
+  };
+  std::size_t compared = 0, split = 0, through_vertices = 0;
+  for (int trial = 0; trial < 3000; ++trial) {
+    // Half the segments within the lattice, between lattice points.
+    const std::uint32_t lattice = 2500;
+    const auto a = trial % 2 == 0 ? static_cast<std::uint32_t>(rng.next() % n)
+                                  : lattice + static_cast<std::uint32_t>(rng.next() % 900);
+    const auto b = trial % 2 == 0 ? static_cast<std::uint32_t>(rng.next() % n)
+                                  : lattice + static_cast<std::uint32_t>(rng.next() % 900);
+    if (a == b) continue;
+    Calls whole;
+    const auto record = [&](Calls& c) {
+      return std::tuple{[&c](std::uint32_t v) { c.vertices.insert(v); },
+                        [&c](std::uint32_t e) { c.crossed.insert(e); },
+                        [&c, m](std::uint32_t e) { c.along.insert(std::min(e, m.adj[e])); }};
+    };
+    {
+      auto [on_vertex, crossed, along] = record(whole);
+      if (!cdt::detail::walk_corridor(m, a, b, on_vertex, crossed, along)) continue;
+    }
+    // Parts from q - 1 inner points of the segment, located from a random vertex.
+    const int q = 2 + static_cast<int>(rng.next() % 12);
+    std::vector<CorridorPart> parts(1); // the first from a
+    for (int j = 1; j < q; ++j) {
+      const double s = static_cast<double>(j) / q;
+      const double px = m.x[a] + s * (m.x[b] - m.x[a]), py = m.y[a] + s * (m.y[b] - m.y[a]);
+      const cdt::detail::PointLocation loc =
+          cdt::detail::locate_point(m, static_cast<std::uint32_t>(rng.next() % n), px, py);
+      CorridorPart part;
+      if (loc.status != cdt::detail::WorkStatus::ok || !cdt::detail::walk_entry(m, a, b, loc.tri, part.at))
+        continue;
+      part.tri = loc.tri;
+      const bool again =
+          std::any_of(parts.begin(), parts.end(), [&](const CorridorPart& p) { return p.tri == part.tri; });
+      if (!again) parts.push_back(part);
+    }
+    for (std::size_t j = 0; j + 1 < parts.size(); ++j) parts[j].stop = parts[j + 1].tri;
+    Calls joined;
+    bool ok = true, in_order = true;
+    for (CorridorPart& part : parts) {
+      auto [on_vertex, crossed, along] = record(joined);
+      ok = cdt::detail::walk_corridor(m, a, b, on_vertex, crossed, along, &part) && ok;
+      if (part.stop != kNoId && !part.met_stop) in_order = false;
+    }
+    if (!in_order) continue; // the backend walks such a segment whole
+    ++compared;
+    if (parts.size() > 1) ++split;
+    if (whole.vertices.size() > 2) ++through_vertices;
+    EXPECT_TRUE(ok) << a << " -> " << b;
+    EXPECT_EQ(joined.crossed, whole.crossed) << a << " -> " << b;
+    EXPECT_EQ(joined.along, whole.along) << a << " -> " << b;
+    EXPECT_EQ(joined.vertices, whole.vertices) << a << " -> " << b;
+    if (HasFailure()) return;
+  }
+  EXPECT_GT(compared, 2500u);
+  EXPECT_GT(split, 1500u);
+  EXPECT_GT(through_vertices, 100u);
 }
 
 } // namespace

@@ -54,72 +54,107 @@ ScreenedPieces screen_pieces(const MeshView& m, std::span<const ConstraintPiece2
 Triangulation triangulate_splitting_first(std::span<const Point> points, std::span<const Segment> segments,
                                           const Options& options);
 
+/// A part of a long segment's walk (walk_corridor): it starts inside triangle `tri`, which the segment
+/// a-b crosses as walk_entry(m, a, b, tri, at) found (kNoId: at a, as the whole walk), and ends with the
+/// edge through which the segment enters triangle `stop` (kNoId: at b); met_stop tells that it did.
+struct CorridorPart {
+  std::uint32_t tri = kNoId;
+  WalkEntry at;
+  std::uint32_t stop = kNoId;
+  bool met_stop = false;
+};
+
 /// Follows segment a-b through the mesh: calls on_vertex(v) for a, b and every vertex on the segment
 /// between them, crossed(e) for every edge whose interior it crosses (e encoded in the triangle it
 /// leaves), and along(e) for every edge it runs along, from one vertex on it to the next (e encoded in
 /// either triangle at it). Returns false when the walk fails (an end has no triangle, the segment leaves the
-/// mesh, or the links are inconsistent).
+/// mesh, or the links are inconsistent). With `part`, only that part of the walk (on_vertex(a) only for
+/// a part from a): the parts of a walk between the triangles of some of its points make its calls, each
+/// once.
 template <class OnVertex, class Crossed, class Along>
 CDT_HD bool walk_corridor(const MeshView& m, std::uint32_t a, std::uint32_t b, OnVertex&& on_vertex,
-                          Crossed&& crossed, Along&& along) {
+                          Crossed&& crossed, Along&& along, CorridorPart* part = nullptr) {
   std::uint32_t cur = a;
-  on_vertex(a);
+  // The edge the walk crosses next, with its ends on the left (l) and right (r) of cur -> b; kNoId
+  // while the walk stands at cur.
+  std::uint32_t edge = kNoId, l = kNoId, r = kNoId;
+  if (part != nullptr && part->tri != kNoId) {
+    // Inside the part's triangle: it leaves by the edge joining the apex to the entry edge's end on
+    // the other side (walk_entry checked that no corner is on the line).
+    l = part->at.l;
+    r = part->at.r;
+    const std::uint32_t apex = m.v(part->tri, part->at.entry);
+    const int side = orient_vertices(m, a, b, apex);
+    const std::uint32_t opposite = m.index_of(part->tri, side > 0 ? l : r);
+    if (opposite == 3) return false;
+    edge = edge_id(part->tri, opposite);
+    (side > 0 ? l : r) = apex;
+  } else {
+    on_vertex(a);
+  }
   for (std::uint32_t legs = 0; legs <= m.num_vertices; ++legs) {
-    // Around cur (counter-clockwise, then clockwise from the start when its fan is open): b itself, a
-    // vertex on the open segment cur-b (the nearest one, as edges hold no vertex), or the triangle
-    // that the segment leaves cur through.
-    const std::uint32_t start = m.vert_tri[cur];
-    if (start == kNoId || m.vert_tri[b] == kNoId) return false;
-    std::uint32_t next = kNoId, wedge = kNoId;
-    std::uint32_t t = start;
-    bool clockwise = false;
-    for (std::uint32_t steps = 0; next == kNoId && wedge == kNoId; ++steps) {
-      if (steps > m.num_slots) return false;
-      const std::uint32_t k = m.index_of(t, cur);
-      if (k == 3) return false;
-      const std::uint32_t p = m.v(t, next3(k)), q = m.v(t, prev3(k));
-      // The edge cur-p is edge prev3(k) of t, the edge cur-q edge next3(k).
-      if (p == b || q == b) {
-        along(edge_id(t, p == b ? prev3(k) : next3(k)));
-        on_vertex(b);
-        return true;
+    if (edge == kNoId) {
+      // Around cur (counter-clockwise, then clockwise from the start when its fan is open): b itself, a
+      // vertex on the open segment cur-b (the nearest one, as edges hold no vertex), or the triangle
+      // that the segment leaves cur through.
+      const std::uint32_t start = m.vert_tri[cur];
+      if (start == kNoId || m.vert_tri[b] == kNoId) return false;
+      std::uint32_t next = kNoId, wedge = kNoId;
+      std::uint32_t t = start;
+      bool clockwise = false;
+      for (std::uint32_t steps = 0; next == kNoId && wedge == kNoId; ++steps) {
+        if (steps > m.num_slots) return false;
+        const std::uint32_t k = m.index_of(t, cur);
+        if (k == 3) return false;
+        const std::uint32_t p = m.v(t, next3(k)), q = m.v(t, prev3(k));
+        // The edge cur-p is edge prev3(k) of t, the edge cur-q edge next3(k).
+        if (p == b || q == b) {
+          along(edge_id(t, p == b ? prev3(k) : next3(k)));
+          on_vertex(b);
+          return true;
+        }
+        const int op = orient_vertices(m, cur, p, b), oq = orient_vertices(m, cur, q, b);
+        if (op == 0 && same_direction(m, cur, p, b)) next = p;
+        if (oq == 0 && same_direction(m, cur, q, b)) next = q;
+        if (next != kNoId) {
+          along(edge_id(t, next == p ? prev3(k) : next3(k)));
+          break;
+        }
+        if (op > 0 && oq < 0) {
+          wedge = t;
+          break;
+        }
+        const std::uint32_t e = m.adj[edge_id(t, clockwise ? prev3(k) : next3(k))];
+        if (e == kNoId) {
+          if (clockwise) return false;
+          clockwise = true;
+          t = start;
+          continue;
+        }
+        t = edge_tri(e);
+        if (t == start) return false;
       }
-      const int op = orient_vertices(m, cur, p, b), oq = orient_vertices(m, cur, q, b);
-      if (op == 0 && same_direction(m, cur, p, b)) next = p;
-      if (oq == 0 && same_direction(m, cur, q, b)) next = q;
       if (next != kNoId) {
-        along(edge_id(t, next == p ? prev3(k) : next3(k)));
-        break;
-      }
-      if (op > 0 && oq < 0) {
-        wedge = t;
-        break;
-      }
-      const std::uint32_t e = m.adj[edge_id(t, clockwise ? prev3(k) : next3(k))];
-      if (e == kNoId) {
-        if (clockwise) return false;
-        clockwise = true;
-        t = start;
+        cur = next;
+        on_vertex(cur);
         continue;
       }
-      t = edge_tri(e);
-      if (t == start) return false;
+      const std::uint32_t k = m.index_of(wedge, cur);
+      r = m.v(wedge, next3(k));
+      l = m.v(wedge, prev3(k));
+      edge = edge_id(wedge, k);
     }
-    if (next != kNoId) {
-      cur = next;
-      on_vertex(cur);
-      continue;
-    }
-    // Through the triangles, keeping the crossed edge's ends on the left (l) and right (r) of cur -> b.
-    const std::uint32_t k = m.index_of(wedge, cur);
-    std::uint32_t r = m.v(wedge, next3(k)), l = m.v(wedge, prev3(k));
-    std::uint32_t edge = edge_id(wedge, k);
+    // Through the triangles.
     for (std::uint32_t steps = 0;; ++steps) {
       if (steps > m.num_slots) return false;
       crossed(edge);
       const std::uint32_t e = m.adj[edge];
       if (e == kNoId) return false;
       const std::uint32_t n = edge_tri(e);
+      if (part != nullptr && n == part->stop) {
+        part->met_stop = true;
+        return true;
+      }
       const std::uint32_t apex = m.v(n, edge_index(e));
       if (apex == b) {
         on_vertex(b);
@@ -129,6 +164,7 @@ CDT_HD bool walk_corridor(const MeshView& m, std::uint32_t a, std::uint32_t b, O
       if (side == 0) {
         cur = apex; // a vertex on the segment: on from there
         on_vertex(cur);
+        edge = kNoId;
         break;
       }
       const std::uint32_t opposite = m.index_of(n, side > 0 ? l : r);
@@ -179,7 +215,7 @@ CDT_HD_INLINE bool pieces_cross(const MeshView& m, const ConstraintPiece2& p, co
 /// triangles there), some more than once. crossed(e) and on_vertex(v) as walk_corridor's.
 template <class OnVertex, class Crossed, class Claim>
 CDT_HD bool walk_corridor_triangles(const MeshView& m, std::uint32_t a, std::uint32_t b, OnVertex&& on_vertex,
-                                    Crossed&& crossed, Claim&& claim) {
+                                    Crossed&& crossed, Claim&& claim, CorridorPart* part = nullptr) {
   const auto both_sides = [&](std::uint32_t e) {
     claim(edge_tri(e));
     if (m.adj[e] != kNoId) claim(edge_tri(m.adj[e]));
@@ -190,7 +226,7 @@ CDT_HD bool walk_corridor_triangles(const MeshView& m, std::uint32_t a, std::uin
         both_sides(e);
         crossed(e);
       },
-      both_sides);
+      both_sides, part);
 }
 
 /// The screen's second pass for piece k, which is no edge. For every site strictly between its ends,
@@ -205,7 +241,7 @@ template <class Flag, class Lower, class Raise>
 CDT_HD bool screen_corridor(const MeshView& m, const ConstraintPiece2& p, std::uint32_t k,
                             const std::uint32_t* piece_on, std::uint32_t* low, std::uint32_t* high,
                             std::uint8_t* shared, std::uint8_t* suspect, std::uint8_t* site, Flag&& flag,
-                            Lower&& lower, Raise&& raise) {
+                            Lower&& lower, Raise&& raise, CorridorPart* part = nullptr) {
   return walk_corridor_triangles(
       m, p.a, p.b,
       [&](std::uint32_t v) {
@@ -225,7 +261,8 @@ CDT_HD bool screen_corridor(const MeshView& m, const ConstraintPiece2& p, std::u
         if (j == kNoId || j == k) return;
         flag(shared[k]);
         flag(shared[j]);
-      });
+      },
+      part);
 }
 
 /// The screen's third pass for piece k, which shares a triangle of its corridor with another piece, after
@@ -237,7 +274,7 @@ template <class Flag>
 CDT_HD bool screen_shared_triangles(const MeshView& m, const ConstraintPiece2* pieces, std::uint32_t k,
                                     const std::uint32_t* piece_on, const std::uint32_t* low,
                                     const std::uint32_t* high, std::uint8_t* suspect, std::uint8_t* site,
-                                    Flag&& flag) {
+                                    Flag&& flag, CorridorPart* part = nullptr) {
   const ConstraintPiece2& p = pieces[k];
   std::uint32_t last = kNoId; // consecutive claims of one triangle are settled once
   return walk_corridor_triangles(
@@ -257,7 +294,8 @@ CDT_HD bool screen_shared_triangles(const MeshView& m, const ConstraintPiece2* p
         }
         flag(suspect[k]);
         screen_mark_triangle(m, t, piece_on, suspect, site, flag);
-      });
+      },
+      part);
 }
 
 } // namespace cdt::detail
