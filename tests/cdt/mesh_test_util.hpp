@@ -277,4 +277,25 @@ inline std::uint64_t serial_lawson(cdt::detail::Mesh& mesh, std::uint64_t max_fl
   return flips;
 }
 
+/// The Delaunay triangulation (serial_lawson of a sweep) of `random` points in the unit square, drawn
+/// by unit(), and beside them a k x k lattice over [1.5, 2.5) x [0, 1), column by column: vertices on
+/// lines and co-circular quadruples for walks through the mesh.
+template <class Unit>
+inline cdt::detail::Mesh points_and_lattice_mesh(Unit&& unit, int random, int k) {
+  std::vector<double> x, y;
+  for (int i = 0; i < random; ++i) {
+    x.push_back(unit());
+    y.push_back(unit());
+  }
+  for (int i = 0; i < k; ++i) {
+    for (int j = 0; j < k; ++j) {
+      x.push_back(1.5 + static_cast<double>(i) / k);
+      y.push_back(static_cast<double>(j) / k);
+    }
+  }
+  cdt::detail::Mesh mesh = sweep_triangulate(x, y);
+  serial_lawson(mesh);
+  return mesh;
+}
+
 } // namespace trixel_test

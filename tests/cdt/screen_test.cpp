@@ -17,7 +17,6 @@
 #include "cdt/io.hpp"
 #include "cdt/verify.hpp"
 #include "executor/cpu_executor.hpp"
-#include "gcd/flip.hpp"
 #include "gcd/insert.hpp"
 #include "gcd/screen.hpp"
 #include "mesh_test_util.hpp"
@@ -387,22 +386,10 @@ TEST(ScreenWalk, PartsOfACorridorMakeTheWholeWalk) {
   using cdt::detail::CorridorPart;
   using cdt::detail::MeshView;
   trixel_gen::Random rng(92);
-  std::vector<double> x, y;
-  for (int i = 0; i < 2500; ++i) {
-    x.push_back(rng.unit());
-    y.push_back(rng.unit());
-  }
-  for (int i = 0; i < 30; ++i) {
-    for (int j = 0; j < 30; ++j) {
-      x.push_back(1.5 + i / 30.0);
-      y.push_back(j / 30.0);
-    }
-  }
-  Mesh mesh = sweep_triangulate(x, y);
-  cdt::detail::CpuExecutor executor(2);
-  cdt::detail::flip_to_delaunay(mesh, executor);
-  const MeshView m = mesh.view();
-  const auto n = static_cast<std::uint32_t>(x.size());
+  const Mesh mesh = trixel_test::points_and_lattice_mesh([&] { return rng.unit(); }, 2500, 30);
+  Mesh copy = mesh;
+  const MeshView m = copy.view();
+  const std::uint32_t n = mesh.num_vertices();
   struct Calls {
     std::multiset<std::uint32_t> crossed, along, vertices;
   };
