@@ -163,38 +163,49 @@ void merge_small_regions(const cdt::Triangulation& t, RegionForest& forest, doub
   // (small root, neighbouring root) for every triangle edge between two regions.
   std::vector<std::pair<std::uint32_t, std::uint32_t>> pairs;
   std::vector<std::size_t> begin(n + 1, 0);
-  for (std::uint32_t tri = 0; tri < n; ++tri)
+  // The small regions, to be taken smallest first (ties by first triangle): sorted once here, while
+  // those that are still small after a merge go to a heap (a few in a hundred).
+  using Entry = std::tuple<double, std::uint32_t, std::uint32_t>; // area, first triangle, root
+  std::vector<Entry> initial;
+  for (std::uint32_t tri = 0; tri < n; ++tri) {
+    const std::uint32_t a = forest.find(tri);
+    if (forest.area(a) >= min_area) continue;
+    if (a == tri) initial.emplace_back(forest.area(tri), forest.first_triangle(tri), tri);
     for (int i = 0; i < 3; ++i) {
       const std::uint32_t other = t.neighbors[tri][i];
       if (other == cdt::kNone) continue;
-      const std::uint32_t a = forest.find(tri);
-      if (forest.area(a) >= min_area) continue;
       const std::uint32_t b = forest.find(other);
       if (a == b) continue;
       pairs.emplace_back(a, b);
       ++begin[a + 1];
     }
+  }
+  std::sort(initial.begin(), initial.end());
   for (std::size_t r = 0; r < n; ++r) begin[r + 1] += begin[r];
   std::vector<std::size_t> size(n, 0);
   std::vector<std::uint32_t> store(pairs.size());
   for (const auto& [a, b] : pairs) store[begin[a] + size[a]++] = b;
   pairs = {};
-  // Lists that outgrew their slice; owns[r] says which holds region r's list.
-  std::vector<std::vector<std::uint32_t>> grown(n);
-  std::vector<std::uint8_t> owns(n, 0);
+  // Lists that outgrew their slice; region r's is grown[owns[r] - 1] where owns[r] is not 0 (few regions
+  // have one: a vector per triangle cost more to make and free than the rest of the merge).
+  std::vector<std::vector<std::uint32_t>> grown;
+  std::vector<std::uint32_t> owns(n, 0);
   const auto list_of = [&](std::uint32_t r) {
-    return owns[r] != 0 ? std::span<std::uint32_t>(grown[r]) : std::span(store).subspan(begin[r], size[r]);
+    return owns[r] != 0 ? std::span<std::uint32_t>(grown[owns[r] - 1])
+                        : std::span(store).subspan(begin[r], size[r]);
   };
 
-  using Entry = std::tuple<double, std::uint32_t, std::uint32_t>; // area, first triangle, root
-  std::priority_queue<Entry, std::vector<Entry>, std::greater<>> smallest;
-  for (std::uint32_t tri = 0; tri < n; ++tri)
-    if (forest.find(tri) == tri && forest.area(tri) < min_area)
-      smallest.emplace(forest.area(tri), forest.first_triangle(tri), tri);
-
-  while (!smallest.empty()) {
-    const auto [area, first, root] = smallest.top();
-    smallest.pop();
+  std::priority_queue<Entry, std::vector<Entry>, std::greater<>> again;
+  std::size_t next_initial = 0;
+  while (next_initial < initial.size() || !again.empty()) {
+    Entry entry;
+    if (again.empty() || (next_initial < initial.size() && initial[next_initial] < again.top())) {
+      entry = initial[next_initial++];
+    } else {
+      entry = again.top();
+      again.pop();
+    }
+    const auto [area, first, root] = entry;
     // Stale entries: the region was merged away or has grown since it was queued.
     if (forest.find(root) != root || forest.area(root) != area) continue;
 
@@ -205,7 +216,7 @@ void merge_small_regions(const cdt::Triangulation& t, RegionForest& forest, doub
     end = std::remove(list.begin(), end, root);
     const auto kept = static_cast<std::size_t>(end - list.begin());
     if (owns[root] != 0)
-      grown[root].resize(kept);
+      grown[owns[root] - 1].resize(kept);
     else
       size[root] = kept;
 
@@ -230,18 +241,21 @@ void merge_small_regions(const cdt::Triangulation& t, RegionForest& forest, doub
       const std::uint32_t shorter = longer == merged ? absorbed : merged;
       std::vector<std::uint32_t> joined;
       if (owns[longer] != 0) {
-        joined = std::move(grown[longer]);
+        joined = std::move(grown[owns[longer] - 1]);
       } else {
         const auto slice = list_of(longer);
         joined.assign(slice.begin(), slice.end());
       }
       const auto other = list_of(shorter);
       joined.insert(joined.end(), other.begin(), other.end());
-      grown[merged] = std::move(joined);
-      owns[merged] = 1;
-      smallest.emplace(forest.area(merged), forest.first_triangle(merged), merged);
+      if (owns[merged] == 0) {
+        grown.emplace_back();
+        owns[merged] = static_cast<std::uint32_t>(grown.size());
+      }
+      grown[owns[merged] - 1] = std::move(joined);
+      again.emplace(forest.area(merged), forest.first_triangle(merged), merged);
     }
-    grown[absorbed] = {};
+    if (owns[absorbed] != 0) grown[owns[absorbed] - 1] = {};
     owns[absorbed] = 0;
     size[absorbed] = 0;
   }
@@ -266,6 +280,40 @@ double delta_e(const std::array<double, 3>& lab1, const std::array<double, 3>& l
 
 namespace {
 
+// The CIELAB of trixels [first, last) into lab: lab_of_rgb's operations in the same order (the same
+// bits), a block of trixels at a time, each step in a loop of its own over the block so that the
+// compiler vectorises the cube roots (one colour at a time, the chains of divisions in them bound the
+// loop) and the conversion to XYZ. Where lab_f takes its linear part, its cube root is made and dropped,
+// by a mask rather than a branch, which would keep the loop from being vectorised.
+void lab_of_trixels(const TrixelColours& trixels, std::size_t first, std::size_t last,
+                    std::vector<std::array<double, 3>>& lab) {
+  constexpr std::size_t kBlock = 128;
+  constexpr double delta = 6.0 / 29.0;
+  const double* table = detail::srgb_linear_table();
+  alignas(32) double linear[3 * kBlock];
+  alignas(32) double xyz[3 * kBlock];
+  alignas(32) double f[3 * kBlock];
+  for (std::size_t begin = first; begin < last; begin += kBlock) {
+    const std::size_t count = std::min(kBlock, last - begin);
+    for (std::size_t k = 0; k < count; ++k)
+      for (int c = 0; c < 3; ++c)
+        linear[3 * k + c] = detail::srgb_to_linear(
+            detail::clamp_unit(static_cast<double>(trixels[begin + k].rgba[c])), table);
+    for (std::size_t k = 0; k < count; ++k) detail::xyz_of_linear(&linear[3 * k], &xyz[3 * k]);
+    for (std::size_t j = 0; j < 3 * count; ++j) f[j] = detail::cube_root_estimate(xyz[j]);
+    for (std::size_t j = 0; j < 3 * count; ++j) {
+      const double cube = detail::cube_root_refine(xyz[j], f[j]);
+      const double below = detail::lab_f_linear(xyz[j]);
+      const std::uint64_t take_cube =
+          std::uint64_t{0} - static_cast<std::uint64_t>(xyz[j] > delta * delta * delta);
+      f[j] = std::bit_cast<double>((std::bit_cast<std::uint64_t>(cube) & take_cube) |
+                                   (std::bit_cast<std::uint64_t>(below) & ~take_cube));
+    }
+    for (std::size_t k = 0; k < count; ++k)
+      detail::lab_of_f(f[3 * k], f[3 * k + 1], f[3 * k + 2], lab[begin + k].data());
+  }
+}
+
 Regions group_all(const cdt::Triangulation& t, const TrixelColours& trixels, const GroupingOptions& options,
                   unsigned threads, const TrixelLab* known) {
   const std::size_t n = t.triangles.size();
@@ -275,8 +323,9 @@ Regions group_all(const cdt::Triangulation& t, const TrixelColours& trixels, con
   const bool given = known != nullptr && known->size() == n;
   std::vector<std::array<double, 3>> lab(n);
   for_each_part(n, parts, [&](std::size_t first, std::size_t last, unsigned) {
+    if (!given) return lab_of_trixels(trixels, first, last, lab);
     for (std::size_t tri = first; tri < last; ++tri)
-      lab[tri] = given && !std::isnan((*known)[tri][0])
+      lab[tri] = !std::isnan((*known)[tri][0])
                      ? (*known)[tri]
                      : srgb_to_lab({trixels[tri].rgba[0], trixels[tri].rgba[1], trixels[tri].rgba[2]});
   });
