@@ -6,7 +6,6 @@
 
 #include <array>
 #include <cstddef>
-#include <tuple>
 #include <utility>
 
 namespace vectorize {
@@ -18,19 +17,10 @@ std::uint32_t slot_of(const std::array<std::uint32_t, 3>& triangle, std::uint32_
 
 class Tracer {
 public:
-  Tracer(const cdt::Triangulation& t, const std::vector<std::uint32_t>& region)
-      : t_(t), region_(region), hull_out_(t.vertices.size(), cdt::kNone) {
-    // The hull edge c[i+1] -> c[i+2] has the domain on its left; the domain is convex, so each hull
-    // vertex starts exactly one of them.
-    for (std::uint32_t tri = 0; tri < t.triangles.size(); ++tri)
-      for (int i = 0; i < 3; ++i)
-        if (t.neighbors[tri][i] == cdt::kNone) hull_out_[t.triangles[tri][(i + 1) % 3]] = tri;
-  }
-
-  bool is_boundary(std::uint32_t tri, int edge) const {
-    const std::uint32_t other = t_.neighbors[tri][edge];
-    return other == cdt::kNone || region_[other] != region_[tri];
-  }
+  // hull_out: each hull vertex's outgoing hull edge's triangle (see trace_polygons).
+  Tracer(const cdt::Triangulation& t, const std::vector<std::uint32_t>& region,
+         const std::vector<std::uint32_t>& hull_out)
+      : t_(t), region_(region), hull_out_(hull_out) {}
 
   // The boundary edge (triangle, edge index) that follows boundary edge `edge` of `tri`, at its end
   // vertex c[edge + 2].
@@ -55,7 +45,7 @@ public:
 private:
   const cdt::Triangulation& t_;
   const std::vector<std::uint32_t>& region_;
-  std::vector<std::uint32_t> hull_out_;
+  const std::vector<std::uint32_t>& hull_out_;
 };
 
 } // namespace
@@ -66,7 +56,10 @@ std::vector<RegionPolygon> trace_polygons(const cdt::Triangulation& t, const Reg
   std::vector<RegionPolygon> by_region(regions.regions.size());
   for (std::uint32_t r = 0; r < by_region.size(); ++r) by_region[r].region = r;
 
-  const Tracer tracer(t, region_of);
+  // The hull edge c[i+1] -> c[i+2] has the domain on its left; the domain is convex, so each hull
+  // vertex starts exactly one of them. Found in the pass for the boundary edges, which hull edges are.
+  std::vector<std::uint32_t> hull_out(t.vertices.size(), cdt::kNone);
+  const Tracer tracer(t, region_of, hull_out);
   // Each triangle's boundary edges (bits 0-2) and those walked (bits 3-5); and the boundary edges by
   // the vertex they start at (tri * 3 + edge, grouped by vertex): where a region leaves a vertex by one
   // boundary edge only (everywhere but at its pinches), that edge follows the region's boundary edge
@@ -76,31 +69,33 @@ std::vector<RegionPolygon> trace_polygons(const cdt::Triangulation& t, const Reg
   std::vector<std::uint8_t> flags(n, 0);
   std::vector<std::uint32_t> first_leaving(t.vertices.size() + 1, 0);
   for (std::uint32_t tri = 0; tri < n; ++tri)
-    for (std::uint32_t edge = 0; edge < 3; ++edge)
-      if (tracer.is_boundary(tri, edge)) {
+    for (std::uint32_t edge = 0; edge < 3; ++edge) {
+      const std::uint32_t other = t.neighbors[tri][edge];
+      const std::uint32_t from = t.triangles[tri][(edge + 1) % 3];
+      if (other == cdt::kNone) hull_out[from] = tri;
+      if (other == cdt::kNone || region_of[other] != region_of[tri]) {
         flags[tri] |= static_cast<std::uint8_t>(1u << edge);
-        ++first_leaving[t.triangles[tri][(edge + 1) % 3] + 1];
+        ++first_leaving[from + 1];
       }
+    }
   for (std::size_t v = 0; v + 1 < first_leaving.size(); ++v) first_leaving[v + 1] += first_leaving[v];
-  std::vector<std::uint32_t> leaving(first_leaving.back());
+  // Each leaving edge with its triangle's region and its end vertex, so that the walk reads one run of
+  // these per vertex and neither the triangles nor their regions.
+  struct Leaving {
+    std::uint32_t edge; // tri * 3 + edge index
+    std::uint32_t region;
+    std::uint32_t end; // the vertex it ends at
+  };
+  std::vector<Leaving> leaving(first_leaving.back());
   {
     std::vector<std::uint32_t> cursor(first_leaving.begin(), first_leaving.end() - 1);
     for (std::uint32_t tri = 0; tri < n; ++tri)
       for (std::uint32_t edge = 0; edge < 3; ++edge)
-        if ((flags[tri] >> edge) & 1u) leaving[cursor[t.triangles[tri][(edge + 1) % 3]]++] = 3 * tri + edge;
+        if ((flags[tri] >> edge) & 1u) {
+          const std::uint32_t end = t.triangles[tri][(edge + 2) % 3];
+          leaving[cursor[t.triangles[tri][(edge + 1) % 3]]++] = {3 * tri + edge, region_of[tri], end};
+        }
   }
-  const auto next = [&](std::uint32_t tri, std::uint32_t edge) -> std::pair<std::uint32_t, std::uint32_t> {
-    const std::uint32_t region = region_of[tri];
-    const std::uint32_t vertex = t.triangles[tri][(edge + 2) % 3];
-    std::uint32_t found = cdt::kNone;
-    for (std::uint32_t k = first_leaving[vertex]; k < first_leaving[vertex + 1]; ++k) {
-      if (region_of[leaving[k] / 3] != region) continue;
-      if (found != cdt::kNone) return tracer.next(tri, edge); // a pinch: the walk decides
-      found = leaving[k];
-    }
-    if (found == cdt::kNone) return tracer.next(tri, edge); // cannot happen on a valid mesh
-    return {found / 3, found % 3};
-  };
 
   std::vector<std::uint32_t> walked; // a ring's vertices, collected here and then copied at their size
   for (std::uint32_t tri = 0; tri < n; ++tri) {
@@ -109,14 +104,36 @@ std::vector<RegionPolygon> trace_polygons(const cdt::Triangulation& t, const Reg
     for (std::uint32_t edge = 0; edge < 3; ++edge) {
       if ((flags[tri] & (9u << edge)) != (1u << edge)) continue; // not a boundary edge, or walked
       Ring ring;
-      std::uint32_t cur_tri = tri;
-      std::uint32_t cur_edge = edge;
+      const std::uint32_t first = 3 * tri + edge;
+      std::uint32_t current = first;
+      std::uint32_t start = t.triangles[tri][(edge + 1) % 3];
+      std::uint32_t end = t.triangles[tri][(edge + 2) % 3];
       walked.clear();
       do {
-        flags[cur_tri] |= static_cast<std::uint8_t>(8u << cur_edge);
-        walked.push_back(t.triangles[cur_tri][(cur_edge + 1) % 3]);
-        std::tie(cur_tri, cur_edge) = next(cur_tri, cur_edge);
-      } while (cur_tri != tri || cur_edge != edge);
+        flags[current / 3] |= static_cast<std::uint8_t>(8u << (current % 3));
+        walked.push_back(start);
+        // The next edge: the region's one edge leaving `end`, or at a pinch (several), the walk's.
+        std::uint32_t found = cdt::kNone;
+        bool pinch = false;
+        for (std::uint32_t k = first_leaving[end]; k < first_leaving[end + 1]; ++k) {
+          if (leaving[k].region != r) continue;
+          if (found != cdt::kNone) {
+            pinch = true;
+            break;
+          }
+          found = k;
+        }
+        start = end;
+        if (!pinch && found != cdt::kNone) { // none cannot happen on a valid mesh
+          const Leaving& next = leaving[found];
+          current = next.edge;
+          end = next.end;
+        } else {
+          const auto [next_tri, next_edge] = tracer.next(current / 3, current % 3);
+          current = 3 * next_tri + next_edge;
+          end = t.triangles[next_tri][(next_edge + 2) % 3];
+        }
+      } while (current != first);
       ring.vertices.assign(walked.begin(), walked.end());
 
       ring.points.reserve(ring.vertices.size());

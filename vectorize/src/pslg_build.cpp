@@ -20,31 +20,34 @@ namespace {
 
 constexpr double kCentre = 0.5; // offset of a pixel's centre from its top-left corner
 
-// A set of 64-bit keys (never all ones) with a 32-bit value each, by open addressing with linear
-// probing in a power-of-two table kept at most half full: one flat array instead of a node per key.
-class FlatMap {
+// A set of 64-bit keys (never all ones), by open addressing with linear probing in a power-of-two
+// table kept at most half full: one flat array instead of a node per key.
+class FlatSet {
 public:
-  // The value of key, inserting `value` for it when absent; second is true when it was inserted.
-  std::pair<std::uint32_t, bool> try_emplace(std::uint64_t key, std::uint32_t value) {
-    if (2 * (size_ + 1) > slots_.size()) grow();
+  // Room for n keys without growing.
+  void reserve(std::size_t n) {
+    std::size_t slots = 64;
+    while (slots < 2 * n) slots *= 2;
+    if (slots > slots_.size()) rehash(slots);
+  }
+
+  // Whether key was absent (and is now present).
+  bool insert(std::uint64_t key) {
+    if (2 * (size_ + 1) > slots_.size()) rehash(std::max<std::size_t>(64, 2 * slots_.size()));
     const std::size_t mask = slots_.size() - 1;
     for (std::size_t i = hash(key) & mask;; i = (i + 1) & mask) {
-      Slot& slot = slots_[i];
-      if (slot.key == key) return {slot.value, false};
-      if (slot.key == kEmpty) {
-        slot = {key, value};
+      std::uint64_t& slot = slots_[i];
+      if (slot == key) return false;
+      if (slot == kEmpty) {
+        slot = key;
         ++size_;
-        return {value, true};
+        return true;
       }
     }
   }
 
 private:
   static constexpr std::uint64_t kEmpty = std::numeric_limits<std::uint64_t>::max();
-  struct Slot {
-    std::uint64_t key = kEmpty;
-    std::uint32_t value = 0;
-  };
   static std::size_t hash(std::uint64_t key) {
     key ^= key >> 33; // a 64-bit finaliser (MurmurHash3's fmix64)
     key *= 0xff51afd7ed558ccdULL;
@@ -53,28 +56,32 @@ private:
     key ^= key >> 33;
     return static_cast<std::size_t>(key);
   }
-  void grow() {
-    std::vector<Slot> old = std::move(slots_);
-    slots_.assign(std::max<std::size_t>(64, 2 * old.size()), Slot{});
+  void rehash(std::size_t slots) {
+    std::vector<std::uint64_t> old = std::move(slots_);
+    slots_.assign(slots, kEmpty);
     size_ = 0;
-    for (const Slot& slot : old)
-      if (slot.key != kEmpty) try_emplace(slot.key, slot.value);
+    for (const std::uint64_t key : old)
+      if (key != kEmpty) insert(key);
   }
 
-  std::vector<Slot> slots_;
+  std::vector<std::uint64_t> slots_;
   std::size_t size_ = 0;
 };
 
 class Builder {
 public:
-  explicit Builder(PointPlacement placement) : placement_(placement) {}
+  // `segments`: about how many segments will be made (room is made for them).
+  Builder(PointPlacement placement, int width, int height, std::size_t segments)
+      : placement_(placement), width_(width),
+        pixel_index_(static_cast<std::size_t>(width) * static_cast<std::size_t>(height), kNoPoint) {
+    segment_keys_.reserve(segments);
+  }
 
   std::uint32_t pixel_point(const PixelPoint& p) {
-    const std::uint64_t key =
-        (static_cast<std::uint64_t>(static_cast<std::uint32_t>(p.y)) << 32) | static_cast<std::uint32_t>(p.x);
-    const auto [index, inserted] =
-        pixel_index_.try_emplace(key, static_cast<std::uint32_t>(pslg_.points.size()));
-    if (inserted) {
+    std::uint32_t& index =
+        pixel_index_[static_cast<std::size_t>(p.y) * width_ + static_cast<std::size_t>(p.x)];
+    if (index == kNoPoint) {
+      index = static_cast<std::uint32_t>(pslg_.points.size());
       const Position at = placement_.position(p);
       pslg_.points.push_back({at.x, at.y});
     }
@@ -89,48 +96,72 @@ public:
   void segment(std::uint32_t a, std::uint32_t b) {
     if (a == b) return;
     const std::uint64_t key = (static_cast<std::uint64_t>(std::min(a, b)) << 32) | std::max(a, b);
-    if (!segment_keys_.try_emplace(key, 0).second) return;
+    if (!segment_keys_.insert(key)) return;
     pslg_.segments.push_back({a, b});
     if (degree_.size() < pslg_.points.size()) degree_.resize(pslg_.points.size() * 2, 0);
     ++degree_[a];
     ++degree_[b];
   }
 
+  // Frees the pixel index (4 bytes a pixel) once no more pixel points are asked for, before the
+  // interior points' per-pixel buffers are made.
+  void drop_pixel_index() { std::vector<std::uint32_t>().swap(pixel_index_); }
+
   std::uint32_t degree(std::uint32_t p) const { return p < degree_.size() ? degree_[p] : 0; }
   Pslg& pslg() { return pslg_; }
 
 private:
+  static constexpr std::uint32_t kNoPoint = std::numeric_limits<std::uint32_t>::max();
   PointPlacement placement_;
+  std::size_t width_;
   Pslg pslg_;
-  FlatMap pixel_index_;  // pixel (y << 32 | x) -> point
-  FlatMap segment_keys_; // (lower << 32 | higher) point ids of the segments made
+  // Each pixel's point, by pixel index: polyline points are neighbouring pixels, so a flat image of
+  // ids is read in runs where a hash table was read at random.
+  std::vector<std::uint32_t> pixel_index_;
+  FlatSet segment_keys_; // (lower << 32 | higher) point ids of the segments made
 
   std::vector<std::uint32_t> degree_;
 };
 
-// Pixels a segment passes through or next to (the 3x3 neighbourhood of every pixel it passes through):
-// a pixel left unmarked has its centre at least half a pixel from the segment. Sampling every quarter
-// pixel can miss a pixel whose corner the segment just clips, but that pixel neighbours two sampled
-// ones and is marked by the widening.
-void mark_near_segment(std::vector<std::uint8_t>& near, int width, int height, const cdt::Point& a,
-                       const cdt::Point& b) {
+// Samples every quarter pixel along a segment and flags the pixels they fall in, in `hit`: the image
+// with a margin of kHitMargin pixels on each side, rows of `stride`. Widened by widen_hits, the
+// flags are the pixels the segment passes through or next to (a pixel left unmarked has its centre at
+// least half a pixel from the segment). Sampling every quarter pixel can miss a pixel whose corner the
+// segment just clips, but that pixel neighbours two sampled ones and is marked by the widening.
+constexpr int kHitMargin = 2;
+
+void sample_segment(std::vector<std::uint8_t>& hit, std::size_t stride, int width, int height,
+                    const cdt::Point& a, const cdt::Point& b) {
   const double length = std::hypot(b.x - a.x, b.y - a.y);
   const int steps = std::max(1, static_cast<int>(std::ceil(length / 0.25)));
-  int last_x = std::numeric_limits<int>::min();
-  int last_y = 0;
+  // Every sample is flagged, without asking whether it repeats the last one's pixel (most do, but
+  // irregularly: a mispredicted branch costs more than the store). A sample that rounding put beyond
+  // the image stays in the margin, which the widening leaves out (as its 3x3 neighbourhood misses
+  // the image).
   for (int i = 0; i <= steps; ++i) {
     const double t = static_cast<double>(i) / steps;
-    const int px = static_cast<int>(std::floor(a.x + t * (b.x - a.x)));
-    const int py = static_cast<int>(std::floor(a.y + t * (b.y - a.y)));
-    if (px == last_x && py == last_y) continue; // consecutive samples mostly share a pixel
-    last_x = px;
-    last_y = py;
-    for (int dy = -1; dy <= 1; ++dy)
-      for (int dx = -1; dx <= 1; ++dx) {
-        const int x = px + dx;
-        const int y = py + dy;
-        if (x >= 0 && y >= 0 && x < width && y < height) near[static_cast<std::size_t>(y) * width + x] = 1;
-      }
+    const int px =
+        std::clamp(static_cast<int>(std::floor(a.x + t * (b.x - a.x))), -kHitMargin, width + kHitMargin - 1);
+    const int py =
+        std::clamp(static_cast<int>(std::floor(a.y + t * (b.y - a.y))), -kHitMargin, height + kHitMargin - 1);
+    hit[static_cast<std::size_t>(py + kHitMargin) * stride + static_cast<std::size_t>(px + kHitMargin)] = 1;
+  }
+}
+
+// Sets `near` (width x height) for every pixel whose 3x3 neighbourhood holds a pixel flagged in `hit`
+// (sample_segment's layout): a row at a time, the OR of three rows of `hit`, then of three columns of
+// that.
+void widen_hits(const std::vector<std::uint8_t>& hit, std::size_t stride, std::vector<std::uint8_t>& near,
+                int width, int height) {
+  std::vector<std::uint8_t> down(stride);
+  for (int y = 0; y < height; ++y) {
+    const std::uint8_t* here = hit.data() + static_cast<std::size_t>(y + kHitMargin) * stride;
+    const std::uint8_t* above = here - stride;
+    const std::uint8_t* below = here + stride;
+    for (std::size_t x = 0; x < stride; ++x) down[x] = above[x] | here[x] | below[x];
+    const std::uint8_t* in = down.data() + kHitMargin;
+    std::uint8_t* out = near.data() + static_cast<std::size_t>(y) * width;
+    for (int x = 0; x < width; ++x) out[x] = in[x - 1] | in[x] | in[x + 1];
   }
 }
 
@@ -139,9 +170,14 @@ void add_interior_points(Builder& builder, const Image& image, const InteriorOpt
   const int w = image.width;
   const int h = image.height;
   std::vector<std::uint8_t> unusable(static_cast<std::size_t>(w) * h, 0);
-  const Pslg& pslg = builder.pslg();
-  for (std::size_t s = 0; s < num_constrained_segments; ++s)
-    mark_near_segment(unusable, w, h, pslg.points[pslg.segments[s].a], pslg.points[pslg.segments[s].b]);
+  {
+    const std::size_t stride = static_cast<std::size_t>(w) + 2 * kHitMargin;
+    std::vector<std::uint8_t> hit(stride * (static_cast<std::size_t>(h) + 2 * kHitMargin), 0);
+    const Pslg& pslg = builder.pslg();
+    for (std::size_t s = 0; s < num_constrained_segments; ++s)
+      sample_segment(hit, stride, w, h, pslg.points[pslg.segments[s].a], pslg.points[pslg.segments[s].b]);
+    widen_hits(hit, stride, unusable, w, h);
+  }
   if (any_no_shape) {
     for (int y = 0; y < h; ++y)
       for (int x = 0; x < w; ++x)
@@ -232,7 +268,9 @@ Pslg build_pslg(const std::vector<Polyline>& simplified, int width, int height, 
 
   if (placement.image() != (have_image ? &image : nullptr))
     throw std::invalid_argument("build_pslg: the point placement was made for another image");
-  Builder builder(placement);
+  std::size_t polyline_points = 0;
+  for (const Polyline& line : simplified) polyline_points += line.points.size();
+  Builder builder(placement, width, height, polyline_points);
   std::vector<std::uint32_t> ids; // one line's point ids, reused from line to line
   for (const Polyline& line : simplified) {
     const std::size_t n = line.points.size();
@@ -282,6 +320,7 @@ Pslg build_pslg(const std::vector<Polyline>& simplified, int width, int height, 
       builder.segment(id, border);
     }
   }
+  builder.drop_pixel_index();
   const std::size_t num_constrained = builder.pslg().segments.size();
   for (auto& side : sides) {
     std::sort(side.begin(), side.end());
