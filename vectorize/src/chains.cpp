@@ -107,29 +107,75 @@ int next_set(const std::uint8_t* row, int from, int width) {
   return x;
 }
 
+// The first x in [from, width) whose flag in `on` is set and whose `walked` byte is 0, or width: eight
+// pixels at a time, since almost every set pixel has been walked by the time this is asked.
+int next_unwalked(const std::uint8_t* on, const std::uint8_t* walked, int from, int width) {
+  int x = from;
+  if constexpr (std::endian::native == std::endian::little) {
+    constexpr std::uint64_t kLow7 = 0x7f7f7f7f7f7f7f7fu;
+    constexpr std::uint64_t kHigh = 0x8080808080808080u;
+    for (; x + 8 <= width; x += 8) {
+      std::uint64_t set = 0;
+      std::uint64_t marks = 0;
+      std::memcpy(&set, on + x, sizeof set);
+      std::memcpy(&marks, walked + x, sizeof marks);
+      // The high bit of each byte: whether its walked byte is nonzero (exact, no carry between bytes).
+      const std::uint64_t marked = (((marks & kLow7) + kLow7) | marks) & kHigh;
+      const std::uint64_t found = (set << 7) & ~marked & kHigh;
+      if (found != 0) return x + std::countr_zero(found) / 8;
+    }
+  }
+  while (x < width && (on[x] == 0 || walked[x] != 0)) ++x;
+  return x;
+}
+
 // Removes simple pixels from fully set 2x2 blocks until none is left (a sequential thinning restricted
 // to the blocks, so lines keep their corners and T junctions keep their centre). Every removal keeps
 // the topology, so a block whose four pixels each carry a branch stays (as a small loop).
 void thin_blocks(Grid& grid) {
-  bool changed = true;
-  while (changed) {
-    changed = false;
-    for (int y = 0; y + 1 < grid.height(); ++y) {
-      const std::uint8_t* upper = grid.row(y);
-      const std::uint8_t* lower = grid.row(y + 1);
-      for (int x = next_set(upper, 0, grid.width()); x + 1 < grid.width();
-           x = next_set(upper, x + 1, grid.width())) {
-        if ((upper[x] & upper[x + 1] & lower[x] & lower[x + 1]) == 0) continue;
-        for (const auto& [px, py] :
-             {std::array{x, y}, std::array{x + 1, y}, std::array{x, y + 1}, std::array{x + 1, y + 1}}) {
-          if (grid.simple(px, py)) {
-            grid.clear(px, py);
-            changed = true;
-            break;
-          }
-        }
+  // Removes the first simple pixel of the full block at (x, y); false when none is simple.
+  const auto thin = [&](int x, int y) {
+    for (const auto& [px, py] :
+         {std::array{x, y}, std::array{x + 1, y}, std::array{x, y + 1}, std::array{x + 1, y + 1}}) {
+      if (grid.simple(px, py)) {
+        grid.clear(px, py);
+        return true;
       }
     }
+    return false;
+  };
+  const auto full = [&](int x, int y) {
+    const std::uint8_t* upper = grid.row(y);
+    const std::uint8_t* lower = grid.row(y + 1);
+    return (upper[x] & upper[x + 1] & lower[x] & lower[x + 1]) != 0;
+  };
+  // Pixels are only ever cleared, so a block that is not full, or was thinned, stays so: a pass after
+  // the first only has the blocks that stayed full in the pass before to look at, in the same order.
+  std::vector<std::array<int, 2>> stuck;
+  bool changed = false;
+  for (int y = 0; y + 1 < grid.height(); ++y) {
+    const std::uint8_t* upper = grid.row(y);
+    for (int x = next_set(upper, 0, grid.width()); x + 1 < grid.width();
+         x = next_set(upper, x + 1, grid.width())) {
+      if (!full(x, y)) continue;
+      if (thin(x, y))
+        changed = true;
+      else
+        stuck.push_back({x, y});
+    }
+  }
+  std::vector<std::array<int, 2>> still_stuck;
+  while (changed) {
+    changed = false;
+    still_stuck.clear();
+    for (const auto& [x, y] : stuck) {
+      if (!full(x, y)) continue;
+      if (thin(x, y))
+        changed = true;
+      else
+        still_stuck.push_back({x, y});
+    }
+    stuck.swap(still_stuck);
   }
 }
 
@@ -161,17 +207,15 @@ std::vector<Chain> trace_chains(const EdgeMap& edges) {
 
   const int w = grid.width();
   const int h = grid.height();
-  std::vector<std::uint8_t> degree(grid.size(), 0);
-  for (int y = 0; y < h; ++y)
-    for (int x = next_set(grid.row(y), 0, w); x < w; x = next_set(grid.row(y), x + 1, w))
-      degree[grid.index(x, y)] = static_cast<std::uint8_t>(grid.degree(x, y));
   // Bit k: the link in direction k has been walked.
-  std::vector<std::uint8_t> walked(degree.size(), 0);
+  std::vector<std::uint8_t> walked(grid.size(), 0);
   auto mark = [&](int x, int y, int k) {
     walked[grid.index(x, y)] |= static_cast<std::uint8_t>(1u << k);
     walked[grid.index(x + kDx[k], y + kDy[k])] |= static_cast<std::uint8_t>(1u << ((k + 4) % 8));
   };
-  auto is_node = [&](int x, int y) { return degree[grid.index(x, y)] != 2; };
+  // A pixel's links are found where they are needed rather than kept per pixel: each pixel is visited
+  // about once, and a table of them would take a pass of its own.
+  auto is_node = [](std::uint8_t links) { return std::popcount(links) != 2; };
 
   std::vector<Chain> chains;
   // A chain's points are collected here, then copied at their size: one allocation per chain rather
@@ -189,10 +233,11 @@ std::vector<Chain> trace_chains(const EdgeMap& edges) {
       y += kDy[k];
       if (closed && x == sx && y == sy) break;
       points.push_back({x, y});
-      if (!closed && is_node(x, y)) break;
+      const std::uint8_t links = grid.links(x, y);
+      if (!closed && is_node(links)) break;
       const int back = (k + 4) % 8;
       // The highest other link.
-      const unsigned others = grid.links(x, y) & ~(1u << back) & 0xffu;
+      const unsigned others = links & ~(1u << back) & 0xffu;
       const int next = others == 0 ? -1 : std::bit_width(others) - 1;
       if (next < 0 || (walked[grid.index(x, y)] & (1u << next))) break; // cannot happen on a valid map
       k = next;
@@ -202,21 +247,24 @@ std::vector<Chain> trace_chains(const EdgeMap& edges) {
 
   for (int y = 0; y < h; ++y)
     for (int x = next_set(grid.row(y), 0, w); x < w; x = next_set(grid.row(y), x + 1, w)) {
-      if (!is_node(x, y)) continue;
       const std::uint8_t links = grid.links(x, y);
+      if (!is_node(links)) continue;
       for (int k = 0; k < 8; ++k)
         if ((links >> k & 1) != 0 && !(walked[grid.index(x, y)] & (1u << k))) walk(x, y, k, false);
     }
   // What is left unwalked are loops of two-link pixels.
-  for (int y = 0; y < h; ++y)
-    for (int x = next_set(grid.row(y), 0, w); x < w; x = next_set(grid.row(y), x + 1, w)) {
-      if (degree[grid.index(x, y)] != 2 || walked[grid.index(x, y)] != 0) continue;
+  for (int y = 0; y < h; ++y) {
+    const std::uint8_t* on = grid.row(y);
+    const std::uint8_t* walked_row = walked.data() + grid.index(0, y);
+    for (int x = next_unwalked(on, walked_row, 0, w); x < w; x = next_unwalked(on, walked_row, x + 1, w)) {
+      if (is_node(grid.links(x, y))) continue;
       for (int k = 0; k < 8; ++k)
         if (grid.linked(x, y, k)) {
           walk(x, y, k, true);
           break;
         }
     }
+  }
   return chains;
 }
 
