@@ -49,15 +49,30 @@ class Grid {
 public:
   explicit Grid(const EdgeMap& edges)
       : width_(edges.width), height_(edges.height), stride_(static_cast<std::size_t>(edges.width) + 2),
-        on_(stride_ * (static_cast<std::size_t>(edges.height) + 2), 0) {
+        on_(stride_ * (static_cast<std::size_t>(edges.height) + 2), 0), ring_(on_.size(), 0) {
     for (int y = 0; y < height_; ++y)
       for (int x = 0; x < width_; ++x)
         on_[index(x, y)] = edges.on[static_cast<std::size_t>(y) * width_ + x] != 0 ? 1 : 0;
+    // Row by row without branches, so that the compiler vectorises it.
+    for (int y = 0; y < height_; ++y) {
+      const std::uint8_t* above = row(y - 1);
+      const std::uint8_t* here = row(y);
+      const std::uint8_t* below = row(y + 1);
+      std::uint8_t* ring = ring_.data() + index(0, y);
+      for (int x = 0; x < width_; ++x)
+        ring[x] = static_cast<std::uint8_t>(here[x + 1] | above[x + 1] << 1 | above[x] << 2 |
+                                            above[x - 1] << 3 | here[x - 1] << 4 | below[x - 1] << 5 |
+                                            below[x] << 6 | below[x + 1] << 7);
+    }
   }
   int width() const { return width_; }
   int height() const { return height_; }
   bool on(int x, int y) const { return on_[index(x, y)] != 0; }
-  void clear(int x, int y) { on_[index(x, y)] = 0; }
+  void clear(int x, int y) {
+    on_[index(x, y)] = 0;
+    for (int k = 0; k < 8; ++k)
+      ring_[index(x + kDx[k], y + kDy[k])] &= static_cast<std::uint8_t>(~(1u << ((k + 4) % 8)));
+  }
   std::size_t index(int x, int y) const {
     return static_cast<std::size_t>(y + 1) * stride_ + static_cast<std::size_t>(x + 1);
   }
@@ -66,13 +81,7 @@ public:
   std::size_t size() const { return on_.size(); }
 
   // Bit k set when the neighbour in direction k is on.
-  std::uint8_t ring(int x, int y) const {
-    const std::uint8_t* above = row(y - 1) + x;
-    const std::uint8_t* here = row(y) + x;
-    const std::uint8_t* below = row(y + 1) + x;
-    return static_cast<std::uint8_t>(here[1] | above[1] << 1 | above[0] << 2 | above[-1] << 3 |
-                                     here[-1] << 4 | below[-1] << 5 | below[0] << 6 | below[1] << 7);
-  }
+  std::uint8_t ring(int x, int y) const { return ring_[index(x, y)]; }
 
   // Yokoi's 8-connectivity number: 1 exactly when removing the pixel changes no connectivity of the
   // set pixels (8-connected) or of the background (4-connected).
@@ -90,6 +99,9 @@ private:
   int height_;
   std::size_t stride_;
   std::vector<std::uint8_t> on_;
+  // Every pixel's ring (see ring()), kept as pixels are cleared: a pixel's ring is asked for several
+  // times (thinning, pruning, linking, walking), and kept it is one read rather than eight.
+  std::vector<std::uint8_t> ring_;
 };
 
 // The first x in [from, width) whose flag in `row` is set, or width: eight flags at a time over the

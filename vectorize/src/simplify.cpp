@@ -397,9 +397,11 @@ ChainState place_chain(const Chain& chain, const PointPlacement& placement, Chai
   Vec* points = arrays.points.data() + first;
   ChainState::Link* link = arrays.link.data() + first;
   std::size_t size = 0;
+  // Without a no-shape pixel every point is its pixel's centre (PointPlacement::place).
+  const bool centres = !placement.any_no_shape();
   for (const PixelPoint& p : chain.points) {
     if (size != 0 && pixels[size - 1] == p) continue;
-    const Placement placed = placement.place(p);
+    const Placement placed = centres ? Placement{{p.x + 0.5, p.y + 0.5}, {}, false} : placement.place(p);
     pixels[size] = p;
     points[size] = {placed.at.x, placed.at.y};
     link[size] = {0, 0, kNoSegment, 0, 1, static_cast<std::uint8_t>(placed.outline ? 1 : 0)};
