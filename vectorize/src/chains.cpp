@@ -78,6 +78,8 @@ public:
   }
   // Row y's flags, x = 0 first (x = -1 and x = width readable).
   const std::uint8_t* row(int y) const { return on_.data() + index(0, y); }
+  // Row y's rings, x = 0 first.
+  const std::uint8_t* ring_row(int y) const { return ring_.data() + index(0, y); }
   std::size_t size() const { return on_.size(); }
 
   // Bit k set when the neighbour in direction k is on.
@@ -104,18 +106,44 @@ private:
   std::vector<std::uint8_t> ring_;
 };
 
-// The first x in [from, width) whose flag in `row` is set, or width: eight flags at a time over the
-// empty stretches (most of an edge map is empty).
-int next_set(const std::uint8_t* row, int from, int width) {
+// The high bit of each of eight bytes that is 0 (the other bits clear).
+std::uint64_t zero_bytes(std::uint64_t bytes) {
+  constexpr std::uint64_t kLow7 = 0x7f7f7f7f7f7f7f7fu;
+  return ~(((bytes & kLow7) + kLow7) | bytes) & ~kLow7; // exact: no carry between bytes
+}
+
+// The number of links (kTables.links) of each of eight rings, a byte each.
+std::uint64_t link_counts(std::uint64_t rings) {
+  constexpr std::uint64_t kEven = 0x5555555555555555u;
+  // Within each byte, bit k of `before` is ring bit k - 1 and bit k of `after` ring bit k + 1 (mod 8).
+  const std::uint64_t before = ((rings << 1) & 0xfefefefefefefefeu) | ((rings >> 7) & 0x0101010101010101u);
+  const std::uint64_t after = ((rings >> 1) & 0x7f7f7f7f7f7f7f7fu) | ((rings << 7) & 0x8080808080808080u);
+  const std::uint64_t links = (rings & kEven) | (rings & ~kEven & ~before & ~after);
+  std::uint64_t counts = links - ((links >> 1) & kEven);
+  counts = (counts & 0x3333333333333333u) + ((counts >> 2) & 0x3333333333333333u);
+  return (counts + (counts >> 4)) & 0x0f0f0f0f0f0f0f0fu;
+}
+
+// The first x in [from, width) whose flag in `on` is set and whose number of links is `degree` (or,
+// with `other`, is not), or width: eight pixels at a time from their rings, since such pixels are few
+// among the set ones.
+int next_with_degree(const std::uint8_t* on, const std::uint8_t* ring, int from, int width, int degree,
+                     bool other) {
   int x = from;
   if constexpr (std::endian::native == std::endian::little) {
+    const std::uint64_t wanted = 0x0101010101010101u * static_cast<std::uint64_t>(degree);
     for (; x + 8 <= width; x += 8) {
-      std::uint64_t word = 0;
-      std::memcpy(&word, row + x, sizeof word);
-      if (word != 0) return x + std::countr_zero(word) / 8;
+      std::uint64_t set = 0;
+      std::uint64_t rings = 0;
+      std::memcpy(&set, on + x, sizeof set);
+      std::memcpy(&rings, ring + x, sizeof rings);
+      std::uint64_t found = zero_bytes(link_counts(rings) ^ wanted);
+      if (other) found = ~found & 0x8080808080808080u;
+      found &= set << 7;
+      if (found != 0) return x + std::countr_zero(found) / 8;
     }
   }
-  while (x < width && row[x] == 0) ++x;
+  while (x < width && (on[x] == 0 || (std::popcount(kTables.links[ring[x]]) == degree) == other)) ++x;
   return x;
 }
 
@@ -138,6 +166,25 @@ int next_unwalked(const std::uint8_t* on, const std::uint8_t* walked, int from, 
     }
   }
   while (x < width && (on[x] == 0 || walked[x] != 0)) ++x;
+  return x;
+}
+
+// The first x in [from, last) where the 2x2 block of rows `upper` and `lower` at columns x and x + 1 is
+// fully set, or last (from, when that is past last): eight blocks at a time.
+int next_full(const std::uint8_t* upper, const std::uint8_t* lower, int from, int last) {
+  int x = from;
+  if constexpr (std::endian::native == std::endian::little) {
+    for (; x + 8 <= last; x += 8) {
+      std::array<std::uint64_t, 4> words{};
+      std::memcpy(&words[0], upper + x, sizeof words[0]);
+      std::memcpy(&words[1], upper + x + 1, sizeof words[1]);
+      std::memcpy(&words[2], lower + x, sizeof words[2]);
+      std::memcpy(&words[3], lower + x + 1, sizeof words[3]);
+      const std::uint64_t found = words[0] & words[1] & words[2] & words[3];
+      if (found != 0) return x + std::countr_zero(found) / 8;
+    }
+  }
+  while (x < last && (upper[x] & upper[x + 1] & lower[x] & lower[x + 1]) == 0) ++x;
   return x;
 }
 
@@ -167,9 +214,10 @@ void thin_blocks(Grid& grid) {
   bool changed = false;
   for (int y = 0; y + 1 < grid.height(); ++y) {
     const std::uint8_t* upper = grid.row(y);
-    for (int x = next_set(upper, 0, grid.width()); x + 1 < grid.width();
-         x = next_set(upper, x + 1, grid.width())) {
-      if (!full(x, y)) continue;
+    const std::uint8_t* lower = grid.row(y + 1);
+    const int last = grid.width() - 1; // blocks at x < last
+    // Read again from x + 1 after each block: thinning one clears pixels of the next.
+    for (int x = next_full(upper, lower, 0, last); x < last; x = next_full(upper, lower, x + 1, last)) {
       if (thin(x, y))
         changed = true;
       else
@@ -195,16 +243,20 @@ void thin_blocks(Grid& grid) {
 // topology. Canny leaves such bumps on lines (often where a 2x2 block was thinned); each would split
 // the line at a false junction. One pass only, so that longer branches stay.
 void prune_spurs(Grid& grid) {
-  for (int y = 0; y < grid.height(); ++y)
-    for (int x = next_set(grid.row(y), 0, grid.width()); x < grid.width();
-         x = next_set(grid.row(y), x + 1, grid.width())) {
-      if (grid.degree(x, y) != 1 || !grid.simple(x, y)) continue;
+  for (int y = 0; y < grid.height(); ++y) {
+    const std::uint8_t* on = grid.row(y);
+    const std::uint8_t* ring = grid.ring_row(y);
+    // Read again from x + 1 after each pixel: clearing one changes its neighbours' rings.
+    for (int x = next_with_degree(on, ring, 0, grid.width(), 1, false); x < grid.width();
+         x = next_with_degree(on, ring, x + 1, grid.width(), 1, false)) {
+      if (!grid.simple(x, y)) continue;
       for (int k = 0; k < 8; ++k)
         if (grid.linked(x, y, k) && grid.degree(x + kDx[k], y + kDy[k]) >= 3) {
           grid.clear(x, y);
           break;
         }
     }
+  }
 }
 
 } // namespace
@@ -257,13 +309,16 @@ std::vector<Chain> trace_chains(const EdgeMap& edges) {
     chains.push_back({std::vector<PixelPoint>(points.begin(), points.end()), closed});
   };
 
-  for (int y = 0; y < h; ++y)
-    for (int x = next_set(grid.row(y), 0, w); x < w; x = next_set(grid.row(y), x + 1, w)) {
+  for (int y = 0; y < h; ++y) {
+    const std::uint8_t* on = grid.row(y);
+    const std::uint8_t* ring = grid.ring_row(y);
+    for (int x = next_with_degree(on, ring, 0, w, 2, true); x < w;
+         x = next_with_degree(on, ring, x + 1, w, 2, true)) {
       const std::uint8_t links = grid.links(x, y);
-      if (!is_node(links)) continue;
       for (int k = 0; k < 8; ++k)
         if ((links >> k & 1) != 0 && !(walked[grid.index(x, y)] & (1u << k))) walk(x, y, k, false);
     }
+  }
   // What is left unwalked are loops of two-link pixels.
   for (int y = 0; y < h; ++y) {
     const std::uint8_t* on = grid.row(y);
