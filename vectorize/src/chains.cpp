@@ -43,16 +43,32 @@ constexpr RingTables make_ring_tables() {
 }
 constexpr RingTables kTables = make_ring_tables();
 
+// The number of links (kTables.links) of a pixel with this ring, in operations on bytes only, so that
+// a loop over a row of rings is vectorised.
+std::uint8_t link_count(std::uint8_t ring) {
+  const auto before =
+      static_cast<std::uint8_t>(static_cast<std::uint8_t>(ring << 1) | ring >> 7); // bit k: ring bit k - 1
+  const auto after =
+      static_cast<std::uint8_t>(ring >> 1 | static_cast<std::uint8_t>(ring << 7)); // bit k: ring bit k + 1
+  const auto links = static_cast<std::uint8_t>((ring & 0x55) | (ring & 0xaa & ~before & ~after));
+  auto count = static_cast<std::uint8_t>(links - ((links >> 1) & 0x55));
+  count = static_cast<std::uint8_t>((count & 0x33) + ((count >> 2) & 0x33));
+  return static_cast<std::uint8_t>((count + (count >> 4)) & 0x0f);
+}
+
 // The edge pixels with a border of clear pixels around them, so that a pixel's neighbours are read
 // without bounds checks: on(x, y) for -1 <= x <= width, -1 <= y <= height.
 class Grid {
 public:
   explicit Grid(const EdgeMap& edges)
       : width_(edges.width), height_(edges.height), stride_(static_cast<std::size_t>(edges.width) + 2),
-        on_(stride_ * (static_cast<std::size_t>(edges.height) + 2), 0), ring_(on_.size(), 0) {
-    for (int y = 0; y < height_; ++y)
-      for (int x = 0; x < width_; ++x)
-        on_[index(x, y)] = edges.on[static_cast<std::size_t>(y) * width_ + x] != 0 ? 1 : 0;
+        on_(stride_ * (static_cast<std::size_t>(edges.height) + 2), 0), ring_(on_.size(), 0),
+        degree_(on_.size(), kClearDegree) {
+    for (int y = 0; y < height_; ++y) {
+      const auto* from = edges.on.data() + static_cast<std::size_t>(y) * width_;
+      std::uint8_t* to = on_.data() + index(0, y);
+      for (int x = 0; x < width_; ++x) to[x] = from[x] != 0 ? 1 : 0;
+    }
     // Row by row without branches, so that the compiler vectorises it.
     for (int y = 0; y < height_; ++y) {
       const std::uint8_t* above = row(y - 1);
@@ -64,22 +80,35 @@ public:
                                             above[x - 1] << 3 | here[x - 1] << 4 | below[x - 1] << 5 |
                                             below[x] << 6 | below[x + 1] << 7);
     }
+    for (int y = 0; y < height_; ++y) {
+      const std::uint8_t* here = row(y);
+      const std::uint8_t* ring = ring_.data() + index(0, y);
+      std::uint8_t* degree = degree_.data() + index(0, y);
+      for (int x = 0; x < width_; ++x) {
+        const auto set = static_cast<std::uint8_t>(-here[x]); // all ones or none
+        degree[x] = static_cast<std::uint8_t>((link_count(ring[x]) & set) | (kClearDegree & ~set));
+      }
+    }
   }
   int width() const { return width_; }
   int height() const { return height_; }
   bool on(int x, int y) const { return on_[index(x, y)] != 0; }
   void clear(int x, int y) {
     on_[index(x, y)] = 0;
-    for (int k = 0; k < 8; ++k)
-      ring_[index(x + kDx[k], y + kDy[k])] &= static_cast<std::uint8_t>(~(1u << ((k + 4) % 8)));
+    degree_[index(x, y)] = kClearDegree;
+    for (int k = 0; k < 8; ++k) {
+      const std::size_t i = index(x + kDx[k], y + kDy[k]);
+      ring_[i] &= static_cast<std::uint8_t>(~(1u << ((k + 4) % 8)));
+      if (on_[i] != 0) degree_[i] = static_cast<std::uint8_t>(std::popcount(kTables.links[ring_[i]]));
+    }
   }
   std::size_t index(int x, int y) const {
     return static_cast<std::size_t>(y + 1) * stride_ + static_cast<std::size_t>(x + 1);
   }
   // Row y's flags, x = 0 first (x = -1 and x = width readable).
   const std::uint8_t* row(int y) const { return on_.data() + index(0, y); }
-  // Row y's rings, x = 0 first.
-  const std::uint8_t* ring_row(int y) const { return ring_.data() + index(0, y); }
+  // Row y's numbers of links (see degree_), x = 0 first.
+  const std::uint8_t* degree_row(int y) const { return degree_.data() + index(0, y); }
   std::size_t size() const { return on_.size(); }
 
   // Bit k set when the neighbour in direction k is on.
@@ -94,6 +123,8 @@ public:
   bool linked(int x, int y, int k) const { return (kTables.links[ring(x, y)] >> k & 1) != 0; }
   // The links of pixel (x, y) as bits by direction.
   std::uint8_t links(int x, int y) const { return kTables.links[ring(x, y)]; }
+  // The links of the pixel at index(x, y) = i.
+  std::uint8_t links_at(std::size_t i) const { return kTables.links[ring_[i]]; }
   int degree(int x, int y) const { return std::popcount(links(x, y)); }
 
 private:
@@ -104,46 +135,31 @@ private:
   // Every pixel's ring (see ring()), kept as pixels are cleared: a pixel's ring is asked for several
   // times (thinning, pruning, linking, walking), and kept it is one read rather than eight.
   std::vector<std::uint8_t> ring_;
+  // Every pixel's number of links, kept likewise, so that ends and nodes are found eight pixels at a
+  // time; a clear pixel's is that of a pixel inside a chain (neither an end nor a node), so that those
+  // searches need not look at on_.
+  static constexpr std::uint8_t kClearDegree = 2;
+  std::vector<std::uint8_t> degree_;
 };
 
-// The high bit of each of eight bytes that is 0 (the other bits clear).
-std::uint64_t zero_bytes(std::uint64_t bytes) {
-  constexpr std::uint64_t kLow7 = 0x7f7f7f7f7f7f7f7fu;
-  return ~(((bytes & kLow7) + kLow7) | bytes) & ~kLow7; // exact: no carry between bytes
-}
-
-// The number of links (kTables.links) of each of eight rings, a byte each.
-std::uint64_t link_counts(std::uint64_t rings) {
-  constexpr std::uint64_t kEven = 0x5555555555555555u;
-  // Within each byte, bit k of `before` is ring bit k - 1 and bit k of `after` ring bit k + 1 (mod 8).
-  const std::uint64_t before = ((rings << 1) & 0xfefefefefefefefeu) | ((rings >> 7) & 0x0101010101010101u);
-  const std::uint64_t after = ((rings >> 1) & 0x7f7f7f7f7f7f7f7fu) | ((rings << 7) & 0x8080808080808080u);
-  const std::uint64_t links = (rings & kEven) | (rings & ~kEven & ~before & ~after);
-  std::uint64_t counts = links - ((links >> 1) & kEven);
-  counts = (counts & 0x3333333333333333u) + ((counts >> 2) & 0x3333333333333333u);
-  return (counts + (counts >> 4)) & 0x0f0f0f0f0f0f0f0fu;
-}
-
-// The first x in [from, width) whose flag in `on` is set and whose number of links is `degree` (or,
-// with `other`, is not), or width: eight pixels at a time from their rings, since such pixels are few
-// among the set ones.
-int next_with_degree(const std::uint8_t* on, const std::uint8_t* ring, int from, int width, int degree,
-                     bool other) {
+// The first x in [from, width) whose byte in `row` is `value` (or, with `other`, is not), or width:
+// eight bytes at a time.
+int next_byte(const std::uint8_t* row, int from, int width, std::uint8_t value, bool other) {
   int x = from;
   if constexpr (std::endian::native == std::endian::little) {
-    const std::uint64_t wanted = 0x0101010101010101u * static_cast<std::uint64_t>(degree);
+    constexpr std::uint64_t kLow7 = 0x7f7f7f7f7f7f7f7fu;
+    const std::uint64_t wanted = 0x0101010101010101u * value;
     for (; x + 8 <= width; x += 8) {
-      std::uint64_t set = 0;
-      std::uint64_t rings = 0;
-      std::memcpy(&set, on + x, sizeof set);
-      std::memcpy(&rings, ring + x, sizeof rings);
-      std::uint64_t found = zero_bytes(link_counts(rings) ^ wanted);
-      if (other) found = ~found & 0x8080808080808080u;
-      found &= set << 7;
+      std::uint64_t word = 0;
+      std::memcpy(&word, row + x, sizeof word);
+      word ^= wanted;
+      // The high bit of each byte: whether it differs from value (exact, no carry between bytes).
+      std::uint64_t found = (((word & kLow7) + kLow7) | word) & ~kLow7;
+      if (!other) found ^= ~kLow7;
       if (found != 0) return x + std::countr_zero(found) / 8;
     }
   }
-  while (x < width && (on[x] == 0 || (std::popcount(kTables.links[ring[x]]) == degree) == other)) ++x;
+  while (x < width && (row[x] == value) == other) ++x;
   return x;
 }
 
@@ -244,11 +260,10 @@ void thin_blocks(Grid& grid) {
 // the line at a false junction. One pass only, so that longer branches stay.
 void prune_spurs(Grid& grid) {
   for (int y = 0; y < grid.height(); ++y) {
-    const std::uint8_t* on = grid.row(y);
-    const std::uint8_t* ring = grid.ring_row(y);
-    // Read again from x + 1 after each pixel: clearing one changes its neighbours' rings.
-    for (int x = next_with_degree(on, ring, 0, grid.width(), 1, false); x < grid.width();
-         x = next_with_degree(on, ring, x + 1, grid.width(), 1, false)) {
+    const std::uint8_t* degree = grid.degree_row(y);
+    // Read again from x + 1 after each pixel: clearing one changes its neighbours' numbers of links.
+    for (int x = next_byte(degree, 0, grid.width(), 1, false); x < grid.width();
+         x = next_byte(degree, x + 1, grid.width(), 1, false)) {
       if (!grid.simple(x, y)) continue;
       for (int k = 0; k < 8; ++k)
         if (grid.linked(x, y, k) && grid.degree(x + kDx[k], y + kDy[k]) >= 3) {
@@ -273,12 +288,12 @@ std::vector<Chain> trace_chains(const EdgeMap& edges) {
   const int h = grid.height();
   // Bit k: the link in direction k has been walked.
   std::vector<std::uint8_t> walked(grid.size(), 0);
-  auto mark = [&](int x, int y, int k) {
-    walked[grid.index(x, y)] |= static_cast<std::uint8_t>(1u << k);
-    walked[grid.index(x + kDx[k], y + kDy[k])] |= static_cast<std::uint8_t>(1u << ((k + 4) % 8));
-  };
-  // A pixel's links are found where they are needed rather than kept per pixel: each pixel is visited
-  // about once, and a table of them would take a pass of its own.
+  // The walk goes by index: the step in direction k.
+  std::array<std::ptrdiff_t, 8> step{};
+  for (int k = 0; k < 8; ++k)
+    step[k] = static_cast<std::ptrdiff_t>(grid.index(1 + kDx[k], 1 + kDy[k])) -
+              static_cast<std::ptrdiff_t>(grid.index(1, 1));
+  // An end or a junction, by its links.
   auto is_node = [](std::uint8_t links) { return std::popcount(links) != 2; };
 
   std::vector<Chain> chains;
@@ -289,31 +304,31 @@ std::vector<Chain> trace_chains(const EdgeMap& edges) {
   auto walk = [&](int x, int y, int k, bool closed) {
     points.clear();
     points.push_back({x, y});
-    const int sx = x;
-    const int sy = y;
+    const std::size_t start = grid.index(x, y);
+    std::size_t i = start;
     for (;;) {
-      mark(x, y, k);
+      walked[i] |= static_cast<std::uint8_t>(1u << k);
+      i += static_cast<std::size_t>(step[k]);
+      walked[i] |= static_cast<std::uint8_t>(1u << ((k + 4) % 8));
       x += kDx[k];
       y += kDy[k];
-      if (closed && x == sx && y == sy) break;
+      if (closed && i == start) break;
       points.push_back({x, y});
-      const std::uint8_t links = grid.links(x, y);
+      const std::uint8_t links = grid.links_at(i);
       if (!closed && is_node(links)) break;
       const int back = (k + 4) % 8;
       // The highest other link.
       const unsigned others = links & ~(1u << back) & 0xffu;
       const int next = others == 0 ? -1 : std::bit_width(others) - 1;
-      if (next < 0 || (walked[grid.index(x, y)] & (1u << next))) break; // cannot happen on a valid map
+      if (next < 0 || (walked[i] & (1u << next))) break; // cannot happen on a valid map
       k = next;
     }
     chains.push_back({std::vector<PixelPoint>(points.begin(), points.end()), closed});
   };
 
   for (int y = 0; y < h; ++y) {
-    const std::uint8_t* on = grid.row(y);
-    const std::uint8_t* ring = grid.ring_row(y);
-    for (int x = next_with_degree(on, ring, 0, w, 2, true); x < w;
-         x = next_with_degree(on, ring, x + 1, w, 2, true)) {
+    const std::uint8_t* degree = grid.degree_row(y);
+    for (int x = next_byte(degree, 0, w, 2, true); x < w; x = next_byte(degree, x + 1, w, 2, true)) {
       const std::uint8_t links = grid.links(x, y);
       for (int k = 0; k < 8; ++k)
         if ((links >> k & 1) != 0 && !(walked[grid.index(x, y)] & (1u << k))) walk(x, y, k, false);
