@@ -13,7 +13,9 @@
 #include <cstdint>
 #include <exception>
 #include <limits>
+#include <memory>
 #include <optional>
+#include <span>
 #include <stdexcept>
 #include <thread>
 #include <utility>
@@ -150,9 +152,9 @@ public:
     const Entry entry{id, round_down(std::min(a.x, b.x)), round_up(std::max(a.x, b.x)),
                       round_down(std::min(a.y, b.y)), round_up(std::max(a.y, b.y))};
     const std::array<Vec, 3> poly = {a, b, b};
-    for_cells(poly, 2, [&](std::vector<Entry>& cell) {
-      if (cell.capacity() == 0) cell.reserve(8); // one allocation for what a cell typically holds
-      cell.push_back(entry);
+    for_cells(poly, 2, [&](Cell& cell) {
+      if (cell.size == cell.capacity) grow(cell);
+      cell.data[cell.size++] = entry;
     });
   }
 
@@ -168,19 +170,19 @@ public:
     ++stamp_;
     if (seen_.size() < num_segments) seen_.resize(num_segments * 2, 0);
     std::size_t num_hits = 0;
-    for_cells(poly, n, [&](std::vector<Entry>& cell) {
-      if (hits_.size() < num_hits + cell.size()) hits_.resize(2 * (num_hits + cell.size()));
-      std::size_t kept = 0;
-      for (std::size_t i = 0; i < cell.size(); ++i) {
-        const Entry e = cell[i];
+    for_cells(poly, n, [&](Cell& cell) {
+      if (hits_.size() < num_hits + cell.size) hits_.resize(2 * (num_hits + cell.size));
+      std::uint32_t kept = 0;
+      for (std::uint32_t i = 0; i < cell.size; ++i) {
+        const Entry e = cell.data[i];
         const bool live = alive[e.id] != 0;
-        cell[kept] = e;
+        cell.data[kept] = e;
         kept += live;
         const bool meets = (e.x1 >= box.x0) & (e.x0 <= box.x1) & (e.y1 >= box.y0) & (e.y0 <= box.y1);
         hits_[num_hits] = e.id;
         num_hits += live & meets;
       }
-      cell.resize(kept);
+      cell.size = kept;
     });
     for (std::size_t i = 0; i < num_hits; ++i) {
       const std::uint32_t id = hits_[i];
@@ -198,6 +200,31 @@ private:
     float y0;
     float y1;
   };
+
+  // A cell's entries, in blocks of memory shared by the cells: an image's grid has thousands of cells,
+  // and an allocation for each made the allocator a noticeable part of the stage.
+  struct Cell {
+    Entry* data = nullptr;
+    std::uint32_t size = 0;
+    std::uint32_t capacity = 0;
+  };
+
+  // Room for what a cell typically holds at first, then twice as much each time it is full (the room
+  // it leaves is not reused: the grid lives for one simplification).
+  void grow(Cell& cell) {
+    const std::uint32_t capacity = cell.capacity == 0 ? 8 : 2 * cell.capacity;
+    if (block_left_ < capacity) {
+      const std::size_t size = std::max<std::size_t>(capacity, kBlockEntries);
+      blocks_.push_back(std::make_unique_for_overwrite<Entry[]>(size));
+      block_next_ = blocks_.back().get();
+      block_left_ = size;
+    }
+    std::copy_n(cell.data, cell.size, block_next_);
+    cell.data = block_next_;
+    cell.capacity = capacity;
+    block_next_ += capacity;
+    block_left_ -= capacity;
+  }
 
   int col(double x) const {
     return std::clamp(static_cast<int>(std::floor((x - lo_.x) * inverse_cell_)), 0, nx_ - 1);
@@ -262,19 +289,20 @@ private:
   double inverse_cell_;
   int nx_ = 1;
   int ny_ = 1;
-  std::vector<std::vector<Entry>> cells_;
+  static constexpr std::size_t kBlockEntries = 4096;
+  std::vector<Cell> cells_;
+  std::vector<std::unique_ptr<Entry[]>> blocks_;
+  Entry* block_next_ = nullptr;
+  std::size_t block_left_ = 0;
   std::vector<std::uint32_t> seen_;
   std::vector<std::uint32_t> hits_;
   std::uint32_t stamp_ = 0;
 };
 
+// A chain's point arrays are parts of arrays shared by all the chains (see ChainArrays): an image has
+// thousands of chains, and arrays of their own made the allocator a noticeable part of the stage.
 struct ChainState {
-  std::vector<PixelPoint> pixels; // the original points, consecutive duplicates dropped
-  std::vector<Vec> points;        // where they are placed
-  bool closed = false;
-  // The linked list of live points and what else is known of each point, one entry per point (one
-  // array rather than one per field: an image has thousands of chains, and each array is an
-  // allocation).
+  // What is known of each point besides where it is: the linked list of live points and more.
   struct Link {
     int prev;
     int next;
@@ -283,9 +311,20 @@ struct ChainState {
     std::uint8_t alive;
     std::uint8_t outline; // 1 where the point is on a shape's outline (Placement::outline)
   };
-  std::vector<Link> link;
+  std::span<PixelPoint> pixels; // the original points, consecutive duplicates dropped
+  std::span<Vec> points;        // where they are placed
+  std::span<Link> link;         // one entry per point
+  bool closed = false;
   int num_alive = 0;
   int min_alive = 2;
+};
+
+// The arrays that the chains' points are parts of, one entry per input point.
+struct ChainArrays {
+  explicit ChainArrays(std::size_t size) : pixels(size), points(size), link(size) {}
+  std::vector<PixelPoint> pixels;
+  std::vector<Vec> points;
+  std::vector<ChainState::Link> link;
 };
 
 // A point to try removing, ordered by cost, ties in input order so that the result is deterministic.
@@ -348,27 +387,30 @@ private:
 
 constexpr std::uint32_t kNoSegment = std::numeric_limits<std::uint32_t>::max();
 
-// A chain's points where they are placed, all alive and linked in order.
-ChainState place_chain(const Chain& chain, const PointPlacement& placement) {
+// A chain's points where they are placed, all alive and linked in order, in the arrays from `first`
+// on.
+ChainState place_chain(const Chain& chain, const PointPlacement& placement, ChainArrays& arrays,
+                       std::size_t first) {
   ChainState s;
   s.closed = chain.closed;
-  // Sized once: an image has thousands of chains, and growing their arrays point by point made the
-  // allocator a noticeable part of the stage.
-  s.pixels.reserve(chain.points.size());
-  s.points.reserve(chain.points.size());
-  s.link.reserve(chain.points.size());
+  PixelPoint* pixels = arrays.pixels.data() + first;
+  Vec* points = arrays.points.data() + first;
+  ChainState::Link* link = arrays.link.data() + first;
+  std::size_t size = 0;
+  // Without a no-shape pixel every point is its pixel's centre (PointPlacement::place).
+  const bool centres = !placement.any_no_shape();
   for (const PixelPoint& p : chain.points) {
-    if (!s.pixels.empty() && s.pixels.back() == p) continue;
-    const Placement placed = placement.place(p);
-    s.pixels.push_back(p);
-    s.points.push_back({placed.at.x, placed.at.y});
-    s.link.push_back({0, 0, kNoSegment, 0, 1, static_cast<std::uint8_t>(placed.outline ? 1 : 0)});
+    if (size != 0 && pixels[size - 1] == p) continue;
+    const Placement placed = centres ? Placement{{p.x + 0.5, p.y + 0.5}, {}, false} : placement.place(p);
+    pixels[size] = p;
+    points[size] = {placed.at.x, placed.at.y};
+    link[size] = {0, 0, kNoSegment, 0, 1, static_cast<std::uint8_t>(placed.outline ? 1 : 0)};
+    ++size;
   }
-  if (s.closed && s.pixels.size() > 1 && s.pixels.front() == s.pixels.back()) {
-    s.pixels.pop_back();
-    s.points.pop_back();
-    s.link.pop_back();
-  }
+  if (s.closed && size > 1 && pixels[0] == pixels[size - 1]) --size;
+  s.pixels = {pixels, size};
+  s.points = {points, size};
+  s.link = {link, size};
   const int n = static_cast<int>(s.points.size());
   s.num_alive = n;
   s.min_alive = s.closed ? 3 : (n > 1 && s.points.front() == s.points.back() ? 4 : 2);
@@ -697,7 +739,14 @@ std::vector<Polyline> simplify_chains(const std::vector<Chain>& chains, double t
     throw std::invalid_argument("simplify_chains: tolerance_px must be finite and >= 0");
   std::vector<ChainState> states;
   states.reserve(chains.size());
-  for (const Chain& chain : chains) states.push_back(place_chain(chain, placement));
+  std::size_t num_points = 0;
+  for (const Chain& chain : chains) num_points += chain.points.size();
+  ChainArrays arrays(num_points);
+  std::size_t first = 0;
+  for (const Chain& chain : chains) {
+    states.push_back(place_chain(chain, placement, arrays, first));
+    first += states.back().points.size();
+  }
   drop_straight_run_points(states);
 
   const auto [left, right, across] = split_at_median(states);
