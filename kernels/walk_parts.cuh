@@ -65,6 +65,14 @@ struct PartStart {
   ::cdt::detail::WalkEntry at;
 };
 
+/// The first usable start among parts [from, end), kNoId when none.
+__device__ inline std::uint32_t first_usable(const PartStart* part_start, std::uint32_t from,
+                                             std::uint32_t end) {
+  for (std::uint32_t u = from; u < end; ++u)
+    if (part_start[u].tri != ::cdt::detail::kNoId) return part_start[u].tri;
+  return ::cdt::detail::kNoId;
+}
+
 /// The parts of the long pieces among n, for the kernels: the long pieces (their indices k among the
 /// n), for each its parts after the first, [long_first[l], end_of(l)), each with its piece (l) and its
 /// start; per piece k, the start of its second part (first_stop, kNoId when none or not long).
@@ -81,10 +89,7 @@ struct WalkPartsView {
   }
   /// Where part u ends: the next usable start of its piece, kNoId at b.
   __device__ std::uint32_t stop_after(std::uint32_t u) const {
-    const std::uint32_t end = end_of(part_of[u]);
-    for (std::uint32_t v = u + 1; v < end; ++v)
-      if (part_start[v].tri != ::cdt::detail::kNoId) return part_start[v].tri;
-    return ::cdt::detail::kNoId;
+    return first_usable(part_start, u + 1, end_of(part_of[u]));
   }
   /// Where piece k's first part, from a, ends.
   __device__ std::uint32_t first_stop_of(std::size_t k) const {
@@ -169,12 +174,7 @@ WalkPartsView plan_walk_parts(CudaExecutor& executor, const ::cdt::detail::MeshV
       num_long,
       [=] __device__(std::size_t l) {
         const std::uint32_t end = l + 1 < num_long ? long_first[l + 1] : num_parts;
-        for (std::uint32_t u = long_first[l]; u < end; ++u) {
-          if (part_start[u].tri != kNoId) {
-            first_stop[longs[l]] = part_start[u].tri;
-            return;
-          }
-        }
+        first_stop[longs[l]] = first_usable(part_start, long_first[l], end);
       },
       "first_stops");
   v.num_parts = num_parts;

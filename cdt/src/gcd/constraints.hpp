@@ -491,18 +491,19 @@ CDT_HD ConstraintStatus walk_piece(const MeshView& m, std::uint32_t a, std::uint
 }
 
 /// Where a part of a long piece's walk may start: a triangle t whose interior the piece a -> b crosses
-/// with no vertex of t on the line through a and b, a and b outside t, the piece entering t through edge
-/// `entry` (from l, left of a -> b, to r, right of it, as walk_piece_on keeps them).
+/// with no vertex of t on the line through a and b, a and b outside t; the piece leaves t through the
+/// encoded edge `exit`, from l (left of a -> b) to r (right of it), as walk_piece_on takes them.
 struct WalkEntry {
-  std::uint32_t entry = 3;
+  std::uint32_t exit = kNoId;
   std::uint32_t l = kNoId;
   std::uint32_t r = kNoId;
 };
 
 /// Whether triangle t is such a start for piece a -> b (WalkEntry), found by exact orientation tests:
-/// the line through a and b separates one corner of t from the other two, and the piece's passage
-/// through t lies strictly between a and b (a behind the edge it enters by, b beyond the one it leaves
-/// by). Then walk_piece_part from t makes the walk's part from t on; any t that passes will do.
+/// the line through a and b separates one corner of t (the lone corner) from the other two, and the
+/// piece's passage through t lies strictly between a and b (a behind the edge it enters by, b beyond
+/// the one it leaves by). Then walk_piece_part from t makes the walk's part from t on; any t that
+/// passes will do.
 CDT_HD inline bool walk_entry(const MeshView& m, std::uint32_t a, std::uint32_t b, std::uint32_t t,
                               WalkEntry& out) {
   int side[3];
@@ -511,25 +512,23 @@ CDT_HD inline bool walk_entry(const MeshView& m, std::uint32_t a, std::uint32_t 
     if (side[i] == 0) return false;
   }
   if (side[0] == side[1] && side[1] == side[2]) return false;
-  // The corner alone on its side of the line.
   const std::uint32_t k = side[0] == side[1] ? 2u : side[0] == side[2] ? 1u : 0u;
-  // Counter-clockwise corners: the piece enters by the edge from the lone corner to the next one when
-  // the lone corner is on the left, else by the edge from the previous one to the lone corner.
+  // Counter-clockwise corners: with the lone corner on the left, the piece enters by the edge from it
+  // to the next corner and leaves by the edge from the previous one (the apex) to it; on the right,
+  // it enters by the edge from the previous corner to it and leaves by the edge from it to the next
+  // (the apex). Both edges cross the piece's line: one end on each side.
   const bool lone_left = side[k] > 0;
-  const std::uint32_t l = lone_left ? m.v(t, k) : m.v(t, prev3(k));
-  const std::uint32_t r = lone_left ? m.v(t, next3(k)) : m.v(t, k);
-  const std::uint32_t entry = lone_left ? prev3(k) : next3(k);
-  const std::uint32_t apex = m.v(t, entry);
-  // a behind the entry edge (across it from the apex: the piece crosses l -> r from its right to its
-  // left, where t lies); b beyond the exit edge, the other edge at the lone corner (across it from the
-  // corner not on it).
-  const int a_side = orient_vertices(m, l, r, a), apex_side = orient_vertices(m, l, r, apex);
+  const std::uint32_t lone = m.v(t, k), next = m.v(t, next3(k)), prev = m.v(t, prev3(k));
+  const std::uint32_t in_l = lone_left ? lone : prev, in_r = lone_left ? next : lone;
+  const std::uint32_t apex = lone_left ? prev : next;
+  const std::uint32_t behind = lone_left ? next : prev; // the corner not on the exit edge
+  // a behind the entry edge (across it from the apex: the piece crosses in_l -> in_r from its right to
+  // its left, where t lies); b beyond the exit edge (across it from the corner not on it).
+  const int a_side = orient_vertices(m, in_l, in_r, a), apex_side = orient_vertices(m, in_l, in_r, apex);
   if (a_side == 0 || a_side == apex_side) return false;
-  const std::uint32_t p = lone_left ? l : r; // the lone corner: the exit edge is (apex, p)
-  const std::uint32_t q = lone_left ? r : l; // the corner not on it
-  const int b_side = orient_vertices(m, apex, p, b), q_side = orient_vertices(m, apex, p, q);
-  if (b_side == 0 || b_side == q_side) return false;
-  out = WalkEntry{entry, l, r};
+  const int b_side = orient_vertices(m, apex, lone, b), behind_side = orient_vertices(m, apex, lone, behind);
+  if (b_side == 0 || b_side == behind_side) return false;
+  out = lone_left ? WalkEntry{edge_id(t, next3(k)), lone, apex} : WalkEntry{edge_id(t, prev3(k)), apex, lone};
   return true;
 }
 
@@ -541,13 +540,7 @@ CDT_HD ConstraintStatus walk_piece_part(const MeshView& m, std::uint32_t a, std:
                                         std::uint32_t& crossings, bool& met_stop) {
   crossings = 1;
   mark(t);
-  std::uint32_t l = at.l, r = at.r;
-  const std::uint32_t apex = m.v(t, at.entry);
-  const int side = orient_vertices(m, a, b, apex); // not 0: walk_entry checked every corner
-  const std::uint32_t opposite = m.index_of(t, side > 0 ? l : r);
-  if (opposite == 3) return ConstraintStatus::corrupt_mesh;
-  (side > 0 ? l : r) = apex;
-  return walk_piece_on(m, a, b, edge_id(t, opposite), l, r, stop, mark, crossings, met_stop);
+  return walk_piece_on(m, a, b, at.exit, at.l, at.r, stop, mark, crossings, met_stop);
 }
 
 } // namespace cdt::detail

@@ -79,16 +79,9 @@ CDT_HD bool walk_corridor(const MeshView& m, std::uint32_t a, std::uint32_t b, O
   // while the walk stands at cur.
   std::uint32_t edge = kNoId, l = kNoId, r = kNoId;
   if (part != nullptr && part->tri != kNoId) {
-    // Inside the part's triangle: it leaves by the edge joining the apex to the entry edge's end on
-    // the other side (walk_entry checked that no corner is on the line).
+    edge = part->at.exit; // inside the part's triangle: its way out (walk_entry)
     l = part->at.l;
     r = part->at.r;
-    const std::uint32_t apex = m.v(part->tri, part->at.entry);
-    const int side = orient_vertices(m, a, b, apex);
-    const std::uint32_t opposite = m.index_of(part->tri, side > 0 ? l : r);
-    if (opposite == 3) return false;
-    edge = edge_id(part->tri, opposite);
-    (side > 0 ? l : r) = apex;
   } else {
     on_vertex(a);
   }
