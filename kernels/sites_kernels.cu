@@ -342,11 +342,11 @@ std::size_t merge_input_on_device(DeviceSites::State& s, std::span<const Point> 
     // over the bus (80 MB at 10^7 points).
     write_identity(duplicate_of.data(), nv, parallel);
     write_identity(sites.data(), n, parallel);
+    s.site_list = {};
   } else {
     executor.download(duplicate_of.data(), dup, nv, &parallel);
     executor.download(sites.data(), s.site_list.data(), n, &parallel);
   }
-  if (n == nv) s.site_list = {};
   trace.mark("downloaded");
   return checked[2];
 }
