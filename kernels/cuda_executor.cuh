@@ -42,6 +42,15 @@ __global__ void for_each_kernel(std::size_t n, F f) {
     f(i);
 }
 
+/// for_each_kernel held to 64 registers a thread (four blocks of 256 threads on a multiprocessor), for
+/// steps a little above that whose occupancy would otherwise drop to three blocks.
+template <class F>
+__global__ void __launch_bounds__(256, 4) for_each_kernel_64(std::size_t n, F f) {
+  const std::size_t stride = static_cast<std::size_t>(gridDim.x) * blockDim.x;
+  for (std::size_t i = blockIdx.x * static_cast<std::size_t>(blockDim.x) + threadIdx.x; i < n; i += stride)
+    f(i);
+}
+
 /// keep(i) for the indices of a counting iterator: CUB sees a functor whose result type is declared,
 /// never the lambda's own (which host code may not ask an extended device lambda for).
 template <class Pred>
@@ -138,14 +147,13 @@ public:
   /// extended lambda (__device__ or __host__ __device__), safe to run concurrently for distinct i.
   template <class F>
   void for_each(std::size_t n, F f, const char* name = "for_each_kernel") {
-    if (n == 0) return;
-    constexpr unsigned kBlock = 256;
-    const std::size_t blocks = (n + kBlock - 1) / kBlock;
-    const auto grid = static_cast<unsigned>(blocks < max_blocks_ ? blocks : max_blocks_);
-    timed(name, [&] {
-      for_each_kernel<<<grid, kBlock, 0, stream_>>>(n, f);
-      check_launch(name, __FILE__, __LINE__);
-    });
+    launch_for_each(for_each_kernel<F>, n, f, name);
+  }
+
+  /// for_each with at most 64 registers a thread (for_each_kernel_64).
+  template <class F>
+  void for_each_64(std::size_t n, F f, const char* name = "for_each_kernel_64") {
+    launch_for_each(for_each_kernel_64<F>, n, f, name);
   }
 
   /// The same as for_each: the CPU executor runs a few large parts differently from many small
@@ -282,6 +290,18 @@ public:
   }
 
 private:
+  template <class F>
+  void launch_for_each(void (*kernel)(std::size_t, F), std::size_t n, F f, const char* name) {
+    if (n == 0) return;
+    constexpr unsigned kBlock = 256;
+    const std::size_t blocks = (n + kBlock - 1) / kBlock;
+    const auto grid = static_cast<unsigned>(blocks < max_blocks_ ? blocks : max_blocks_);
+    timed(name, [&] {
+      kernel<<<grid, kBlock, 0, stream_>>>(n, f);
+      check_launch(name, __FILE__, __LINE__);
+    });
+  }
+
   static constexpr std::size_t round_up(std::size_t bytes) { return (bytes + 255) / 256 * 256; }
 
   /// Runs launch(); when profiling, waits for the work before it and for it, and adds its time to the

@@ -96,10 +96,10 @@ void upload_vertices(DeviceSites::State& s, std::span<const Point> vertices,
   }
 }
 
-/// Bytes of device memory merge_input_on_device needs for n points: the points (16 bytes), the hashes and
-/// their order with the sort's second copies (16), the starts of equal hashes, the representatives,
-/// the sites and the points left unresolved (16); CUB's scratch within a megabyte and a byte a point.
-std::size_t duplicates_device_bytes(std::size_t n) { return 49 * n + (std::size_t{1} << 20); }
+/// Bytes of device memory merge_input_on_device needs for n points: the points (16 bytes), the hash
+/// table (at most four slots a point, 16), the representatives and the sites (8); CUB's scratch within
+/// a megabyte and a byte a point.
+std::size_t duplicates_device_bytes(std::size_t n) { return 41 * n + (std::size_t{1} << 20); }
 
 /// Bytes of device memory pieces_between_representatives needs for m segments beside their ends: the
 /// kept ones' keys and labels with the sort's second copies (24 bytes), the starts of equal keys and
@@ -178,13 +178,12 @@ void write_identity(std::uint32_t* out, std::size_t n, const HostParallelFor& pa
 }
 
 /// merge_input's work on the device: duplicates, sites and pieces. The duplicates as the host's
-/// merge_duplicates finds them: the points are sorted by the low 32 bits of their hash (stable: in index
-/// order within equal hashes), so the first point of each run of equal hashes is the lowest index with
-/// its coordinates, and the others of its run with equal coordinates are its duplicates. A point of a
-/// run that differs from the run's first point (another point with the same hash: a few thousand among
-/// ten million points) is resolved on the host among the others like it: every point with its
-/// coordinates is in that run and differs from the first point too. Then the sites (the points that are
-/// their own representative) and the pieces (pieces_between_representatives).
+/// merge_duplicates finds them (each point's representative is the lowest index with its
+/// coordinates), through a hash table of point indices with open addressing: each point claims the
+/// first slot along its probe sequence (point_hash, then the next slots) that is empty or holds a point
+/// with its coordinates. A slot's point never changes its coordinates, so all the points at one place
+/// stop at the same slot, which keeps the lowest of them (atomic minimum). Then the sites (the points
+/// that are their own representative) and the pieces (pieces_between_representatives).
 std::size_t merge_input_on_device(DeviceSites::State& s, std::span<const Point> points,
                                   std::span<const Segment> segments, ::cdt::CrossingSegments policy,
                                   IndexArray& duplicate_of, IndexArray& sites,
@@ -247,83 +246,38 @@ std::size_t merge_input_on_device(DeviceSites::State& s, std::span<const Point> 
                         "merging the duplicates of " + std::to_string(nv) + " points");
   trace.mark("checked");
 
-  DeviceBuffer<std::uint32_t> d_hash(nv), d_order(nv);
-  std::uint32_t* hash = d_hash.data();
-  std::uint32_t* order = d_order.data();
-  executor.for_each(
-      nv,
-      [=] __device__(std::size_t i) {
-        hash[i] = static_cast<std::uint32_t>(::cdt::detail::point_hash(xy[2 * i], xy[2 * i + 1]));
-        order[i] = static_cast<std::uint32_t>(i);
-      },
-      "point_hashes");
-  executor.sort_pairs(hash, order, nv, 32);
-  DeviceBuffer<std::uint32_t> d_starts(nv + 1);
-  std::uint32_t* starts = d_starts.data();
-  const std::uint32_t runs = executor.compact(
-      nv, [=] __device__(std::size_t k) { return k == 0 || hash[k] != hash[k - 1]; }, starts);
   DeviceBuffer<std::uint32_t> d_duplicate_of(nv);
   std::uint32_t* dup = d_duplicate_of.data();
-  executor.for_each(
-      nv,
-      [=] __device__(std::size_t k) {
-        const std::uint32_t i = order[k];
-        if (k == 0 || hash[k] != hash[k - 1]) {
-          dup[i] = i;
-          return;
-        }
-        // The run's first place: the last start at or before k.
-        std::uint32_t lo = 0, hi = runs;
-        while (hi - lo > 1) {
-          const std::uint32_t mid = (lo + hi) / 2;
-          if (starts[mid] <= k)
-            lo = mid;
-          else
-            hi = mid;
-        }
-        const std::uint32_t first = order[starts[lo]];
-        const bool same = xy[2 * i] == xy[2 * static_cast<std::size_t>(first)] &&
-                          xy[2 * i + 1] == xy[2 * static_cast<std::size_t>(first) + 1];
-        dup[i] = same ? first : kNoId;
-      },
-      "duplicate_of");
-  d_hash = {};
-  d_order = {};
-  d_starts = {};
-
-  DeviceBuffer<std::uint32_t> d_unresolved(nv);
-  const std::uint32_t num_unresolved = executor.compact(
-      nv, [=] __device__(std::size_t i) { return dup[i] == kNoId; }, d_unresolved.data());
-  if (num_unresolved > 0) {
-    std::vector<std::uint32_t> unresolved(num_unresolved);
-    executor.download(unresolved.data(), d_unresolved.data(), num_unresolved);
-    const auto before = [&](std::uint32_t a, std::uint32_t b) {
-      const std::uint64_t ax = ::cdt::detail::coordinate_bits(points[a].x);
-      const std::uint64_t bx = ::cdt::detail::coordinate_bits(points[b].x);
-      if (ax != bx) return ax < bx;
-      const std::uint64_t ay = ::cdt::detail::coordinate_bits(points[a].y);
-      const std::uint64_t by = ::cdt::detail::coordinate_bits(points[b].y);
-      return ay != by ? ay < by : a < b;
-    };
-    std::sort(unresolved.begin(), unresolved.end(), before);
-    // Pairs (point, representative): the first of each group of equal coordinates represents it.
-    std::vector<std::uint32_t> fixes(2 * static_cast<std::size_t>(num_unresolved));
-    for (std::size_t k = 0, first = 0; k < unresolved.size(); ++k) {
-      const Point& p = points[unresolved[k]];
-      const Point& f = points[unresolved[first]];
-      if (p.x != f.x || p.y != f.y) first = k;
-      fixes[2 * k] = unresolved[k];
-      fixes[2 * k + 1] = unresolved[first];
-    }
-    DeviceBuffer<std::uint32_t> d_fixes(fixes.size());
-    executor.upload(d_fixes.data(), fixes.data(), fixes.size());
-    const std::uint32_t* fix = d_fixes.data();
+  {
+    // A table of at least twice as many slots as points: probe sequences stay short.
+    const int table_bits = std::min(32, static_cast<int>(std::bit_width(2 * nv - 1)));
+    const std::size_t table_size = std::size_t{1} << table_bits;
+    DeviceBuffer<std::uint32_t> d_table(table_size);
+    std::uint32_t* table = d_table.data();
+    executor.fill_bytes(table, 0xFF, table_size);
+    const std::size_t mask = table_size - 1;
     executor.for_each(
-        num_unresolved, [=] __device__(std::size_t k) { dup[fix[2 * k]] = fix[2 * k + 1]; },
-        "unresolved_duplicates");
-    executor.synchronize(); // the host's list is freed at the end of this scope
+        nv,
+        [=] __device__(std::size_t k) {
+          const double x = xy[2 * k], y = xy[2 * k + 1];
+          const auto i = static_cast<std::uint32_t>(k);
+          std::size_t slot = static_cast<std::size_t>(::cdt::detail::point_hash(x, y) >> (64 - table_bits));
+          for (;;) {
+            const std::uint32_t held = atomicCAS(table + slot, kNoId, i);
+            if (held == kNoId) break;
+            if (xy[2 * static_cast<std::size_t>(held)] == x &&
+                xy[2 * static_cast<std::size_t>(held) + 1] == y) {
+              atomicMin(table + slot, i);
+              break;
+            }
+            slot = (slot + 1) & mask;
+          }
+          dup[k] = static_cast<std::uint32_t>(slot);
+        },
+        "duplicate_slots");
+    executor.for_each(
+        nv, [=] __device__(std::size_t k) { dup[k] = table[dup[k]]; }, "duplicate_of");
   }
-  d_unresolved = {};
   trace.mark("merged");
 
   pieces_between_representatives(executor, ends, m, dup, nv, pieces, parallel);

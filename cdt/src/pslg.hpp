@@ -71,7 +71,8 @@ CDT_HD_INLINE std::uint64_t coordinate_bits(double v) {
 }
 
 /// A mix of both coordinates' bits: equal points hash alike, distinct ones collide about never. The
-/// host and the device group duplicate points by its low 32 bits.
+/// host groups duplicate points by its low 32 bits; the device's hash table of points starts each probe
+/// at its high bits.
 CDT_HD_INLINE std::uint64_t point_hash(double x, double y) {
   std::uint64_t h = coordinate_bits(x) * 0x9E3779B97F4A7C15ull;
   h ^= (h >> 29) ^ coordinate_bits(y);

@@ -637,6 +637,47 @@ TEST(ConstraintInsert, LatticeWithPrimitiveSegments) {
   }
 }
 
+TEST(ConstraintCases, FiltersAloneProposeTheSameOrSayUndecided) {
+  // The device proposes with orient2d's filter first and asks the exact tests only for the proposals
+  // that met an orientation it could not decide. On lattices (collinear triples everywhere) a proposal
+  // without one must be the exact proposal, status included.
+  std::size_t undecided = 0, decided = 0, flips = 0;
+  for (const std::uint64_t seed : {1u, 2u, 3u}) {
+    const Input in = lattice_with_primitive_segments(seed);
+    Mesh mesh = trixel_test::sweep_triangulate(in.x, in.y);
+    const MeshView m = mesh.view();
+    for (const ConstraintPiece2& piece : in.pieces) {
+      std::vector<std::uint32_t> cmark(mesh.num_slots(), kNoId);
+      std::uint32_t present = kNoId, count = 0;
+      if (walk_piece(
+              m, piece.a, piece.b, [&](std::uint32_t t) { cmark[t] = 0; }, present, count) !=
+          ConstraintStatus::ok)
+        continue;
+      for (std::uint32_t t = 0; t < mesh.num_slots(); ++t) {
+        if (cmark[t] == kNoId) continue;
+        FlipProposal filtered, exact;
+        bool unsure = false;
+        const ConstraintStatus fs =
+            propose_constraint_flip<false>(m, cmark.data(), &piece, t, filtered, &unsure);
+        const ConstraintStatus es = propose_constraint_flip(m, cmark.data(), &piece, t, exact);
+        if (unsure) {
+          ++undecided;
+          continue;
+        }
+        ++decided;
+        if (exact.flip_case != FlipCase::none) ++flips;
+        ASSERT_EQ(fs, es) << t;
+        ASSERT_EQ(filtered.flip_case, exact.flip_case) << t;
+        ASSERT_EQ(filtered.edge, exact.edge) << t;
+        ASSERT_EQ(filtered.prev, exact.prev) << t;
+      }
+    }
+  }
+  EXPECT_GT(undecided, 10u);
+  EXPECT_GT(decided, 100u);
+  EXPECT_GT(flips, 20u);
+}
+
 TEST(ConstraintInsert, HullEdgesAndChords) {
   // Pieces along the hull are edges already (flagged, no flip); chords from one hull vertex to all the
   // others cross the interior and share an endpoint, which is allowed.

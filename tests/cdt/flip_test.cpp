@@ -164,6 +164,54 @@ TEST(FlipToDelaunay, LatticeWithJitteredPointsStaysValid) {
   EXPECT_TRUE(is_locally_delaunay(mesh));
 }
 
+TEST(FlipCandidate, FiltersAloneProposeTheSameOrSayUndecided) {
+  // The device proposes with the predicates' filters first and asks the exact tests only where they
+  // could not decide: on a jittered lattice (many near-degenerate quadruples) and on random points, a
+  // decided filtered test must be the exact one, and a proposal without an undecided test the same.
+  const std::uint32_t k = 30;
+  const Points lattice = from_pslg(trixel_gen::lattice(k));
+  Points jittered = lattice;
+  trixel_gen::Random rng(9);
+  for (std::size_t i = 0; i < jittered.x.size(); i += 3) {
+    jittered.y[i] = std::nextafter(jittered.y[i], rng.unit() < 0.5 ? -1e9 : 1e9);
+  }
+  std::size_t undecided_tests = 0, decided_tests = 0, undecided_proposals = 0, proposals = 0;
+  // The lattice's Delaunay mesh: every cell's diagonal is an edge of four co-circular points.
+  const Points uniform = uniform_points(3000, 4);
+  std::vector<Mesh> meshes{flipped(sweep_triangulate(lattice.x, lattice.y), 1),
+                           sweep_triangulate(jittered.x, jittered.y),
+                           sweep_triangulate(uniform.x, uniform.y)};
+  for (Mesh& mesh : meshes) {
+    const MeshView m = mesh.view();
+    const std::vector<std::uint8_t> active(mesh.num_slots(), 0);
+    const std::vector<std::uint32_t> partner(mesh.num_slots(), kNoId);
+    for (std::uint32_t t = 0; t < mesh.num_slots(); ++t) {
+      for (std::uint32_t i = 0; i < 3; ++i) {
+        const int filtered = edge_flip_test<false>(m, t, i);
+        if (filtered == kUndecided) {
+          ++undecided_tests;
+          continue;
+        }
+        ++decided_tests;
+        ASSERT_EQ(filtered, edge_flip_test<true>(m, t, i)) << t << " " << i;
+      }
+      bool undecided = false;
+      const std::uint32_t e = delaunay_flip_candidate<false>(m, active.data(), partner.data(), t, &undecided);
+      const std::uint32_t exact = delaunay_flip_candidate(m, active.data(), partner.data(), t);
+      if (undecided) {
+        ++undecided_proposals;
+        continue;
+      }
+      if (exact != kNoId) ++proposals;
+      ASSERT_EQ(e, exact) << t;
+    }
+  }
+  EXPECT_GT(undecided_tests, 100u);
+  EXPECT_GT(decided_tests, 1000u);
+  EXPECT_GT(undecided_proposals, 10u);
+  EXPECT_GT(proposals, 100u);
+}
+
 TEST(FlipToDelaunay, PointsOnACircle) {
   // Rounded cosines are only nearly co-circular: the exact signs are arbitrary but must be consistent.
   {

@@ -47,6 +47,34 @@ TEST(Predicates, ExactFallbacksMatchOracle) {
   }
 }
 
+// The filters alone (the device's first pass) either decide a query as the exact predicate does or
+// say kUndecided; on the near-degenerate sets they must leave many undecided, or the second pass with
+// the exact tests would go untested.
+TEST(Predicates, FiltersDecideExactlyOrLeaveUndecided) {
+  const auto cases = trixel_test::make_predicate_cases();
+  std::size_t wrong = 0, undecided = 0;
+  for (std::size_t i = 0; i < cases.orient_expected.size(); ++i) {
+    const double* c = &cases.orient_coords[6 * i];
+    const int sign = cdt::detail::orient2d_filter(c[0], c[1], c[2], c[3], c[4], c[5]);
+    if (sign == cdt::detail::kUndecided)
+      ++undecided;
+    else if (sign != cases.orient_expected[i])
+      ++wrong;
+  }
+  for (std::size_t i = 0; i < cases.incircle_expected.size(); ++i) {
+    const double* c = &cases.incircle_coords[8 * i];
+    double det = 0;
+    const int sign = cdt::detail::incircle_filter(c[0], c[1], c[2], c[3], c[4], c[5], c[6], c[7], det);
+    if (sign == cdt::detail::kUndecided)
+      ++undecided;
+    else if (sign != cases.incircle_expected[i])
+      ++wrong;
+  }
+  EXPECT_EQ(wrong, 0u);
+  EXPECT_GT(undecided, 100u);
+  EXPECT_LT(undecided, cases.orient_expected.size() + cases.incircle_expected.size());
+}
+
 // Naive double evaluation is wrong on the near-degenerate sets; this guards against the sets
 // silently becoming easy (which would make the tests above unable to fail).
 TEST(Predicates, CasesDefeatNaiveFloatingPoint) {

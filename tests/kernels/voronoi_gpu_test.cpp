@@ -523,8 +523,9 @@ TEST_F(GpuVoronoi, DeviceSitesMatchTheHostSteps) {
   EXPECT_GT(duals_built, 0) << "no dual was built from the device's sites";
 }
 
-/// Pairs of distinct points whose hashes agree in the low 32 bits (the bits both merges group by),
-/// found among random points by their birthday: about ten pairs among 300000 points.
+/// Pairs of distinct points whose hashes agree in the low 32 bits (the bits the host's merge groups by;
+/// the device's table starts its probes at the high bits, and distinct points share a first slot there
+/// at any load), found among random points by their birthday: about ten pairs among 300000 points.
 std::vector<std::pair<cdt::Point, cdt::Point>> colliding_pairs(Rng& rng) {
   std::vector<std::pair<std::uint32_t, cdt::Point>> hashed(300000);
   for (auto& [h, p] : hashed) {
@@ -548,7 +549,7 @@ TEST_F(GpuVoronoi, DuplicatesMergeAsOnTheHost) {
   CpuExecutor executor(2);
   Rng rng(11);
   const auto pairs = colliding_pairs(rng);
-  ASSERT_GE(pairs.size(), 2u) << "no colliding hashes found: the device's fallback would go untested";
+  ASSERT_GE(pairs.size(), 2u) << "no colliding hashes found: the host's grouping would go untested";
   struct Case {
     std::string name;
     std::vector<cdt::Point> points;

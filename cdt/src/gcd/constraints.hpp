@@ -147,19 +147,40 @@ CDT_HD_INLINE std::uint32_t constraint_flip_label(FlipCase c, std::uint32_t a_sl
   return (priority << 30) | a_slot;
 }
 
+/// orient_vertices (kExact), or orient2d's filter alone, where an orientation the filter cannot decide
+/// sets *undecided and reads as 0: the device's proposal kernel runs the filters alone, with few
+/// registers, and asks the exact tests again only for the proposals that met an undecided orientation
+/// (whose other results it discards).
+template <bool kExact>
+CDT_HD_INLINE int orient_or_undecided(const MeshView& m, std::uint32_t a, std::uint32_t b, std::uint32_t c,
+                                      bool* undecided) {
+  if constexpr (kExact) {
+    return orient_vertices(m, a, b, c);
+  } else {
+    const int sign = orient2d_filter(m.x[a], m.y[a], m.x[b], m.y[b], m.x[c], m.y[c]);
+    if (sign != kUndecided) return sign;
+    *undecided = true;
+    return 0;
+  }
+}
+
 /// Classifies the pair of triangles (w, u, v) and (z, v, u) sharing the edge u-v, which the piece a-b
 /// crosses in its interior (so u, v are not endpoints), by the diagonal w-z a flip would create.
+template <bool kExact = true>
 CDT_HD inline PairConfig classify_pair(const MeshView& m, std::uint32_t w, std::uint32_t u, std::uint32_t v,
-                                       std::uint32_t z, std::uint32_t a, std::uint32_t b) {
+                                       std::uint32_t z, std::uint32_t a, std::uint32_t b,
+                                       bool* undecided = nullptr) {
   // Strictly convex exactly when u and v lie strictly on opposite sides of the new diagonal.
-  const int ou = orient_vertices(m, w, z, u), ov = orient_vertices(m, w, z, v);
+  const int ou = orient_or_undecided<kExact>(m, w, z, u, undecided);
+  const int ov = orient_or_undecided<kExact>(m, w, z, v, undecided);
   if (!((ou > 0 && ov < 0) || (ou < 0 && ov > 0))) return PairConfig::concave;
   if ((w == a && z == b) || (w == b && z == a)) return PairConfig::zero_intersection;
   // A diagonal from an endpoint of the piece cannot cross it. Otherwise the piece passes through the whole
   // quadrilateral (its endpoints are outside), so it crosses the diagonal iff w and z are on opposite
   // sides of its line.
   if (w == a || w == b || z == a || z == b) return PairConfig::single_intersection;
-  const int ow = orient_vertices(m, a, b, w), oz = orient_vertices(m, a, b, z);
+  const int ow = orient_or_undecided<kExact>(m, a, b, w, undecided);
+  const int oz = orient_or_undecided<kExact>(m, a, b, z, undecided);
   return (ow > 0 && oz < 0) || (ow < 0 && oz > 0) ? PairConfig::double_intersection
                                                   : PairConfig::single_intersection;
 }
@@ -180,8 +201,9 @@ CDT_HD inline bool triangle_crosses_segment(const MeshView& m, std::uint32_t t, 
 }
 
 /// Entry and exit edges of triangle t, which the piece a-b intersects (see ChainLinks).
+template <bool kExact = true>
 CDT_HD inline ConstraintStatus chain_links(const MeshView& m, std::uint32_t t, std::uint32_t a,
-                                           std::uint32_t b, ChainLinks& out) {
+                                           std::uint32_t b, ChainLinks& out, bool* undecided = nullptr) {
   out = ChainLinks{};
   const std::uint32_t ka = m.index_of(t, a), kb = m.index_of(t, b);
   if (ka < 3 && kb < 3) return ConstraintStatus::corrupt_mesh; // the piece is an edge of t: not crossing it
@@ -195,7 +217,7 @@ CDT_HD inline ConstraintStatus chain_links(const MeshView& m, std::uint32_t t, s
   }
   int side[3];
   for (std::uint32_t k = 0; k < 3; ++k) {
-    side[k] = orient_vertices(m, a, b, m.v(t, k));
+    side[k] = orient_or_undecided<kExact>(m, a, b, m.v(t, k), undecided);
     // On the line but not an endpoint: the triangle meets the open piece, so the vertex is on it.
     if (side[k] == 0) return ConstraintStatus::vertex_on_piece;
   }
@@ -217,16 +239,19 @@ CDT_HD inline ConstraintStatus chain_links(const MeshView& m, std::uint32_t t, s
 }
 
 /// Algorithm 5, lines 2-11 for triangle A marked with piece cmark[A]: determines the case of (A, C) with
-/// the one-step look-ahead to B. out.flip_case is none when A proposes nothing.
+/// the one-step look-ahead to B. out.flip_case is none when A proposes nothing. With kExact false
+/// (orient_or_undecided's filters alone) the status and the proposal hold only when *undecided stays
+/// false.
+template <bool kExact = true>
 CDT_HD inline ConstraintStatus propose_constraint_flip(const MeshView& m, const std::uint32_t* cmark,
                                                        const ConstraintPiece2* pieces, std::uint32_t A,
-                                                       FlipProposal& out) {
+                                                       FlipProposal& out, bool* undecided = nullptr) {
   out = FlipProposal{};
   const std::uint32_t piece = cmark[A];
   if (piece == kNoId) return ConstraintStatus::ok;
   const std::uint32_t a = pieces[piece].a, b = pieces[piece].b;
   ChainLinks links;
-  const ConstraintStatus status = chain_links(m, A, a, b, links);
+  const ConstraintStatus status = chain_links<kExact>(m, A, a, b, links, undecided);
   if (status != ConstraintStatus::ok) return status;
   if (links.exit == 3) return ConstraintStatus::ok; // A holds b: the pair (B, A) is B's to propose
   const std::uint32_t exit_edge = edge_id(A, links.exit);
@@ -237,7 +262,7 @@ CDT_HD inline ConstraintStatus propose_constraint_flip(const MeshView& m, const 
   if (cmark[C] != piece) return ConstraintStatus::ok;
   const std::uint32_t x = m.v(A, links.exit), p = m.v(A, next3(links.exit)), q = m.v(A, prev3(links.exit));
   const std::uint32_t y = m.v(C, edge_index(ce));
-  const PairConfig ac = classify_pair(m, x, p, q, y, a, b);
+  const PairConfig ac = classify_pair<kExact>(m, x, p, q, y, a, b, undecided);
   if (ac == PairConfig::zero_intersection || ac == PairConfig::single_intersection) {
     out.edge = exit_edge;
     out.flip_case = FlipCase::case1;
@@ -252,9 +277,9 @@ CDT_HD inline ConstraintStatus propose_constraint_flip(const MeshView& m, const 
   // pair has the same shared edge with apex y instead of A's apex.
   const std::uint32_t w = m.v(B, edge_index(be));
   const std::uint32_t e1 = m.v(A, next3(links.entry)), e2 = m.v(A, prev3(links.entry));
-  const PairConfig ba = classify_pair(m, w, e1, e2, m.v(A, links.entry), a, b);
+  const PairConfig ba = classify_pair<kExact>(m, w, e1, e2, m.v(A, links.entry), a, b, undecided);
   if (ba != PairConfig::double_intersection && ba != PairConfig::concave) return ConstraintStatus::ok;
-  const PairConfig after = classify_pair(m, w, e1, e2, y, a, b);
+  const PairConfig after = classify_pair<kExact>(m, w, e1, e2, y, a, b, undecided);
   const bool after_single =
       after == PairConfig::zero_intersection || after == PairConfig::single_intersection;
   FlipCase c = FlipCase::none;

@@ -70,18 +70,51 @@ CDT_HD_INLINE bool flip_is_convex(const MeshView& m, std::uint32_t t, std::uint3
   return orient_vertices(m, a, b, d) > 0 && orient_vertices(m, d, c, a) > 0;
 }
 
-/// True when edge i of t is not a constraint, has a neighbour, fails the incircle test with ties
-/// perturbed (incircle_perturbed: of two triangulations of four co-circular points one passes, so every
-/// order of flips, on any executor, ends in the same triangulation) and can be flipped (strictly convex
-/// quadrilateral; the incircle test implies it in a valid triangulation, the orient2d check keeps a
-/// corrupt or constrained neighbourhood from producing inverted triangles).
-CDT_HD_INLINE bool edge_wants_flip(const MeshView& m, std::uint32_t t, std::uint32_t i) {
+/// orient_vertices (kExact), or orient2d's filter alone on the same vertices (kUndecided when it cannot
+/// decide).
+template <bool kExact>
+CDT_HD_INLINE int orient_test(const MeshView& m, std::uint32_t a, std::uint32_t b, std::uint32_t c) {
+  if constexpr (kExact)
+    return orient_vertices(m, a, b, c);
+  else
+    return orient2d_filter(m.x[a], m.y[a], m.x[b], m.y[b], m.x[c], m.y[c]);
+}
+
+/// Whether edge i of t is to be flipped (1) or not (0): it is not a constraint, has a neighbour, fails
+/// the incircle test with ties perturbed (incircle_perturbed: of two triangulations of four co-circular
+/// points one passes, so every order of flips, on any executor, ends in the same triangulation) and can
+/// be flipped (strictly convex quadrilateral, as flip_is_convex; the incircle test implies it in a
+/// valid triangulation, the orient2d check keeps a corrupt or constrained neighbourhood from producing
+/// inverted triangles). With kExact false only the predicates' floating-point filters are asked, and a
+/// test they cannot decide gives kUndecided: a device kernel without the exact fallbacks holds far
+/// fewer registers, and leaves the rare undecided edges to a second one with them.
+template <bool kExact>
+CDT_HD_INLINE int edge_flip_test(const MeshView& m, std::uint32_t t, std::uint32_t i) {
   const std::uint32_t e = m.adj[3 * t + i];
-  if (e == kNoId || m.seg[3 * t + i] != kNoId) return false;
+  if (e == kNoId || m.seg[3 * t + i] != kNoId) return 0;
   const std::uint32_t a = m.v(t, 0), b = m.v(t, 1), c = m.v(t, 2);
   const std::uint32_t d = m.v(edge_tri(e), edge_index(e));
-  if (incircle_perturbed(m.x[a], m.y[a], m.x[b], m.y[b], m.x[c], m.y[c], m.x[d], m.y[d]) <= 0) return false;
-  return flip_is_convex(m, t, i);
+  int sign;
+  if constexpr (kExact) {
+    sign = incircle_perturbed(m.x[a], m.y[a], m.x[b], m.y[b], m.x[c], m.y[c], m.x[d], m.y[d]);
+  } else {
+    double det;
+    sign = incircle_filter(m.x[a], m.y[a], m.x[b], m.y[b], m.x[c], m.y[c], m.x[d], m.y[d], det);
+    if (sign == kUndecided) return kUndecided;
+  }
+  if (sign <= 0) return 0;
+  const std::uint32_t p = m.v(t, i), q = m.v(t, next3(i)), r = m.v(t, prev3(i));
+  const int first = orient_test<kExact>(m, p, q, d);
+  if (first == kUndecided) return kUndecided;
+  if (first <= 0) return 0;
+  const int second = orient_test<kExact>(m, d, r, p);
+  if (second == kUndecided) return kUndecided;
+  return second > 0 ? 1 : 0;
+}
+
+/// True when edge i of t is to be flipped (edge_flip_test with the exact predicates).
+CDT_HD_INLINE bool edge_wants_flip(const MeshView& m, std::uint32_t t, std::uint32_t i) {
+  return edge_flip_test<true>(m, t, i) == 1;
 }
 
 /// The encoded edge 3t + i that active triangle t proposes to flip this round, or kNoId. t checks the
@@ -89,9 +122,13 @@ CDT_HD_INLINE bool edge_wants_flip(const MeshView& m, std::uint32_t t, std::uint
 /// pair stays checked as long as one side is active. partner (FlipBatch::partner of the last round's
 /// flips) spares a test whose answer is known: a pair flipped last round has as edge 1 the diagonal it
 /// flipped to, which passes the incircle test strictly (of four points in strictly convex position that
-/// fail it across one diagonal, the other diagonal passes), so skipping it changes nothing.
+/// fail it across one diagonal, the other diagonal passes), so skipping it changes nothing. With kExact
+/// false (edge_flip_test's filters alone), a test the filters cannot decide ends the search with
+/// kNoId and `undecided` set; the exact search then gives the proposal.
+template <bool kExact = true>
 CDT_HD inline std::uint32_t delaunay_flip_candidate(const MeshView& m, const std::uint8_t* active,
-                                                    const std::uint32_t* partner, std::uint32_t t) {
+                                                    const std::uint32_t* partner, std::uint32_t t,
+                                                    bool* undecided = nullptr) {
   const bool fresh = partner[t] != kNoId;
   for (std::uint32_t i = 0; i < 3; ++i) {
     if (fresh && i == 1) continue;
@@ -99,7 +136,14 @@ CDT_HD inline std::uint32_t delaunay_flip_candidate(const MeshView& m, const std
     if (e == kNoId) continue;
     const std::uint32_t u = edge_tri(e);
     if (u < t && active[u]) continue;
-    if (edge_wants_flip(m, t, i)) return edge_id(t, i);
+    const int want = edge_flip_test<kExact>(m, t, i);
+    if constexpr (!kExact) {
+      if (want == kUndecided) {
+        *undecided = true;
+        return kNoId;
+      }
+    }
+    if (want == 1) return edge_id(t, i);
   }
   return kNoId;
 }

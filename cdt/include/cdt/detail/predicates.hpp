@@ -223,8 +223,11 @@ CDT_HD inline int orient2d_exact(double ax, double ay, double bx, double by, dou
   return expansion_sign(det);
 }
 
-/// Sign of the orientation of (a, b, c): +1 counter-clockwise, -1 clockwise, 0 collinear. Exact.
-CDT_HD inline int orient2d(double ax, double ay, double bx, double by, double cx, double cy) {
+/// What a filter returns when its error bound cannot decide the sign.
+inline constexpr int kUndecided = 2;
+
+/// orient2d's floating-point filter alone: the sign where the error bound decides it, else kUndecided.
+CDT_HD_INLINE int orient2d_filter(double ax, double ay, double bx, double by, double cx, double cy) {
   const double det_left = fmul(fsub(ax, cx), fsub(by, cy));
   const double det_right = fmul(fsub(ay, cy), fsub(bx, cx));
   const double det = fsub(det_left, det_right);
@@ -241,7 +244,13 @@ CDT_HD inline int orient2d(double ax, double ay, double bx, double by, double cx
   const double bound = fmul(kOrientBound, det_sum);
   if (det >= bound) return 1;
   if (-det >= bound) return -1;
-  return orient2d_exact(ax, ay, bx, by, cx, cy);
+  return kUndecided;
+}
+
+/// Sign of the orientation of (a, b, c): +1 counter-clockwise, -1 clockwise, 0 collinear. Exact.
+CDT_HD inline int orient2d(double ax, double ay, double bx, double by, double cx, double cy) {
+  const int sign = orient2d_filter(ax, ay, bx, by, cx, cy);
+  return sign != kUndecided ? sign : orient2d_exact(ax, ay, bx, by, cx, cy);
 }
 
 // --- incircle's exact fallback: products of four doubles in one fixed-point accumulator --------------
@@ -440,8 +449,10 @@ CDT_HD_INLINE bool incircle_is_exact_in_double(const double* c, const double* d,
   return true;
 }
 
-CDT_HD inline int incircle(double ax, double ay, double bx, double by, double cx, double cy, double dx,
-                           double dy) {
+/// incircle's floating-point filter: its determinant, and the sign where the error bound decides it,
+/// else kUndecided.
+CDT_HD_INLINE int incircle_filter(double ax, double ay, double bx, double by, double cx, double cy, double dx,
+                                  double dy, double& det) {
   const double adx = fsub(ax, dx);
   const double bdx = fsub(bx, dx);
   const double cdx = fsub(cx, dx);
@@ -459,17 +470,26 @@ CDT_HD inline int incircle(double ax, double ay, double bx, double by, double cx
   const double bdxady = fmul(bdx, ady);
   const double clift = fadd(fmul(cdx, cdx), fmul(cdy, cdy));
 
-  const double det = fadd(fadd(fmul(alift, fsub(bdxcdy, cdxbdy)), fmul(blift, fsub(cdxady, adxcdy))),
-                          fmul(clift, fsub(adxbdy, bdxady)));
+  det = fadd(fadd(fmul(alift, fsub(bdxcdy, cdxbdy)), fmul(blift, fsub(cdxady, adxcdy))),
+             fmul(clift, fsub(adxbdy, bdxady)));
   const double permanent = fadd(
       fadd(fmul(fadd(fabs_(bdxcdy), fabs_(cdxbdy)), alift), fmul(fadd(fabs_(cdxady), fabs_(adxcdy)), blift)),
       fmul(fadd(fabs_(adxbdy), fabs_(bdxady)), clift));
   const double bound = fmul(kIncircleBound, permanent);
   if (det > bound) return 1;
   if (-det > bound) return -1;
+  return kUndecided;
+}
+
+CDT_HD inline int incircle(double ax, double ay, double bx, double by, double cx, double cy, double dx,
+                           double dy) {
+  double det;
+  const int sign = incircle_filter(ax, ay, bx, by, cx, cy, dx, dy, det);
+  if (sign != kUndecided) return sign;
   // Undecided: degenerate or nearly so. On a fine lattice the determinant above was exact.
   const double coords[8] = {ax, ay, bx, by, cx, cy, dx, dy};
-  const double diffs[6] = {adx, ady, bdx, bdy, cdx, cdy};
+  const double diffs[6] = {fsub(ax, dx), fsub(ay, dy), fsub(bx, dx),
+                           fsub(by, dy), fsub(cx, dx), fsub(cy, dy)};
   if (incircle_is_exact_in_double(coords, diffs, 2.0) || incircle_is_exact_in_double(coords, diffs, 16.0))
     return (det > 0.0) - (det < 0.0);
   return incircle_exact(ax, ay, bx, by, cx, cy, dx, dy);
