@@ -17,6 +17,10 @@
 #include <utility>
 #include <vector>
 
+#if defined(__x86_64__)
+#include <emmintrin.h>
+#endif
+
 #include "cdt_kernels.hpp"
 #include "cuda_check.cuh"
 #include "cuda_executor.cuh"
@@ -235,17 +239,48 @@ CudaExecutor::CudaExecutor() {
 namespace {
 constexpr std::size_t kCopyPartBytes = std::size_t{512} << 10; ///< a host thread's share of a block
 
-/// memcpy of len bytes, in parts of kCopyPartBytes over `parallel` when given.
+/// memcpy with non-temporal stores where the processor has them (x86-64: SSE2's streaming stores). The
+/// copies in and out of the staging blocks write data no host thread reads again soon: streamed, the
+/// stores do not read their lines into the cache first, a third less memory traffic for a copy.
+void stream_copy(unsigned char* to, const unsigned char* from, std::size_t len) {
+#if defined(__x86_64__)
+  const std::size_t head = std::min(len, (16 - (reinterpret_cast<std::uintptr_t>(to) & 15)) & 15);
+  std::memcpy(to, from, head);
+  to += head;
+  from += head;
+  len -= head;
+  const std::size_t body = len & ~std::size_t{63};
+  for (std::size_t i = 0; i < body; i += 64) {
+    const __m128i a = _mm_loadu_si128(reinterpret_cast<const __m128i*>(from + i));
+    const __m128i b = _mm_loadu_si128(reinterpret_cast<const __m128i*>(from + i + 16));
+    const __m128i c = _mm_loadu_si128(reinterpret_cast<const __m128i*>(from + i + 32));
+    const __m128i d = _mm_loadu_si128(reinterpret_cast<const __m128i*>(from + i + 48));
+    _mm_stream_si128(reinterpret_cast<__m128i*>(to + i), a);
+    _mm_stream_si128(reinterpret_cast<__m128i*>(to + i + 16), b);
+    _mm_stream_si128(reinterpret_cast<__m128i*>(to + i + 32), c);
+    _mm_stream_si128(reinterpret_cast<__m128i*>(to + i + 48), d);
+  }
+  std::memcpy(to + body, from + body, len - body);
+  _mm_sfence(); // the streamed stores are seen before the copy is reported done
+#else
+  std::memcpy(to, from, len);
+#endif
+}
+
+/// stream_copy of len bytes, in parts of kCopyPartBytes over `parallel` when given.
 void copy_parts(void* to, const void* from, std::size_t len, const HostParallelFor* parallel) {
+  const auto copy = [&](std::size_t offset, std::size_t bytes) {
+    stream_copy(static_cast<unsigned char*>(to) + offset, static_cast<const unsigned char*>(from) + offset,
+                bytes);
+  };
   if (parallel == nullptr || !*parallel) {
-    std::memcpy(to, from, len);
+    copy(0, len);
     return;
   }
   const std::size_t parts = (len + kCopyPartBytes - 1) / kCopyPartBytes;
   (*parallel)(parts, [&](std::size_t p) {
     const std::size_t offset = p * kCopyPartBytes;
-    std::memcpy(static_cast<unsigned char*>(to) + offset, static_cast<const unsigned char*>(from) + offset,
-                std::min(kCopyPartBytes, len - offset));
+    copy(offset, std::min(kCopyPartBytes, len - offset));
   });
 }
 
