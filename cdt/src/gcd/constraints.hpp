@@ -147,21 +147,16 @@ CDT_HD_INLINE std::uint32_t constraint_flip_label(FlipCase c, std::uint32_t a_sl
   return (priority << 30) | a_slot;
 }
 
-/// orient_vertices (kExact), or orient2d's filter alone, where an orientation the filter cannot decide
-/// sets *undecided and reads as 0: the device's proposal kernel runs the filters alone, with few
-/// registers, and asks the exact tests again only for the proposals that met an undecided orientation
-/// (whose other results it discards).
+/// orient_test (flip.hpp), where an orientation the filter cannot decide sets *undecided and reads as
+/// 0: the device's proposal kernel runs the filters alone, with few registers, and asks the exact tests
+/// again only for the proposals that met an undecided orientation (whose other results it discards).
 template <bool kExact>
 CDT_HD_INLINE int orient_or_undecided(const MeshView& m, std::uint32_t a, std::uint32_t b, std::uint32_t c,
                                       bool* undecided) {
-  if constexpr (kExact) {
-    return orient_vertices(m, a, b, c);
-  } else {
-    const int sign = orient2d_filter(m.x[a], m.y[a], m.x[b], m.y[b], m.x[c], m.y[c]);
-    if (sign != kUndecided) return sign;
-    *undecided = true;
-    return 0;
-  }
+  const int sign = orient_test<kExact>(m, a, b, c);
+  if (sign != kUndecided) return sign;
+  *undecided = true;
+  return 0;
 }
 
 /// Classifies the pair of triangles (w, u, v) and (z, v, u) sharing the edge u-v, which the piece a-b
