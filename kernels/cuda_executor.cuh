@@ -325,9 +325,9 @@ private:
 
   void copy_to_device(void* d_dst, const void* h_src, std::size_t bytes, const HostParallelFor* parallel);
   void copy_to_host(void* h_dst, const void* d_src, std::size_t bytes, const HostParallelFor* parallel);
-  /// The pinned staging blocks (from the process's pool) and their events that a copy of `bytes` goes
-  /// through: one per kStagingBytes, at most kStagingBlocks, each taken on first use and kept.
-  void make_staging(std::size_t bytes);
+  /// The first `blocks` pinned staging blocks (from the process's pool, at most kStagingBlocks) and
+  /// their events, each taken on first use and kept.
+  void make_staging(std::size_t blocks);
 
   static void check_launch(const char* name, const char* file, int line) {
     ::cdt::gpu::detail::check_launch(name, file, line);

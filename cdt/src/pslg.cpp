@@ -1256,6 +1256,7 @@ PieceArray resolve(std::vector<WorkSegment> segs, PointArray& vertices, IndexArr
     }
     const auto crossings = find_crossings(grid, ends, segs, round == 0, executor);
     trace.mark("crossings");
+    trace.count("crossings", crossings.size());
     if (crossings.empty() && !on_segment.any_snapped) {
       const std::vector<std::uint32_t> order = order_by_ends(segs, vertices.size(), executor);
       PieceArray pieces(segs.size());
@@ -1385,11 +1386,13 @@ void split_pieces(PreparedPslg& pslg, CrossingSegments policy, CpuExecutor& exec
                         snap_tolerance_of(box), policy, executor);
 }
 
-void split_pieces(PreparedPslg& pslg, std::span<const std::uint32_t> suspect_pieces,
+bool split_pieces(PreparedPslg& pslg, std::span<const std::uint32_t> suspect_pieces,
                   std::span<const std::uint32_t> suspect_sites, CrossingSegments policy,
                   CpuExecutor& executor, double sites_magnitude) {
-  if (suspect_pieces.empty()) return;
+  if (suspect_pieces.empty()) return false;
   StepTrace trace("split");
+  trace.count("suspect pieces", suspect_pieces.size());
+  trace.count("suspect sites", suspect_sites.size());
   // The tolerance of the whole input, so that the suspects are treated as they would be with it.
   const double tolerance = sites_magnitude >= 0.0
                                ? snap_tolerance_of(sites_magnitude)
@@ -1455,6 +1458,11 @@ void split_pieces(PreparedPslg& pslg, std::span<const std::uint32_t> suspect_pie
       place.push_back(at_of[k]);
     }
   }
+  // Every suspect came back as it was (no crossing, no site on it: the common case): the array stays.
+  if (inserted.empty() && std::all_of(stays.begin(), stays.end(), [](std::uint8_t k) { return k != 0; })) {
+    trace.mark("pieces kept");
+    return false;
+  }
   // Walking the leaving suspects and the places in order: runs of kept pieces (source, destination,
   // length) and the inserted pieces' destinations.
   struct Run {
@@ -1500,6 +1508,7 @@ void split_pieces(PreparedPslg& pslg, std::span<const std::uint32_t> suspect_pie
   for (std::size_t k = 0; k < inserted.size(); ++k) merged[inserted_at[k]] = inserted[k];
   pslg.pieces = std::move(merged);
   trace.mark("pieces merged");
+  return true;
 }
 
 } // namespace cdt::detail

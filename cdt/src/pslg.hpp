@@ -147,8 +147,10 @@ void split_pieces(PreparedPslg& pslg, CrossingSegments policy, CpuExecutor& exec
 /// suspects' neighbourhoods in it are suspect too (screen_pieces). Pairs met in the first round are
 /// then exactly those of split_pieces; vertices added later are snapped with the whole input's
 /// tolerance, but only into suspects. sites_magnitude, when not negative, is the largest absolute
-/// coordinate of pslg.sites, which that tolerance is made from (computed here otherwise).
-void split_pieces(PreparedPslg& pslg, std::span<const std::uint32_t> suspect_pieces,
+/// coordinate of pslg.sites, which that tolerance is made from (computed here otherwise). Returns
+/// whether pieces came or went; when not, pslg.pieces holds the same pieces in the same places (only
+/// their segment ids may be lower) and no vertex was added.
+bool split_pieces(PreparedPslg& pslg, std::span<const std::uint32_t> suspect_pieces,
                   std::span<const std::uint32_t> suspect_sites, CrossingSegments policy,
                   CpuExecutor& executor, double sites_magnitude = -1.0);
 

@@ -146,7 +146,7 @@ IndexArray spatial_site_order(const detail::GridMapping& mapping, std::span<cons
 /// reused when they are made again after a split (a fresh array of millions of pieces costs its page
 /// faults again).
 void mesh_pieces(const detail::PreparedPslg& pslg, const IndexArray& site_of_vertex,
-                 detail::CpuExecutor& executor, std::vector<detail::ConstraintPiece2>& pieces) {
+                 detail::CpuExecutor& executor, detail::UnzeroedVector<detail::ConstraintPiece2>& pieces) {
   if (pieces.capacity() < pslg.pieces.size()) pieces.reserve(detail::piece_room(pslg.pieces.size()));
   pieces.resize(pslg.pieces.size());
   executor.for_each(pieces.size(), [&](std::size_t k) {
@@ -158,18 +158,20 @@ void mesh_pieces(const detail::PreparedPslg& pslg, const IndexArray& site_of_ver
 /// Splits the pieces after the sites are triangulated, given their screen against the Delaunay mesh
 /// (host or device): only the suspects are split (all of them, should the screen have failed).
 /// site_vertex maps mesh vertices to the PSLG's; sites_magnitude is the largest absolute coordinate of
-/// the sites where known (negative: split_pieces computes it).
-void split_screened(detail::PreparedPslg& pslg, const detail::ScreenedPieces& screen,
+/// the sites where known (negative: split_pieces computes it). Returns whether the pieces may have
+/// changed places (false: the same pieces in the same places, their segment ids perhaps lowered).
+bool split_screened(detail::PreparedPslg& pslg, const detail::ScreenedPieces& screen,
                     const IndexArray& site_vertex, CrossingSegments policy, detail::CpuExecutor& executor,
                     double sites_magnitude) {
   using namespace detail;
   if (!screen.complete) {
     split_pieces(pslg, policy, executor);
-  } else if (!screen.pieces.empty()) {
-    std::vector<std::uint32_t> sites(screen.sites.size());
-    executor.for_each(sites.size(), [&](std::size_t k) { sites[k] = site_vertex[screen.sites[k]]; });
-    split_pieces(pslg, screen.pieces, sites, policy, executor, sites_magnitude);
+    return true;
   }
+  if (screen.pieces.empty()) return false;
+  std::vector<std::uint32_t> sites(screen.sites.size());
+  executor.for_each(sites.size(), [&](std::size_t k) { sites[k] = site_vertex[screen.sites[k]]; });
+  return split_pieces(pslg, screen.pieces, sites, policy, executor, sites_magnitude);
 }
 
 /// The vertices the PSLG gained from first_added on, numbered after the mesh's vertices (as many as
@@ -573,7 +575,9 @@ Triangulation triangulate_on(std::span<const Point> points, std::span<const Segm
 #if defined(TRIXEL_HAVE_CUDA)
   if (on_gpu) {
     shift = device_mesh->shift(n, *device_sites, missing);
-    device_sites->finish_downloads();            // the vertex maps are on the host from here on
+    trace.mark("shift");
+    device_sites->finish_downloads(); // the vertex maps are on the host from here on
+    trace.mark("vertex maps waited for");
     device_mesh->take_vertex_ids(*device_sites); // for the output, which then uploads only added ones
     device_sites.reset();                        // its device memory is free for the later phases
   }
@@ -586,12 +590,14 @@ Triangulation triangulate_on(std::span<const Point> points, std::span<const Segm
 #if defined(TRIXEL_HAVE_CUDA)
   if (on_gpu) {
     insert = device_mesh->insert(missing, parallel);
+    trace.mark("missing points");
     // The paper's rounds leave the points outside the sites' hull in huge fans of the fake vertices,
     // which the removal would copy to the host and fill there without flips. Without these flips the
     // coastlines' insert phase took 10 ms instead of 13-14, uniform 10M + 1M 18-19 instead of 16-17.
     const gpu::FlipResult fans = device_mesh->flip_fake_fans(n);
     insert.flips += fans.flips;
     insert.rounds += fans.rounds;
+    trace.mark("fake fans flipped");
     device_mesh->remove_fake_boundary(
         n, [&](Mesh& fan_copy, std::uint32_t first_fake, std::span<const std::uint32_t> ranked_as) {
           delete_fake_vertices(fan_copy, first_fake, executor, ranked_as.data());
@@ -617,11 +623,13 @@ Triangulation triangulate_on(std::span<const Point> points, std::span<const Segm
 #if defined(TRIXEL_HAVE_CUDA)
   if (on_gpu) delaunay = flip_stats(device_mesh->flip());
 #endif
+  trace.mark("delaunay");
   if (!on_gpu) delaunay = flip_to_delaunay_in_parts(mesh, executor, dirty.data());
   end_phase("delaunay", delaunay.rounds, delaunay.flips);
 
   // From here on the vertex array is read (the split, the added vertices, the output) or moved.
   point_copy.wait();
+  trace.mark("vertex array waited for");
 
   // Starts again from the sites, splitting first (with split_pslg, the PSLG split already), the device's
   // memory given back first.
@@ -642,21 +650,21 @@ Triangulation triangulate_on(std::span<const Point> points, std::span<const Segm
   bool screened = false;
   // The pieces in mesh vertex ids, for the screen and then the constraints; made again only when the
   // split changed them.
-  std::vector<ConstraintPiece2> pieces;
+  UnzeroedVector<ConstraintPiece2> pieces; // written in parallel by mesh_pieces, not zeroed first
   bool pieces_stale = true;
   if (split == Split::screened && !pslg.pieces.empty()) {
     screened = true;
     const std::size_t first_added = pslg.vertices.size();
     mesh_pieces(pslg, site_of_vertex, executor, pieces);
     pieces_stale = false;
+    trace.mark("pieces");
     ScreenedPieces screen;
 #if defined(TRIXEL_HAVE_CUDA)
     if (on_gpu) screen = device_mesh->screen(pieces, parallel);
 #endif
     if (!on_gpu) screen = screen_pieces(mesh.view(), pieces, executor);
     trace.mark("screened");
-    if (!screen.complete || !screen.pieces.empty()) pieces_stale = true;
-    split_screened(pslg, screen, site_vertex, options.crossings, executor, sites_magnitude);
+    pieces_stale = split_screened(pslg, screen, site_vertex, options.crossings, executor, sites_magnitude);
     trace.mark("split");
     InsertStats placed;
     const std::size_t added = pslg.vertices.size() - first_added;
@@ -686,6 +694,7 @@ Triangulation triangulate_on(std::span<const Point> points, std::span<const Segm
 
   // Step 2: constraints (pieces named by their index; seg holds the piece index).
   if (pieces_stale) mesh_pieces(pslg, site_of_vertex, executor, pieces);
+  trace.mark("pieces");
   ConstraintStats cons;
   // The slots the constraints' flips rewrote: after Phase 5, only their edges can fail the incircle test.
   std::vector<std::uint8_t> flipped;
@@ -707,6 +716,7 @@ Triangulation triangulate_on(std::span<const Point> points, std::span<const Segm
     if (!screened) throw;
     return start_again(std::nullopt);
   }
+  trace.mark("constraints");
   end_phase("constraints", cons.outer_iterations, cons.flips);
 
   // Step 3: Lawson flips to the CDT, from the triangles the constraints flipped.
@@ -722,7 +732,7 @@ Triangulation triangulate_on(std::span<const Point> points, std::span<const Segm
   result.vertices = std::move(pslg.vertices);
   result.duplicate_of = std::move(pslg.duplicate_of);
   static_assert(kNone == kNoId);
-  std::vector<std::uint32_t> segment_of_piece(pslg.pieces.size());
+  IndexArray segment_of_piece(pslg.pieces.size()); // written in parallel, not zeroed first
   executor.for_each(pslg.pieces.size(), [&](std::size_t k) { segment_of_piece[k] = pslg.pieces[k].segment; });
 #if defined(TRIXEL_HAVE_CUDA)
   if (device_mesh) {

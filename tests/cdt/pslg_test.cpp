@@ -353,7 +353,8 @@ TEST(PslgSplit, SuspectsAloneAsAll) {
   ASSERT_LT(suspects.size(), some.pieces.size());
   const std::vector<std::uint32_t> sites(some.sites.begin(), some.sites.end());
   cdt::detail::split_pieces(all, CrossingSegments::reject, executor);
-  cdt::detail::split_pieces(some, suspects, sites, CrossingSegments::reject, executor);
+  // The overlapping pieces are cut at the sites on them: the list changes.
+  EXPECT_TRUE(cdt::detail::split_pieces(some, suspects, sites, CrossingSegments::reject, executor));
   EXPECT_EQ(piece_pairs(some), piece_pairs(all));
   EXPECT_EQ(piece_labels(some), piece_labels(all));
   EXPECT_EQ(some.vertices.size(), all.vertices.size());
@@ -394,7 +395,7 @@ TEST(PslgSplit, SuspectsThatComeBackKeepTheirPlaces) {
     ASSERT_GT(cut, 5u) << "seed " << seed;
     ASSERT_LT(suspects.size(), some.pieces.size());
     const std::vector<std::uint32_t> sites(some.sites.begin(), some.sites.end());
-    cdt::detail::split_pieces(some, suspects, sites, CrossingSegments::resolve, executor);
+    EXPECT_TRUE(cdt::detail::split_pieces(some, suspects, sites, CrossingSegments::resolve, executor));
     // The crossing vertices are numbered in the order each split meets them: compare by coordinates.
     ASSERT_EQ(some.vertices.size(), all.vertices.size()) << "seed " << seed;
     const auto by_coordinates = [](const PreparedPslg& out) {
@@ -413,6 +414,34 @@ TEST(PslgSplit, SuspectsThatComeBackKeepTheirPlaces) {
     EXPECT_TRUE(std::is_sorted(pairs.begin(), pairs.end())) << "seed " << seed;
     EXPECT_EQ(std::adjacent_find(pairs.begin(), pairs.end()), pairs.end()) << "seed " << seed;
   }
+}
+
+// Suspects of a list split already all come back as they were: split_pieces says nothing changed and
+// the list is the same, piece for piece.
+TEST(PslgSplit, SuspectsThatAllComeBackLeaveTheList) {
+  trixel_gen::Random rng(21);
+  std::vector<Point> points;
+  for (int k = 0; k < 600; ++k) points.push_back({rng.unit() * 100, rng.unit() * 100});
+  std::vector<Segment> segments;
+  for (int k = 0; k < 200; ++k) {
+    const auto a = static_cast<std::uint32_t>(rng.range(0, 599));
+    const auto b = static_cast<std::uint32_t>(rng.range(0, 599));
+    if (a != b) segments.push_back({a, b});
+  }
+  CpuExecutor executor(2);
+  PreparedPslg split = cdt::detail::merge_input(points, segments, CrossingSegments::resolve, executor);
+  cdt::detail::split_pieces(split, CrossingSegments::resolve, executor);
+  ASSERT_GT(split.vertices.size(), points.size()) << "the segments should cross";
+  const auto pairs = piece_pairs(split);
+  const auto labels = piece_labels(split);
+  const std::size_t vertices = split.vertices.size();
+  std::vector<std::uint32_t> suspects;
+  for (std::uint32_t k = 0; k < split.pieces.size(); k += 3) suspects.push_back(k);
+  const std::vector<std::uint32_t> sites(split.sites.begin(), split.sites.end());
+  EXPECT_FALSE(cdt::detail::split_pieces(split, suspects, sites, CrossingSegments::resolve, executor));
+  EXPECT_EQ(piece_pairs(split), pairs);
+  EXPECT_EQ(piece_labels(split), labels);
+  EXPECT_EQ(split.vertices.size(), vertices);
 }
 
 TEST(PslgOverlap, PartialOverlapIsMergedWithLowestIds) {

@@ -1,5 +1,7 @@
 #include "executor/cpu_executor.hpp"
 
+#include <chrono>
+
 namespace cdt::detail {
 
 CpuExecutor::CpuExecutor(unsigned threads) {
@@ -11,31 +13,63 @@ CpuExecutor::CpuExecutor(unsigned threads) {
 CpuExecutor::~CpuExecutor() {
   {
     std::lock_guard<std::mutex> lock(mutex_);
-    stop_ = true;
+    stop_.store(true, std::memory_order_release);
   }
   start_.notify_all();
   for (auto& w : workers_) w.join();
 }
 
+namespace {
+
+/// How long a thread spins for the next step, or for the end of its step, before it sleeps. It spins
+/// by yielding its core: a thread it waits for may be on the same core (more threads than cores, or
+/// the driver's and other libraries' threads beside them), where spinning on a pause instruction
+/// would hold it off for the whole spin (measured: median steps of 60 us against 5-10).
+constexpr auto kSpin = std::chrono::microseconds(50);
+
+/// Spins until ready() or kSpin has passed; returns ready().
+template <class Ready>
+bool spin_until(Ready&& ready) {
+  const auto until = std::chrono::steady_clock::now() + kSpin;
+  for (;;) {
+    for (int k = 0; k < 8; ++k) {
+      if (ready()) return true;
+      std::this_thread::yield();
+    }
+    if (std::chrono::steady_clock::now() >= until) return ready();
+  }
+}
+
+} // namespace
+
 void CpuExecutor::run_chunks(std::size_t n, std::size_t chunk,
                              const std::function<void(std::size_t, std::size_t)>& body) {
+  // The workers of the last step are all done (pending_ reached 0), so nobody reads these now.
+  body_ = &body;
+  n_ = n;
+  chunk_ = chunk;
+  next_.store(0, std::memory_order_relaxed);
+  pending_.store(static_cast<unsigned>(workers_.size()), std::memory_order_relaxed);
+  bool wake;
   {
+    // Under the mutex: a worker about to sleep checks generation_ under it, so none misses the step.
     std::lock_guard<std::mutex> lock(mutex_);
-    body_ = &body;
-    n_ = n;
-    chunk_ = chunk;
-    next_.store(0, std::memory_order_relaxed);
-    pending_ = static_cast<unsigned>(workers_.size());
-    ++generation_;
+    generation_.fetch_add(1, std::memory_order_release);
+    wake = sleepers_ > 0;
   }
-  start_.notify_all();
+  if (wake) start_.notify_all();
   for (;;) {
-    const std::size_t begin = next_.fetch_add(chunk_, std::memory_order_relaxed);
+    const std::size_t begin = next_.fetch_add(chunk, std::memory_order_relaxed);
     if (begin >= n) break;
-    body(begin, std::min(n, begin + chunk_));
+    body(begin, std::min(n, begin + chunk));
   }
-  std::unique_lock<std::mutex> lock(mutex_);
-  done_.wait(lock, [this] { return pending_ == 0; });
+  const auto done = [this] { return pending_.load(std::memory_order_acquire) == 0; };
+  if (!spin_until(done)) {
+    std::unique_lock<std::mutex> lock(mutex_);
+    caller_sleeping_ = true;
+    done_.wait(lock, done);
+    caller_sleeping_ = false;
+  }
   body_ = nullptr;
 }
 
@@ -92,27 +126,31 @@ void CpuExecutor::sort_pairs_by_key(std::vector<std::uint32_t>& keys, std::vecto
 
 void CpuExecutor::worker_loop(unsigned) {
   std::uint64_t seen = 0;
+  const auto ready = [&] {
+    return generation_.load(std::memory_order_acquire) != seen || stop_.load(std::memory_order_acquire);
+  };
   for (;;) {
-    const std::function<void(std::size_t, std::size_t)>* body;
-    std::size_t n;
-    std::size_t chunk;
-    {
+    if (!spin_until(ready)) {
       std::unique_lock<std::mutex> lock(mutex_);
-      start_.wait(lock, [&] { return stop_ || generation_ != seen; });
-      if (stop_) return;
-      seen = generation_;
-      body = body_;
-      n = n_;
-      chunk = chunk_;
+      ++sleepers_;
+      start_.wait(lock, ready);
+      --sleepers_;
     }
+    if (stop_.load(std::memory_order_acquire)) return;
+    seen = generation_.load(std::memory_order_acquire);
+    const std::function<void(std::size_t, std::size_t)>* body = body_;
+    const std::size_t n = n_;
+    const std::size_t chunk = chunk_;
     for (;;) {
       const std::size_t begin = next_.fetch_add(chunk, std::memory_order_relaxed);
       if (begin >= n) break;
       (*body)(begin, std::min(n, begin + chunk));
     }
-    {
+    if (pending_.fetch_sub(1, std::memory_order_acq_rel) == 1) {
+      // The last one out wakes the caller should it be asleep (checked under the mutex, where the
+      // caller decides to sleep).
       std::lock_guard<std::mutex> lock(mutex_);
-      if (--pending_ == 0) done_.notify_one();
+      if (caller_sleeping_) done_.notify_one();
     }
   }
 }

@@ -214,12 +214,20 @@ private:
 
   unsigned num_threads_ = 1;
   std::vector<std::thread> workers_;
+  // A step is published by raising generation_ (after body_, n_, chunk_ and next_ are set) and is done
+  // when pending_, the workers still in it, reaches 0. Both sides spin a little (yielding their core)
+  // before they sleep on the condition variables, so that back-to-back steps do not wait for sleeping
+  // threads to wake: a step of 8192 elements on 2 threads took about 5 us instead of 24-30, 12 instead of
+  // 39 with 4 threads on 2 cores; the host's parts of a GPU triangulation are many such small steps
+  // (the split of the suspect pieces: dozens of steps on a few thousand elements).
   std::mutex mutex_;
   std::condition_variable start_;
   std::condition_variable done_;
-  std::uint64_t generation_ = 0;
-  unsigned pending_ = 0;
-  bool stop_ = false;
+  std::atomic<std::uint64_t> generation_{0};
+  std::atomic<unsigned> pending_{0};
+  std::atomic<bool> stop_{false};
+  unsigned sleepers_ = 0;        // workers asleep on start_ (under mutex_)
+  bool caller_sleeping_ = false; // the caller asleep on done_ (under mutex_)
   // The current step: chunks handed out dynamically so uneven per-element work balances.
   const std::function<void(std::size_t, std::size_t)>* body_ = nullptr;
   std::size_t n_ = 0;

@@ -1,7 +1,8 @@
 #pragma once
 // Step timings for profiling the pipeline from the outside: with the environment variable
 // TRIXEL_CDT_TRACE set (to anything but 0), every mark() prints the milliseconds since the last one
-// to stderr, as "trace <scope>: <step> <ms>". Costs one clock read per mark otherwise nothing.
+// to stderr, as "trace <scope>: <step> <ms>", and count() a size. Costs one clock read per mark
+// otherwise nothing.
 
 #include <chrono>
 #include <cstdio>
@@ -27,6 +28,10 @@ public:
     std::fprintf(stderr, "trace %s: %s %.1f\n", scope_, step,
                  std::chrono::duration<double, std::milli>(now - last_).count());
     last_ = now;
+  }
+  /// Prints "trace <scope>: <what> = <n>" (a size worth knowing beside the times), costing no time mark.
+  void count(const char* what, unsigned long long n) const {
+    if (on_) std::fprintf(stderr, "trace %s: %s = %llu\n", scope_, what, n);
   }
 
 private:
