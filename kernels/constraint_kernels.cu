@@ -27,6 +27,7 @@
 namespace cdt::gpu {
 
 using ::cdt::detail::ConstraintPiece2;
+using ::cdt::detail::ConstraintRound;
 using ::cdt::detail::ConstraintStats;
 using ::cdt::detail::ConstraintStatus;
 using ::cdt::detail::edge_tri;
@@ -43,6 +44,11 @@ namespace {
 constexpr std::uint32_t kStalledShare = 16;
 
 __device__ bool is_error(ConstraintStatus s) { return s >= ConstraintStatus::vertex_on_piece; }
+
+/// The device's atomic minimum, for record_constraint_proposal's claims.
+struct ClaimMin {
+  __device__ void operator()(std::uint32_t* at, std::uint32_t value) const { atomicMin(at, value); }
+};
 
 /// The error of element `at` (the lowest failing one) of a step, as the CPU executor reports it.
 [[noreturn]] void fail(CudaExecutor& executor, const ConstraintStatus* d_status, std::uint32_t at,
@@ -123,22 +129,13 @@ __device__ void ConstraintLoop::operator()(const Team& team, const ConstraintRou
     ++iterations;
     if (team.leader()) *team.word = kNoId;
     team.sync();
+    const ConstraintRound round{act, a.edge, a.prev_tri, a.next_tri, a.label, a.claim, a.own};
     // Algorithm 5, lines 2-11: cases, then claims by atomic minimum of the label.
     team.for_each(na, [&](std::uint32_t k) {
-      const std::uint32_t A = act[k];
       FlipProposal proposal;
-      a.status[k] = ::cdt::detail::propose_constraint_flip(m, a.cmark, a.piece, A, proposal);
+      a.status[k] = ::cdt::detail::propose_constraint_flip(m, a.cmark, a.piece, act[k], proposal);
       if (is_error(a.status[k])) atomicMin(team.word, k);
-      a.edge[k] = proposal.edge;
-      a.prev_tri[k] = proposal.prev;
-      a.next_tri[k] = kNoId;
-      if (proposal.flip_case == FlipCase::none) return;
-      const std::uint32_t C = edge_tri(m.adj[proposal.edge]);
-      a.next_tri[k] = C;
-      a.label[k] = ::cdt::detail::constraint_flip_label(proposal.flip_case, A);
-      atomicMin(a.claim + A, a.label[k]);
-      atomicMin(a.claim + C, a.label[k]);
-      if (proposal.prev != kNoId) atomicMin(a.claim + proposal.prev, a.label[k]);
+      ::cdt::detail::record_constraint_proposal(m, round, k, proposal, ClaimMin{});
     });
     team.sync();
     if (const std::uint32_t first = team.word_value(); first != kNoId) {
@@ -148,29 +145,12 @@ __device__ void ConstraintLoop::operator()(const Team& team, const ConstraintRou
       break;
     }
     // Algorithm 5, line 13: flip only where every claim held.
-    team.for_each(na, [&](std::uint32_t k) {
-      if (a.next_tri[k] == kNoId) {
-        a.own[k] = 0;
-        return;
-      }
-      const std::uint32_t mine = a.label[k];
-      a.own[k] = static_cast<std::uint8_t>(
-          (a.claim[act[k]] == mine ? 1u : 0u) | (a.claim[a.next_tri[k]] == mine ? 2u : 0u) |
-          (a.prev_tri[k] != kNoId && a.claim[a.prev_tri[k]] == mine ? 4u : 0u));
-    });
+    team.for_each(na, [&](std::uint32_t k) { ::cdt::detail::constraint_claims_held(round, k); });
     team.sync();
     std::uint32_t* winners = a.picked;
     const std::uint32_t num_winners = team.compact(
-        na,
-        [&](std::uint32_t k) {
-          return a.next_tri[k] != kNoId && a.own[k] == (a.prev_tri[k] != kNoId ? 7u : 3u);
-        },
-        winners);
-    team.for_each(na, [&](std::uint32_t k) {
-      if (a.own[k] & 1u) a.claim[act[k]] = kNoId;
-      if (a.own[k] & 2u) a.claim[a.next_tri[k]] = kNoId;
-      if (a.own[k] & 4u) a.claim[a.prev_tri[k]] = kNoId;
-    });
+        na, [&](std::uint32_t k) { return ::cdt::detail::constraint_proposal_won(round, k); }, winners);
+    team.for_each(na, [&](std::uint32_t k) { ::cdt::detail::clear_constraint_claims(round, k); });
     team.sync();
     if (num_winners == 0) { // the lowest label holds all its claims: nothing was flippable
       stop = ConstraintStop::no_winners;
@@ -529,11 +509,9 @@ ConstraintStats insert_constraints(DeviceMesh::State& s, std::span<const Constra
       }
       const std::uint32_t* act = d_active.data();
       ConstraintStatus* status = d_prop_status.data();
-      std::uint32_t* edge = d_edge.data();
-      std::uint32_t* next_tri = d_next_tri.data();
-      std::uint32_t* prev_tri = d_prev_tri.data();
-      std::uint32_t* lab = d_label.data();
       std::uint8_t* own = d_own.data();
+      const ConstraintRound round{
+          act, d_edge.data(), d_prev_tri.data(), d_next_tri.data(), d_label.data(), claim, own};
 
       // Algorithm 5, lines 2-11: cases, then claims by atomic minimum of the label.
       executor.fill_bytes(error_at, 0xFF, 1);
@@ -543,19 +521,9 @@ ConstraintStats insert_constraints(DeviceMesh::State& s, std::span<const Constra
       // exact tests.
       const auto propose = [=] __device__(std::size_t k, const FlipProposal& proposal,
                                           ConstraintStatus found) {
-        const std::uint32_t A = act[k];
         status[k] = found;
         if (is_error(found)) atomicMin(error_at, static_cast<std::uint32_t>(k));
-        edge[k] = proposal.edge;
-        prev_tri[k] = proposal.prev;
-        next_tri[k] = kNoId;
-        if (proposal.flip_case == FlipCase::none) return;
-        const std::uint32_t C = edge_tri(m.adj[proposal.edge]);
-        next_tri[k] = C;
-        lab[k] = ::cdt::detail::constraint_flip_label(proposal.flip_case, A);
-        atomicMin(claim + A, lab[k]);
-        atomicMin(claim + C, lab[k]);
-        if (proposal.prev != kNoId) atomicMin(claim + proposal.prev, lab[k]);
+        ::cdt::detail::record_constraint_proposal(m, round, k, proposal, ClaimMin{});
       };
       executor.for_each_64(
           na,
@@ -566,7 +534,7 @@ ConstraintStats insert_constraints(DeviceMesh::State& s, std::span<const Constra
                 ::cdt::detail::propose_constraint_flip<false>(m, cmark, piece, act[k], proposal, &undecided);
             own[k] = undecided ? 1 : 0;
             if (undecided) {
-              next_tri[k] = kNoId;
+              round.next_tri[k] = kNoId;
               return;
             }
             propose(k, proposal, found);
@@ -589,40 +557,21 @@ ConstraintStats insert_constraints(DeviceMesh::State& s, std::span<const Constra
         executor.download(&index, cmark + A, 1);
         fail(executor, status, first_error, index, host_pieces);
       }
-      // Algorithm 5, line 13: flip only where every claim held; the bits say which claims this
-      // element clears afterwards, so each claim has one clearer.
+      // Algorithm 5, line 13: flip only where every claim held.
       executor.for_each(
-          na,
-          [=] __device__(std::size_t k) {
-            if (next_tri[k] == kNoId) {
-              own[k] = 0;
-              return;
-            }
-            const std::uint32_t mine = lab[k];
-            own[k] = static_cast<std::uint8_t>(
-                (claim[act[k]] == mine ? 1u : 0u) | (claim[next_tri[k]] == mine ? 2u : 0u) |
-                (prev_tri[k] != kNoId && claim[prev_tri[k]] == mine ? 4u : 0u));
-          },
+          na, [=] __device__(std::size_t k) { ::cdt::detail::constraint_claims_held(round, k); },
           "constraint_claims");
       std::uint32_t* winners = d_picked.data();
       const std::uint32_t num_winners = executor.compact(
-          na,
-          [=] __device__(std::size_t k) {
-            return next_tri[k] != kNoId && own[k] == (prev_tri[k] != kNoId ? 7u : 3u);
-          },
+          na, [=] __device__(std::size_t k) { return ::cdt::detail::constraint_proposal_won(round, k); },
           winners);
       executor.for_each(
-          na,
-          [=] __device__(std::size_t k) {
-            if (own[k] & 1u) claim[act[k]] = kNoId;
-            if (own[k] & 2u) claim[next_tri[k]] = kNoId;
-            if (own[k] & 4u) claim[prev_tri[k]] = kNoId;
-          },
+          na, [=] __device__(std::size_t k) { ::cdt::detail::clear_constraint_claims(round, k); },
           "clear_constraint_claims");
       if (num_winners == 0) break; // the lowest label holds all its claims: nothing was flippable
       std::uint32_t* winner_edges = d_winner_edges.data();
       executor.for_each(
-          num_winners, [=] __device__(std::size_t k) { winner_edges[k] = edge[winners[k]]; },
+          num_winners, [=] __device__(std::size_t k) { winner_edges[k] = round.edge[winners[k]]; },
           "constraint_winner_edges");
       apply_flips(executor, batch, m, winner_edges, num_winners);
       {

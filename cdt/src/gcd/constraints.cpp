@@ -166,60 +166,33 @@ ConstraintStats insert_constraints(Mesh& mesh, std::span<const ConstraintPiece2>
       prop_status.resize(na);
       ConstraintStatus* status = prop_status.data();
       const std::uint32_t* act = active.data();
-      std::uint32_t* edge = prop_edge.data();
-      std::uint32_t* next_tri = prop_next.data();
-      std::uint32_t* prev_tri = prop_prev.data();
-      std::uint32_t* lab = label.data();
-      std::uint8_t* own = owned.data();
+      const ConstraintRound round{act,   prop_edge.data(), prop_prev.data(), prop_next.data(), label.data(),
+                                  claim, owned.data()};
 
       // Algorithm 5, lines 2-11: cases, then claims by atomic minimum of the label.
       std::uint32_t error_at = kNoId;
       executor.for_each(na, [&](std::size_t k) {
-        const std::uint32_t A = act[k];
         FlipProposal proposal;
-        status[k] = propose_constraint_flip(m, cmark, piece, A, proposal);
+        status[k] = propose_constraint_flip(m, cmark, piece, act[k], proposal);
         if (is_error(status[k])) atomic_min(&error_at, static_cast<std::uint32_t>(k));
-        edge[k] = proposal.edge;
-        prev_tri[k] = proposal.prev;
-        next_tri[k] = kNoId;
-        if (proposal.flip_case == FlipCase::none) return;
-        const std::uint32_t C = edge_tri(m.adj[proposal.edge]);
-        next_tri[k] = C;
-        lab[k] = constraint_flip_label(proposal.flip_case, A);
-        atomic_min(claim + A, lab[k]);
-        atomic_min(claim + C, lab[k]);
-        if (proposal.prev != kNoId) atomic_min(claim + proposal.prev, lab[k]);
+        record_constraint_proposal(m, round, k, proposal,
+                                   [](std::uint32_t* at, std::uint32_t value) { atomic_min(at, value); });
       });
       if (error_at != kNoId) {
         const std::uint32_t i = cmark[act[error_at]];
         fail(status[error_at], i, piece[i]);
       }
-      // Algorithm 5, line 13: flip only where every claim held. The bits also say which claims this
-      // element clears afterwards, so each claim has one clearer.
-      executor.for_each(na, [&](std::size_t k) {
-        if (next_tri[k] == kNoId) {
-          own[k] = 0;
-          return;
-        }
-        const std::uint32_t mine = lab[k];
-        own[k] = static_cast<std::uint8_t>((claim[act[k]] == mine ? 1u : 0u) |
-                                           (claim[next_tri[k]] == mine ? 2u : 0u) |
-                                           (prev_tri[k] != kNoId && claim[prev_tri[k]] == mine ? 4u : 0u));
-      });
-      const std::vector<std::uint32_t> winners = executor.compact(na, [&](std::size_t k) {
-        return next_tri[k] != kNoId && own[k] == (prev_tri[k] != kNoId ? 7u : 3u);
-      });
-      executor.for_each(na, [&](std::size_t k) {
-        if (own[k] & 1u) claim[act[k]] = kNoId;
-        if (own[k] & 2u) claim[next_tri[k]] = kNoId;
-        if (own[k] & 4u) claim[prev_tri[k]] = kNoId;
-      });
+      // Algorithm 5, line 13: flip only where every claim held.
+      executor.for_each(na, [&](std::size_t k) { constraint_claims_held(round, k); });
+      const std::vector<std::uint32_t> winners =
+          executor.compact(na, [&](std::size_t k) { return constraint_proposal_won(round, k); });
+      executor.for_each(na, [&](std::size_t k) { clear_constraint_claims(round, k); });
       if (winners.empty()) break; // the lowest label holds all its claims: nothing was flippable
       winner_edges.resize(winners.size());
       {
         const std::uint32_t* w = winners.data();
         std::uint32_t* out = winner_edges.data();
-        executor.for_each(winners.size(), [&](std::size_t k) { out[k] = edge[w[k]]; });
+        executor.for_each(winners.size(), [&](std::size_t k) { out[k] = round.edge[w[k]]; });
         batch.apply(mesh, winner_edges, executor);
         const std::uint32_t* partner = batch.partner();
         executor.for_each(winners.size(), [&](std::size_t k) {

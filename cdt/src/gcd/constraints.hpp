@@ -14,6 +14,7 @@
 // lies on an open piece, so a piece enters and leaves a triangle through the interiors of its edges.
 
 #include <atomic>
+#include <cstddef>
 #include <cstdint>
 #include <span>
 
@@ -286,6 +287,64 @@ CDT_HD inline ConstraintStatus propose_constraint_flip(const MeshView& m, const 
   out.prev = B;
   out.flip_case = c;
   return ConstraintStatus::ok;
+}
+
+/// One round of Algorithm 5's proposals over the active triangles act[0..n) (the executor's arrays, per
+/// active triangle k unless said otherwise): the bookkeeping shared by the CPU executor's rounds and the
+/// device's (launched, or in one team), so that all of them claim and flip the same pairs.
+struct ConstraintRound {
+  const std::uint32_t* act; ///< the active triangles' slots
+  std::uint32_t* edge;      ///< the proposal's edge (kNoId: none)
+  std::uint32_t* prev_tri;  ///< the third triangle it claims (cases 2 and 3: B), else kNoId
+  std::uint32_t* next_tri;  ///< the triangle across the edge (C); kNoId without a proposal
+  std::uint32_t* label;     ///< the proposal's label (constraint_flip_label), with a proposal
+  std::uint32_t* claim;     ///< per slot, the lowest label claiming it (kNoId: none)
+  std::uint8_t* own;        ///< which of its claims k holds (constraint_claims_held)
+};
+
+/// Algorithm 5, lines 2-11, once k's case is known: records the proposal and claims A, C and B (when it
+/// has one) with its label through claim_min(address, label), the executor's atomic minimum.
+template <class ClaimMin>
+CDT_HD inline void record_constraint_proposal(const MeshView& m, const ConstraintRound& r, std::size_t k,
+                                              const FlipProposal& proposal, ClaimMin&& claim_min) {
+  r.edge[k] = proposal.edge;
+  r.prev_tri[k] = proposal.prev;
+  r.next_tri[k] = kNoId;
+  if (proposal.flip_case == FlipCase::none) return;
+  const std::uint32_t A = r.act[k];
+  const std::uint32_t C = edge_tri(m.adj[proposal.edge]);
+  const std::uint32_t label = constraint_flip_label(proposal.flip_case, A);
+  r.next_tri[k] = C;
+  r.label[k] = label;
+  claim_min(r.claim + A, label);
+  claim_min(r.claim + C, label);
+  if (proposal.prev != kNoId) claim_min(r.claim + proposal.prev, label);
+}
+
+/// Algorithm 5, line 13, once every claim of the round is made: sets own[k] to the claims k holds (bit 0:
+/// A, bit 1: C, bit 2: B; 0 without a proposal). The bits also say which claims k clears afterwards
+/// (clear_constraint_claims), so each claim has one clearer.
+CDT_HD_INLINE void constraint_claims_held(const ConstraintRound& r, std::size_t k) {
+  if (r.next_tri[k] == kNoId) {
+    r.own[k] = 0;
+    return;
+  }
+  const std::uint32_t mine = r.label[k];
+  r.own[k] = static_cast<std::uint8_t>((r.claim[r.act[k]] == mine ? 1u : 0u) |
+                                       (r.claim[r.next_tri[k]] == mine ? 2u : 0u) |
+                                       (r.prev_tri[k] != kNoId && r.claim[r.prev_tri[k]] == mine ? 4u : 0u));
+}
+
+/// Whether k's proposal flips this round: it holds every triangle it claimed.
+CDT_HD_INLINE bool constraint_proposal_won(const ConstraintRound& r, std::size_t k) {
+  return r.next_tri[k] != kNoId && r.own[k] == (r.prev_tri[k] != kNoId ? 7u : 3u);
+}
+
+/// Gives back the claims k holds (after the winners are listed), so the next round starts unclaimed.
+CDT_HD_INLINE void clear_constraint_claims(const ConstraintRound& r, std::size_t k) {
+  if (r.own[k] & 1u) r.claim[r.act[k]] = kNoId;
+  if (r.own[k] & 2u) r.claim[r.next_tri[k]] = kNoId;
+  if (r.own[k] & 4u) r.claim[r.prev_tri[k]] = kNoId;
 }
 
 /// Which triangles of a pair just flipped for the piece a-b meet the open piece: t = (x, p, y) and
