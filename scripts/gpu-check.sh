@@ -19,6 +19,9 @@
 #   batch-compare (not in the default list) the batch benchmark of an earlier tree's bundle
 #              (.carry/base/vectorize, built by scripts/device-bundle.sh from that tree) against this
 #              one's (.carry/bundle/vectorize), rounds alternating: scripts/batch-compare.sh
+#   trace      (not in the default list) the step trace (TRIXEL_CDT_TRACE=1) of the third of three runs
+#              (warm) of 10M points + 1M segments and of the coastlines: the host's steps between the
+#              device's phases, which the device profile does not see, and the split's sizes
 #   compare    (not in the default list) an earlier tree against this one on the same machine, whose
 #              timings vary 10-25% between calls: TRIXEL_BASE (default .carry/base) holds a copy of it
 #              (`git archive REV | tar -x -C .carry/base`, carried); both bench_cdt builds run in turn,
@@ -138,6 +141,23 @@ if want many && compgen -G ".carry/pslg/*.poly" >/dev/null; then
   }
   step bench-many many_run
 fi
+if want trace; then
+  trace_run() { # trace_run NAME BENCH_ARGS...: the third run's trace lines
+    local name=$1
+    shift
+    TRIXEL_CDT_TRACE=1 build-gpu/bin/bench_cdt --repeat 3 --no-cgal --no-verify --backend gpu "$@" \
+      2>"$logs/trace-$name.err" >/dev/null
+    echo "== $name"
+    awk '/^trace device duplicates: points up/ {run++} run == 3' "$logs/trace-$name.err"
+  }
+  trace_all() {
+    trace_run 10m --sizes 10000000:1000000 --case uniform --cache build-gpu/inputs
+    if [ -s build-gpu/inputs/gshhg-high.txt ]; then
+      trace_run coast --coast build-gpu/inputs/gshhg-high.txt --case GSHHG
+    fi
+  }
+  step trace trace_all
+fi
 if want compare; then
   base=${TRIXEL_BASE:-.carry/base}
   if [ -f "$base/CMakeLists.txt" ]; then
@@ -176,6 +196,7 @@ echo
 for log in bench-predicates bench-voronoi bench-cdt-gpu bench-cdt-cpu; do
   [ -f "$logs/$log.log" ] && { grep -h -e '^backend' -e '^|' "$logs/$log.log" || true; echo; }
 done
+[ -f "$logs/trace.log" ] && { echo "trace (third runs):"; grep -E '^(==|trace triangulate|trace split: suspect)' "$logs/trace.log"; echo; }
 [ -f "$logs/compare.log" ] && { echo "compare (base = ${TRIXEL_BASE:-.carry/base}, gpu = this tree):"; cat "$logs/compare.log"; echo; }
 for log in bench-batch bench-batch-cpu bench-batch-own; do
   [ -f "$logs/$log.log" ] && { echo "$log:"; grep -h '^|' "$logs/$log.log" || true; }
