@@ -623,8 +623,8 @@ Triangulation triangulate_on(std::span<const Point> points, std::span<const Segm
 #if defined(TRIXEL_HAVE_CUDA)
   if (on_gpu) delaunay = flip_stats(device_mesh->flip());
 #endif
-  trace.mark("delaunay");
   if (!on_gpu) delaunay = flip_to_delaunay_in_parts(mesh, executor, dirty.data());
+  trace.mark("delaunay");
   end_phase("delaunay", delaunay.rounds, delaunay.flips);
 
   // From here on the vertex array is read (the split, the added vertices, the output) or moved.
