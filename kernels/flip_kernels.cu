@@ -22,10 +22,18 @@
 namespace cdt::gpu {
 
 using ::cdt::detail::edge_tri;
+using ::cdt::detail::FlipRound;
 using ::cdt::detail::kNoId;
 using ::cdt::detail::MeshView;
 
 namespace detail {
+
+namespace {
+/// The device's atomic minimum, for record_flip_proposal's claims.
+struct ClaimMin {
+  __device__ void operator()(std::uint32_t* at, std::uint32_t value) const { atomicMin(at, value); }
+};
+} // namespace
 
 /// Device memory of a mesh (mesh_kernels.cu).
 std::size_t mesh_device_bytes(std::size_t slots, std::size_t nv);
@@ -152,31 +160,20 @@ __device__ void FlipLoop::operator()(const Team& team, const FlipRounds& a, std:
   unsigned long long flips = 0;
   while (n > lo && n <= hi) {
     ++rounds;
+    const FlipRound r{list, a.cand, a.nbr, a.marks, a.own};
     team.for_each(n, [&](std::uint32_t k) {
       const std::uint32_t t = list[k];
-      const std::uint32_t e = a.first_fake == kNoId
-                                  ? ::cdt::detail::delaunay_flip_candidate(m, a.active_flag, a.partner, t)
-                                  : ::cdt::detail::fake_fan_candidate(m, a.active_flag, t, a.first_fake);
-      a.cand[k] = e;
-      a.nbr[k] = kNoId;
-      if (e == kNoId) return;
-      const std::uint32_t u = edge_tri(m.adj[e]);
-      a.nbr[k] = u;
-      atomicMin(a.marks + t, t);
-      atomicMin(a.marks + u, t);
+      ::cdt::detail::record_flip_proposal(
+          m, r, k,
+          a.first_fake == kNoId ? ::cdt::detail::delaunay_flip_candidate(m, a.active_flag, a.partner, t)
+                                : ::cdt::detail::fake_fan_candidate(m, a.active_flag, t, a.first_fake),
+          ClaimMin{});
     });
     team.sync();
-    team.for_each(n, [&](std::uint32_t k) {
-      if (a.cand[k] == kNoId) {
-        a.own[k] = 0;
-        return;
-      }
-      const std::uint32_t t = list[k];
-      a.own[k] = static_cast<std::uint8_t>((a.marks[t] == t ? 1u : 0u) | (a.marks[a.nbr[k]] == t ? 2u : 0u));
-    });
+    team.for_each(n, [&](std::uint32_t k) { ::cdt::detail::flip_claims_held(r, k); });
     team.sync();
     const std::uint32_t num_winners = team.compact(
-        n, [&](std::uint32_t k) { return a.own[k] == 3; }, a.winners);
+        n, [&](std::uint32_t k) { return ::cdt::detail::flip_proposal_won(r, k); }, a.winners);
     if (num_winners == 0) {
       // The lowest proposer always holds both of its claims, so no winner means no proposal.
       if (team.compact(
@@ -194,13 +191,10 @@ __device__ void FlipLoop::operator()(const Team& team, const FlipRounds& a, std:
       break;
     }
     flips += num_winners;
-    team.for_each(n, [&](std::uint32_t k) {
-      if (a.own[k] & 1u) a.marks[list[k]] = kNoId;
-      if (a.own[k] & 2u) a.marks[a.nbr[k]] = kNoId;
-    });
+    team.for_each(n, [&](std::uint32_t k) { ::cdt::detail::clear_flip_claims(r, k); });
     // Next round: proposers that could not flip yet, plus both new triangles of every flip.
     const std::uint32_t num_waiting = team.compact(
-        n, [&](std::uint32_t k) { return a.cand[k] != kNoId && a.partner[list[k]] == kNoId; }, a.waiting);
+        n, [&](std::uint32_t k) { return ::cdt::detail::flip_proposal_waits(r, a.partner, k); }, a.waiting);
     team.for_each(num_waiting, [&](std::uint32_t k) { next[k] = list[a.waiting[k]]; });
     team.for_each(num_winners, [&](std::uint32_t k) {
       const std::uint32_t t = list[a.winners[k]];
@@ -295,21 +289,13 @@ FlipResult flip_mesh(DeviceMesh::State& s, const std::uint8_t* only, std::uint32
     }
     ++result.rounds;
     const std::uint32_t* l = list;
-    // Propose and claim: the proposer's slot index is its label, so the lowest proposer wins.
-    const auto propose = [=] __device__(std::size_t k, std::uint32_t t, std::uint32_t e) {
-      cand[k] = e;
-      nbr[k] = kNoId;
-      if (e == kNoId) return;
-      const std::uint32_t u = edge_tri(m.adj[e]);
-      nbr[k] = u;
-      atomicMin(marks + t, t);
-      atomicMin(marks + u, t);
-    };
+    const FlipRound r{l, cand, nbr, marks, own};
     if (first_fake != kNoId) {
       executor.for_each(
           n,
           [=] __device__(std::size_t k) {
-            propose(k, l[k], ::cdt::detail::fake_fan_candidate(m, active_flag, l[k], first_fake));
+            ::cdt::detail::record_flip_proposal(
+                m, r, k, ::cdt::detail::fake_fan_candidate(m, active_flag, l[k], first_fake), ClaimMin{});
           },
           "flip_propose_fans");
     } else {
@@ -320,8 +306,10 @@ FlipResult flip_mesh(DeviceMesh::State& s, const std::uint8_t* only, std::uint32
           n,
           [=] __device__(std::size_t k) {
             bool undecided = false;
-            propose(k, l[k],
-                    ::cdt::detail::delaunay_flip_candidate<false>(m, active_flag, partner, l[k], &undecided));
+            ::cdt::detail::record_flip_proposal(
+                m, r, k,
+                ::cdt::detail::delaunay_flip_candidate<false>(m, active_flag, partner, l[k], &undecided),
+                ClaimMin{});
             own[k] = undecided ? 1 : 0;
           },
           "flip_propose");
@@ -329,23 +317,15 @@ FlipResult flip_mesh(DeviceMesh::State& s, const std::uint8_t* only, std::uint32
           n,
           [=] __device__(std::size_t k) {
             if (own[k] != 0)
-              propose(k, l[k], ::cdt::detail::delaunay_flip_candidate(m, active_flag, partner, l[k]));
+              ::cdt::detail::record_flip_proposal(
+                  m, r, k, ::cdt::detail::delaunay_flip_candidate(m, active_flag, partner, l[k]), ClaimMin{});
           },
           "flip_propose_exact");
     }
     executor.for_each(
-        n,
-        [=] __device__(std::size_t k) {
-          if (cand[k] == kNoId) {
-            own[k] = 0;
-            return;
-          }
-          const std::uint32_t t = l[k];
-          own[k] = static_cast<std::uint8_t>((marks[t] == t ? 1u : 0u) | (marks[nbr[k]] == t ? 2u : 0u));
-        },
-        "flip_claims");
+        n, [=] __device__(std::size_t k) { ::cdt::detail::flip_claims_held(r, k); }, "flip_claims");
     const std::uint32_t num_winners = executor.compact(
-        n, [=] __device__(std::size_t k) { return own[k] == 3; }, winners);
+        n, [=] __device__(std::size_t k) { return ::cdt::detail::flip_proposal_won(r, k); }, winners);
     if (num_winners == 0) {
       // The lowest proposer always holds both of its claims, so no winner means no proposal.
       if (executor.compact(
@@ -360,16 +340,12 @@ FlipResult flip_mesh(DeviceMesh::State& s, const std::uint8_t* only, std::uint32
     result.flips += num_winners;
 
     executor.for_each(
-        n,
-        [=] __device__(std::size_t k) {
-          if (own[k] & 1u) marks[l[k]] = kNoId;
-          if (own[k] & 2u) marks[nbr[k]] = kNoId;
-        },
-        "clear_claims");
+        n, [=] __device__(std::size_t k) { ::cdt::detail::clear_flip_claims(r, k); }, "clear_claims");
 
     // Next round: proposers that could not flip yet, plus both new triangles of every flip.
     const std::uint32_t num_waiting = executor.compact(
-        n, [=] __device__(std::size_t k) { return cand[k] != kNoId && partner[l[k]] == kNoId; }, waiting);
+        n, [=] __device__(std::size_t k) { return ::cdt::detail::flip_proposal_waits(r, partner, k); },
+        waiting);
     executor.for_each(
         num_waiting, [=] __device__(std::size_t k) { next[k] = l[waiting[k]]; }, "next_waiting");
     executor.for_each(

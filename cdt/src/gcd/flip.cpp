@@ -85,31 +85,19 @@ public:
     std::uint8_t* active_flag = active_.data();
     const std::uint32_t* partner = batch_.partner();
 
-    // Propose and claim: the proposer's slot index is its label, so the lowest proposer wins.
+    const FlipRound r{list, cand, nbr, marks, own};
+    const auto claim_min = [](std::uint32_t* at, std::uint32_t label) { atomic_min(at, label); };
     executor_.for_each(n, [&](std::size_t k) {
       const std::uint32_t t = list[k];
-      const std::uint32_t e = first_fake_ == kNoId ? delaunay_flip_candidate(m, active_flag, partner, t)
-                                                   : fake_fan_candidate(m, active_flag, t, first_fake_);
-      cand[k] = e;
-      nbr[k] = kNoId;
-      if (e == kNoId) return;
-      const std::uint32_t u = edge_tri(m.adj[e]);
-      nbr[k] = u;
-      atomic_min(marks + t, t);
-      atomic_min(marks + u, t);
+      record_flip_proposal(m, r, k,
+                           first_fake_ == kNoId ? delaunay_flip_candidate(m, active_flag, partner, t)
+                                                : fake_fan_candidate(m, active_flag, t, first_fake_),
+                           claim_min);
     });
-    // Read the claims only after every claim is in (the global synchronisation between steps); the bits
-    // also say which marks this proposer must clear, so each mark has exactly one clearer.
-    executor_.for_each(n, [&](std::size_t k) {
-      if (cand[k] == kNoId) {
-        own[k] = 0;
-        return;
-      }
-      const std::uint32_t t = list[k];
-      own[k] = static_cast<std::uint8_t>((marks[t] == t ? 1u : 0u) | (marks[nbr[k]] == t ? 2u : 0u));
-    });
+    // Read the claims only after every claim is in (the global synchronisation between steps).
+    executor_.for_each(n, [&](std::size_t k) { flip_claims_held(r, k); });
     const std::vector<std::uint32_t> winners =
-        executor_.compact(n, [&](std::size_t k) { return own[k] == 3; });
+        executor_.compact(n, [&](std::size_t k) { return flip_proposal_won(r, k); });
     if (winners.empty()) {
       // The lowest proposer always holds both of its claims, so no winner means no proposal.
       if (!executor_.compact(n, [&](std::size_t k) { return cand[k] != kNoId; }).empty()) {
@@ -128,16 +116,12 @@ public:
     batch_.apply(mesh_, winner_edges_, executor_);
     stats.flips += winners.size();
 
-    executor_.for_each(n, [&](std::size_t k) {
-      if (own[k] & 1u) marks[list[k]] = kNoId;
-      if (own[k] & 2u) marks[nbr[k]] = kNoId;
-    });
+    executor_.for_each(n, [&](std::size_t k) { clear_flip_claims(r, k); });
 
     // Next round: proposers that could not flip yet, plus both new triangles of every flip (new
-    // triangles are unmarked in the paper's terms). A losing proposer that was flipped as some winner's
-    // neighbour comes in through the second list only.
+    // triangles are unmarked in the paper's terms).
     const std::vector<std::uint32_t> waiting =
-        executor_.compact(n, [&](std::size_t k) { return cand[k] != kNoId && partner[list[k]] == kNoId; });
+        executor_.compact(n, [&](std::size_t k) { return flip_proposal_waits(r, partner, k); });
     std::vector<std::uint32_t> next(waiting.size() + 2 * winners.size());
     {
       const std::uint32_t* wait = waiting.data();

@@ -166,6 +166,59 @@ CDT_HD inline std::uint32_t fake_fan_candidate(const MeshView& m, const std::uin
   return kNoId;
 }
 
+/// A flipping round's proposals (Phase 5, Step 3, the fake fans' flips), per proposer k of the round's
+/// list: the arrays that every executor's rounds share.
+struct FlipRound {
+  const std::uint32_t* list; ///< the active triangles' slots
+  std::uint32_t* cand;       ///< the edge list[k] proposes to flip (kNoId: none)
+  std::uint32_t* nbr;        ///< the triangle across it, with a proposal
+  std::uint32_t* marks;      ///< per slot, the lowest proposer claiming it (kNoId: none)
+  std::uint8_t* own;         ///< which of its two claims k holds (flip_claims_held)
+};
+
+/// Records k's proposal, edge e of list[k] (kNoId: none), and claims both triangles of the pair through
+/// claim_min(address, label), the executor's atomic minimum. The proposer's slot is its label, so the
+/// lowest proposer wins.
+template <class ClaimMin>
+CDT_HD inline void record_flip_proposal(const MeshView& m, const FlipRound& r, std::size_t k, std::uint32_t e,
+                                        ClaimMin&& claim_min) {
+  r.cand[k] = e;
+  r.nbr[k] = kNoId;
+  if (e == kNoId) return;
+  const std::uint32_t t = r.list[k];
+  const std::uint32_t u = edge_tri(m.adj[e]);
+  r.nbr[k] = u;
+  claim_min(r.marks + t, t);
+  claim_min(r.marks + u, t);
+}
+
+/// Which of its claims k holds (bit 0 its own triangle, bit 1 the one across), read once every claim of
+/// the round is in; the bits also say which marks k clears, so each mark has one clearer.
+CDT_HD_INLINE void flip_claims_held(const FlipRound& r, std::size_t k) {
+  if (r.cand[k] == kNoId) {
+    r.own[k] = 0;
+    return;
+  }
+  const std::uint32_t t = r.list[k];
+  r.own[k] = static_cast<std::uint8_t>((r.marks[t] == t ? 1u : 0u) | (r.marks[r.nbr[k]] == t ? 2u : 0u));
+}
+
+/// Whether k's proposal flips this round: it holds both triangles.
+CDT_HD_INLINE bool flip_proposal_won(const FlipRound& r, std::size_t k) { return r.own[k] == 3; }
+
+/// Gives back the claims k holds (after the winners are listed), so the next round starts unclaimed.
+CDT_HD_INLINE void clear_flip_claims(const FlipRound& r, std::size_t k) {
+  if (r.own[k] & 1u) r.marks[r.list[k]] = kNoId;
+  if (r.own[k] & 2u) r.marks[r.nbr[k]] = kNoId;
+}
+
+/// Whether k proposed and neither of its triangles was flipped this round (partner: the batch's pairs):
+/// it proposes again next round. A proposer flipped as some winner's neighbour comes back as one of the
+/// new triangles instead.
+CDT_HD_INLINE bool flip_proposal_waits(const FlipRound& r, const std::uint32_t* partner, std::size_t k) {
+  return r.cand[k] != kNoId && partner[r.list[k]] == kNoId;
+}
+
 /// First step of a parallel flip: rewrites the contents of the pair across encoded edge e = 3t + i in
 /// the layout of flip_edge (t = (a, b, d), u = (d, c, a), the diagonal is edge 1 of both), writing only
 /// the two slots it owns. Outer links keep naming the neighbours' edges as they were before the batch;
