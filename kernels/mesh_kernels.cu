@@ -33,10 +33,7 @@ using ::cdt::detail::edge_index;
 using ::cdt::detail::edge_tri;
 using ::cdt::detail::HoleView;
 using ::cdt::detail::InsertStats;
-using ::cdt::detail::kHoldsT;
-using ::cdt::detail::kHoldsU;
 using ::cdt::detail::kNoId;
-using ::cdt::detail::kWins;
 using ::cdt::detail::MeshView;
 using ::cdt::detail::MissingArray;
 using ::cdt::detail::MissingPoint;
@@ -46,6 +43,13 @@ using ::cdt::detail::ShiftStats;
 using ::cdt::detail::WorkStatus;
 
 namespace detail {
+
+namespace {
+/// The device's atomic minimum, for the claims of Algorithm 3 (locate_and_claim).
+struct ClaimMin {
+  __device__ void operator()(std::uint32_t* at, std::uint32_t value) const { atomicMin(at, value); }
+};
+} // namespace
 
 /// Bits needed to hold every value below `limit` (dual_kernels.cu).
 int bits_below(std::uint64_t limit);
@@ -782,7 +786,6 @@ template <class Team>
 __device__ void InsertLoop::operator()(const Team& team, const InsertRounds& a, std::uint32_t lo,
                                        std::uint32_t hi, InsertRoundsEnd* end) const {
   const MeshView m = a.m;
-  const std::uint32_t nv = m.num_vertices;
   std::uint32_t* remaining = a.remaining;
   std::uint32_t* rest = a.rest;
   std::uint32_t n = a.n, cursor = a.cursor;
@@ -790,34 +793,17 @@ __device__ void InsertLoop::operator()(const Team& team, const InsertRounds& a, 
   InsertStep step = InsertStep::none;
   std::uint32_t location_status = 0;
   const ::cdt::detail::InsertRound round{a.loc_t, a.loc_e, a.loc_u, a.loc_j, a.new0, a.new1, a.mark, a.flags};
+  const ::cdt::detail::InsertClaims claims{a.points, a.start, a.loc_t, a.loc_e,
+                                           a.loc_u,  a.loc_j, a.mark,  a.flags};
   while (n > lo && n <= hi) {
     ++rounds;
     if (team.leader()) *team.word = 0;
     team.sync();
     // Lines 2-5: locate and mark the containers.
     team.for_each(n, [&](std::uint32_t r) {
-      const std::uint32_t q = remaining[r];
-      a.flags[q] = 0;
-      a.loc_t[q] = kNoId;
-      std::uint32_t o = a.start[q];
-      if (o >= nv || m.vert_tri[o] == kNoId) {
-        if (o < nv && a.pending[o] != 0) return; // the paper's delay: the hint is itself waiting
-        o = a.fallback;
-        a.start[q] = o;
-      }
-      const std::uint32_t v = a.points[q].vertex;
-      const ::cdt::detail::MissingPointPlace at = ::cdt::detail::place_missing_point(m, o, m.x[v], m.y[v]);
-      if (at.status != WorkStatus::ok) {
-        atomicCAS(team.word, 0u, static_cast<std::uint32_t>(at.status));
-        return;
-      }
-      a.loc_t[q] = at.tri;
-      a.loc_e[q] = at.edge;
-      a.loc_u[q] = at.u;
-      a.loc_j[q] = at.j;
-      const std::uint32_t key = ::cdt::detail::claim_key(q);
-      atomicMin(a.mark + at.tri, key);
-      if (at.u != kNoId) atomicMin(a.mark + at.u, key);
+      ::cdt::detail::locate_and_claim(
+          m, claims, remaining[r], a.pending, a.fallback, ClaimMin{},
+          [&](WorkStatus status) { atomicCAS(team.word, 0u, static_cast<std::uint32_t>(status)); });
     });
     team.sync();
     if (const std::uint32_t failure = team.word_value(); failure != 0) {
@@ -826,35 +812,12 @@ __device__ void InsertLoop::operator()(const Team& team, const InsertRounds& a, 
       break;
     }
     // Lines 6-13: winners, and a start for the losers next round.
-    team.for_each(n, [&](std::uint32_t r) {
-      const std::uint32_t q = remaining[r];
-      const std::uint32_t t = a.loc_t[q], u = a.loc_u[q];
-      if (t == kNoId) return;
-      const std::uint32_t key = ::cdt::detail::claim_key(q);
-      const bool holds_t = a.mark[t] == key;
-      const bool holds_u = u != kNoId && a.mark[u] == key;
-      const bool wins = holds_t && (u == kNoId || holds_u);
-      a.flags[q] =
-          static_cast<std::uint8_t>((holds_t ? kHoldsT : 0) | (holds_u ? kHoldsU : 0) | (wins ? kWins : 0));
-      if (!wins) a.start[q] = m.tri[3 * t];
-    });
+    team.for_each(n, [&](std::uint32_t r) { ::cdt::detail::settle_insert_claims(m, claims, remaining[r]); });
     team.sync();
-    team.for_each(n, [&](std::uint32_t r) {
-      const std::uint32_t q = remaining[r];
-      if (a.loc_t[q] == kNoId || (a.flags[q] & kWins) != 0) return;
-      const std::uint32_t containers[2] = {a.loc_t[q], a.loc_u[q]};
-      for (const std::uint32_t c : containers) {
-        if (c == kNoId) continue;
-        const std::uint32_t w = ::cdt::detail::claim_holder(a.mark[c]);
-        if (w != kNoId && (a.flags[w] & kWins) != 0) {
-          a.start[q] = a.points[w].vertex;
-          return;
-        }
-      }
-    });
+    team.for_each(n, [&](std::uint32_t r) { ::cdt::detail::restart_at_winner(claims, remaining[r]); });
     team.sync();
     const std::uint32_t num_winners = team.compact(
-        n, [&](std::uint32_t r) { return (a.flags[remaining[r]] & kWins) != 0; }, a.picked);
+        n, [&](std::uint32_t r) { return ::cdt::detail::insert_claim_won(claims, remaining[r]); }, a.picked);
     if (num_winners == 0) {
       step = InsertStep::stuck;
       break;
@@ -891,15 +854,11 @@ __device__ void InsertLoop::operator()(const Team& team, const InsertRounds& a, 
     team.for_each(num_winners,
                   [&](std::uint32_t r) { ::cdt::detail::link_split_outer_edges(m, round, a.winners[r]); });
     team.sync();
-    team.for_each(n, [&](std::uint32_t r) {
-      const std::uint32_t q = remaining[r];
-      if (a.flags[q] & kHoldsT) a.mark[a.loc_t[q]] = kNoId;
-      if (a.flags[q] & kHoldsU) a.mark[a.loc_u[q]] = kNoId;
-    });
+    team.for_each(n, [&](std::uint32_t r) { ::cdt::detail::clear_insert_claims(claims, remaining[r]); });
     cursor += 2 * num_winners;
     inserted += num_winners;
     const std::uint32_t num_rest = team.compact(
-        n, [&](std::uint32_t r) { return (a.flags[remaining[r]] & kWins) == 0; }, a.picked);
+        n, [&](std::uint32_t r) { return !::cdt::detail::insert_claim_won(claims, remaining[r]); }, a.picked);
     team.for_each(num_rest, [&](std::uint32_t r) { rest[r] = remaining[a.picked[r]]; });
     team.sync();
     std::uint32_t* const swap = remaining;
@@ -1010,6 +969,7 @@ InsertStats insert(DeviceMesh::State& s, std::span<const MissingPoint> missing,
   std::uint32_t* mark = d_mark.data();
   std::uint8_t* flags = d_flags.data();
   std::uint8_t* own = d_own.data();
+  const ::cdt::detail::InsertClaims claims{points, start, loc_t, loc_e, loc_u, loc_j, mark, flags};
   executor.fill_bytes(mark, 0xFF, m.num_slots);
   {
     std::uint32_t* remaining = d_remaining.data();
@@ -1081,68 +1041,23 @@ InsertStats insert(DeviceMesh::State& s, std::span<const MissingPoint> missing,
     executor.for_each(
         n,
         [=] __device__(std::size_t r) {
-          const std::uint32_t q = remaining[r];
-          flags[q] = 0;
-          loc_t[q] = kNoId;
-          std::uint32_t o = start[q];
-          if (o >= nv || m.vert_tri[o] == kNoId) {
-            if (o < nv && pending[o] != 0) return; // the paper's delay: the hint is itself waiting
-            o = fallback;
-            start[q] = o;
-          }
-          const std::uint32_t v = points[q].vertex;
-          const ::cdt::detail::MissingPointPlace at =
-              ::cdt::detail::place_missing_point(m, o, m.x[v], m.y[v]);
-          if (at.status != WorkStatus::ok) {
-            failure.record(at.status);
-            return;
-          }
-          loc_t[q] = at.tri;
-          loc_e[q] = at.edge;
-          loc_u[q] = at.u;
-          loc_j[q] = at.j;
-          const std::uint32_t key = ::cdt::detail::claim_key(q);
-          atomicMin(mark + at.tri, key);
-          if (at.u != kNoId) atomicMin(mark + at.u, key);
+          ::cdt::detail::locate_and_claim(m, claims, remaining[r], pending, fallback, ClaimMin{},
+                                          [&](WorkStatus status) { failure.record(status); });
         },
         "locate_missing");
     s.check(failure, "inserting missing points (Algorithm 3, point location)");
 
     // Lines 6-13: winners, and a start for the losers next round.
     executor.for_each(
-        n,
-        [=] __device__(std::size_t r) {
-          const std::uint32_t q = remaining[r];
-          const std::uint32_t t = loc_t[q], u = loc_u[q];
-          if (t == kNoId) return;
-          const std::uint32_t key = ::cdt::detail::claim_key(static_cast<std::uint32_t>(q));
-          const bool holds_t = mark[t] == key;
-          const bool holds_u = u != kNoId && mark[u] == key;
-          const bool wins = holds_t && (u == kNoId || holds_u);
-          flags[q] = static_cast<std::uint8_t>((holds_t ? kHoldsT : 0) | (holds_u ? kHoldsU : 0) |
-                                               (wins ? kWins : 0));
-          if (!wins) start[q] = m.tri[3 * t];
-        },
+        n, [=] __device__(std::size_t r) { ::cdt::detail::settle_insert_claims(m, claims, remaining[r]); },
         "insert_claims");
     executor.for_each(
-        n,
-        [=] __device__(std::size_t r) {
-          const std::uint32_t q = remaining[r];
-          if (loc_t[q] == kNoId || (flags[q] & kWins) != 0) return;
-          const std::uint32_t containers[2] = {loc_t[q], loc_u[q]};
-          for (const std::uint32_t c : containers) {
-            if (c == kNoId) continue;
-            const std::uint32_t w = ::cdt::detail::claim_holder(mark[c]);
-            if (w != kNoId && (flags[w] & kWins) != 0) {
-              start[q] = points[w].vertex;
-              return;
-            }
-          }
-        },
+        n, [=] __device__(std::size_t r) { ::cdt::detail::restart_at_winner(claims, remaining[r]); },
         "insert_restarts");
     std::uint32_t* picked = d_picked.data();
     const std::uint32_t num_winners = executor.compact(
-        n, [=] __device__(std::size_t r) { return (flags[remaining[r]] & kWins) != 0; }, picked);
+        n, [=] __device__(std::size_t r) { return ::cdt::detail::insert_claim_won(claims, remaining[r]); },
+        picked);
     // The smallest located key holds every mark it made, so a round without winners means none was
     // located.
     if (num_winners == 0)
@@ -1188,17 +1103,13 @@ InsertStats insert(DeviceMesh::State& s, std::span<const MissingPoint> missing,
         [=] __device__(std::size_t r) { ::cdt::detail::link_split_outer_edges(m, round, winners[r]); },
         "insert_links");
     executor.for_each(
-        n,
-        [=] __device__(std::size_t r) {
-          const std::uint32_t q = remaining[r];
-          if (flags[q] & kHoldsT) mark[loc_t[q]] = kNoId;
-          if (flags[q] & kHoldsU) mark[loc_u[q]] = kNoId;
-        },
+        n, [=] __device__(std::size_t r) { ::cdt::detail::clear_insert_claims(claims, remaining[r]); },
         "insert_clear_marks");
     cursor += 2 * static_cast<std::size_t>(num_winners);
     stats.inserted += num_winners;
     const std::uint32_t num_rest = executor.compact(
-        n, [=] __device__(std::size_t r) { return (flags[remaining[r]] & kWins) == 0; }, picked);
+        n, [=] __device__(std::size_t r) { return !::cdt::detail::insert_claim_won(claims, remaining[r]); },
+        picked);
     std::uint32_t* rest = d_rest.data();
     executor.for_each(
         num_rest, [=] __device__(std::size_t r) { rest[r] = remaining[picked[r]]; }, "gather_rest");

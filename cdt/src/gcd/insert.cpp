@@ -66,69 +66,24 @@ InsertStats insert_missing_points(Mesh& mesh, std::span<const MissingPoint> miss
   std::iota(remaining.begin(), remaining.end(), 0u);
   std::size_t cursor = 0;
   WorkFailure failure;
+  const InsertClaims claims{missing.data(), start.data(), loc_t.data(), loc_e.data(),
+                            loc_u.data(),   loc_j.data(), mark.data(),  flags.data()};
 
   while (!remaining.empty()) {
     ++stats.rounds;
     const std::size_t n = remaining.size();
     // Lines 2-5: locate and mark the containers.
+    const auto claim_min = [](std::uint32_t* at, std::uint32_t key) { atomic_min(at, key); };
     executor.for_each(n, [&](std::size_t r) {
-      const auto q = remaining[r];
-      flags[q] = 0;
-      loc_t[q] = kNoId;
-      std::uint32_t o = start[q];
-      if (o >= nv || m.vert_tri[o] == kNoId) {
-        if (o < nv && pending[o] != 0) return; // the paper's delay: the hint is itself waiting
-        o = fallback;
-        start[q] = o;
-      }
-      const std::uint32_t v = missing[q].vertex;
-      const MissingPointPlace at = place_missing_point(m, o, m.x[v], m.y[v]);
-      if (at.status != WorkStatus::ok) {
-        failure.record(at.status);
-        return;
-      }
-      loc_t[q] = at.tri;
-      loc_e[q] = at.edge;
-      loc_u[q] = at.u;
-      loc_j[q] = at.j;
-      const std::uint32_t key = claim_key(static_cast<std::uint32_t>(q));
-      atomic_min(&mark[at.tri], key);
-      if (at.u != kNoId) atomic_min(&mark[at.u], key);
+      locate_and_claim(m, claims, remaining[r], pending.data(), fallback, claim_min,
+                       [&](WorkStatus status) { failure.record(status); });
     });
     failure.check("inserting missing points (Algorithm 3, point location)");
-
-    // Lines 6-13: a point whose marks all survived wins; a loser keeps a container vertex, which stays in the
-    // mesh, as its next start, so its next walk is short.
-    executor.for_each(n, [&](std::size_t r) {
-      const auto q = remaining[r];
-      const std::uint32_t t = loc_t[q], u = loc_u[q];
-      if (t == kNoId) return;
-      const std::uint32_t key = claim_key(static_cast<std::uint32_t>(q));
-      const bool holds_t = mark[t] == key;
-      const bool holds_u = u != kNoId && mark[u] == key;
-      const bool wins = holds_t && (u == kNoId || holds_u);
-      flags[q] =
-          static_cast<std::uint8_t>((holds_t ? kHoldsT : 0) | (holds_u ? kHoldsU : 0) | (wins ? kWins : 0));
-      if (!wins) start[q] = m.tri[3 * t];
-    });
-    // A loser whose container a winner splits lies in the winner's new fan, so the winner's vertex, whose
-    // fan is just those three or four triangles, is a better start than a corner of the old container:
-    // without Delaunay flips between rounds the old corners of crowded regions collect huge fans, and
-    // every walk starting there would scan one.
-    executor.for_each(n, [&](std::size_t r) {
-      const auto q = remaining[r];
-      if (loc_t[q] == kNoId || (flags[q] & kWins) != 0) return;
-      for (const std::uint32_t c : {loc_t[q], loc_u[q]}) {
-        if (c == kNoId) continue;
-        const std::uint32_t w = claim_holder(mark[c]);
-        if (w != kNoId && (flags[w] & kWins) != 0) {
-          start[q] = missing[w].vertex;
-          return;
-        }
-      }
-    });
+    // Lines 6-13: winners, and a start for the losers next round.
+    executor.for_each(n, [&](std::size_t r) { settle_insert_claims(m, claims, remaining[r]); });
+    executor.for_each(n, [&](std::size_t r) { restart_at_winner(claims, remaining[r]); });
     std::vector<std::uint32_t> winners =
-        executor.compact(n, [&](std::size_t r) { return (flags[remaining[r]] & kWins) != 0; });
+        executor.compact(n, [&](std::size_t r) { return insert_claim_won(claims, remaining[r]); });
     // The smallest located key holds every mark it made, so a round without winners means none was located.
     if (winners.empty()) failure.record(WorkStatus::stuck);
     failure.check("inserting missing points (Algorithm 3; hints may form a cycle)");
@@ -162,16 +117,11 @@ InsertStats insert_missing_points(Mesh& mesh, std::span<const MissingPoint> miss
     });
     // Lines 20-22: outer links.
     executor.for_each(num_winners, [&](std::size_t r) { link_split_outer_edges(m, round, winners[r]); });
-    // Each mark has exactly one holder, which clears it, so no two threads touch one mark.
-    executor.for_each(n, [&](std::size_t r) {
-      const auto q = remaining[r];
-      if (flags[q] & kHoldsT) mark[loc_t[q]] = kNoId;
-      if (flags[q] & kHoldsU) mark[loc_u[q]] = kNoId;
-    });
+    executor.for_each(n, [&](std::size_t r) { clear_insert_claims(claims, remaining[r]); });
     cursor += 2 * num_winners;
     stats.inserted += num_winners;
     std::vector<std::uint32_t> rest =
-        executor.compact(n, [&](std::size_t r) { return (flags[remaining[r]] & kWins) == 0; });
+        executor.compact(n, [&](std::size_t r) { return !insert_claim_won(claims, remaining[r]); });
     for (auto& x : rest) x = remaining[x];
     remaining.swap(rest);
   }

@@ -374,6 +374,96 @@ CDT_HD_INLINE std::uint32_t claim_holder(std::uint32_t key) {
 // Per missing point, after the marking: which container marks it holds, and whether it won them all.
 enum : std::uint8_t { kHoldsT = 1, kHoldsU = 2, kWins = 4 };
 
+/// Algorithm 3's claims in a round, per missing point q (its position in the list): its walk's start,
+/// its location (containers t and u, edges e and j) and flags, and per slot the lowest claim_key marking
+/// it; what every executor's rounds write before the splits (InsertRound reads them then).
+struct InsertClaims {
+  const MissingPoint* points;
+  std::uint32_t* start; ///< the vertex its next walk starts from
+  std::uint32_t* loc_t;
+  std::uint32_t* loc_e;
+  std::uint32_t* loc_u;
+  std::uint32_t* loc_j;
+  std::uint32_t* mark;
+  std::uint8_t* flags;
+};
+
+/// Algorithm 3 lines 2-5 for q: walks from its start (from `fallback` when the start is in no triangle
+/// and not waiting for insertion either) to the triangle or edge holding the point, and marks the
+/// containers with claim_key(q) through claim_min(address, key), the executor's atomic minimum. A start
+/// that is itself pending (pending[v] != 0) delays q, the paper's delay; a failed walk goes to
+/// fail(status).
+template <class Pending, class ClaimMin, class Fail>
+CDT_HD inline void locate_and_claim(const MeshView& m, const InsertClaims& c, std::uint32_t q,
+                                    const Pending* pending, std::uint32_t fallback, ClaimMin&& claim_min,
+                                    Fail&& fail) {
+  c.flags[q] = 0;
+  c.loc_t[q] = kNoId;
+  std::uint32_t o = c.start[q];
+  if (o >= m.num_vertices || m.vert_tri[o] == kNoId) {
+    if (o < m.num_vertices && pending[o] != 0) return; // the paper's delay: the hint is itself waiting
+    o = fallback;
+    c.start[q] = o;
+  }
+  const std::uint32_t v = c.points[q].vertex;
+  const MissingPointPlace at = place_missing_point(m, o, m.x[v], m.y[v]);
+  if (at.status != WorkStatus::ok) {
+    fail(at.status);
+    return;
+  }
+  c.loc_t[q] = at.tri;
+  c.loc_e[q] = at.edge;
+  c.loc_u[q] = at.u;
+  c.loc_j[q] = at.j;
+  const std::uint32_t key = claim_key(q);
+  claim_min(c.mark + at.tri, key);
+  if (at.u != kNoId) claim_min(c.mark + at.u, key);
+}
+
+/// Lines 6-13 for q, once every claim is in: which container marks it holds and whether it won them all;
+/// a loser keeps a container vertex, which stays in the mesh, as its next start, so its next walk is
+/// short.
+CDT_HD_INLINE void settle_insert_claims(const MeshView& m, const InsertClaims& c, std::uint32_t q) {
+  const std::uint32_t t = c.loc_t[q], u = c.loc_u[q];
+  if (t == kNoId) return;
+  const std::uint32_t key = claim_key(q);
+  const bool holds_t = c.mark[t] == key;
+  const bool holds_u = u != kNoId && c.mark[u] == key;
+  const bool wins = holds_t && (u == kNoId || holds_u);
+  c.flags[q] =
+      static_cast<std::uint8_t>((holds_t ? kHoldsT : 0) | (holds_u ? kHoldsU : 0) | (wins ? kWins : 0));
+  if (!wins) c.start[q] = m.tri[3 * t];
+}
+
+/// Whether q inserts its point this round (settle_insert_claims decided it).
+CDT_HD_INLINE bool insert_claim_won(const InsertClaims& c, std::uint32_t q) {
+  return (c.flags[q] & kWins) != 0;
+}
+
+/// A loser q whose container a winner splits lies in the winner's new fan, so the winner's vertex, whose
+/// fan is just those three or four triangles, is a better start than a corner of the old container:
+/// without Delaunay flips between rounds the old corners of crowded regions collect huge fans, and every
+/// walk starting there would scan one. After every settle_insert_claims of the round.
+CDT_HD_INLINE void restart_at_winner(const InsertClaims& c, std::uint32_t q) {
+  if (c.loc_t[q] == kNoId || insert_claim_won(c, q)) return;
+  const std::uint32_t containers[2] = {c.loc_t[q], c.loc_u[q]};
+  for (const std::uint32_t x : containers) {
+    if (x == kNoId) continue;
+    const std::uint32_t w = claim_holder(c.mark[x]);
+    if (w != kNoId && insert_claim_won(c, w)) {
+      c.start[q] = c.points[w].vertex;
+      return;
+    }
+  }
+}
+
+/// Gives back the marks q holds, after the round's splits (each mark has one holder, which clears it, so
+/// no two threads touch one mark).
+CDT_HD_INLINE void clear_insert_claims(const InsertClaims& c, std::uint32_t q) {
+  if (c.flags[q] & kHoldsT) c.mark[c.loc_t[q]] = kNoId;
+  if (c.flags[q] & kHoldsU) c.mark[c.loc_u[q]] = kNoId;
+}
+
 /// A round of Algorithm 3 seen by one point: per missing point (by its position in the list) its
 /// location (containers t and u, edges e and j; u = kNoId inside t), its new slots and its flags, and
 /// per slot the lowest claim_key marking it.
