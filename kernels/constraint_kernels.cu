@@ -45,11 +45,6 @@ constexpr std::uint32_t kStalledShare = 16;
 
 __device__ bool is_error(ConstraintStatus s) { return s >= ConstraintStatus::vertex_on_piece; }
 
-/// The device's atomic minimum, for record_constraint_proposal's claims.
-struct ClaimMin {
-  __device__ void operator()(std::uint32_t* at, std::uint32_t value) const { atomicMin(at, value); }
-};
-
 /// The error of element `at` (the lowest failing one) of a step, as the CPU executor reports it.
 [[noreturn]] void fail(CudaExecutor& executor, const ConstraintStatus* d_status, std::uint32_t at,
                        std::uint32_t piece_index, std::span<const ConstraintPiece2> pieces) {

@@ -27,6 +27,12 @@ struct FailureWord {
   }
 };
 
+/// The device's atomic minimum, for the rounds' claims (record_flip_proposal, record_constraint_proposal,
+/// locate_and_claim); the CPU executor's is cdt::detail::AtomicMin.
+struct ClaimMin {
+  __device__ void operator()(std::uint32_t* at, std::uint32_t value) const { atomicMin(at, value); }
+};
+
 /// cdt::detail::FlipBatch on the device: a batch of disjoint flips, and per slot the partner of the
 /// last batch's pairs (kNoId for the slots of no pair).
 struct DeviceFlipBatch {

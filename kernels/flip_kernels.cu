@@ -28,13 +28,6 @@ using ::cdt::detail::MeshView;
 
 namespace detail {
 
-namespace {
-/// The device's atomic minimum, for record_flip_proposal's claims.
-struct ClaimMin {
-  __device__ void operator()(std::uint32_t* at, std::uint32_t value) const { atomicMin(at, value); }
-};
-} // namespace
-
 /// Device memory of a mesh (mesh_kernels.cu).
 std::size_t mesh_device_bytes(std::size_t slots, std::size_t nv);
 

@@ -44,13 +44,6 @@ using ::cdt::detail::WorkStatus;
 
 namespace detail {
 
-namespace {
-/// The device's atomic minimum, for the claims of Algorithm 3 (locate_and_claim).
-struct ClaimMin {
-  __device__ void operator()(std::uint32_t* at, std::uint32_t value) const { atomicMin(at, value); }
-};
-} // namespace
-
 /// Bits needed to hold every value below `limit` (dual_kernels.cu).
 int bits_below(std::uint64_t limit);
 

@@ -33,6 +33,12 @@ inline std::uint32_t atomic_min(std::uint32_t* address, std::uint32_t value) {
   return current;
 }
 
+/// atomic_min as a function object, for the rounds' claims (record_flip_proposal,
+/// record_constraint_proposal, locate_and_claim); the device's is cdt::gpu::detail::ClaimMin.
+struct AtomicMin {
+  void operator()(std::uint32_t* address, std::uint32_t value) const { atomic_min(address, value); }
+};
+
 /// Raises *address to value if value is larger; returns the previous value. Safe against concurrent
 /// callers on the same address.
 inline std::uint32_t atomic_max(std::uint32_t* address, std::uint32_t value) {

@@ -175,8 +175,7 @@ ConstraintStats insert_constraints(Mesh& mesh, std::span<const ConstraintPiece2>
         FlipProposal proposal;
         status[k] = propose_constraint_flip(m, cmark, piece, act[k], proposal);
         if (is_error(status[k])) atomic_min(&error_at, static_cast<std::uint32_t>(k));
-        record_constraint_proposal(m, round, k, proposal,
-                                   [](std::uint32_t* at, std::uint32_t value) { atomic_min(at, value); });
+        record_constraint_proposal(m, round, k, proposal, AtomicMin{});
       });
       if (error_at != kNoId) {
         const std::uint32_t i = cmark[act[error_at]];

@@ -86,13 +86,12 @@ public:
     const std::uint32_t* partner = batch_.partner();
 
     const FlipRound r{list, cand, nbr, marks, own};
-    const auto claim_min = [](std::uint32_t* at, std::uint32_t label) { atomic_min(at, label); };
     executor_.for_each(n, [&](std::size_t k) {
       const std::uint32_t t = list[k];
       record_flip_proposal(m, r, k,
                            first_fake_ == kNoId ? delaunay_flip_candidate(m, active_flag, partner, t)
                                                 : fake_fan_candidate(m, active_flag, t, first_fake_),
-                           claim_min);
+                           AtomicMin{});
     });
     // Read the claims only after every claim is in (the global synchronisation between steps).
     executor_.for_each(n, [&](std::size_t k) { flip_claims_held(r, k); });

@@ -73,9 +73,8 @@ InsertStats insert_missing_points(Mesh& mesh, std::span<const MissingPoint> miss
     ++stats.rounds;
     const std::size_t n = remaining.size();
     // Lines 2-5: locate and mark the containers.
-    const auto claim_min = [](std::uint32_t* at, std::uint32_t key) { atomic_min(at, key); };
     executor.for_each(n, [&](std::size_t r) {
-      locate_and_claim(m, claims, remaining[r], pending.data(), fallback, claim_min,
+      locate_and_claim(m, claims, remaining[r], pending.data(), fallback, AtomicMin{},
                        [&](WorkStatus status) { failure.record(status); });
     });
     failure.check("inserting missing points (Algorithm 3, point location)");
