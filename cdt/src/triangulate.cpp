@@ -38,12 +38,14 @@
 #include <algorithm>
 #include <bit>
 #include <chrono>
+#include <exception>
 #include <functional>
 #include <optional>
 #include <span>
 #include <string>
 #include <system_error>
 #include <thread>
+#include <utility>
 #include <vector>
 
 #include "cdt/cdt.hpp"
@@ -253,37 +255,67 @@ detail::InsertStats insert_added_vertices(gpu::DeviceMesh& mesh, const detail::P
 }
 #endif
 
+/// One task on a thread of its own while the caller goes on, for host work that can be done while the
+/// device works (the host's threads wait for it then). wait() joins it and rethrows what it threw; the
+/// destructor joins it too, so a SideTask is declared after what its task uses. Without a thread to be
+/// had, the task runs at once.
+class SideTask {
+public:
+  SideTask() = default;
+  SideTask(const SideTask&) = delete;
+  SideTask& operator=(const SideTask&) = delete;
+  ~SideTask() {
+    if (thread_.joinable()) thread_.join();
+  }
+
+  template <class F>
+  void start(F task) {
+    wait();
+    try {
+      thread_ = std::thread([this, task]() mutable {
+        try {
+          task();
+        } catch (...) {
+          error_ = std::current_exception();
+        }
+      });
+      return;
+    } catch (const std::system_error&) {
+      // No thread to be had: run here instead.
+    }
+    task();
+  }
+
+  void wait() {
+    if (thread_.joinable()) thread_.join();
+    if (error_) std::rethrow_exception(std::exchange(error_, nullptr));
+  }
+
+private:
+  std::thread thread_;
+  std::exception_ptr error_;
+};
+
 /// The input points copied into the PSLG's vertex array, which merge_input leaves to its caller when the
 /// device merged the input: on a thread of its own, while the device works (160 MB at 10^7 points,
 /// which took the host's threads 4 ms at the end of the preparation), for large inputs; at once for
 /// small ones. wait() before the array is read or moved; the destructor waits too.
 class PointCopy {
 public:
-  PointCopy() = default;
-  PointCopy(const PointCopy&) = delete;
-  PointCopy& operator=(const PointCopy&) = delete;
-  ~PointCopy() { wait(); }
-
   void start(std::span<const Point> points, PointArray& vertices) {
-    wait();
     constexpr std::size_t kOnItsOwnFrom = std::size_t{1} << 20;
     if (points.size() >= kOnItsOwnFrom) {
-      try {
-        thread_ = std::thread([points, &vertices] { detail::copy_points(points, vertices); });
-        return;
-      } catch (const std::system_error&) {
-        // No thread to be had: copied here instead.
-      }
+      task_.start([points, &vertices] { detail::copy_points(points, vertices); });
+    } else {
+      task_.wait();
+      detail::copy_points(points, vertices);
     }
-    detail::copy_points(points, vertices);
   }
 
-  void wait() {
-    if (thread_.joinable()) thread_.join();
-  }
+  void wait() { task_.wait(); }
 
 private:
-  std::thread thread_;
+  SideTask task_;
 };
 
 /// Where the segments are split at the sites on them and at crossings.
@@ -620,6 +652,14 @@ Triangulation triangulate_on(std::span<const Point> points, std::span<const Segm
   // went in without flips): on the coastlines, 0.4M piece-triangle crossings instead of 7.8M. On CPU
   // threads only the triangles the parts left in `dirty` can still fail the incircle test.
   FlipStats delaunay;
+  // The pieces in mesh vertex ids, for the screen and then the constraints; made again only when the
+  // split changed them. With the GPU backend they are made on the host's threads while the device flips.
+  UnzeroedVector<ConstraintPiece2> pieces; // written in parallel by mesh_pieces, not zeroed first
+  IndexArray segment_of_piece;             // for the output, not zeroed first
+  SideTask beside_device;                  // after what its tasks use: an exception waits for it first
+  const bool screen_first = split == Split::screened && !pslg.pieces.empty();
+  if (on_gpu && screen_first)
+    beside_device.start([&] { mesh_pieces(pslg, site_of_vertex, executor, pieces); });
 #if defined(TRIXEL_HAVE_CUDA)
   if (on_gpu) delaunay = flip_stats(device_mesh->flip());
 #endif
@@ -648,14 +688,12 @@ Triangulation triangulate_on(std::span<const Point> points, std::span<const Segm
   // suspects against each other (screen.hpp). The vertices added at crossings are then inserted with
   // their flips, so the mesh stays Delaunay.
   bool screened = false;
-  // The pieces in mesh vertex ids, for the screen and then the constraints; made again only when the
-  // split changed them.
-  UnzeroedVector<ConstraintPiece2> pieces; // written in parallel by mesh_pieces, not zeroed first
   bool pieces_stale = true;
-  if (split == Split::screened && !pslg.pieces.empty()) {
+  if (screen_first) {
     screened = true;
     const std::size_t first_added = pslg.vertices.size();
-    mesh_pieces(pslg, site_of_vertex, executor, pieces);
+    beside_device.wait();
+    if (!on_gpu) mesh_pieces(pslg, site_of_vertex, executor, pieces);
     pieces_stale = false;
     trace.mark("pieces");
     ScreenedPieces screen;
@@ -674,6 +712,11 @@ Triangulation triangulate_on(std::span<const Point> points, std::span<const Segm
     }
     if (added > 0) {
       const MissingArray fresh = added_vertices(pslg, first_added, site_vertex, site_of_vertex, executor);
+      // The new pieces in mesh ids while the device inserts the vertices.
+      if (on_gpu && pieces_stale) {
+        beside_device.start([&] { mesh_pieces(pslg, site_of_vertex, executor, pieces); });
+        pieces_stale = false;
+      }
       try {
 #if defined(TRIXEL_HAVE_CUDA)
         if (on_gpu) placed = insert_added_vertices(*device_mesh, pslg, fresh, site_vertex);
@@ -684,8 +727,10 @@ Triangulation triangulate_on(std::span<const Point> points, std::span<const Segm
       } catch (const Error&) {
         // A crossing vertex rounded out of the sites' hull (the exact crossing is inside it, but may be
         // within rounding of its boundary) cannot be inserted: split first, where it is a site.
+        beside_device.wait();
         return start_again(std::nullopt);
       }
+      beside_device.wait();
       trace.mark("added vertices");
     }
     end_phase("split", placed.rounds, placed.flips, pslg.vertices.size() - first_added);
@@ -695,6 +740,17 @@ Triangulation triangulate_on(std::span<const Point> points, std::span<const Segm
   // Step 2: constraints (pieces named by their index; seg holds the piece index).
   if (pieces_stale) mesh_pieces(pslg, site_of_vertex, executor, pieces);
   trace.mark("pieces");
+  // The output's segment of each piece: with the GPU backend on a thread of its own while the device
+  // inserts the constraints (which use the host's threads for their copies).
+  segment_of_piece.resize(pslg.pieces.size());
+  if (on_gpu) {
+    beside_device.start([&] {
+      for (std::size_t k = 0; k < pslg.pieces.size(); ++k) segment_of_piece[k] = pslg.pieces[k].segment;
+    });
+  } else {
+    executor.for_each(pslg.pieces.size(),
+                      [&](std::size_t k) { segment_of_piece[k] = pslg.pieces[k].segment; });
+  }
   ConstraintStats cons;
   // The slots the constraints' flips rewrote: after Phase 5, only their edges can fail the incircle test.
   std::vector<std::uint8_t> flipped;
@@ -714,6 +770,7 @@ Triangulation triangulate_on(std::span<const Point> points, std::span<const Segm
     // the screen have missed a pair (rounded crossing points snapping across a neighbourhood), the
     // whole input is split first instead.
     if (!screened) throw;
+    beside_device.wait();
     return start_again(std::nullopt);
   }
   trace.mark("constraints");
@@ -732,8 +789,7 @@ Triangulation triangulate_on(std::span<const Point> points, std::span<const Segm
   result.vertices = std::move(pslg.vertices);
   result.duplicate_of = std::move(pslg.duplicate_of);
   static_assert(kNone == kNoId);
-  IndexArray segment_of_piece(pslg.pieces.size()); // written in parallel, not zeroed first
-  executor.for_each(pslg.pieces.size(), [&](std::size_t k) { segment_of_piece[k] = pslg.pieces[k].segment; });
+  beside_device.wait();
 #if defined(TRIXEL_HAVE_CUDA)
   if (device_mesh) {
     // Made on the device and copied straight into the result; the mesh itself stays there.
