@@ -257,8 +257,8 @@ detail::InsertStats insert_added_vertices(gpu::DeviceMesh& mesh, const detail::P
 
 /// One task on a thread of its own while the caller goes on, for host work that can be done while the
 /// device works (the host's threads wait for it then). wait() joins it and rethrows what it threw; the
-/// destructor joins it too, so a SideTask is declared after what its task uses. Without a thread to be
-/// had, the task runs at once.
+/// destructor joins it too, so a SideTask is declared after what its task uses. A small task (worth less
+/// than starting a thread, some tens of microseconds), or one without a thread to be had, runs at once.
 class SideTask {
 public:
   SideTask() = default;
@@ -269,8 +269,12 @@ public:
   }
 
   template <class F>
-  void start(F task) {
+  void start(F task, bool worth_a_thread = true) {
     wait();
+    if (!worth_a_thread) {
+      task();
+      return;
+    }
     try {
       thread_ = std::thread([this, task]() mutable {
         try {
@@ -304,12 +308,8 @@ class PointCopy {
 public:
   void start(std::span<const Point> points, PointArray& vertices) {
     constexpr std::size_t kOnItsOwnFrom = std::size_t{1} << 20;
-    if (points.size() >= kOnItsOwnFrom) {
-      task_.start([points, &vertices] { detail::copy_points(points, vertices); });
-    } else {
-      task_.wait();
-      detail::copy_points(points, vertices);
-    }
+    task_.start([points, &vertices] { detail::copy_points(points, vertices); },
+                points.size() >= kOnItsOwnFrom);
   }
 
   void wait() { task_.wait(); }
@@ -657,9 +657,13 @@ Triangulation triangulate_on(std::span<const Point> points, std::span<const Segm
   UnzeroedVector<ConstraintPiece2> pieces; // written in parallel by mesh_pieces, not zeroed first
   IndexArray segment_of_piece;             // for the output, not zeroed first
   SideTask beside_device;                  // after what its tasks use: an exception waits for it first
+  // Fewer pieces (a photograph's PSLG has some 10^4) are made faster than a thread is started.
+  constexpr std::size_t kBesideTheDeviceFrom = std::size_t{1} << 16;
   const bool screen_first = split == Split::screened && !pslg.pieces.empty();
-  if (on_gpu && screen_first)
-    beside_device.start([&] { mesh_pieces(pslg, site_of_vertex, executor, pieces); });
+  if (on_gpu && screen_first) {
+    beside_device.start([&] { mesh_pieces(pslg, site_of_vertex, executor, pieces); },
+                        pslg.pieces.size() >= kBesideTheDeviceFrom);
+  }
 #if defined(TRIXEL_HAVE_CUDA)
   if (on_gpu) delaunay = flip_stats(device_mesh->flip());
 #endif
@@ -714,7 +718,8 @@ Triangulation triangulate_on(std::span<const Point> points, std::span<const Segm
       const MissingArray fresh = added_vertices(pslg, first_added, site_vertex, site_of_vertex, executor);
       // The new pieces in mesh ids while the device inserts the vertices.
       if (on_gpu && pieces_stale) {
-        beside_device.start([&] { mesh_pieces(pslg, site_of_vertex, executor, pieces); });
+        beside_device.start([&] { mesh_pieces(pslg, site_of_vertex, executor, pieces); },
+                            pslg.pieces.size() >= kBesideTheDeviceFrom);
         pieces_stale = false;
       }
       try {
@@ -743,7 +748,7 @@ Triangulation triangulate_on(std::span<const Point> points, std::span<const Segm
   // The output's segment of each piece: with the GPU backend on a thread of its own while the device
   // inserts the constraints (which use the host's threads for their copies).
   segment_of_piece.resize(pslg.pieces.size());
-  if (on_gpu) {
+  if (on_gpu && pslg.pieces.size() >= kBesideTheDeviceFrom) {
     beside_device.start([&] {
       for (std::size_t k = 0; k < pslg.pieces.size(); ++k) segment_of_piece[k] = pslg.pieces[k].segment;
     });
