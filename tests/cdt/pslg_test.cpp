@@ -416,6 +416,80 @@ TEST(PslgSplit, SuspectsThatComeBackKeepTheirPlaces) {
   }
 }
 
+// The pieces between the suspects move within the list in long runs (longer than the parallel moves'
+// chunks) and both ways: a long segment at the start of the id range, over a chain of pieces that split
+// it, leaves without a new piece (the run after it moves left), and crossings near the end add pieces
+// (the runs after them move right). Points in x order, so that ids follow the places.
+TEST(PslgSplit, SuspectsAmongLongRunsMoveBothWays) {
+  trixel_gen::Random rng(31);
+  constexpr std::uint32_t kShort = 40000;
+  std::vector<Point> points;
+  std::vector<Segment> segments;
+  // The chain 0-1-2-3-4 on the line y = -10 and the long segment 0-4 over it.
+  for (std::uint32_t k = 0; k < 5; ++k) points.push_back({double(k), -10.0});
+  for (std::uint32_t k = 0; k < 4; ++k) segments.push_back({k, k + 1});
+  segments.push_back({0, 4});
+  // Short steep segments left to right, apart in x (none crosses another).
+  for (std::uint32_t k = 0; k < kShort; ++k) {
+    const double x = 1000.0 * k / kShort;
+    const double y = rng.unit() * 100;
+    const auto a = static_cast<std::uint32_t>(points.size());
+    points.push_back({x, y});
+    points.push_back({x + 0.005, y + 10});
+    segments.push_back({a, a + 1});
+  }
+  // Two flat segments across the last hundredth of them.
+  for (const double y : {30.0, 70.0}) {
+    const auto a = static_cast<std::uint32_t>(points.size());
+    points.push_back({990.001, y});
+    points.push_back({1000.5, y + 0.3});
+    segments.push_back({a, a + 1});
+  }
+  CpuExecutor executor(2);
+  PreparedPslg all = cdt::detail::merge_input(points, segments, CrossingSegments::resolve, executor);
+  PreparedPslg some = all;
+  cdt::detail::split_pieces(all, CrossingSegments::resolve, executor);
+  const auto kept = piece_pairs(all);
+  std::vector<std::uint32_t> suspects;
+  std::size_t cut = 0;
+  for (std::uint32_t k = 0; k < some.pieces.size(); ++k) {
+    const std::pair<std::uint32_t, std::uint32_t> ab{some.pieces[k].a, some.pieces[k].b};
+    const bool whole = std::binary_search(kept.begin(), kept.end(), ab);
+    cut += whole ? 0 : 1;
+    if (!whole || rng.range(0, 9) == 0) suspects.push_back(k);
+  }
+  ASSERT_GT(cut, 5u);
+  // The runs of kept pieces: the longest is longer than a chunk of the moves (2^14 pieces).
+  std::size_t longest = 0;
+  for (std::size_t k = 0, from = 0; k <= some.pieces.size(); ++k) {
+    const std::pair<std::uint32_t, std::uint32_t> ab =
+        k < some.pieces.size() ? std::pair{some.pieces[k].a, some.pieces[k].b} : std::pair{0u, 0u};
+    if (k == some.pieces.size() || !std::binary_search(kept.begin(), kept.end(), ab)) {
+      longest = std::max(longest, k - from);
+      from = k + 1;
+    }
+  }
+  ASSERT_GT(longest, std::size_t{1} << 15);
+  std::vector<std::uint32_t> sites(some.sites.begin(), some.sites.end());
+  EXPECT_TRUE(cdt::detail::split_pieces(some, suspects, sites, CrossingSegments::resolve, executor));
+  ASSERT_EQ(some.vertices.size(), all.vertices.size());
+  // The crossings' vertices are numbered in the order each split meets them: compare by coordinates.
+  const auto by_coordinates = [](const PreparedPslg& out) {
+    std::vector<std::tuple<double, double, double, double, std::uint32_t>> list;
+    for (const auto& piece : out.pieces) {
+      Point a = out.vertices[piece.a], b = out.vertices[piece.b];
+      if (std::tie(b.x, b.y) < std::tie(a.x, a.y)) std::swap(a, b);
+      list.emplace_back(a.x, a.y, b.x, b.y, piece.segment);
+    }
+    std::sort(list.begin(), list.end());
+    return list;
+  };
+  EXPECT_EQ(by_coordinates(some), by_coordinates(all));
+  const auto pairs = piece_pairs(some);
+  EXPECT_TRUE(std::is_sorted(pairs.begin(), pairs.end()));
+  EXPECT_EQ(std::adjacent_find(pairs.begin(), pairs.end()), pairs.end());
+}
+
 // Suspects of a list split already all come back as they were: split_pieces says nothing changed and
 // the list is the same, piece for piece.
 TEST(PslgSplit, SuspectsThatAllComeBackLeaveTheList) {
