@@ -167,6 +167,56 @@ cdt::InvalidInputError invalid_input(const std::vector<Point>& points, const std
 
 const std::vector<Point> kTriangle{{0, 0}, {1, 0}, {0, 1}};
 
+/// What expect_suspects_split_as_all saw.
+struct SuspectSplit {
+  std::size_t cut = 0;               ///< pieces the whole split cuts
+  std::size_t longest_whole_run = 0; ///< the longest run of pieces it keeps, between cut ones
+};
+
+/// Splits every piece of the PSLG, and separately only the suspects (each piece the whole split cuts,
+/// and about one in `share` of the others, drawn by rng), and expects the same pieces: compared by
+/// coordinates, because crossing vertices are numbered in the order each split meets them; the list
+/// sorted by (a, b) and without repeats, as the triangulation expects.
+SuspectSplit expect_suspects_split_as_all(const std::vector<Point>& points,
+                                          const std::vector<Segment>& segments, trixel_gen::Random& rng,
+                                          int share) {
+  CpuExecutor executor(2);
+  PreparedPslg all = cdt::detail::merge_input(points, segments, CrossingSegments::resolve, executor);
+  PreparedPslg some = all;
+  cdt::detail::split_pieces(all, CrossingSegments::resolve, executor);
+  const auto kept = piece_pairs(all);
+  SuspectSplit seen;
+  std::vector<std::uint32_t> suspects;
+  std::size_t run = 0;
+  for (std::uint32_t k = 0; k < some.pieces.size(); ++k) {
+    const std::pair<std::uint32_t, std::uint32_t> ab{some.pieces[k].a, some.pieces[k].b};
+    const bool whole = std::binary_search(kept.begin(), kept.end(), ab);
+    seen.cut += whole ? 0 : 1;
+    run = whole ? run + 1 : 0;
+    seen.longest_whole_run = std::max(seen.longest_whole_run, run);
+    if (!whole || rng.range(0, share - 1) == 0) suspects.push_back(k);
+  }
+  EXPECT_LT(suspects.size(), some.pieces.size());
+  const std::vector<std::uint32_t> sites(some.sites.begin(), some.sites.end());
+  EXPECT_TRUE(cdt::detail::split_pieces(some, suspects, sites, CrossingSegments::resolve, executor));
+  EXPECT_EQ(some.vertices.size(), all.vertices.size());
+  const auto by_coordinates = [](const PreparedPslg& out) {
+    std::vector<std::tuple<double, double, double, double, std::uint32_t>> list;
+    for (const auto& piece : out.pieces) {
+      Point a = out.vertices[piece.a], b = out.vertices[piece.b];
+      if (std::tie(b.x, b.y) < std::tie(a.x, a.y)) std::swap(a, b);
+      list.emplace_back(a.x, a.y, b.x, b.y, piece.segment);
+    }
+    std::sort(list.begin(), list.end());
+    return list;
+  };
+  EXPECT_EQ(by_coordinates(some), by_coordinates(all));
+  const auto pairs = piece_pairs(some);
+  EXPECT_TRUE(std::is_sorted(pairs.begin(), pairs.end()));
+  EXPECT_EQ(std::adjacent_find(pairs.begin(), pairs.end()), pairs.end());
+  return seen;
+}
+
 // The property tests below are only as good as this checker: it must see each kind of violation.
 TEST(PslgChecker, SeesCrossingsOverlapsAndSitesInsidePieces) {
   PreparedPslg out;
@@ -379,40 +429,8 @@ TEST(PslgSplit, SuspectsThatComeBackKeepTheirPlaces) {
       const std::uint32_t b = long_one ? static_cast<std::uint32_t>(rng.range(0, 399)) : k + 1;
       if (b != k) segments.push_back({k, b});
     }
-    CpuExecutor executor(2);
-    PreparedPslg all = cdt::detail::merge_input(points, segments, CrossingSegments::resolve, executor);
-    PreparedPslg some = all;
-    cdt::detail::split_pieces(all, CrossingSegments::resolve, executor);
-    const auto kept = piece_pairs(all);
-    std::vector<std::uint32_t> suspects;
-    std::size_t cut = 0;
-    for (std::uint32_t k = 0; k < some.pieces.size(); ++k) {
-      const std::pair<std::uint32_t, std::uint32_t> ab{some.pieces[k].a, some.pieces[k].b};
-      const bool whole = std::binary_search(kept.begin(), kept.end(), ab);
-      cut += whole ? 0 : 1;
-      if (!whole || rng.range(0, 2) == 0) suspects.push_back(k);
-    }
-    ASSERT_GT(cut, 5u) << "seed " << seed;
-    ASSERT_LT(suspects.size(), some.pieces.size());
-    const std::vector<std::uint32_t> sites(some.sites.begin(), some.sites.end());
-    EXPECT_TRUE(cdt::detail::split_pieces(some, suspects, sites, CrossingSegments::resolve, executor));
-    // The crossing vertices are numbered in the order each split meets them: compare by coordinates.
-    ASSERT_EQ(some.vertices.size(), all.vertices.size()) << "seed " << seed;
-    const auto by_coordinates = [](const PreparedPslg& out) {
-      std::vector<std::tuple<double, double, double, double, std::uint32_t>> list;
-      for (const auto& piece : out.pieces) {
-        Point a = out.vertices[piece.a], b = out.vertices[piece.b];
-        if (std::tie(b.x, b.y) < std::tie(a.x, a.y)) std::swap(a, b);
-        list.emplace_back(a.x, a.y, b.x, b.y, piece.segment);
-      }
-      std::sort(list.begin(), list.end());
-      return list;
-    };
-    EXPECT_EQ(by_coordinates(some), by_coordinates(all)) << "seed " << seed;
-    // And the list stays sorted by (a, b), as the triangulation expects.
-    const auto pairs = piece_pairs(some);
-    EXPECT_TRUE(std::is_sorted(pairs.begin(), pairs.end())) << "seed " << seed;
-    EXPECT_EQ(std::adjacent_find(pairs.begin(), pairs.end()), pairs.end()) << "seed " << seed;
+    SCOPED_TRACE("seed " + std::to_string(seed));
+    EXPECT_GT(expect_suspects_split_as_all(points, segments, rng, 3).cut, 5u);
   }
 }
 
@@ -445,49 +463,10 @@ TEST(PslgSplit, SuspectsAmongLongRunsMoveBothWays) {
     points.push_back({1000.5, y + 0.3});
     segments.push_back({a, a + 1});
   }
-  CpuExecutor executor(2);
-  PreparedPslg all = cdt::detail::merge_input(points, segments, CrossingSegments::resolve, executor);
-  PreparedPslg some = all;
-  cdt::detail::split_pieces(all, CrossingSegments::resolve, executor);
-  const auto kept = piece_pairs(all);
-  std::vector<std::uint32_t> suspects;
-  std::size_t cut = 0;
-  for (std::uint32_t k = 0; k < some.pieces.size(); ++k) {
-    const std::pair<std::uint32_t, std::uint32_t> ab{some.pieces[k].a, some.pieces[k].b};
-    const bool whole = std::binary_search(kept.begin(), kept.end(), ab);
-    cut += whole ? 0 : 1;
-    if (!whole || rng.range(0, 9) == 0) suspects.push_back(k);
-  }
-  ASSERT_GT(cut, 5u);
-  // The runs of kept pieces: the longest is longer than a chunk of the moves (2^14 pieces).
-  std::size_t longest = 0;
-  for (std::size_t k = 0, from = 0; k <= some.pieces.size(); ++k) {
-    const std::pair<std::uint32_t, std::uint32_t> ab =
-        k < some.pieces.size() ? std::pair{some.pieces[k].a, some.pieces[k].b} : std::pair{0u, 0u};
-    if (k == some.pieces.size() || !std::binary_search(kept.begin(), kept.end(), ab)) {
-      longest = std::max(longest, k - from);
-      from = k + 1;
-    }
-  }
-  ASSERT_GT(longest, std::size_t{1} << 15);
-  std::vector<std::uint32_t> sites(some.sites.begin(), some.sites.end());
-  EXPECT_TRUE(cdt::detail::split_pieces(some, suspects, sites, CrossingSegments::resolve, executor));
-  ASSERT_EQ(some.vertices.size(), all.vertices.size());
-  // The crossings' vertices are numbered in the order each split meets them: compare by coordinates.
-  const auto by_coordinates = [](const PreparedPslg& out) {
-    std::vector<std::tuple<double, double, double, double, std::uint32_t>> list;
-    for (const auto& piece : out.pieces) {
-      Point a = out.vertices[piece.a], b = out.vertices[piece.b];
-      if (std::tie(b.x, b.y) < std::tie(a.x, a.y)) std::swap(a, b);
-      list.emplace_back(a.x, a.y, b.x, b.y, piece.segment);
-    }
-    std::sort(list.begin(), list.end());
-    return list;
-  };
-  EXPECT_EQ(by_coordinates(some), by_coordinates(all));
-  const auto pairs = piece_pairs(some);
-  EXPECT_TRUE(std::is_sorted(pairs.begin(), pairs.end()));
-  EXPECT_EQ(std::adjacent_find(pairs.begin(), pairs.end()), pairs.end());
+  const SuspectSplit seen = expect_suspects_split_as_all(points, segments, rng, 10);
+  EXPECT_GT(seen.cut, 5u);
+  // A run of kept pieces longer than a chunk of the parallel moves (2^14 pieces).
+  EXPECT_GT(seen.longest_whole_run, std::size_t{1} << 15);
 }
 
 // Suspects of a list split already all come back as they were: split_pieces says nothing changed and
