@@ -657,13 +657,13 @@ Triangulation triangulate_on(std::span<const Point> points, std::span<const Segm
   UnzeroedVector<ConstraintPiece2> pieces; // written in parallel by mesh_pieces, not zeroed first
   IndexArray segment_of_piece;             // for the output, not zeroed first
   SideTask beside_device;                  // after what its tasks use: an exception waits for it first
-  // Fewer pieces (a photograph's PSLG has some 10^4) are made faster than a thread is started.
-  constexpr std::size_t kBesideTheDeviceFrom = std::size_t{1} << 16;
+  // On a thread of its own with the GPU backend only (the CPU executor's phases use the host's
+  // threads), and from 2^16 pieces: fewer (a photograph's PSLG has some 10^4) are made faster than a
+  // thread is started.
+  const auto on_its_own = [&] { return on_gpu && pslg.pieces.size() >= (std::size_t{1} << 16); };
+  const auto make_pieces = [&] { mesh_pieces(pslg, site_of_vertex, executor, pieces); };
   const bool screen_first = split == Split::screened && !pslg.pieces.empty();
-  if (on_gpu && screen_first) {
-    beside_device.start([&] { mesh_pieces(pslg, site_of_vertex, executor, pieces); },
-                        pslg.pieces.size() >= kBesideTheDeviceFrom);
-  }
+  if (screen_first) beside_device.start(make_pieces, on_its_own());
 #if defined(TRIXEL_HAVE_CUDA)
   if (on_gpu) delaunay = flip_stats(device_mesh->flip());
 #endif
@@ -697,7 +697,6 @@ Triangulation triangulate_on(std::span<const Point> points, std::span<const Segm
     screened = true;
     const std::size_t first_added = pslg.vertices.size();
     beside_device.wait();
-    if (!on_gpu) mesh_pieces(pslg, site_of_vertex, executor, pieces);
     pieces_stale = false;
     trace.mark("pieces");
     ScreenedPieces screen;
@@ -717,9 +716,8 @@ Triangulation triangulate_on(std::span<const Point> points, std::span<const Segm
     if (added > 0) {
       const MissingArray fresh = added_vertices(pslg, first_added, site_vertex, site_of_vertex, executor);
       // The new pieces in mesh ids while the device inserts the vertices.
-      if (on_gpu && pieces_stale) {
-        beside_device.start([&] { mesh_pieces(pslg, site_of_vertex, executor, pieces); },
-                            pslg.pieces.size() >= kBesideTheDeviceFrom);
+      if (pieces_stale) {
+        beside_device.start(make_pieces, on_its_own());
         pieces_stale = false;
       }
       try {
@@ -743,19 +741,16 @@ Triangulation triangulate_on(std::span<const Point> points, std::span<const Segm
   stats.added_vertices = pslg.vertices.size() - points.size();
 
   // Step 2: constraints (pieces named by their index; seg holds the piece index).
-  if (pieces_stale) mesh_pieces(pslg, site_of_vertex, executor, pieces);
+  if (pieces_stale) make_pieces();
   trace.mark("pieces");
-  // The output's segment of each piece: with the GPU backend on a thread of its own while the device
-  // inserts the constraints (which use the host's threads for their copies).
+  // The output's segment of each piece, while the device inserts the constraints (one thread: the
+  // constraints use the host's threads for their copies).
   segment_of_piece.resize(pslg.pieces.size());
-  if (on_gpu && pslg.pieces.size() >= kBesideTheDeviceFrom) {
-    beside_device.start([&] {
-      for (std::size_t k = 0; k < pslg.pieces.size(); ++k) segment_of_piece[k] = pslg.pieces[k].segment;
-    });
-  } else {
-    executor.for_each(pslg.pieces.size(),
-                      [&](std::size_t k) { segment_of_piece[k] = pslg.pieces[k].segment; });
-  }
+  beside_device.start(
+      [&] {
+        for (std::size_t k = 0; k < pslg.pieces.size(); ++k) segment_of_piece[k] = pslg.pieces[k].segment;
+      },
+      on_its_own());
   ConstraintStats cons;
   // The slots the constraints' flips rewrote: after Phase 5, only their edges can fail the incircle test.
   std::vector<std::uint8_t> flipped;
