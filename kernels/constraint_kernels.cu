@@ -10,10 +10,14 @@
 #include <cooperative_groups/reduce.h>
 
 #include <algorithm>
+#include <atomic>
 #include <cmath>
 #include <cstddef>
 #include <cstdint>
+#include <exception>
+#include <optional>
 #include <string>
+#include <thread>
 #include <utility>
 
 #include "block_steps.cuh"
@@ -239,9 +243,14 @@ void check_device_pieces(CudaExecutor& executor, const ConstraintPiece2* pieces,
   if (first != kNoId) ::cdt::detail::throw_invalid_piece(first, host_pieces[first]);
 }
 
+/// insert_constraints on the device; `checked_pieces`, when given, are host_pieces on the device,
+/// already checked (else they are uploaded and checked here). A run given `stop` returns at its next
+/// step once it is set, the mesh part way.
 ConstraintStats insert_constraints(DeviceMesh::State& s, std::span<const ConstraintPiece2> host_pieces,
                                    unsigned inner_iterations, std::uint8_t* flipped,
-                                   const HostParallelFor& parallel) {
+                                   const HostParallelFor& parallel,
+                                   const ConstraintPiece2* checked_pieces = nullptr,
+                                   const std::atomic<bool>* stop = nullptr) {
   ConstraintStats stats;
   const std::uint32_t slots = s.num_slots;
   ::cdt::detail::check_constraint_counts(slots, host_pieces.size());
@@ -252,10 +261,14 @@ ConstraintStats insert_constraints(DeviceMesh::State& s, std::span<const Constra
   const auto num_pieces = static_cast<std::uint32_t>(host_pieces.size());
 
   const MeshView m = s.view();
-  DeviceBuffer<ConstraintPiece2> d_pieces(num_pieces);
-  executor.upload(d_pieces.data(), host_pieces.data(), num_pieces, &parallel);
-  check_device_pieces(executor, d_pieces.data(), host_pieces, s.num_vertices);
-  const ConstraintPiece2* piece = d_pieces.data();
+  const auto stopped = [stop] { return stop != nullptr && stop->load(std::memory_order_relaxed); };
+  DeviceBuffer<ConstraintPiece2> d_pieces;
+  if (checked_pieces == nullptr) {
+    d_pieces.resize(num_pieces);
+    executor.upload(d_pieces.data(), host_pieces.data(), num_pieces, &parallel);
+    check_device_pieces(executor, d_pieces.data(), host_pieces, s.num_vertices);
+  }
+  const ConstraintPiece2* piece = checked_pieces != nullptr ? checked_pieces : d_pieces.data();
   DeviceBuffer<std::uint32_t> d_cmark(slots), d_claim(slots);
   std::uint32_t* cmark = d_cmark.data();
   std::uint32_t* claim = d_claim.data();
@@ -295,6 +308,7 @@ ConstraintStats insert_constraints(DeviceMesh::State& s, std::span<const Constra
   DeviceBuffer<ConstraintStatus> d_part_status;
 
   for (;;) {
+    if (stopped()) return stats;
     ++stats.outer_iterations;
     // Algorithm 4, line 3: marks from scratch, each piece's walk lowering them to its index.
     executor.fill_bytes(cmark, 0xFF, slots);
@@ -452,6 +466,7 @@ ConstraintStats insert_constraints(DeviceMesh::State& s, std::span<const Constra
     std::uint64_t outer_flips = 0;
     unsigned iteration = 0;
     while (iteration < inner_limit && na > 0) {
+      if (stopped()) return stats;
       if (team_rounds.takes(na)) {
         const std::uint64_t allowed =
             max_inner_iterations - std::min(max_inner_iterations, stats.inner_iterations);
@@ -608,10 +623,111 @@ ConstraintStats insert_constraints(DeviceMesh::State& s, std::span<const Constra
 
 ConstraintStats DeviceMesh::insert_constraints(std::span<const ConstraintPiece2> pieces,
                                                unsigned inner_iterations, const HostParallelFor& parallel) {
+  if (state_->beside) throw Error("internal error: insert_constraints while constraints run beside the host");
+  state_->screened_pieces = {};
   detail::DeviceBuffer<std::uint8_t>& flipped = state_->flipped_by_constraints;
   flipped.resize(state_->num_slots);
   state_->executor.fill_bytes(flipped.data(), 0, state_->num_slots);
   return detail::insert_constraints(*state_, pieces, inner_iterations, flipped.data(), parallel);
+}
+
+namespace {
+
+/// The bytes of the mesh's links (tri, adj, seg, vert_tri) saved for start_constraints.
+std::size_t saved_links_bytes(const DeviceMesh::State& s) {
+  return 36 * static_cast<std::size_t>(s.num_slots) + 4 * static_cast<std::size_t>(s.num_vertices);
+}
+
+/// Copies n words from src to dst on the device, queued on `stream`.
+void copy_words(std::uint32_t* dst, const std::uint32_t* src, std::size_t n, cudaStream_t stream) {
+  if (n > 0)
+    CDT_CUDA_CHECK(cudaMemcpyAsync(dst, src, n * sizeof(std::uint32_t), cudaMemcpyDeviceToDevice, stream));
+}
+
+} // namespace
+
+bool DeviceMesh::start_constraints(std::span<const ConstraintPiece2> pieces, unsigned inner_iterations) {
+  State& s = *state_;
+  if (s.beside) throw Error("internal error: start_constraints: constraints already run beside the host");
+  if (pieces.empty() || s.screened_pieces.size() != pieces.size())
+    throw Error("internal error: start_constraints: the pieces were not screened");
+  ::cdt::detail::check_constraint_counts(s.num_slots, pieces.size());
+  // The saved links, and the constraints' own buffers (about 64 bytes a slot, 32 a piece, as
+  // insert_constraints allocates them), with room to spare: else the caller inserts them after its split.
+  const std::size_t slots = s.num_slots;
+  const std::size_t needed =
+      saved_links_bytes(s) + slots + 64 * slots + 32 * pieces.size() + (std::size_t{64} << 20);
+  try {
+    detail::require_device_memory(needed, 0, "constraints beside the host");
+  } catch (const DeviceError&) {
+    return false;
+  }
+  auto beside = std::make_unique<detail::ConstraintsBeside>();
+  const std::size_t words = 3 * slots;
+  const cudaStream_t stream = s.executor.stream();
+  beside->tri.resize(words);
+  beside->adj.resize(words);
+  beside->seg.resize(words);
+  beside->vert_tri.resize(s.num_vertices);
+  copy_words(beside->tri.data(), s.tri.data(), words, stream);
+  copy_words(beside->adj.data(), s.adj.data(), words, stream);
+  copy_words(beside->seg.data(), s.seg.data(), words, stream);
+  copy_words(beside->vert_tri.data(), s.vert_tri.data(), s.num_vertices, stream);
+  s.flipped_by_constraints.resize(slots);
+  s.executor.fill_bytes(s.flipped_by_constraints.data(), 0, slots);
+  CDT_CUDA_CHECK(cudaEventCreateWithFlags(&beside->ready, cudaEventDisableTiming));
+  CDT_CUDA_CHECK(cudaEventRecord(beside->ready, stream));
+  int device = 0;
+  CDT_CUDA_CHECK(cudaGetDevice(&device));
+  detail::ConstraintsBeside* run = beside.get();
+  run->thread = std::thread([&s, run, pieces, inner_iterations, device] {
+    try {
+      CDT_CUDA_CHECK(cudaSetDevice(device)); // the current device is each thread's own
+      // This thread's stream (the executor's calls queue on the calling thread's) after the saved links.
+      CDT_CUDA_CHECK(cudaStreamWaitEvent(cudaStreamPerThread, run->ready, 0));
+      run->stats = detail::insert_constraints(s, pieces, inner_iterations, s.flipped_by_constraints.data(),
+                                              {}, s.screened_pieces.data(), &run->stop);
+    } catch (...) {
+      run->failure = std::current_exception();
+    }
+    // Everything it queued is done before the owner goes on.
+    if (const cudaError_t status = cudaStreamSynchronize(cudaStreamPerThread);
+        status != cudaSuccess && !run->failure) {
+      try {
+        CDT_CUDA_CHECK(status);
+      } catch (...) {
+        run->failure = std::current_exception();
+      }
+    }
+  });
+  s.beside = std::move(beside);
+  return true;
+}
+
+std::optional<ConstraintStats> DeviceMesh::finish_constraints(bool keep) {
+  State& s = *state_;
+  if (!s.beside) throw Error("internal error: finish_constraints: no constraints run beside the host");
+  const std::unique_ptr<detail::ConstraintsBeside> run = std::move(s.beside);
+  if (!keep) run->stop = true;
+  run->thread.join();
+  s.screened_pieces = {};
+  if (run->failure) {
+    try {
+      std::rethrow_exception(run->failure);
+    } catch (const DeviceError&) {
+      throw;
+    } catch (const Error&) {
+      keep = false; // the caller meets it again, or not, with the pieces it has
+    }
+  }
+  if (keep) return run->stats;
+  const std::size_t words = 3 * static_cast<std::size_t>(s.num_slots);
+  const cudaStream_t stream = s.executor.stream();
+  copy_words(s.tri.data(), run->tri.data(), words, stream);
+  copy_words(s.adj.data(), run->adj.data(), words, stream);
+  copy_words(s.seg.data(), run->seg.data(), words, stream);
+  copy_words(s.vert_tri.data(), run->vert_tri.data(), s.num_vertices, stream);
+  return std::nullopt;
 }
 
 } // namespace cdt::gpu

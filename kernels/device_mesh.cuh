@@ -2,10 +2,13 @@
 // The state of gpu::DeviceMesh, shared by the files that implement its steps: shifting, missing
 // points and the fake boundary (mesh_kernels.cu), Lawson flips (flip_kernels.cu).
 
+#include <atomic>
 #include <cstddef>
 #include <cstdint>
+#include <exception>
 #include <span>
 #include <string>
+#include <thread>
 
 #include "block_steps.cuh"
 #include "cdt_kernels.hpp"
@@ -93,6 +96,26 @@ void check_device_pieces(CudaExecutor& executor, const ::cdt::detail::Constraint
 /// Device memory of a mesh of `slots` triangles over nv vertices, in bytes.
 std::size_t mesh_device_bytes(std::size_t slots, std::size_t nv);
 
+/// insert_constraints running on a thread of its own (DeviceMesh::start_constraints), with the links it
+/// started from saved on the device. The destructor stops it at its next step and joins it.
+struct ConstraintsBeside {
+  std::thread thread;
+  std::atomic<bool> stop{false}; ///< set by the owner: the run returns at its next step
+  std::exception_ptr failure;    ///< what the run threw
+  ::cdt::detail::ConstraintStats stats;
+  cudaEvent_t ready = nullptr; ///< recorded on the owner's stream once the links are saved
+  DeviceBuffer<std::uint32_t> tri, adj, seg, vert_tri; ///< the links before the run
+
+  ConstraintsBeside() = default;
+  ConstraintsBeside(const ConstraintsBeside&) = delete;
+  ConstraintsBeside& operator=(const ConstraintsBeside&) = delete;
+  ~ConstraintsBeside() {
+    stop = true;
+    if (thread.joinable()) thread.join();
+    if (ready != nullptr) cudaEventDestroy(ready);
+  }
+};
+
 } // namespace detail
 
 struct DeviceMesh::State {
@@ -109,6 +132,11 @@ struct DeviceMesh::State {
   detail::DeviceBuffer<std::uint8_t> made_by_insert;
   /// The first entries of output()'s vertex_of, already on the device (take_vertex_ids; else empty).
   detail::DeviceBuffer<std::uint32_t> vertex_ids;
+  /// The pieces the last screen() uploaded and checked, for start_constraints (else empty).
+  detail::DeviceBuffer<::cdt::detail::ConstraintPiece2> screened_pieces;
+  /// The constraints started beside the host (start_constraints; else null). Declared last: it is
+  /// stopped and joined before the buffers it uses go.
+  std::unique_ptr<detail::ConstraintsBeside> beside;
 
   ::cdt::detail::MeshView view() {
     return ::cdt::detail::MeshView{x.data(),   y.data(),        tri.data(), adj.data(),

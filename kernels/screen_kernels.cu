@@ -103,6 +103,7 @@ ScreenedPieces DeviceMesh::screen(std::span<const ConstraintPiece2> host_pieces,
     trace.mark(step);
   };
 
+  s.screened_pieces = {};
   DeviceBuffer<ConstraintPiece2> d_pieces(np);
   executor.upload(d_pieces.data(), host_pieces.data(), np, &parallel);
   detail::check_device_pieces(executor, d_pieces.data(), host_pieces, s.num_vertices);
@@ -186,6 +187,7 @@ ScreenedPieces DeviceMesh::screen(std::span<const ConstraintPiece2> host_pieces,
         site[pieces[k].b] = 1;
       },
       "screen_ends");
+  s.screened_pieces = std::move(d_pieces); // checked: start_constraints takes them from here
   out.pieces = detail::flagged(executor, suspect, np);
   if (out.pieces.empty()) return out;
   out.sites = detail::flagged(executor, site, s.num_vertices);

@@ -246,9 +246,13 @@ detail::InsertStats insert_added_vertices(gpu::DeviceMesh& mesh, const detail::P
     x[k] = p.x;
     y[k] = p.y;
   }
+  StepTrace trace("added vertices");
   mesh.add_vertices(x, y);
+  trace.mark("appended");
   InsertStats placed = mesh.insert(fresh);
+  trace.mark("inserted");
   const gpu::FlipResult flips = mesh.flip_after_insert();
+  trace.mark("flipped");
   placed.flips += flips.flips;
   placed.rounds += flips.rounds;
   return placed;
@@ -299,6 +303,40 @@ private:
   std::thread thread_;
   std::exception_ptr error_;
 };
+
+#if defined(TRIXEL_HAVE_CUDA)
+/// Constraints the device inserts while the host splits the suspects (DeviceMesh::start_constraints):
+/// finish() keeps or undoes them; the destructor, should an exception leave first, stops them, so it is
+/// declared after the pieces they read.
+class ConstraintsBesideSplit {
+public:
+  ConstraintsBesideSplit() = default;
+  ConstraintsBesideSplit(const ConstraintsBesideSplit&) = delete;
+  ConstraintsBesideSplit& operator=(const ConstraintsBesideSplit&) = delete;
+  ~ConstraintsBesideSplit() {
+    if (mesh_ == nullptr) return;
+    try {
+      mesh_->finish_constraints(false);
+    } catch (...) {
+      // Leaving on an exception already; the mesh is not used again.
+    }
+  }
+
+  /// Starts them, unless the device lacks the memory (then running() stays false).
+  void start(gpu::DeviceMesh& mesh, std::span<const detail::ConstraintPiece2> pieces,
+             unsigned inner_iterations) {
+    if (mesh.start_constraints(pieces, inner_iterations)) mesh_ = &mesh;
+  }
+  bool running() const { return mesh_ != nullptr; }
+  /// DeviceMesh::finish_constraints.
+  std::optional<detail::ConstraintStats> finish(bool keep) {
+    return std::exchange(mesh_, nullptr)->finish_constraints(keep);
+  }
+
+private:
+  gpu::DeviceMesh* mesh_ = nullptr;
+};
+#endif
 
 /// The input points copied into the PSLG's vertex array, which merge_input leaves to its caller when the
 /// device merged the input: on a thread of its own, while the device works (160 MB at 10^7 points,
@@ -657,6 +695,9 @@ Triangulation triangulate_on(std::span<const Point> points, std::span<const Segm
   UnzeroedVector<ConstraintPiece2> pieces; // written in parallel by mesh_pieces, not zeroed first
   IndexArray segment_of_piece;             // for the output, not zeroed first
   SideTask beside_device;                  // after what its tasks use: an exception waits for it first
+#if defined(TRIXEL_HAVE_CUDA)
+  ConstraintsBesideSplit beside_split; // after the pieces it reads
+#endif
   // On a thread of its own with the GPU backend only (the CPU executor's phases use the host's
   // threads), and from 2^16 pieces: fewer (a photograph's PSLG has some 10^4) are made faster than a
   // thread is started.
@@ -705,16 +746,29 @@ Triangulation triangulate_on(std::span<const Point> points, std::span<const Segm
 #endif
     if (!on_gpu) screen = screen_pieces(mesh.view(), pieces, executor);
     trace.mark("screened");
+#if defined(TRIXEL_HAVE_CUDA)
+    // Most splits change nothing (10^7 points + 10^6 segments: none of 18K suspects cross): the device
+    // inserts the constraints meanwhile, from links it saved, undone when the split changed the pieces.
+    if (on_gpu && on_its_own() && screen.complete && !screen.pieces.empty())
+      beside_split.start(*device_mesh, pieces, std::max(1u, options.inner_iterations));
+#endif
     pieces_stale = split_screened(pslg, screen, site_vertex, options.crossings, executor, sites_magnitude);
     trace.mark("split");
     InsertStats placed;
     const std::size_t added = pslg.vertices.size() - first_added;
+#if defined(TRIXEL_HAVE_CUDA)
+    if (beside_split.running() && (pieces_stale || added > 0)) {
+      beside_split.finish(false);
+      trace.mark("constraints beside the split undone");
+    }
+#endif
     if (added > kRestartAbovePerSite * n) {
       end_phase("split", 0, 0, added);
       return start_again(std::move(pslg));
     }
     if (added > 0) {
       const MissingArray fresh = added_vertices(pslg, first_added, site_vertex, site_of_vertex, executor);
+      trace.mark("added vertices listed");
       // The new pieces in mesh ids while the device inserts the vertices.
       if (pieces_stale) {
         beside_device.start(make_pieces, on_its_own());
@@ -756,7 +810,12 @@ Triangulation triangulate_on(std::span<const Point> points, std::span<const Segm
   std::vector<std::uint8_t> flipped;
   try {
 #if defined(TRIXEL_HAVE_CUDA)
-    if (on_gpu)
+    // Inserted beside the split, unless that run failed (then inserted again here, to fail the same way).
+    std::optional<ConstraintStats> done;
+    if (beside_split.running()) done = beside_split.finish(true);
+    if (done)
+      cons = *done;
+    else if (on_gpu)
       cons = device_mesh->insert_constraints(pieces, std::max(1u, options.inner_iterations), parallel);
 #endif
     if (!on_gpu) {

@@ -6,11 +6,13 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <chrono>
 #include <cstdint>
 #include <optional>
 #include <set>
 #include <span>
 #include <string>
+#include <thread>
 #include <utility>
 #include <vector>
 
@@ -393,6 +395,73 @@ TEST_F(MeshGpu, ConstraintsMatchTheCpuExecutor) {
     expect_same_mesh(copy, host, c.name);
     trixel_test::expect_valid_mesh(copy);
   }
+}
+
+// Constraints started beside the host (start_constraints after screen): kept, they are insert_constraints'
+// result flip for flip and the Lawson flips after them find the same; undone, the mesh is the one they
+// started from and takes the pieces again; a run that fails (a piece through a vertex) is undone too.
+TEST_F(MeshGpu, ConstraintsBesideTheHostKeepOrUndo) {
+  CpuExecutor executor(4);
+  const trixel_gen::Pslg pslg =
+      trixel_gen::synthetic_pslg(60000, 6000, trixel_gen::Distribution::uniform, 35);
+  const Mesh start = sweep_mesh(pslg, true, executor);
+  std::vector<ConstraintPiece2> pieces;
+  for (std::size_t k = 0; k < pslg.segments.size(); ++k)
+    pieces.push_back({pslg.segments[k].a, pslg.segments[k].b, static_cast<std::uint32_t>(k)});
+
+  cdt::gpu::DeviceMesh plain(start);
+  const ConstraintStats plain_stats = plain.insert_constraints(pieces, 8);
+  const cdt::gpu::FlipResult plain_flips = plain.flip_after_constraints();
+  Mesh expected;
+  plain.download(expected);
+  ASSERT_GT(plain_stats.flips, 0u);
+
+  cdt::gpu::DeviceMesh kept(start);
+  EXPECT_THROW(kept.start_constraints(pieces, 8), cdt::Error); // not screened
+  kept.screen(pieces);
+  ASSERT_TRUE(kept.start_constraints(pieces, 8));
+  EXPECT_THROW(kept.insert_constraints(pieces, 8), cdt::Error); // one run at a time
+  const std::optional<ConstraintStats> kept_stats = kept.finish_constraints(true);
+  ASSERT_TRUE(kept_stats.has_value());
+  EXPECT_EQ(kept_stats->flips, plain_stats.flips);
+  EXPECT_EQ(kept_stats->outer_iterations, plain_stats.outer_iterations);
+  EXPECT_EQ(kept_stats->inner_iterations, plain_stats.inner_iterations);
+  EXPECT_EQ(kept_stats->intersections, plain_stats.intersections);
+  EXPECT_EQ(kept.flip_after_constraints().flips, plain_flips.flips);
+  Mesh copy;
+  kept.download(copy);
+  expect_same_mesh(copy, expected, "kept");
+  EXPECT_THROW(kept.finish_constraints(true), cdt::Error); // nothing runs
+
+  // Undone at once, and after the run is done (the host's wait is longer than the run).
+  for (const bool after_the_run : {false, true}) {
+    const std::string what = after_the_run ? "undone after the run" : "undone at once";
+    cdt::gpu::DeviceMesh undone(start);
+    undone.screen(pieces);
+    ASSERT_TRUE(undone.start_constraints(pieces, 8)) << what;
+    if (after_the_run) std::this_thread::sleep_for(std::chrono::milliseconds(200)); // done by then, or not
+    EXPECT_FALSE(undone.finish_constraints(false).has_value()) << what;
+    undone.download(copy);
+    expect_same_mesh(copy, start, what);
+    EXPECT_EQ(undone.insert_constraints(pieces, 8).flips, plain_stats.flips) << what;
+    EXPECT_EQ(undone.flip_after_constraints().flips, plain_flips.flips) << what;
+    undone.download(copy);
+    expect_same_mesh(copy, expected, what + ", then inserted");
+  }
+
+  // The diagonals of a square, crossing: the run fails, and asked to keep it the mesh is as it started.
+  const std::vector<double> x = {0, 2, 2, 0, 1}, y = {0, 0, 2, 2, 3};
+  const Mesh small = trixel_test::sweep_triangulate(x, y);
+  const std::vector<ConstraintPiece2> crossing = {{0, 2, 0}, {1, 3, 1}};
+  cdt::gpu::DeviceMesh failing(small);
+  const ScreenedPieces screened = failing.screen(crossing);
+  ASSERT_TRUE(screened.complete);
+  EXPECT_FALSE(screened.pieces.empty());
+  ASSERT_TRUE(failing.start_constraints(crossing, 8));
+  EXPECT_FALSE(failing.finish_constraints(true).has_value());
+  failing.download(copy);
+  expect_same_mesh(copy, small, "failed run");
+  EXPECT_THROW(failing.insert_constraints(crossing, 8), cdt::Error);
 }
 
 // The segments' screen (gcd/screen.hpp) on the device: the same suspect pieces and sites as the CPU

@@ -88,6 +88,16 @@ TEST_F(TriangulateGpu, SegmentsMatchTheCpuBackend) {
   }
 }
 
+// From 2^16 pieces the device inserts the constraints beside the host's split, kept when the split
+// changed nothing (the synthetic segments cross nothing) and undone when it did (long crossers added).
+TEST_F(TriangulateGpu, ManySegmentsMatchTheCpuBackend) {
+  trixel_gen::Pslg synthetic = trixel_gen::synthetic_pslg(700000, 70000, Distribution::uniform, 54);
+  expect_same_as_cpu(synthetic.points, synthetic.segments, "synthetic 700000");
+  trixel_gen::Random rng(55);
+  trixel_gen::add_random_segments(synthetic, 10, rng);
+  expect_same_as_cpu(synthetic.points, synthetic.segments, "synthetic 700000 with crossers");
+}
+
 // Starting CUDA ahead, giving the device back, and triangulating again: the device starts afresh (its
 // context, staging memory and buffer pool made again) and gives the same triangles. Large enough that
 // the copies go through the pinned staging blocks.
