@@ -1388,7 +1388,8 @@ void split_pieces(PreparedPslg& pslg, CrossingSegments policy, CpuExecutor& exec
 
 bool split_pieces(PreparedPslg& pslg, std::span<const std::uint32_t> suspect_pieces,
                   std::span<const std::uint32_t> suspect_sites, CrossingSegments policy,
-                  CpuExecutor& executor, double sites_magnitude) {
+                  CpuExecutor& executor, double sites_magnitude, std::vector<std::uint32_t>* new_pieces) {
+  if (new_pieces != nullptr) new_pieces->clear();
   if (suspect_pieces.empty()) return false;
   StepTrace trace("split");
   trace.count("suspect pieces", suspect_pieces.size());
@@ -1506,6 +1507,8 @@ bool split_pieces(PreparedPslg& pslg, std::span<const std::uint32_t> suspect_pie
                 merged.begin() + static_cast<std::ptrdiff_t>(c.to));
   });
   for (std::size_t k = 0; k < inserted.size(); ++k) merged[inserted_at[k]] = inserted[k];
+  if (new_pieces != nullptr)
+    for (const std::size_t at : inserted_at) new_pieces->push_back(static_cast<std::uint32_t>(at));
   pslg.pieces = std::move(merged);
   trace.mark("pieces merged");
   return true;

@@ -149,9 +149,11 @@ void split_pieces(PreparedPslg& pslg, CrossingSegments policy, CpuExecutor& exec
 /// tolerance, but only into suspects. sites_magnitude, when not negative, is the largest absolute
 /// coordinate of pslg.sites, which that tolerance is made from (computed here otherwise). Returns
 /// whether pieces came or went; when not, pslg.pieces holds the same pieces in the same places (only
-/// their segment ids may be lower) and no vertex was added.
+/// their segment ids may be lower) and no vertex was added. new_pieces, when given, is set to the
+/// indices of the pieces that came, increasing (every piece at an added vertex is among them).
 bool split_pieces(PreparedPslg& pslg, std::span<const std::uint32_t> suspect_pieces,
                   std::span<const std::uint32_t> suspect_sites, CrossingSegments policy,
-                  CpuExecutor& executor, double sites_magnitude = -1.0);
+                  CpuExecutor& executor, double sites_magnitude = -1.0,
+                  std::vector<std::uint32_t>* new_pieces = nullptr);
 
 } // namespace cdt::detail

@@ -40,6 +40,7 @@
 #include <chrono>
 #include <exception>
 #include <functional>
+#include <iterator>
 #include <optional>
 #include <span>
 #include <string>
@@ -161,31 +162,38 @@ void mesh_pieces(const detail::PreparedPslg& pslg, const IndexArray& site_of_ver
 /// (host or device): only the suspects are split (all of them, should the screen have failed).
 /// site_vertex maps mesh vertices to the PSLG's; sites_magnitude is the largest absolute coordinate of
 /// the sites where known (negative: split_pieces computes it). Returns whether the pieces may have
-/// changed places (false: the same pieces in the same places, their segment ids perhaps lowered).
+/// changed places (false: the same pieces in the same places, their segment ids perhaps lowered), and
+/// in new_pieces the indices of the pieces that came when known (the suspects' split), else nothing.
 bool split_screened(detail::PreparedPslg& pslg, const detail::ScreenedPieces& screen,
                     const IndexArray& site_vertex, CrossingSegments policy, detail::CpuExecutor& executor,
-                    double sites_magnitude) {
+                    double sites_magnitude, std::optional<std::vector<std::uint32_t>>& new_pieces) {
   using namespace detail;
+  new_pieces.reset();
   if (!screen.complete) {
     split_pieces(pslg, policy, executor);
     return true;
   }
+  new_pieces.emplace();
   if (screen.pieces.empty()) return false;
   std::vector<std::uint32_t> sites(screen.sites.size());
   executor.for_each(sites.size(), [&](std::size_t k) { sites[k] = site_vertex[screen.sites[k]]; });
-  return split_pieces(pslg, screen.pieces, sites, policy, executor, sites_magnitude);
+  return split_pieces(pslg, screen.pieces, sites, policy, executor, sites_magnitude, &*new_pieces);
 }
 
 /// The vertices the PSLG gained from first_added on, numbered after the mesh's vertices (as many as
 /// site_vertex holds) and appended to the vertex maps, as missing points: each starts its walk from a
 /// vertex it is joined to by a piece (through other added vertices, inserted before it, if need be).
+/// new_pieces, when given, holds every piece at an added vertex (split_screened's); else all are read.
 detail::MissingArray added_vertices(const detail::PreparedPslg& pslg, std::size_t first_added,
                                     IndexArray& site_vertex, IndexArray& site_of_vertex,
-                                    detail::CpuExecutor& executor) {
+                                    detail::CpuExecutor& executor,
+                                    const std::optional<std::vector<std::uint32_t>>& new_pieces) {
   using namespace detail;
+  StepTrace trace("added vertices");
   const std::size_t added = pslg.vertices.size() - first_added;
   const auto first = static_cast<std::uint32_t>(site_vertex.size());
   site_of_vertex.resize(pslg.vertices.size(), kNoId);
+  trace.mark("maps grown");
   MissingArray fresh(added);
   for (std::size_t k = 0; k < added; ++k) {
     const auto v = static_cast<std::uint32_t>(first_added + k);
@@ -193,9 +201,17 @@ detail::MissingArray added_vertices(const detail::PreparedPslg& pslg, std::size_
     site_vertex.push_back(v);
     fresh[k] = {first + static_cast<std::uint32_t>(k), kNoId};
   }
-  const std::vector<std::uint32_t> links = executor.compact(pslg.pieces.size(), [&](std::size_t k) {
+  trace.mark("listed");
+  const auto at_added = [&](std::size_t k) {
     return pslg.pieces[k].a >= first_added || pslg.pieces[k].b >= first_added;
-  });
+  };
+  std::vector<std::uint32_t> links;
+  if (new_pieces) {
+    std::copy_if(new_pieces->begin(), new_pieces->end(), std::back_inserter(links), at_added);
+  } else {
+    links = executor.compact(pslg.pieces.size(), at_added);
+  }
+  trace.mark("pieces at them");
   for (bool changed = true; changed;) {
     changed = false;
     for (const std::uint32_t k : links) {
@@ -212,6 +228,7 @@ detail::MissingArray added_vertices(const detail::PreparedPslg& pslg, std::size_
   }
   for (MissingPoint& f : fresh)
     if (f.hint == kNoId) f.hint = 0; // not reached: every added vertex lies on a piece
+  trace.mark("hints");
   return fresh;
 }
 
@@ -752,7 +769,9 @@ Triangulation triangulate_on(std::span<const Point> points, std::span<const Segm
     if (on_gpu && on_its_own() && screen.complete && !screen.pieces.empty())
       beside_split.start(*device_mesh, pieces, std::max(1u, options.inner_iterations));
 #endif
-    pieces_stale = split_screened(pslg, screen, site_vertex, options.crossings, executor, sites_magnitude);
+    std::optional<std::vector<std::uint32_t>> new_pieces;
+    pieces_stale =
+        split_screened(pslg, screen, site_vertex, options.crossings, executor, sites_magnitude, new_pieces);
     trace.mark("split");
     InsertStats placed;
     const std::size_t added = pslg.vertices.size() - first_added;
@@ -767,7 +786,8 @@ Triangulation triangulate_on(std::span<const Point> points, std::span<const Segm
       return start_again(std::move(pslg));
     }
     if (added > 0) {
-      const MissingArray fresh = added_vertices(pslg, first_added, site_vertex, site_of_vertex, executor);
+      const MissingArray fresh =
+          added_vertices(pslg, first_added, site_vertex, site_of_vertex, executor, new_pieces);
       trace.mark("added vertices listed");
       // The new pieces in mesh ids while the device inserts the vertices.
       if (pieces_stale) {

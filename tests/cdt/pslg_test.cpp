@@ -198,8 +198,18 @@ SuspectSplit expect_suspects_split_as_all(const std::vector<Point>& points,
   }
   EXPECT_LT(suspects.size(), some.pieces.size());
   const std::vector<std::uint32_t> sites(some.sites.begin(), some.sites.end());
-  EXPECT_TRUE(cdt::detail::split_pieces(some, suspects, sites, CrossingSegments::resolve, executor));
+  const auto before = piece_pairs(some);
+  std::vector<std::uint32_t> new_pieces{7}; // replaced
+  EXPECT_TRUE(cdt::detail::split_pieces(some, suspects, sites, CrossingSegments::resolve, executor, -1.0,
+                                        &new_pieces));
   EXPECT_EQ(some.vertices.size(), all.vertices.size());
+  // The pieces that came: the ones not in the list before, in increasing order.
+  std::vector<std::uint32_t> came;
+  for (std::uint32_t k = 0; k < some.pieces.size(); ++k)
+    if (!std::binary_search(before.begin(), before.end(), std::pair{some.pieces[k].a, some.pieces[k].b}))
+      came.push_back(k);
+  EXPECT_FALSE(came.empty());
+  EXPECT_EQ(new_pieces, came);
   const auto by_coordinates = [](const PreparedPslg& out) {
     std::vector<std::tuple<double, double, double, double, std::uint32_t>> list;
     for (const auto& piece : out.pieces) {
@@ -491,7 +501,10 @@ TEST(PslgSplit, SuspectsThatAllComeBackLeaveTheList) {
   std::vector<std::uint32_t> suspects;
   for (std::uint32_t k = 0; k < split.pieces.size(); k += 3) suspects.push_back(k);
   const std::vector<std::uint32_t> sites(split.sites.begin(), split.sites.end());
-  EXPECT_FALSE(cdt::detail::split_pieces(split, suspects, sites, CrossingSegments::resolve, executor));
+  std::vector<std::uint32_t> new_pieces{7}; // emptied
+  EXPECT_FALSE(cdt::detail::split_pieces(split, suspects, sites, CrossingSegments::resolve, executor, -1.0,
+                                         &new_pieces));
+  EXPECT_TRUE(new_pieces.empty());
   EXPECT_EQ(piece_pairs(split), pairs);
   EXPECT_EQ(piece_labels(split), labels);
   EXPECT_EQ(split.vertices.size(), vertices);
