@@ -17,6 +17,7 @@
 #include <exception>
 #include <optional>
 #include <string>
+#include <system_error>
 #include <thread>
 #include <utility>
 
@@ -680,7 +681,7 @@ bool DeviceMesh::start_constraints(std::span<const ConstraintPiece2> pieces, uns
   int device = 0;
   CDT_CUDA_CHECK(cudaGetDevice(&device));
   detail::ConstraintsBeside* run = beside.get();
-  run->thread = std::thread([&s, run, pieces, inner_iterations, device] {
+  const auto body = [&s, run, pieces, inner_iterations, device] {
     try {
       CDT_CUDA_CHECK(cudaSetDevice(device)); // the current device is each thread's own
       // This thread's stream (the executor's calls queue on the calling thread's) after the saved links.
@@ -699,7 +700,12 @@ bool DeviceMesh::start_constraints(std::span<const ConstraintPiece2> pieces, uns
         run->failure = std::current_exception();
       }
     }
-  });
+  };
+  try {
+    run->thread = std::thread(body);
+  } catch (const std::system_error&) {
+    return false; // no thread to be had: the caller inserts the constraints after its split
+  }
   s.beside = std::move(beside);
   return true;
 }
