@@ -359,14 +359,15 @@ public:
   /// alive and unchanged until finish_constraints), started on a thread of its own while the caller goes
   /// on: for the host's split of the suspects, which on most inputs changes nothing. The mesh's links
   /// are saved on the device first. Returns false, starting nothing, when the device lacks the memory
-  /// for the saved links and the constraints' buffers. Nothing else may use the mesh until
-  /// finish_constraints.
+  /// for the saved links and the constraints' buffers, or the host a thread. Nothing else may use the mesh
+  /// until finish_constraints.
   bool start_constraints(std::span<const ::cdt::detail::ConstraintPiece2> pieces, unsigned inner_iterations);
 
   /// Ends what start_constraints started. With keep, waits for it and returns its statistics, as
   /// insert_constraints would have; without, stops it at its next step. Returns nothing, the links
-  /// restored to what they were at the start, when not kept or when the run failed with Error (the
-  /// caller inserts the pieces it has then and meets any such error itself); rethrows DeviceError.
+  /// restored to what they were at the start, when not kept or when the run failed with Error or
+  /// DeviceError (the caller inserts the pieces it has then and meets any such error itself); throws
+  /// DeviceError when the links cannot be copied back.
   std::optional<::cdt::detail::ConstraintStats> finish_constraints(bool keep);
 
   /// cdt::detail::flip_to_delaunay (constraint edges never flip); upload_ms and download_ms stay 0.

@@ -663,48 +663,53 @@ bool DeviceMesh::start_constraints(std::span<const ConstraintPiece2> pieces, uns
   } catch (const DeviceError&) {
     return false;
   }
-  auto beside = std::make_unique<detail::ConstraintsBeside>();
-  const std::size_t words = 3 * slots;
-  const cudaStream_t stream = s.executor.stream();
-  beside->tri.resize(words);
-  beside->adj.resize(words);
-  beside->seg.resize(words);
-  beside->vert_tri.resize(s.num_vertices);
-  copy_words(beside->tri.data(), s.tri.data(), words, stream);
-  copy_words(beside->adj.data(), s.adj.data(), words, stream);
-  copy_words(beside->seg.data(), s.seg.data(), words, stream);
-  copy_words(beside->vert_tri.data(), s.vert_tri.data(), s.num_vertices, stream);
-  s.flipped_by_constraints.resize(slots);
-  s.executor.fill_bytes(s.flipped_by_constraints.data(), 0, slots);
-  CDT_CUDA_CHECK(cudaEventCreateWithFlags(&beside->ready, cudaEventDisableTiming));
-  CDT_CUDA_CHECK(cudaEventRecord(beside->ready, stream));
-  int device = 0;
-  CDT_CUDA_CHECK(cudaGetDevice(&device));
-  detail::ConstraintsBeside* run = beside.get();
-  const auto body = [&s, run, pieces, inner_iterations, device] {
-    try {
-      CDT_CUDA_CHECK(cudaSetDevice(device)); // the current device is each thread's own
-      // This thread's stream (the executor's calls queue on the calling thread's) after the saved links.
-      CDT_CUDA_CHECK(cudaStreamWaitEvent(cudaStreamPerThread, run->ready, 0));
-      run->stats = detail::insert_constraints(s, pieces, inner_iterations, s.flipped_by_constraints.data(),
-                                              {}, s.screened_pieces.data(), &run->stop);
-    } catch (...) {
-      run->failure = std::current_exception();
-    }
-    // Everything it queued is done before the owner goes on.
-    if (const cudaError_t status = cudaStreamSynchronize(cudaStreamPerThread);
-        status != cudaSuccess && !run->failure) {
+  // Without the memory after all (another process took it meanwhile), or without a thread to be had,
+  // nothing is started: the caller inserts the constraints after its split.
+  std::unique_ptr<detail::ConstraintsBeside> beside;
+  try {
+    beside = std::make_unique<detail::ConstraintsBeside>();
+    const std::size_t words = 3 * slots;
+    const cudaStream_t stream = s.executor.stream();
+    beside->tri.resize(words);
+    beside->adj.resize(words);
+    beside->seg.resize(words);
+    beside->vert_tri.resize(s.num_vertices);
+    copy_words(beside->tri.data(), s.tri.data(), words, stream);
+    copy_words(beside->adj.data(), s.adj.data(), words, stream);
+    copy_words(beside->seg.data(), s.seg.data(), words, stream);
+    copy_words(beside->vert_tri.data(), s.vert_tri.data(), s.num_vertices, stream);
+    s.flipped_by_constraints.resize(slots);
+    s.executor.fill_bytes(s.flipped_by_constraints.data(), 0, slots);
+    CDT_CUDA_CHECK(cudaEventCreateWithFlags(&beside->ready, cudaEventDisableTiming));
+    CDT_CUDA_CHECK(cudaEventRecord(beside->ready, stream));
+    int device = 0;
+    CDT_CUDA_CHECK(cudaGetDevice(&device));
+    detail::ConstraintsBeside* run = beside.get();
+    const auto body = [&s, run, pieces, inner_iterations, device] {
       try {
-        CDT_CUDA_CHECK(status);
+        CDT_CUDA_CHECK(cudaSetDevice(device)); // the current device is each thread's own
+        // This thread's stream (the executor's calls queue on the calling thread's) after the saved links.
+        CDT_CUDA_CHECK(cudaStreamWaitEvent(cudaStreamPerThread, run->ready, 0));
+        run->stats = detail::insert_constraints(s, pieces, inner_iterations, s.flipped_by_constraints.data(),
+                                                {}, s.screened_pieces.data(), &run->stop);
       } catch (...) {
         run->failure = std::current_exception();
       }
-    }
-  };
-  try {
+      // Everything it queued is done before the owner goes on.
+      if (const cudaError_t status = cudaStreamSynchronize(cudaStreamPerThread);
+          status != cudaSuccess && !run->failure) {
+        try {
+          CDT_CUDA_CHECK(status);
+        } catch (...) {
+          run->failure = std::current_exception();
+        }
+      }
+    };
     run->thread = std::thread(body);
+  } catch (const DeviceError&) {
+    return false;
   } catch (const std::system_error&) {
-    return false; // no thread to be had: the caller inserts the constraints after its split
+    return false;
   }
   s.beside = std::move(beside);
   return true;
@@ -720,10 +725,10 @@ std::optional<ConstraintStats> DeviceMesh::finish_constraints(bool keep) {
   if (run->failure) {
     try {
       std::rethrow_exception(run->failure);
-    } catch (const DeviceError&) {
-      throw;
     } catch (const Error&) {
-      keep = false; // the caller meets it again, or not, with the pieces it has
+      // DeviceError too (the run's buffers beside the screen's, say): the caller's own insertion meets
+      // it again, or not, with the pieces it has; a device that failed for good fails the copy back.
+      keep = false;
     }
   }
   if (keep) return run->stats;
