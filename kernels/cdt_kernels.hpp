@@ -355,19 +355,19 @@ public:
                                                     unsigned inner_iterations,
                                                     const HostParallelFor& parallel = {});
 
-  /// insert_constraints of the pieces the last screen() uploaded (the same `pieces`, which must stay
-  /// alive and unchanged until finish_constraints), started on a thread of its own while the caller goes
-  /// on: for the host's split of the suspects, which on most inputs changes nothing. The mesh's links
-  /// are saved on the device first. Returns false, starting nothing, when the device lacks the memory
-  /// for the saved links and the constraints' buffers, or the host a thread. Nothing else may use the mesh
-  /// until finish_constraints.
-  bool start_constraints(std::span<const ::cdt::detail::ConstraintPiece2> pieces, unsigned inner_iterations);
+  /// insert_constraints started on a thread of its own, on a copy of the mesh's links, while the
+  /// caller goes on: for the host's split of the suspects, which on most inputs changes nothing, and
+  /// the screen before it, which reads the mesh itself meanwhile (and takes the pieces uploaded here,
+  /// which must be its own). `pieces` must stay alive and unchanged until finish_constraints. Returns
+  /// false, starting nothing, when there are no pieces or the device lacks the memory for the copy, the
+  /// constraints' buffers and a screen's. Until finish_constraints the mesh may only be screened.
+  bool start_constraints(std::span<const ::cdt::detail::ConstraintPiece2> pieces, unsigned inner_iterations,
+                         const HostParallelFor& parallel = {});
 
   /// Ends what start_constraints started. With keep, waits for it and returns its statistics, as
-  /// insert_constraints would have; without, stops it at its next step. Returns nothing, the links
-  /// restored to what they were at the start, when not kept or when the run failed with Error or
-  /// DeviceError (the caller inserts the pieces it has then and meets any such error itself); throws
-  /// DeviceError when the links cannot be copied back.
+  /// insert_constraints would have, the copy now the mesh; without, stops it at its next step. Returns
+  /// nothing, the mesh as it was, when not kept or when the run failed with Error (the caller inserts
+  /// the pieces it has then and meets any such error itself); rethrows DeviceError.
   std::optional<::cdt::detail::ConstraintStats> finish_constraints(bool keep);
 
   /// cdt::detail::flip_to_delaunay (constraint edges never flip); upload_ms and download_ms stay 0.

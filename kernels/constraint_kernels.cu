@@ -17,7 +17,6 @@
 #include <exception>
 #include <optional>
 #include <string>
-#include <system_error>
 #include <thread>
 #include <utility>
 
@@ -244,30 +243,28 @@ void check_device_pieces(CudaExecutor& executor, const ConstraintPiece2* pieces,
   if (first != kNoId) ::cdt::detail::throw_invalid_piece(first, host_pieces[first]);
 }
 
-/// insert_constraints on the device; `checked_pieces`, when given, are host_pieces on the device,
-/// already checked (else they are uploaded and checked here). A run given `stop` returns at its next
-/// step once it is set, the mesh part way.
-ConstraintStats insert_constraints(DeviceMesh::State& s, std::span<const ConstraintPiece2> host_pieces,
-                                   unsigned inner_iterations, std::uint8_t* flipped,
-                                   const HostParallelFor& parallel,
+/// insert_constraints on the mesh `m` (on the device) by `executor`; `checked_pieces`, when given, are
+/// host_pieces on the device, already checked (else they are uploaded and checked here). A run given
+/// `stop` returns at its next step once it is set, the mesh part way.
+ConstraintStats insert_constraints(CudaExecutor& executor, const MeshView& m,
+                                   std::span<const ConstraintPiece2> host_pieces, unsigned inner_iterations,
+                                   std::uint8_t* flipped, const HostParallelFor& parallel,
                                    const ConstraintPiece2* checked_pieces = nullptr,
                                    const std::atomic<bool>* stop = nullptr) {
   ConstraintStats stats;
-  const std::uint32_t slots = s.num_slots;
+  const std::uint32_t slots = m.num_slots;
   ::cdt::detail::check_constraint_counts(slots, host_pieces.size());
   if (host_pieces.empty()) return stats;
-  const std::uint64_t max_inner_iterations = ::cdt::detail::constraint_iteration_bound(s.num_vertices);
+  const std::uint64_t max_inner_iterations = ::cdt::detail::constraint_iteration_bound(m.num_vertices);
   const unsigned inner_limit = inner_iterations == 0 ? 1u : inner_iterations;
-  CudaExecutor& executor = s.executor;
   const auto num_pieces = static_cast<std::uint32_t>(host_pieces.size());
 
-  const MeshView m = s.view();
   const auto stopped = [stop] { return stop != nullptr && stop->load(std::memory_order_relaxed); };
   DeviceBuffer<ConstraintPiece2> d_pieces;
   if (checked_pieces == nullptr) {
     d_pieces.resize(num_pieces);
     executor.upload(d_pieces.data(), host_pieces.data(), num_pieces, &parallel);
-    check_device_pieces(executor, d_pieces.data(), host_pieces, s.num_vertices);
+    check_device_pieces(executor, d_pieces.data(), host_pieces, m.num_vertices);
   }
   const ConstraintPiece2* piece = checked_pieces != nullptr ? checked_pieces : d_pieces.data();
   DeviceBuffer<std::uint32_t> d_cmark(slots), d_claim(slots);
@@ -624,20 +621,15 @@ ConstraintStats insert_constraints(DeviceMesh::State& s, std::span<const Constra
 
 ConstraintStats DeviceMesh::insert_constraints(std::span<const ConstraintPiece2> pieces,
                                                unsigned inner_iterations, const HostParallelFor& parallel) {
-  if (state_->beside) throw Error("internal error: insert_constraints while constraints run beside the host");
-  state_->screened_pieces = {};
+  state_->require_alone("insert_constraints");
   detail::DeviceBuffer<std::uint8_t>& flipped = state_->flipped_by_constraints;
   flipped.resize(state_->num_slots);
   state_->executor.fill_bytes(flipped.data(), 0, state_->num_slots);
-  return detail::insert_constraints(*state_, pieces, inner_iterations, flipped.data(), parallel);
+  return detail::insert_constraints(state_->executor, state_->view(), pieces, inner_iterations,
+                                    flipped.data(), parallel);
 }
 
 namespace {
-
-/// The bytes of the mesh's links (tri, adj, seg, vert_tri) saved for start_constraints.
-std::size_t saved_links_bytes(const DeviceMesh::State& s) {
-  return 36 * static_cast<std::size_t>(s.num_slots) + 4 * static_cast<std::size_t>(s.num_vertices);
-}
 
 /// Copies n words from src to dst on the device, queued on `stream`.
 void copy_words(std::uint32_t* dst, const std::uint32_t* src, std::size_t n, cudaStream_t stream) {
@@ -647,72 +639,72 @@ void copy_words(std::uint32_t* dst, const std::uint32_t* src, std::size_t n, cud
 
 } // namespace
 
-bool DeviceMesh::start_constraints(std::span<const ConstraintPiece2> pieces, unsigned inner_iterations) {
+bool DeviceMesh::start_constraints(std::span<const ConstraintPiece2> pieces, unsigned inner_iterations,
+                                   const HostParallelFor& parallel) {
   State& s = *state_;
   if (s.beside) throw Error("internal error: start_constraints: constraints already run beside the host");
-  if (pieces.empty() || s.screened_pieces.size() != pieces.size())
-    throw Error("internal error: start_constraints: the pieces were not screened");
   ::cdt::detail::check_constraint_counts(s.num_slots, pieces.size());
-  // The saved links, and the constraints' own buffers (about 64 bytes a slot, 32 a piece, as
-  // insert_constraints allocates them), with room to spare: else the caller inserts them after its split.
-  const std::size_t slots = s.num_slots;
-  const std::size_t needed =
-      saved_links_bytes(s) + slots + 64 * slots + 32 * pieces.size() + (std::size_t{64} << 20);
+  if (pieces.empty()) return false;
+  // The copy of the links (36 bytes a slot, 4 a vertex), the flags of its flips and the pieces; the
+  // constraints' own buffers (about 64 bytes a slot, 32 a piece, as insert_constraints allocates them)
+  // and a screen's beside them (about 24 a slot, 4 a piece), with room to spare: else the caller
+  // inserts them after its split.
+  const std::size_t slots = s.num_slots, np = pieces.size();
+  const std::size_t needed = (36 + 1 + 64 + 24) * slots + 4 * static_cast<std::size_t>(s.num_vertices) +
+                             (12 + 32 + 4) * np + (std::size_t{64} << 20);
   try {
     detail::require_device_memory(needed, 0, "constraints beside the host");
   } catch (const DeviceError&) {
     return false;
   }
-  // Without the memory after all (another process took it meanwhile), or without a thread to be had,
-  // nothing is started: the caller inserts the constraints after its split.
-  std::unique_ptr<detail::ConstraintsBeside> beside;
-  try {
-    beside = std::make_unique<detail::ConstraintsBeside>();
-    const std::size_t words = 3 * slots;
-    const cudaStream_t stream = s.executor.stream();
-    beside->tri.resize(words);
-    beside->adj.resize(words);
-    beside->seg.resize(words);
-    beside->vert_tri.resize(s.num_vertices);
-    copy_words(beside->tri.data(), s.tri.data(), words, stream);
-    copy_words(beside->adj.data(), s.adj.data(), words, stream);
-    copy_words(beside->seg.data(), s.seg.data(), words, stream);
-    copy_words(beside->vert_tri.data(), s.vert_tri.data(), s.num_vertices, stream);
-    s.flipped_by_constraints.resize(slots);
-    s.executor.fill_bytes(s.flipped_by_constraints.data(), 0, slots);
-    CDT_CUDA_CHECK(cudaEventCreateWithFlags(&beside->ready, cudaEventDisableTiming));
-    CDT_CUDA_CHECK(cudaEventRecord(beside->ready, stream));
-    int device = 0;
-    CDT_CUDA_CHECK(cudaGetDevice(&device));
-    detail::ConstraintsBeside* run = beside.get();
-    const auto body = [&s, run, pieces, inner_iterations, device] {
+  auto beside = std::make_unique<detail::ConstraintsBeside>();
+  detail::CudaExecutor& executor = s.executor;
+  beside->pieces.resize(np);
+  executor.upload(beside->pieces.data(), pieces.data(), np, &parallel);
+  detail::check_device_pieces(executor, beside->pieces.data(), pieces, s.num_vertices);
+  const std::size_t words = 3 * slots;
+  const cudaStream_t stream = executor.stream();
+  beside->tri.resize(words);
+  beside->adj.resize(words);
+  beside->seg.resize(words);
+  beside->vert_tri.resize(s.num_vertices);
+  beside->flipped.resize(slots);
+  copy_words(beside->tri.data(), s.tri.data(), words, stream);
+  copy_words(beside->adj.data(), s.adj.data(), words, stream);
+  copy_words(beside->seg.data(), s.seg.data(), words, stream);
+  copy_words(beside->vert_tri.data(), s.vert_tri.data(), s.num_vertices, stream);
+  executor.fill_bytes(beside->flipped.data(), 0, slots);
+  CDT_CUDA_CHECK(cudaEventCreateWithFlags(&beside->ready, cudaEventDisableTiming));
+  CDT_CUDA_CHECK(cudaEventRecord(beside->ready, stream));
+  int device = 0;
+  CDT_CUDA_CHECK(cudaGetDevice(&device));
+  detail::ConstraintsBeside* run = beside.get();
+  const ::cdt::detail::MeshView copy{s.x.data(),      s.y.data(),           run->tri.data(), run->adj.data(),
+                                     run->seg.data(), run->vert_tri.data(), s.num_slots,     s.num_vertices};
+  run->thread = std::thread([run, copy, pieces, inner_iterations, device] {
+    try {
+      CDT_CUDA_CHECK(cudaSetDevice(device)); // the current device is each thread's own
+      // An executor of this thread's own: its stream, and its scratch words and buffers.
+      detail::CudaExecutor own;
       try {
-        CDT_CUDA_CHECK(cudaSetDevice(device)); // the current device is each thread's own
-        // This thread's stream (the executor's calls queue on the calling thread's) after the saved links.
-        CDT_CUDA_CHECK(cudaStreamWaitEvent(cudaStreamPerThread, run->ready, 0));
-        run->stats = detail::insert_constraints(s, pieces, inner_iterations, s.flipped_by_constraints.data(),
-                                                {}, s.screened_pieces.data(), &run->stop);
+        CDT_CUDA_CHECK(cudaStreamWaitEvent(own.stream(), run->ready, 0)); // after the copies
+        run->stats = detail::insert_constraints(own, copy, pieces, inner_iterations, run->flipped.data(), {},
+                                                run->pieces.data(), &run->stop);
+        own.synchronize(); // everything it queued is done before the owner goes on
       } catch (...) {
         run->failure = std::current_exception();
+        own.synchronize(); // the executor's destructor waits too, and reports nothing
       }
-      // Everything it queued is done before the owner goes on.
-      if (const cudaError_t status = cudaStreamSynchronize(cudaStreamPerThread);
-          status != cudaSuccess && !run->failure) {
-        try {
-          CDT_CUDA_CHECK(status);
-        } catch (...) {
-          run->failure = std::current_exception();
-        }
-      }
-    };
-    run->thread = std::thread(body);
-  } catch (const DeviceError&) {
-    return false;
-  } catch (const std::system_error&) {
-    return false;
-  }
+    } catch (...) {
+      if (!run->failure) run->failure = std::current_exception();
+    }
+  });
   s.beside = std::move(beside);
   return true;
+}
+
+const ConstraintPiece2* DeviceMesh::State::pieces_beside(std::size_t count) const {
+  return beside && beside->pieces.size() == count ? beside->pieces.data() : nullptr;
 }
 
 std::optional<ConstraintStats> DeviceMesh::finish_constraints(bool keep) {
@@ -721,24 +713,23 @@ std::optional<ConstraintStats> DeviceMesh::finish_constraints(bool keep) {
   const std::unique_ptr<detail::ConstraintsBeside> run = std::move(s.beside);
   if (!keep) run->stop = true;
   run->thread.join();
-  s.screened_pieces = {};
   if (run->failure) {
     try {
       std::rethrow_exception(run->failure);
+    } catch (const DeviceError&) {
+      throw;
     } catch (const Error&) {
-      // DeviceError too (the run's buffers beside the screen's, say): the caller's own insertion meets
-      // it again, or not, with the pieces it has; a device that failed for good fails the copy back.
-      keep = false;
+      keep = false; // the caller meets it again, or not, with the pieces it has
     }
   }
-  if (keep) return run->stats;
-  const std::size_t words = 3 * static_cast<std::size_t>(s.num_slots);
-  const cudaStream_t stream = s.executor.stream();
-  copy_words(s.tri.data(), run->tri.data(), words, stream);
-  copy_words(s.adj.data(), run->adj.data(), words, stream);
-  copy_words(s.seg.data(), run->seg.data(), words, stream);
-  copy_words(s.vert_tri.data(), run->vert_tri.data(), s.num_vertices, stream);
-  return std::nullopt;
+  if (!keep) return std::nullopt; // the mesh itself was not touched
+  // The copy becomes the mesh; the mesh's old arrays go with `run`, after the work queued on them.
+  std::swap(s.tri, run->tri);
+  std::swap(s.adj, run->adj);
+  std::swap(s.seg, run->seg);
+  std::swap(s.vert_tri, run->vert_tri);
+  std::swap(s.flipped_by_constraints, run->flipped);
+  return run->stats;
 }
 
 } // namespace cdt::gpu

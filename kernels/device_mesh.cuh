@@ -96,15 +96,18 @@ void check_device_pieces(CudaExecutor& executor, const ::cdt::detail::Constraint
 /// Device memory of a mesh of `slots` triangles over nv vertices, in bytes.
 std::size_t mesh_device_bytes(std::size_t slots, std::size_t nv);
 
-/// insert_constraints running on a thread of its own (DeviceMesh::start_constraints), with the links it
-/// started from saved on the device. The destructor stops it at its next step and joins it.
+/// insert_constraints running on a thread of its own (DeviceMesh::start_constraints) on a copy of the
+/// mesh's links, which becomes the mesh when kept. The destructor stops it at its next step and joins it.
+/// Its buffers are allocated and released by the owner's thread.
 struct ConstraintsBeside {
   std::thread thread;
   std::atomic<bool> stop{false}; ///< set by the owner: the run returns at its next step
   std::exception_ptr failure;    ///< what the run threw
   ::cdt::detail::ConstraintStats stats;
-  cudaEvent_t ready = nullptr; ///< recorded on the owner's stream once the links are saved
-  DeviceBuffer<std::uint32_t> tri, adj, seg, vert_tri; ///< the links before the run
+  cudaEvent_t ready = nullptr; ///< recorded on the owner's stream once the copies are made
+  DeviceBuffer<::cdt::detail::ConstraintPiece2> pieces; ///< uploaded and checked
+  DeviceBuffer<std::uint32_t> tri, adj, seg, vert_tri;  ///< the copy of the links the run changes
+  DeviceBuffer<std::uint8_t> flipped;                   ///< per slot of the copy, 1 where the run flipped
 
   ConstraintsBeside() = default;
   ConstraintsBeside(const ConstraintsBeside&) = delete;
@@ -132,11 +135,19 @@ struct DeviceMesh::State {
   detail::DeviceBuffer<std::uint8_t> made_by_insert;
   /// The first entries of output()'s vertex_of, already on the device (take_vertex_ids; else empty).
   detail::DeviceBuffer<std::uint32_t> vertex_ids;
-  /// The pieces the last screen() uploaded and checked, for start_constraints (else empty).
-  detail::DeviceBuffer<::cdt::detail::ConstraintPiece2> screened_pieces;
   /// The constraints started beside the host (start_constraints; else null). Declared last: it is
   /// stopped and joined before the buffers it uses go.
   std::unique_ptr<detail::ConstraintsBeside> beside;
+
+  /// Throws Error naming `step` while constraints run beside the host (they become the mesh when kept).
+  void require_alone(const char* step) const {
+    if (beside)
+      throw Error(std::string("internal error: ") + step + " while constraints run beside the host");
+  }
+
+  /// The pieces that the constraints beside the host uploaded and checked, when `count` of them run
+  /// (else null): screen() takes them from there.
+  const ::cdt::detail::ConstraintPiece2* pieces_beside(std::size_t count) const;
 
   ::cdt::detail::MeshView view() {
     return ::cdt::detail::MeshView{x.data(),   y.data(),        tri.data(), adj.data(),

@@ -214,6 +214,7 @@ using FlipTeamRounds = TeamRounds<FlipLoop, FlipRounds, FlipRoundsEnd, kFlipBloc
 /// only[t] != 0 when only is given. With first_fake given, the fake fans' flips instead
 /// (fake_fan_candidate), the first round over the live slots with a fake corner.
 FlipResult flip_mesh(DeviceMesh::State& s, const std::uint8_t* only, std::uint32_t first_fake = kNoId) {
+  s.require_alone("flips");
   FlipResult result;
   const std::uint32_t slots = s.num_slots;
   if (slots == 0) return result;

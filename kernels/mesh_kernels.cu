@@ -868,6 +868,7 @@ using InsertTeamRounds =
 
 InsertStats insert(DeviceMesh::State& s, std::span<const MissingPoint> missing,
                    const HostParallelFor& parallel) {
+  s.require_alone("insert");
   using ::cdt::detail::PointLocation;
   InsertStats stats;
   const std::size_t num_points = missing.size();
@@ -1403,6 +1404,7 @@ void DeviceMesh::add_vertices(std::span<const double> x, std::span<const double>
   if (x.size() != y.size()) throw Error("internal error: add_vertices: x and y differ in length");
   if (x.empty()) return;
   State& s = *state_;
+  s.require_alone("add_vertices");
   const std::size_t used = s.num_vertices;
   const std::size_t count = used + x.size();
   if (count >= kNoId) throw Error("internal error: add_vertices: too many vertices");
@@ -1489,6 +1491,7 @@ void DeviceMesh::output(std::span<const std::uint32_t> vertex_of,
                         const HostParallelFor& parallel) const {
   static_assert(sizeof(std::array<std::uint32_t, 3>) == 3 * sizeof(std::uint32_t));
   State& s = *state_;
+  s.require_alone("output");
   detail::CudaExecutor& executor = s.executor;
   ::cdt::detail::StepTrace trace("device output");
   const ::cdt::detail::MeshView m = s.view();

@@ -103,11 +103,15 @@ ScreenedPieces DeviceMesh::screen(std::span<const ConstraintPiece2> host_pieces,
     trace.mark(step);
   };
 
-  s.screened_pieces = {};
-  DeviceBuffer<ConstraintPiece2> d_pieces(np);
-  executor.upload(d_pieces.data(), host_pieces.data(), np, &parallel);
-  detail::check_device_pieces(executor, d_pieces.data(), host_pieces, s.num_vertices);
-  const ConstraintPiece2* pieces = d_pieces.data();
+  // Uploaded and checked already when the constraints run beside the host (on a copy of the links).
+  DeviceBuffer<ConstraintPiece2> d_pieces;
+  const ConstraintPiece2* pieces = s.pieces_beside(np);
+  if (pieces == nullptr) {
+    d_pieces.resize(np);
+    executor.upload(d_pieces.data(), host_pieces.data(), np, &parallel);
+    detail::check_device_pieces(executor, d_pieces.data(), host_pieces, s.num_vertices);
+    pieces = d_pieces.data();
+  }
   // Per edge side, the piece lying on it; per piece, whether it is walked, whether it shares a triangle
   // and whether it is suspect; per slot, the lowest and the highest walker through it.
   DeviceBuffer<std::uint32_t> d_piece_on(3 * static_cast<std::size_t>(s.num_slots)), d_low(s.num_slots),
@@ -187,7 +191,6 @@ ScreenedPieces DeviceMesh::screen(std::span<const ConstraintPiece2> host_pieces,
         site[pieces[k].b] = 1;
       },
       "screen_ends");
-  s.screened_pieces = std::move(d_pieces); // checked: start_constraints takes them from here
   out.pieces = detail::flagged(executor, suspect, np);
   if (out.pieces.empty()) return out;
   out.sites = detail::flagged(executor, site, s.num_vertices);

@@ -322,7 +322,8 @@ private:
 };
 
 #if defined(TRIXEL_HAVE_CUDA)
-/// Constraints the device inserts while the host splits the suspects (DeviceMesh::start_constraints):
+/// Constraints the device inserts on a copy of the mesh while it screens the mesh and the host splits
+/// the suspects (DeviceMesh::start_constraints):
 /// finish() keeps or undoes them; the destructor, should an exception leave first, stops them, so it is
 /// declared after the pieces they read.
 class ConstraintsBesideSplit {
@@ -341,8 +342,8 @@ public:
 
   /// Starts them, unless the device lacks the memory (then running() stays false).
   void start(gpu::DeviceMesh& mesh, std::span<const detail::ConstraintPiece2> pieces,
-             unsigned inner_iterations) {
-    if (mesh.start_constraints(pieces, inner_iterations)) mesh_ = &mesh;
+             unsigned inner_iterations, const gpu::HostParallelFor& parallel) {
+    if (mesh.start_constraints(pieces, inner_iterations, parallel)) mesh_ = &mesh;
   }
   bool running() const { return mesh_ != nullptr; }
   /// DeviceMesh::finish_constraints.
@@ -759,16 +760,17 @@ Triangulation triangulate_on(std::span<const Point> points, std::span<const Segm
     trace.mark("pieces");
     ScreenedPieces screen;
 #if defined(TRIXEL_HAVE_CUDA)
+    // Most splits change nothing (10^7 points + 10^6 segments: none of 18K suspects cross): the device
+    // inserts the constraints on a copy of the mesh while it screens the mesh and the host splits the
+    // suspects, and the copy becomes the mesh unless the split changed the pieces.
+    if (on_gpu && on_its_own()) {
+      beside_split.start(*device_mesh, pieces, std::max(1u, options.inner_iterations), parallel);
+      trace.mark("constraints started");
+    }
     if (on_gpu) screen = device_mesh->screen(pieces, parallel);
 #endif
     if (!on_gpu) screen = screen_pieces(mesh.view(), pieces, executor);
     trace.mark("screened");
-#if defined(TRIXEL_HAVE_CUDA)
-    // Most splits change nothing (10^7 points + 10^6 segments: none of 18K suspects cross): the device
-    // inserts the constraints meanwhile, from links it saved, undone when the split changed the pieces.
-    if (on_gpu && on_its_own() && screen.complete && !screen.pieces.empty())
-      beside_split.start(*device_mesh, pieces, std::max(1u, options.inner_iterations));
-#endif
     std::optional<std::vector<std::uint32_t>> new_pieces;
     pieces_stale =
         split_screened(pslg, screen, site_vertex, options.crossings, executor, sites_magnitude, new_pieces);

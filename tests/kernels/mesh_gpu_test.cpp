@@ -397,9 +397,10 @@ TEST_F(MeshGpu, ConstraintsMatchTheCpuExecutor) {
   }
 }
 
-// Constraints started beside the host (start_constraints after screen): kept, they are insert_constraints'
-// result flip for flip and the Lawson flips after them find the same; undone, the mesh is the one they
-// started from and takes the pieces again; a run that fails (a piece through a vertex) is undone too.
+// Constraints started beside the host (start_constraints), on a copy of the mesh while the mesh itself is
+// screened: kept, the copy is insert_constraints' result flip for flip and the Lawson flips after them
+// find the same; stopped, or failed (crossing pieces), the mesh is the one they started from and takes
+// the pieces again. Nothing but the screen may use the mesh meanwhile.
 TEST_F(MeshGpu, ConstraintsBesideTheHostKeepOrUndo) {
   CpuExecutor executor(4);
   const trixel_gen::Pslg pslg =
@@ -410,6 +411,8 @@ TEST_F(MeshGpu, ConstraintsBesideTheHostKeepOrUndo) {
     pieces.push_back({pslg.segments[k].a, pslg.segments[k].b, static_cast<std::uint32_t>(k)});
 
   cdt::gpu::DeviceMesh plain(start);
+  const ScreenedPieces plain_screen = plain.screen(pieces); // no suspects: the pieces cross nothing
+  ASSERT_TRUE(plain_screen.complete);
   const ConstraintStats plain_stats = plain.insert_constraints(pieces, 8);
   const cdt::gpu::FlipResult plain_flips = plain.flip_after_constraints();
   Mesh expected;
@@ -417,10 +420,15 @@ TEST_F(MeshGpu, ConstraintsBesideTheHostKeepOrUndo) {
   ASSERT_GT(plain_stats.flips, 0u);
 
   cdt::gpu::DeviceMesh kept(start);
-  EXPECT_THROW(kept.start_constraints(pieces, 8), cdt::Error); // not screened
-  kept.screen(pieces);
+  EXPECT_FALSE(kept.start_constraints({}, 8)); // nothing to insert
   ASSERT_TRUE(kept.start_constraints(pieces, 8));
-  EXPECT_THROW(kept.insert_constraints(pieces, 8), cdt::Error); // one run at a time
+  EXPECT_THROW(kept.start_constraints(pieces, 8), cdt::Error); // one run at a time
+  const ScreenedPieces screened = kept.screen(pieces);         // the mesh as it was
+  EXPECT_TRUE(screened.complete);
+  EXPECT_EQ(screened.pieces, plain_screen.pieces);
+  EXPECT_EQ(screened.sites, plain_screen.sites);
+  EXPECT_THROW(kept.insert_constraints(pieces, 8), cdt::Error);
+  EXPECT_THROW(kept.flip(), cdt::Error);
   const std::optional<ConstraintStats> kept_stats = kept.finish_constraints(true);
   ASSERT_TRUE(kept_stats.has_value());
   EXPECT_EQ(kept_stats->flips, plain_stats.flips);
@@ -433,11 +441,10 @@ TEST_F(MeshGpu, ConstraintsBesideTheHostKeepOrUndo) {
   expect_same_mesh(copy, expected, "kept");
   EXPECT_THROW(kept.finish_constraints(true), cdt::Error); // nothing runs
 
-  // Undone at once, and after the run is done (the host's wait is longer than the run).
+  // Stopped at once, and after the run is done (the host's split is longer than the run).
   for (const bool after_the_run : {false, true}) {
-    const std::string what = after_the_run ? "undone after the run" : "undone at once";
+    const std::string what = after_the_run ? "stopped after the run" : "stopped at once";
     cdt::gpu::DeviceMesh undone(start);
-    undone.screen(pieces);
     ASSERT_TRUE(undone.start_constraints(pieces, 8)) << what;
     if (after_the_run) std::this_thread::sleep_for(std::chrono::milliseconds(200)); // done by then, or not
     EXPECT_FALSE(undone.finish_constraints(false).has_value()) << what;
@@ -454,14 +461,17 @@ TEST_F(MeshGpu, ConstraintsBesideTheHostKeepOrUndo) {
   const Mesh small = trixel_test::sweep_triangulate(x, y);
   const std::vector<ConstraintPiece2> crossing = {{0, 2, 0}, {1, 3, 1}};
   cdt::gpu::DeviceMesh failing(small);
-  const ScreenedPieces screened = failing.screen(crossing);
-  ASSERT_TRUE(screened.complete);
-  EXPECT_FALSE(screened.pieces.empty());
   ASSERT_TRUE(failing.start_constraints(crossing, 8));
   EXPECT_FALSE(failing.finish_constraints(true).has_value());
   failing.download(copy);
   expect_same_mesh(copy, small, "failed run");
   EXPECT_THROW(failing.insert_constraints(crossing, 8), cdt::Error);
+
+  // A mesh destroyed while its constraints run stops and joins them.
+  {
+    cdt::gpu::DeviceMesh dropped(start);
+    ASSERT_TRUE(dropped.start_constraints(pieces, 8));
+  }
 }
 
 // The segments' screen (gcd/screen.hpp) on the device: the same suspect pieces and sites as the CPU
