@@ -17,6 +17,7 @@
 #include <exception>
 #include <optional>
 #include <string>
+#include <system_error>
 #include <thread>
 #include <utility>
 
@@ -681,7 +682,7 @@ bool DeviceMesh::start_constraints(std::span<const ConstraintPiece2> pieces, uns
   detail::ConstraintsBeside* run = beside.get();
   const ::cdt::detail::MeshView copy{s.x.data(),      s.y.data(),           run->tri.data(), run->adj.data(),
                                      run->seg.data(), run->vert_tri.data(), s.num_slots,     s.num_vertices};
-  run->thread = std::thread([run, copy, pieces, inner_iterations, device] {
+  const auto body = [run, copy, pieces, inner_iterations, device] {
     try {
       CDT_CUDA_CHECK(cudaSetDevice(device)); // the current device is each thread's own
       // An executor of this thread's own: its stream, and its scratch words and buffers.
@@ -698,7 +699,12 @@ bool DeviceMesh::start_constraints(std::span<const ConstraintPiece2> pieces, uns
     } catch (...) {
       if (!run->failure) run->failure = std::current_exception();
     }
-  });
+  };
+  try {
+    run->thread = std::thread(body);
+  } catch (const std::system_error&) {
+    return false; // no thread to be had: the caller inserts the constraints after its split
+  }
   s.beside = std::move(beside);
   return true;
 }
