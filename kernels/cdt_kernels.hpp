@@ -360,14 +360,15 @@ public:
   /// the screen before it, which reads the mesh itself meanwhile (and takes the pieces uploaded here,
   /// which must be its own). `pieces` must stay alive and unchanged until finish_constraints. Returns
   /// false, starting nothing, when there are no pieces or the device lacks the memory for the copy, the
-  /// constraints' buffers and a screen's. Until finish_constraints the mesh may only be screened.
+  /// constraints' buffers and a screen's, or the host a thread. Until finish_constraints the mesh may
+  /// only be screened.
   bool start_constraints(std::span<const ::cdt::detail::ConstraintPiece2> pieces, unsigned inner_iterations,
                          const HostParallelFor& parallel = {});
 
   /// Ends what start_constraints started. With keep, waits for it and returns its statistics, as
   /// insert_constraints would have, the copy now the mesh; without, stops it at its next step. Returns
-  /// nothing, the mesh as it was, when not kept or when the run failed with Error (the caller inserts
-  /// the pieces it has then and meets any such error itself); rethrows DeviceError.
+  /// nothing, the mesh as it was, when not kept or when the run failed with Error or DeviceError (the
+  /// caller inserts the pieces it has then and meets any such error itself).
   std::optional<::cdt::detail::ConstraintStats> finish_constraints(bool keep);
 
   /// cdt::detail::flip_to_delaunay (constraint edges never flip); upload_ms and download_ms stay 0.

@@ -658,59 +658,68 @@ bool DeviceMesh::start_constraints(std::span<const ConstraintPiece2> pieces, uns
   } catch (const DeviceError&) {
     return false;
   }
-  auto beside = std::make_unique<detail::ConstraintsBeside>();
-  detail::CudaExecutor& executor = s.executor;
-  beside->pieces.resize(np);
-  executor.upload(beside->pieces.data(), pieces.data(), np, &parallel);
-  detail::check_device_pieces(executor, beside->pieces.data(), pieces, s.num_vertices);
-  const std::size_t words = 3 * slots;
-  const cudaStream_t stream = executor.stream();
-  beside->tri.resize(words);
-  beside->adj.resize(words);
-  beside->seg.resize(words);
-  beside->vert_tri.resize(s.num_vertices);
-  beside->flipped.resize(slots);
-  copy_words(beside->tri.data(), s.tri.data(), words, stream);
-  copy_words(beside->adj.data(), s.adj.data(), words, stream);
-  copy_words(beside->seg.data(), s.seg.data(), words, stream);
-  copy_words(beside->vert_tri.data(), s.vert_tri.data(), s.num_vertices, stream);
-  executor.fill_bytes(beside->flipped.data(), 0, slots);
-  CDT_CUDA_CHECK(cudaEventCreateWithFlags(&beside->ready, cudaEventDisableTiming));
-  CDT_CUDA_CHECK(cudaEventRecord(beside->ready, stream));
-  int device = 0;
-  CDT_CUDA_CHECK(cudaGetDevice(&device));
-  detail::ConstraintsBeside* run = beside.get();
-  const ::cdt::detail::MeshView copy{s.x.data(),      s.y.data(),           run->tri.data(), run->adj.data(),
-                                     run->seg.data(), run->vert_tri.data(), s.num_slots,     s.num_vertices};
-  const auto body = [run, copy, pieces, inner_iterations, device] {
-    try {
-      CDT_CUDA_CHECK(cudaSetDevice(device)); // the current device is each thread's own
-      // An executor of this thread's own: its stream, and its scratch words and buffers.
-      detail::CudaExecutor own;
-      try {
-        CDT_CUDA_CHECK(cudaStreamWaitEvent(own.stream(), run->ready, 0)); // after the copies
-        run->stats = detail::insert_constraints(own, copy, pieces, inner_iterations, run->flipped.data(), {},
-                                                run->pieces.data(), &run->stop);
-        own.synchronize(); // everything it queued is done before the owner goes on
-      } catch (...) {
-        run->failure = std::current_exception();
-        own.synchronize(); // the executor's destructor waits too, and reports nothing
-      }
-    } catch (...) {
-      if (!run->failure) run->failure = std::current_exception();
-    }
-  };
+  // Without the memory after all (another process took it meanwhile), or without a thread to be had,
+  // nothing is started: the caller inserts the constraints after its split. (A bad piece is an Error.)
+  std::unique_ptr<detail::ConstraintsBeside> beside;
   try {
+    beside = std::make_unique<detail::ConstraintsBeside>();
+    beside->host_pieces = pieces;
+    detail::CudaExecutor& executor = s.executor;
+    beside->pieces.resize(np);
+    executor.upload(beside->pieces.data(), pieces.data(), np, &parallel);
+    detail::check_device_pieces(executor, beside->pieces.data(), pieces, s.num_vertices);
+    const std::size_t words = 3 * slots;
+    const cudaStream_t stream = executor.stream();
+    beside->tri.resize(words);
+    beside->adj.resize(words);
+    beside->seg.resize(words);
+    beside->vert_tri.resize(s.num_vertices);
+    beside->flipped.resize(slots);
+    copy_words(beside->tri.data(), s.tri.data(), words, stream);
+    copy_words(beside->adj.data(), s.adj.data(), words, stream);
+    copy_words(beside->seg.data(), s.seg.data(), words, stream);
+    copy_words(beside->vert_tri.data(), s.vert_tri.data(), s.num_vertices, stream);
+    executor.fill_bytes(beside->flipped.data(), 0, slots);
+    CDT_CUDA_CHECK(cudaEventCreateWithFlags(&beside->ready, cudaEventDisableTiming));
+    CDT_CUDA_CHECK(cudaEventRecord(beside->ready, stream));
+    int device = 0;
+    CDT_CUDA_CHECK(cudaGetDevice(&device));
+    detail::ConstraintsBeside* run = beside.get();
+    const ::cdt::detail::MeshView copy{s.x.data(),      s.y.data(),      run->tri.data(),
+                                       run->adj.data(), run->seg.data(), run->vert_tri.data(),
+                                       s.num_slots,     s.num_vertices};
+    const auto body = [run, copy, pieces, inner_iterations, device] {
+      try {
+        CDT_CUDA_CHECK(cudaSetDevice(device)); // the current device is each thread's own
+        // An executor of this thread's own: its stream, and its scratch words and buffers.
+        detail::CudaExecutor own;
+        try {
+          CDT_CUDA_CHECK(cudaStreamWaitEvent(own.stream(), run->ready, 0)); // after the copies
+          run->stats = detail::insert_constraints(own, copy, pieces, inner_iterations, run->flipped.data(),
+                                                  {}, run->pieces.data(), &run->stop);
+          own.synchronize(); // everything it queued is done before the owner goes on
+        } catch (...) {
+          run->failure = std::current_exception();
+          own.synchronize(); // the executor's destructor waits too, and reports nothing
+        }
+      } catch (...) {
+        if (!run->failure) run->failure = std::current_exception();
+      }
+    };
     run->thread = std::thread(body);
+  } catch (const DeviceError&) {
+    return false;
   } catch (const std::system_error&) {
-    return false; // no thread to be had: the caller inserts the constraints after its split
+    return false;
   }
   s.beside = std::move(beside);
   return true;
 }
 
-const ConstraintPiece2* DeviceMesh::State::pieces_beside(std::size_t count) const {
-  return beside && beside->pieces.size() == count ? beside->pieces.data() : nullptr;
+const ConstraintPiece2* DeviceMesh::State::pieces_beside(std::span<const ConstraintPiece2> host) const {
+  return beside && beside->host_pieces.data() == host.data() && beside->host_pieces.size() == host.size()
+             ? beside->pieces.data()
+             : nullptr;
 }
 
 std::optional<ConstraintStats> DeviceMesh::finish_constraints(bool keep) {
@@ -722,10 +731,10 @@ std::optional<ConstraintStats> DeviceMesh::finish_constraints(bool keep) {
   if (run->failure) {
     try {
       std::rethrow_exception(run->failure);
-    } catch (const DeviceError&) {
-      throw;
     } catch (const Error&) {
-      keep = false; // the caller meets it again, or not, with the pieces it has
+      // DeviceError too (the run's buffers beside the screen's, say): the caller's own insertion meets
+      // it again, or not, with the pieces it has.
+      keep = false;
     }
   }
   if (!keep) return std::nullopt; // the mesh itself was not touched

@@ -105,9 +105,10 @@ struct ConstraintsBeside {
   std::exception_ptr failure;    ///< what the run threw
   ::cdt::detail::ConstraintStats stats;
   cudaEvent_t ready = nullptr; ///< recorded on the owner's stream once the copies are made
-  DeviceBuffer<::cdt::detail::ConstraintPiece2> pieces; ///< uploaded and checked
-  DeviceBuffer<std::uint32_t> tri, adj, seg, vert_tri;  ///< the copy of the links the run changes
-  DeviceBuffer<std::uint8_t> flipped;                   ///< per slot of the copy, 1 where the run flipped
+  std::span<const ::cdt::detail::ConstraintPiece2> host_pieces; ///< the caller's
+  DeviceBuffer<::cdt::detail::ConstraintPiece2> pieces;         ///< host_pieces uploaded and checked
+  DeviceBuffer<std::uint32_t> tri, adj, seg, vert_tri;          ///< the copy of the links the run changes
+  DeviceBuffer<std::uint8_t> flipped; ///< per slot of the copy, 1 where the run flipped
 
   ConstraintsBeside() = default;
   ConstraintsBeside(const ConstraintsBeside&) = delete;
@@ -145,9 +146,10 @@ struct DeviceMesh::State {
       throw Error(std::string("internal error: ") + step + " while constraints run beside the host");
   }
 
-  /// The pieces that the constraints beside the host uploaded and checked, when `count` of them run
-  /// (else null): screen() takes them from there.
-  const ::cdt::detail::ConstraintPiece2* pieces_beside(std::size_t count) const;
+  /// The pieces that the constraints beside the host uploaded and checked, when they run on `host` (the
+  /// same array; else null): screen() takes them from there.
+  const ::cdt::detail::ConstraintPiece2*
+  pieces_beside(std::span<const ::cdt::detail::ConstraintPiece2> host) const;
 
   ::cdt::detail::MeshView view() {
     return ::cdt::detail::MeshView{x.data(),   y.data(),        tri.data(), adj.data(),

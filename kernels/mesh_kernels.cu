@@ -1451,6 +1451,7 @@ DeviceMesh& DeviceMesh::operator=(DeviceMesh&&) noexcept = default;
 
 ShiftStats DeviceMesh::shift(std::uint32_t num_sites, std::span<const double> true_x,
                              std::span<const double> true_y, MissingArray& missing) {
+  state_->require_alone("shift");
   if (true_x.size() < num_sites || true_y.size() < num_sites)
     throw Error("internal error: shift_to_true_positions: fewer coordinates than sites");
   detail::DeviceBuffer<double> d_tx(num_sites), d_ty(num_sites);
@@ -1460,6 +1461,7 @@ ShiftStats DeviceMesh::shift(std::uint32_t num_sites, std::span<const double> tr
 }
 
 ShiftStats DeviceMesh::shift(std::uint32_t num_sites, const DeviceSites& sites, MissingArray& missing) {
+  state_->require_alone("shift");
   const DeviceSites::State& from = sites.state();
   if (from.n < num_sites)
     throw Error("internal error: shift_to_true_positions: fewer coordinates than sites");
@@ -1472,6 +1474,7 @@ InsertStats DeviceMesh::insert(std::span<const MissingPoint> missing, const Host
 
 void DeviceMesh::remove_fake_boundary(std::uint32_t first_fake, const RemoveOnHost& remove_on_host) {
   State& s = *state_;
+  s.require_alone("remove_fake_boundary");
   if (first_fake > s.num_vertices)
     throw Error("internal error: remove_fake_boundary: first_fake beyond the vertices");
   ::cdt::detail::StepTrace trace("fake boundary");

@@ -105,7 +105,7 @@ ScreenedPieces DeviceMesh::screen(std::span<const ConstraintPiece2> host_pieces,
 
   // Uploaded and checked already when the constraints run beside the host (on a copy of the links).
   DeviceBuffer<ConstraintPiece2> d_pieces;
-  const ConstraintPiece2* pieces = s.pieces_beside(np);
+  const ConstraintPiece2* pieces = s.pieces_beside(host_pieces);
   if (pieces == nullptr) {
     d_pieces.resize(np);
     executor.upload(d_pieces.data(), host_pieces.data(), np, &parallel);

@@ -467,6 +467,26 @@ TEST_F(MeshGpu, ConstraintsBesideTheHostKeepOrUndo) {
   expect_same_mesh(copy, small, "failed run");
   EXPECT_THROW(failing.insert_constraints(crossing, 8), cdt::Error);
 
+  // Long pieces across the others: the screen beside the run finds the suspects the plain screen finds,
+  // and the run, which meets crossing pieces, fails and leaves the mesh as it was.
+  trixel_gen::Pslg crossed = pslg;
+  trixel_gen::Random rng(36);
+  trixel_gen::add_random_segments(crossed, 10, rng);
+  std::vector<ConstraintPiece2> crossed_pieces;
+  for (std::size_t k = 0; k < crossed.segments.size(); ++k)
+    crossed_pieces.push_back({crossed.segments[k].a, crossed.segments[k].b, static_cast<std::uint32_t>(k)});
+  const ScreenedPieces crossed_screen = cdt::gpu::DeviceMesh(start).screen(crossed_pieces);
+  ASSERT_TRUE(crossed_screen.complete);
+  ASSERT_FALSE(crossed_screen.pieces.empty());
+  cdt::gpu::DeviceMesh beside_crossers(start);
+  ASSERT_TRUE(beside_crossers.start_constraints(crossed_pieces, 8));
+  const ScreenedPieces screened_beside = beside_crossers.screen(crossed_pieces);
+  EXPECT_EQ(screened_beside.pieces, crossed_screen.pieces);
+  EXPECT_EQ(screened_beside.sites, crossed_screen.sites);
+  EXPECT_FALSE(beside_crossers.finish_constraints(true).has_value());
+  beside_crossers.download(copy);
+  expect_same_mesh(copy, start, "crossers");
+
   // A mesh destroyed while its constraints run stops and joins them.
   {
     cdt::gpu::DeviceMesh dropped(start);
