@@ -111,9 +111,16 @@ public:
   DeviceSites(std::span<const Point> points, std::span<const Segment> segments, CrossingSegments policy,
               IndexArray& duplicate_of, IndexArray& sites, ::cdt::detail::PieceArray& pieces,
               std::size_t& zero_length_segments, const HostParallelFor& parallel = {});
+  /// Where prepare() puts the missing points: in the host's list, or on the device, where
+  /// DeviceMesh::take_missing takes them for its insert() (the host's list is then left empty, with
+  /// room for the points appended later, and missing_on_device() is their number).
+  enum class MissingTo { host, device };
   void prepare(std::uint32_t m, ::cdt::detail::GridMapping& mapping, ::cdt::detail::Box& bounds,
                IndexArray& site_vertex, IndexArray& site_of_vertex, ::cdt::detail::FlagArray& kept,
-               ::cdt::detail::MissingArray& missing, const HostParallelFor& parallel = {});
+               ::cdt::detail::MissingArray& missing, const HostParallelFor& parallel = {},
+               MissingTo missing_to = MissingTo::host);
+  /// The missing points prepare() left on the device and no mesh has taken yet (0 when none).
+  std::size_t missing_on_device() const;
   /// prepare() fills site_vertex and site_of_vertex on a thread of its own, after it returns: waits for
   /// them (throws DeviceError should their copy have failed). Call before reading them; the
   /// destructor waits too.
@@ -323,8 +330,13 @@ public:
   /// insert() to place.
   void add_vertices(std::span<const double> x, std::span<const double> y);
 
-  /// cdt::detail::insert_missing_points (the mesh grows on the device when free slots are short). The
-  /// list's upload is spread over `parallel`.
+  /// Takes over the missing points that `sites` left on the device (DeviceSites::MissingTo::device;
+  /// none otherwise): the next insert() inserts them first, before its host list.
+  void take_missing(DeviceSites& sites);
+
+  /// cdt::detail::insert_missing_points (the mesh grows on the device when free slots are short) of
+  /// the points take_missing took (then no longer held) followed by `missing`: one list, in that
+  /// order. The host list's upload is spread over `parallel`.
   ::cdt::detail::InsertStats insert(std::span<const ::cdt::detail::MissingPoint> missing,
                                     const HostParallelFor& parallel = {});
 

@@ -134,6 +134,8 @@ struct DeviceMesh::State {
   /// Per slot, 1 where the last insert() split a triangle or made one (for flip_after_insert(); empty
   /// before the first call).
   detail::DeviceBuffer<std::uint8_t> made_by_insert;
+  /// The missing points taken from DeviceSites (take_missing), inserted first by the next insert().
+  detail::DeviceBuffer<::cdt::detail::MissingPoint> missing_first;
   /// The first entries of output()'s vertex_of, already on the device (take_vertex_ids; else empty).
   detail::DeviceBuffer<std::uint32_t> vertex_ids;
   /// The constraints started beside the host (start_constraints; else null). Declared last: it is

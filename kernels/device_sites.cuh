@@ -54,6 +54,8 @@ struct DeviceSites::State {
   detail::DeviceBuffer<std::uint32_t> site_vertex; ///< per site, its vertex (the host's site_vertex)
   /// Per site its grid cell, and per cell (row-major) its kept site or kNone; DeviceVoronoi takes them.
   detail::DeviceBuffer<std::uint32_t> gx, gy, cell_owner;
+  /// The missing points prepare() left on the device (MissingTo::device), until a mesh takes them.
+  detail::DeviceBuffer<::cdt::detail::MissingPoint> missing;
   /// Per vertex its site, kept on the device until its late copy to the host is done.
   detail::DeviceBuffer<std::uint32_t> site_of_vertex;
   /// The copies of site_vertex and site_of_vertex to the host (see DeviceSites::prepare). Declared

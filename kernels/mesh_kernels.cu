@@ -871,7 +871,10 @@ InsertStats insert(DeviceMesh::State& s, std::span<const MissingPoint> missing,
   s.require_alone("insert");
   using ::cdt::detail::PointLocation;
   InsertStats stats;
-  const std::size_t num_points = missing.size();
+  // The points taken from the sites come first (and are no longer held after this call).
+  const DeviceBuffer<MissingPoint> first = std::move(s.missing_first);
+  const std::size_t num_first = first.size();
+  const std::size_t num_points = num_first + missing.size();
   if (num_points == 0) return stats;
   if (num_points >= kNoId / 2) throw Error("internal error: too many missing points");
   const auto num = static_cast<std::uint32_t>(num_points);
@@ -902,7 +905,10 @@ InsertStats insert(DeviceMesh::State& s, std::span<const MissingPoint> missing,
   const std::uint32_t* free_slots = d_free.data();
 
   DeviceBuffer<MissingPoint> d_missing(num);
-  executor.upload(d_missing.data(), missing.data(), num, &parallel);
+  if (num_first > 0)
+    CDT_CUDA_CHECK(cudaMemcpyAsync(d_missing.data(), first.data(), num_first * sizeof(MissingPoint),
+                                   cudaMemcpyDeviceToDevice, executor.stream()));
+  executor.upload(d_missing.data() + num_first, missing.data(), missing.size(), &parallel);
   const MissingPoint* points = d_missing.data();
   // The checks of insert.cpp, reporting the same point: the first one (in list order) that is out of
   // range, already in the mesh, or a vertex listed before. pending first holds each vertex's first
@@ -941,7 +947,9 @@ InsertStats insert(DeviceMesh::State& s, std::span<const MissingPoint> missing,
   std::uint32_t words[2] = {0, 0};
   executor.download(words, d_words.data(), 2);
   if (words[0] != kNoId) {
-    const std::uint32_t v = missing[words[0]].vertex;
+    MissingPoint bad{};
+    executor.download(&bad, points + words[0], 1);
+    const std::uint32_t v = bad.vertex;
     throw Error("internal error: missing point " + std::to_string(v) +
                 (v >= nv ? " out of range" : " is already in the mesh or listed twice"));
   }
@@ -1482,6 +1490,14 @@ void DeviceMesh::remove_fake_boundary(std::uint32_t first_fake, const RemoveOnHo
   trace.mark("fans removed");
   detail::compact_after_fake_removal(s, first_fake);
   trace.mark("slots compacted");
+}
+
+void DeviceMesh::take_missing(DeviceSites& sites) {
+  State& s = *state_;
+  s.require_alone("take_missing");
+  DeviceSites::State& from = sites.state();
+  from.executor.synchronize(); // the list was written on the sites' stream
+  s.missing_first = std::move(from.missing);
 }
 
 void DeviceMesh::take_vertex_ids(DeviceSites& sites) {

@@ -309,7 +309,8 @@ std::size_t merge_input_on_device(DeviceSites::State& s, std::span<const Point> 
 /// vertices and sites on the device (upload_vertices or merge_input_on_device), which it frees.
 void prepare_sites(DeviceSites::State& s, std::uint32_t m, GridMapping& mapping, ::cdt::detail::Box& bounds,
                    IndexArray& site_vertex, IndexArray& site_of_vertex, ::cdt::detail::FlagArray& kept,
-                   MissingArray& missing, const HostParallelFor& parallel) {
+                   MissingArray& missing, const HostParallelFor& parallel,
+                   DeviceSites::MissingTo missing_to) {
   const std::size_t nv = s.num_vertices;
   const std::size_t n = s.n;
   if (n == 0 || n > nv || s.vertex_xy.size() != 2 * nv)
@@ -419,16 +420,14 @@ void prepare_sites(DeviceSites::State& s, std::uint32_t m, GridMapping& mapping,
   DeviceBuffer<std::uint32_t> d_missing(n);
   const std::uint32_t num_missing = executor.compact(
       n, [=] __device__(std::size_t k) { return keep[k] == 0; }, d_missing.data());
-  static_assert(sizeof(MissingPoint) == 2 * sizeof(std::uint32_t));
-  DeviceBuffer<std::uint32_t> d_pairs(2 * static_cast<std::size_t>(num_missing) + 1);
+  s.missing.resize(num_missing);
   const std::uint32_t* missing_site = d_missing.data();
-  std::uint32_t* pairs = d_pairs.data();
+  MissingPoint* pairs = s.missing.data();
   executor.for_each(
       num_missing,
       [=] __device__(std::size_t i) {
         const std::uint32_t k = missing_site[i];
-        pairs[2 * i] = k;
-        pairs[2 * i + 1] = owner[static_cast<std::size_t>(gy[k]) * map.m + gx[k]];
+        pairs[i] = MissingPoint{k, owner[static_cast<std::size_t>(gy[k]) * map.m + gx[k]]};
       },
       "missing_points");
   trace.mark("ordered, cells, kept, bounds");
@@ -443,10 +442,14 @@ void prepare_sites(DeviceSites::State& s, std::uint32_t m, GridMapping& mapping,
   // appended later, and growing the array would copy it all (5.5 million points, 44 MB, into fresh
   // pages) for the first of them. The room beyond the missing points is never written unless used.
   missing.reserve(n);
-  missing.resize(num_missing);
   executor.download(kept.data(), keep, n, &parallel);
-  executor.download(reinterpret_cast<std::uint32_t*>(missing.data()), pairs,
-                    2 * static_cast<std::size_t>(num_missing), &parallel);
+  if (missing_to == DeviceSites::MissingTo::host) {
+    missing.resize(num_missing);
+    executor.download(missing.data(), pairs, num_missing, &parallel);
+    s.missing = {};
+  } else {
+    missing.clear();
+  }
   // The vertex maps are first read on the host after shifting (by the split, the added vertices and
   // the output): large ones come down on a thread of their own meanwhile (the coastlines' 16 MB: the
   // sites' step 2.9 -> 1.2 ms; 10M + 1M, 80 MB: 4.2 -> 1.7), small ones at once, where a thread's
@@ -496,9 +499,12 @@ DeviceSites::DeviceSites(std::span<const Point> points, std::span<const Segment>
 
 void DeviceSites::prepare(std::uint32_t m, GridMapping& mapping, ::cdt::detail::Box& bounds,
                           IndexArray& site_vertex, IndexArray& site_of_vertex, ::cdt::detail::FlagArray& kept,
-                          MissingArray& missing, const HostParallelFor& parallel) {
-  detail::prepare_sites(*state_, m, mapping, bounds, site_vertex, site_of_vertex, kept, missing, parallel);
+                          MissingArray& missing, const HostParallelFor& parallel, MissingTo missing_to) {
+  detail::prepare_sites(*state_, m, mapping, bounds, site_vertex, site_of_vertex, kept, missing, parallel,
+                        missing_to);
 }
+
+std::size_t DeviceSites::missing_on_device() const { return state_->missing.size(); }
 
 double DeviceSites::magnitude() const { return state_->magnitude; }
 

@@ -479,6 +479,7 @@ Triangulation triangulate_on(std::span<const Point> points, std::span<const Segm
   std::vector<double> x, y;           // per site, its position in the diagram
   FlagArray kept;                     // per site, 1 when it owns its grid cell
   MissingArray missing;
+  std::size_t missing_on_device = 0; // the first missing points, left on the device (GPU backend)
   GridSites grid;
   Box bounds; // the box of both positions of every site
   std::vector<std::uint32_t> colour;
@@ -487,7 +488,9 @@ Triangulation triangulate_on(std::span<const Point> points, std::span<const Segm
   std::optional<gpu::DeviceVoronoi> device_diagram; // Phase 1's colouring stays on the device for Phase 2
   if (on_gpu) {
     if (device_sites) {
-      device_sites->prepare(m, mapping, bounds, site_vertex, site_of_vertex, kept, missing, parallel);
+      // The missing points stay on the device for Phase 4 (10M points: about 6M, 50 MB each way).
+      device_sites->prepare(m, mapping, bounds, site_vertex, site_of_vertex, kept, missing, parallel,
+                            gpu::DeviceSites::MissingTo::device);
     } else {
       device_sites.emplace(pslg.vertices, pslg.sites, m, mapping, bounds, site_vertex, site_of_vertex, kept,
                            missing, parallel);
@@ -496,7 +499,8 @@ Triangulation triangulate_on(std::span<const Point> points, std::span<const Segm
     sites_magnitude = device_sites->magnitude();
     device_diagram.emplace(*device_sites);
     trace.mark("digital voronoi");
-    timer.end("voronoi").missing = missing.size();
+    missing_on_device = device_sites->missing_on_device();
+    timer.end("voronoi").missing = missing_on_device + missing.size();
   }
 #endif
   if (!on_gpu) {
@@ -667,6 +671,7 @@ Triangulation triangulate_on(std::span<const Point> points, std::span<const Segm
     device_sites->finish_downloads(); // the vertex maps are on the host from here on
     trace.mark("vertex maps waited for");
     device_mesh->take_vertex_ids(*device_sites); // for the output, which then uploads only added ones
+    device_mesh->take_missing(*device_sites);    // inserted before the host's list
     device_sites.reset();                        // its device memory is free for the later phases
   }
 #endif
@@ -701,7 +706,7 @@ Triangulation triangulate_on(std::span<const Point> points, std::span<const Segm
     remove_fake_boundary(mesh, n, executor, &dirty, !pslg.pieces.empty());
     trace.mark("fake boundary");
   }
-  end_phase("insert", insert.rounds, insert.flips, missing.size());
+  end_phase("insert", insert.rounds, insert.flips, missing_on_device + missing.size());
 
   // Phase 5: Lawson flips to the Delaunay triangulation, before the constraints as in the paper. Pieces
   // cross far fewer triangles of a Delaunay mesh than of the one Phase 4 leaves (whose missing points

@@ -29,6 +29,7 @@
 #include "gcd/shift.hpp"
 #include "gcd/voronoi.hpp"
 #include "mesh_test_util.hpp"
+#include "pslg.hpp"
 #include "pslg_generators.hpp"
 
 namespace {
@@ -345,6 +346,79 @@ TEST_F(MeshGpu, ShiftAndInsertMatchTheCpuExecutor) {
     device.download(copy);
     expect_same_mesh(copy, host, std::string(c.name) + ", after flips");
   }
+}
+
+// The sites' missing points left on the device (DeviceSites::MissingTo::device) and taken by the mesh
+// (take_missing) are inserted first, then the host's list (the degenerate corners' sites, the
+// unreached ones, shifting's bad cases): the same mesh, slot for slot, as with the whole list on the
+// host, as triangulate() builds it.
+TEST_F(MeshGpu, MissingPointsLeftOnTheDeviceComeFirst) {
+  struct Case {
+    trixel_gen::Pslg points;
+    std::uint32_t m;
+    const char* name;
+  };
+  const std::vector<Case> cases = {
+      {trixel_gen::random_points(100000, trixel_gen::Distribution::uniform, 41), 256, "uniform 100000"},
+      {trixel_gen::random_points(50000, trixel_gen::Distribution::gaussian, 42), 128, "gaussian 50000"},
+      {trixel_gen::lattice(90), 64, "lattice 90"},
+  };
+  std::size_t tails_seen = 0;
+  for (const Case& c : cases) {
+    const auto run = [&](cdt::gpu::DeviceSites::MissingTo to, std::size_t& on_device, std::size_t& tail) {
+      cdt::IndexArray duplicate_of, sites, site_vertex, site_of_vertex;
+      PieceArray pieces;
+      std::size_t zero_length = 0;
+      cdt::gpu::DeviceSites device_sites(c.points.points, {}, cdt::CrossingSegments::resolve, duplicate_of,
+                                         sites, pieces, zero_length);
+      GridMapping mapping;
+      Box bounds;
+      FlagArray kept;
+      MissingArray missing;
+      device_sites.prepare(c.m, mapping, bounds, site_vertex, site_of_vertex, kept, missing, {}, to);
+      on_device = device_sites.missing_on_device();
+      const auto n = static_cast<std::uint32_t>(sites.size());
+      cdt::gpu::DeviceVoronoi diagram(device_sites);
+      std::optional<cdt::gpu::DeviceMesh> mesh;
+      std::vector<std::uint32_t> unreached, degenerate;
+      for (int pass = 0; pass < 8; ++pass) {
+        degenerate.clear();
+        const auto outcome = diagram.complete_dual(device_sites, bounds, mesh, unreached, &degenerate);
+        if (outcome == cdt::gpu::DeviceVoronoi::DualOutcome::built) break;
+        EXPECT_EQ(outcome, cdt::gpu::DeviceVoronoi::DualOutcome::degenerate) << c.name;
+        if (outcome != cdt::gpu::DeviceVoronoi::DualOutcome::degenerate) return Mesh{};
+        const std::vector<std::uint32_t> owners = diagram.remove_sites(degenerate);
+        device_sites.leave_out(degenerate);
+        for (std::size_t k = 0; k < degenerate.size(); ++k) {
+          kept[degenerate[k]] = 0;
+          const std::uint32_t owner = owners[k];
+          missing.push_back({degenerate[k], owner != cdt::kNone && kept[owner] != 0 ? owner : n});
+        }
+      }
+      EXPECT_TRUE(mesh.has_value()) << c.name;
+      if (!mesh) return Mesh{};
+      for (const std::uint32_t s : unreached) missing.push_back({s, n});
+      mesh->shift(n, device_sites, missing);
+      mesh->take_missing(device_sites);
+      EXPECT_EQ(device_sites.missing_on_device(), 0u) << c.name << ": taken";
+      tail = missing.size();
+      mesh->insert(missing);
+      Mesh out;
+      mesh->download(out);
+      return out;
+    };
+    std::size_t on_device = 0, none = 0, tail = 0, whole = 0;
+    const Mesh first = run(cdt::gpu::DeviceSites::MissingTo::device, on_device, tail);
+    const Mesh all_on_host = run(cdt::gpu::DeviceSites::MissingTo::host, none, whole);
+    if (HasFailure()) return;
+    EXPECT_EQ(none, 0u) << c.name;
+    EXPECT_GT(on_device, 0u) << c.name << ": the case must leave missing points on the device";
+    EXPECT_EQ(on_device + tail, whole) << c.name;
+    tails_seen += tail;
+    expect_same_mesh(first, all_on_host, c.name);
+    trixel_test::expect_valid_mesh(first);
+  }
+  EXPECT_GT(tails_seen, 0u) << "no point followed the device's list: the order went untested";
 }
 
 // Step 2 (Algorithms 4 and 5) on a DeviceMesh: the paper's synthetic segments inserted into a
