@@ -260,8 +260,9 @@ public:
 
   /// download() without a profile row: for a thread of its own beside the one profiled.
   template <class T>
-  void download_unprofiled(T* h_dst, const T* d_src, std::size_t n) {
-    copy_to_host(h_dst, d_src, n * sizeof(T), nullptr);
+  void download_unprofiled(T* h_dst, const T* d_src, std::size_t n,
+                           const HostParallelFor* parallel = nullptr) {
+    copy_to_host(h_dst, d_src, n * sizeof(T), parallel);
   }
 
   /// Sets n elements of d_dst to the byte value `byte` (0 or 0xFF fill 32-bit words with 0 or kNone).
