@@ -107,10 +107,13 @@ public:
   /// segment id, sorted by (a, b)) as the host's merge does (cdt::detail::merge_input); prepare() then
   /// does the rest from the points and sites already on the device. The input checks come first, on the
   /// device: the InvalidInputError of the host's checks for the same point or segment (zero-length
-  /// segments are errors unless `policy` is resolve; their number goes to zero_length_segments).
+  /// segments are errors unless `policy` is resolve; their number goes to zero_length_segments). With
+  /// identity_unwritten given and no two points coinciding, duplicate_of and sites (the identity) are
+  /// sized but not written, and *identity_unwritten is set (cdt::detail::InputMerge).
   DeviceSites(std::span<const Point> points, std::span<const Segment> segments, CrossingSegments policy,
               IndexArray& duplicate_of, IndexArray& sites, ::cdt::detail::PieceArray& pieces,
-              std::size_t& zero_length_segments, const HostParallelFor& parallel = {});
+              std::size_t& zero_length_segments, const HostParallelFor& parallel = {},
+              bool* identity_unwritten = nullptr);
   /// Where prepare() puts the missing points: in the host's list, or on the device, where
   /// DeviceMesh::take_missing takes them for its insert() (the host's list is then left empty, with
   /// room for the points appended later, and missing_on_device() is their number).

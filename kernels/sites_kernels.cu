@@ -187,7 +187,8 @@ void write_identity(std::uint32_t* out, std::size_t n, const HostParallelFor& pa
 std::size_t merge_input_on_device(DeviceSites::State& s, std::span<const Point> points,
                                   std::span<const Segment> segments, ::cdt::CrossingSegments policy,
                                   IndexArray& duplicate_of, IndexArray& sites,
-                                  ::cdt::detail::PieceArray& pieces, const HostParallelFor& parallel) {
+                                  ::cdt::detail::PieceArray& pieces, const HostParallelFor& parallel,
+                                  bool* identity_unwritten) {
   const std::size_t nv = points.size();
   const std::size_t m = segments.size();
   if (nv == 0 || nv >= kNoId || m >= kNoId)
@@ -291,11 +292,16 @@ std::size_t merge_input_on_device(DeviceSites::State& s, std::span<const Point> 
   duplicate_of.resize(nv);
   sites.reserve(::cdt::detail::vertex_room(nv)); // the split appends the vertices it adds
   sites.resize(n);
+  if (identity_unwritten != nullptr) *identity_unwritten = false;
   if (n == nv) {
     // No duplicates: both maps are the identity, written on the host's threads instead of coming
-    // over the bus (80 MB at 10^7 points).
-    write_identity(duplicate_of.data(), nv, parallel);
-    write_identity(sites.data(), n, parallel);
+    // over the bus (80 MB at 10^7 points), or left to the caller, who writes them later.
+    if (identity_unwritten != nullptr) {
+      *identity_unwritten = true;
+    } else {
+      write_identity(duplicate_of.data(), nv, parallel);
+      write_identity(sites.data(), n, parallel);
+    }
     s.site_list = {};
   } else {
     executor.download(duplicate_of.data(), dup, nv, &parallel);
@@ -491,10 +497,10 @@ DeviceSites::DeviceSites(std::span<const Point> vertices, std::span<const std::u
 DeviceSites::DeviceSites(std::span<const Point> points, std::span<const Segment> segments,
                          CrossingSegments policy, IndexArray& duplicate_of, IndexArray& sites,
                          ::cdt::detail::PieceArray& pieces, std::size_t& zero_length_segments,
-                         const HostParallelFor& parallel)
+                         const HostParallelFor& parallel, bool* identity_unwritten)
     : state_(std::make_unique<State>()) {
-  zero_length_segments =
-      detail::merge_input_on_device(*state_, points, segments, policy, duplicate_of, sites, pieces, parallel);
+  zero_length_segments = detail::merge_input_on_device(*state_, points, segments, policy, duplicate_of, sites,
+                                                       pieces, parallel, identity_unwritten);
 }
 
 void DeviceSites::prepare(std::uint32_t m, GridMapping& mapping, ::cdt::detail::Box& bounds,

@@ -23,6 +23,7 @@
 #include <cstddef>
 #include <functional>
 #include <limits>
+#include <numeric>
 #include <string>
 #include <tuple>
 #include <unordered_map>
@@ -196,16 +197,17 @@ IndexArray merge_duplicates(std::span<const Point> points, CpuExecutor& executor
   return duplicate_of;
 }
 
-void check_dimension(std::span<const Point> points, const IndexArray& representatives) {
-  const std::size_t count = representatives.size();
+/// representative(k) is the k-th of `count` distinct points.
+template <class Representative>
+void check_dimension(std::span<const Point> points, std::size_t count, Representative representative) {
   if (count < 3) {
     throw InvalidInputError(Kind::too_few_points, count,
                             "only " + std::to_string(count) + " distinct points: a triangulation needs 3");
   }
-  const Point& a = points[representatives[0]];
-  const Point& b = points[representatives[1]];
-  for (std::uint32_t r : representatives) {
-    if (orient(a, b, points[r]) != 0) return;
+  const Point& a = points[representative(0)];
+  const Point& b = points[representative(1)];
+  for (std::size_t k = 0; k < count; ++k) {
+    if (orient(a, b, points[representative(k)]) != 0) return;
   }
   throw InvalidInputError(Kind::all_collinear, count,
                           "all " + std::to_string(count) +
@@ -1339,7 +1341,7 @@ PreparedPslg merge_input(std::span<const Point> points, std::span<const Segment>
   StepTrace trace("prepare");
   PreparedPslg out;
   if (merge) {
-    out.zero_length_segments = merge(out.duplicate_of, out.sites, out.pieces);
+    out.zero_length_segments = merge(out.duplicate_of, out.sites, out.pieces, out.identity_maps_unwritten);
     trace.mark("validated, duplicates, sites, pieces");
   } else {
     validate_points(points, executor);
@@ -1350,7 +1352,11 @@ PreparedPslg merge_input(std::span<const Point> points, std::span<const Segment>
     out.sites =
         executor.compact<IndexArray>(points.size(), [&](std::size_t i) { return out.duplicate_of[i] == i; });
   }
-  check_dimension(points, out.sites);
+  if (out.identity_maps_unwritten) {
+    check_dimension(points, points.size(), [](std::size_t k) { return k; });
+  } else {
+    check_dimension(points, out.sites.size(), [&](std::size_t k) { return out.sites[k]; });
+  }
   // Room for the vertices that crossings may add: growing the array would copy every point (30 MB for
   // the coastlines) for the first of them. The elements are left unwritten by resize; the copy is made
   // in parallel here, or by the caller when the merge was done elsewhere.
@@ -1372,6 +1378,11 @@ PreparedPslg merge_input(std::span<const Point> points, std::span<const Segment>
 
 void copy_points(std::span<const Point> points, PointArray& vertices) {
   std::copy(points.begin(), points.end(), vertices.begin());
+}
+
+void write_identity_maps(PreparedPslg& pslg) {
+  std::iota(pslg.duplicate_of.begin(), pslg.duplicate_of.end(), std::uint32_t{0});
+  std::iota(pslg.sites.begin(), pslg.sites.end(), std::uint32_t{0});
 }
 
 void split_pieces(PreparedPslg& pslg, CrossingSegments policy, CpuExecutor& executor) {

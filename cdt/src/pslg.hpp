@@ -51,6 +51,10 @@ struct PreparedPslg {
   PieceArray pieces;
   /// Input segments from a point to itself (or to a duplicate of it), ignored.
   std::size_t zero_length_segments = 0;
+  /// No two points coincide, and duplicate_of and sites (both the identity) have their sizes but their
+  /// elements are not written yet (merge_input with a merge that left them so): the caller writes them
+  /// (write_identity_maps) before anything reads them, and clears the flag.
+  bool identity_maps_unwritten = false;
 };
 
 /// Room for the pieces of n input pieces that split_pieces (the suspects' form) may add without moving
@@ -100,9 +104,11 @@ CDT_HD_INLINE bool point_is_valid(double x, double y) {
 /// the errors merge_input's checks throw, for the same point or segment, then fills, for the points and
 /// segments given to merge_input, duplicate_of (per point the lowest index with identical coordinates,
 /// -0 equal to +0), sites (the points that are their own representative, increasing) and pieces
-/// (merge_input's), as the host would. Returns the number of zero-length segments.
-using InputMerge =
-    std::function<std::size_t(IndexArray& duplicate_of, IndexArray& sites, PieceArray& pieces)>;
+/// (merge_input's), as the host would. Returns the number of zero-length segments. When no two points
+/// coincide it may size duplicate_of and sites without writing them (both are the identity) and set
+/// identity_unwritten (see PreparedPslg::identity_maps_unwritten).
+using InputMerge = std::function<std::size_t(IndexArray& duplicate_of, IndexArray& sites, PieceArray& pieces,
+                                             bool& identity_unwritten)>;
 
 /// Checks and cleans the input of triangulate(). Throws InvalidInputError (non-finite coordinates,
 /// coordinates beyond kMaxCoordinate, out-of-range indices, zero-length segments under
@@ -135,6 +141,10 @@ PreparedPslg merge_input(std::span<const Point> points, std::span<const Segment>
 
 /// Writes the points into the first points.size() elements of vertices (merge_input's copy of the input).
 void copy_points(std::span<const Point> points, PointArray& vertices);
+
+/// Writes duplicate_of and sites as the identity (PreparedPslg::identity_maps_unwritten), on this thread;
+/// leaves the flag to the caller.
+void write_identity_maps(PreparedPslg& pslg);
 
 /// The second half: splits every piece at the sites on it and at crossings (the errors of prepare_pslg
 /// for crossings), adding the crossing vertices to vertices and sites.

@@ -48,6 +48,8 @@ void expect_same_as_cpu(const std::vector<cdt::Point>& points, const std::vector
               gpu_canonical.segment_of_edge == cpu_canonical.segment_of_edge)
       << what << ": canonical arrays differ";
   EXPECT_EQ(on_gpu.triangles.size(), on_cpu.triangles.size()) << what;
+  // The device's merge leaves the identity maps of inputs without duplicates to a thread of their own.
+  EXPECT_EQ(on_gpu.duplicate_of, on_cpu.duplicate_of) << what;
   ASSERT_EQ(on_gpu.stats.phases.size(), on_cpu.stats.phases.size()) << what;
   for (std::size_t k = 0; k < on_cpu.stats.phases.size(); ++k) {
     const cdt::PhaseStats& g = on_gpu.stats.phases[k];
