@@ -376,7 +376,7 @@ private:
 
 /// The identity maps that the device's merge left unwritten (PreparedPslg::identity_maps_unwritten: no
 /// two points coincide), written on a thread of their own while the device works (80 MB at 10^7
-/// points, 2.3 ms on the H200 machine's host threads, on the critical path before).
+/// points: 1.5-2.5 ms of the host's threads on the H200 machine, on the critical path before).
 class IdentityMaps {
 public:
   void start(detail::PreparedPslg& pslg) {
