@@ -480,8 +480,14 @@ void LateDownloads::start() {
         } catch (...) {
           // No thread to be had (system_error, bad_alloc): those started and this one do the rest.
         }
+        // Joined however this thread's share ends (the copies do not throw; a future body might).
+        struct Joiner {
+          std::vector<std::thread>& threads;
+          ~Joiner() {
+            for (std::thread& t : threads) t.join();
+          }
+        } joiner{threads};
         take();
-        for (std::thread& t : threads) t.join();
       };
       for (const Copy& c : copies_)
         executor.download_unprofiled(static_cast<unsigned char*>(c.h_dst),

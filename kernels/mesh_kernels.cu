@@ -871,8 +871,8 @@ InsertStats insert(DeviceMesh::State& s, std::span<const MissingPoint> missing,
   s.require_alone("insert");
   using ::cdt::detail::PointLocation;
   InsertStats stats;
-  // The points taken from the sites come first (and are no longer held after this call).
-  const DeviceBuffer<MissingPoint> first = std::move(s.missing_first);
+  // The points taken from the sites come first (and are no longer held once copied into the list).
+  DeviceBuffer<MissingPoint> first = std::move(s.missing_first);
   const std::size_t num_first = first.size();
   const std::size_t num_points = num_first + missing.size();
   if (num_points == 0) return stats;
@@ -908,6 +908,7 @@ InsertStats insert(DeviceMesh::State& s, std::span<const MissingPoint> missing,
   if (num_first > 0)
     CDT_CUDA_CHECK(cudaMemcpyAsync(d_missing.data(), first.data(), num_first * sizeof(MissingPoint),
                                    cudaMemcpyDeviceToDevice, executor.stream()));
+  first = {}; // freed in stream order after the copy: not held through the rounds
   executor.upload(d_missing.data() + num_first, missing.data(), missing.size(), &parallel);
   const MissingPoint* points = d_missing.data();
   // The checks of insert.cpp, reporting the same point: the first one (in list order) that is out of

@@ -381,8 +381,10 @@ class IdentityMaps {
 public:
   void start(detail::PreparedPslg& pslg) {
     if (!pslg.identity_maps_unwritten || started_) return;
+    // Small maps (a photograph's PSLG) are written here: a thread's start costs more.
+    constexpr std::size_t kOnItsOwnFrom = std::size_t{1} << 20;
+    task_.start([&pslg] { detail::write_identity_maps(pslg); }, pslg.duplicate_of.size() >= kOnItsOwnFrom);
     started_ = true;
-    task_.start([&pslg] { detail::write_identity_maps(pslg); });
   }
 
   /// Waits for them, or writes them here if they were not started; clears the flag.
