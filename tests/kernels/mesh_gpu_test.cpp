@@ -53,6 +53,13 @@ void expect_same_mesh(const Mesh& device, const Mesh& host, const std::string& w
   EXPECT_EQ(device.vert_tri, host.vert_tri) << what;
 }
 
+/// Points and the side of the grid to triangulate them on, named for the failure messages.
+struct GridCase {
+  trixel_gen::Pslg points;
+  std::uint32_t m;
+  const char* name;
+};
+
 /// Phase 1 and 2 inputs as triangulate() prepares them: sites on an m x m grid, kept sites moved to
 /// their grid points.
 struct DualInput {
@@ -97,19 +104,14 @@ DualInput dual_input(const trixel_gen::Pslg& p, std::uint32_t m, CpuExecutor& ex
 
 TEST_F(MeshGpu, DualMatchesTheCpuExecutor) {
   CpuExecutor executor(4);
-  struct Case {
-    trixel_gen::Pslg points;
-    std::uint32_t m;
-    const char* name;
-  };
-  const std::vector<Case> cases = {
+  const std::vector<GridCase> cases = {
       {trixel_gen::random_points(2000, trixel_gen::Distribution::uniform, 7), 128, "uniform 2000"},
       {trixel_gen::random_points(100000, trixel_gen::Distribution::uniform, 8), 1024, "uniform 100000"},
       {trixel_gen::random_points(100000, trixel_gen::Distribution::gaussian, 9), 1024, "gaussian 100000"},
       {trixel_gen::clustered(30000, 12, 10), 512, "clustered 30000"},
   };
   int compared = 0;
-  for (const Case& c : cases) {
+  for (const GridCase& c : cases) {
     DualInput in = dual_input(c.points, c.m, executor);
     std::vector<std::uint32_t> colour = compute_digital_voronoi(in.grid, in.m, executor);
     cdt::gpu::DeviceVoronoi diagram(in.grid.cell_owner, in.grid.gx, in.grid.gy, in.m);
@@ -287,20 +289,15 @@ void expect_same_missing(const MissingArray& device, const MissingArray& host, c
 // device's flips on the same mesh without a copy in between.
 TEST_F(MeshGpu, ShiftAndInsertMatchTheCpuExecutor) {
   CpuExecutor executor(4);
-  struct Case {
-    trixel_gen::Pslg points;
-    std::uint32_t m;
-    const char* name;
-  };
   // Coarse grids: many points share a cell (missing points) and many shifts are bad cases.
-  const std::vector<Case> cases = {
+  const std::vector<GridCase> cases = {
       {trixel_gen::random_points(2000, trixel_gen::Distribution::uniform, 17), 64, "uniform 2000"},
       {trixel_gen::random_points(100000, trixel_gen::Distribution::uniform, 18), 512, "uniform 100000"},
       {trixel_gen::random_points(60000, trixel_gen::Distribution::gaussian, 19), 256, "gaussian 60000"},
       {trixel_gen::clustered(30000, 12, 20), 256, "clustered 30000"},
       {trixel_gen::lattice(70), 64, "lattice 70"},
   };
-  for (const Case& c : cases) {
+  for (const GridCase& c : cases) {
     const Phase2 start = phase2(c.points, c.m, executor);
     ASSERT_GT(start.mesh.num_slots(), 0u) << c.name;
     Mesh host = start.mesh;
@@ -353,18 +350,13 @@ TEST_F(MeshGpu, ShiftAndInsertMatchTheCpuExecutor) {
 // unreached ones, shifting's bad cases): the same mesh, slot for slot, as with the whole list on the
 // host, as triangulate() builds it.
 TEST_F(MeshGpu, MissingPointsLeftOnTheDeviceComeFirst) {
-  struct Case {
-    trixel_gen::Pslg points;
-    std::uint32_t m;
-    const char* name;
-  };
-  const std::vector<Case> cases = {
+  const std::vector<GridCase> cases = {
       {trixel_gen::random_points(100000, trixel_gen::Distribution::uniform, 41), 256, "uniform 100000"},
       {trixel_gen::random_points(50000, trixel_gen::Distribution::gaussian, 42), 128, "gaussian 50000"},
       {trixel_gen::lattice(90), 64, "lattice 90"},
   };
   std::size_t tails_seen = 0;
-  for (const Case& c : cases) {
+  for (const GridCase& c : cases) {
     const auto run = [&](cdt::gpu::DeviceSites::MissingTo to, std::size_t& on_device, std::size_t& tail) {
       cdt::IndexArray duplicate_of, sites, site_vertex, site_of_vertex;
       PieceArray pieces;
