@@ -630,24 +630,6 @@ ConstraintStats DeviceMesh::insert_constraints(std::span<const ConstraintPiece2>
                                     flipped.data(), parallel);
 }
 
-namespace {
-
-/// Copies the links (tri, adj, seg: `words` words each; vert_tri: nv) of one holder of them (the mesh's
-/// state, or the copy kept beside it) into another, on the device, queued on `stream`.
-template <class To, class From>
-void copy_links(To& to, const From& from, std::size_t words, std::size_t nv, cudaStream_t stream) {
-  const auto copy = [stream](std::uint32_t* dst, const std::uint32_t* src, std::size_t n) {
-    if (n > 0)
-      CDT_CUDA_CHECK(cudaMemcpyAsync(dst, src, n * sizeof(std::uint32_t), cudaMemcpyDeviceToDevice, stream));
-  };
-  copy(to.tri.data(), from.tri.data(), words);
-  copy(to.adj.data(), from.adj.data(), words);
-  copy(to.seg.data(), from.seg.data(), words);
-  copy(to.vert_tri.data(), from.vert_tri.data(), nv);
-}
-
-} // namespace
-
 bool DeviceMesh::start_constraints(std::span<const ConstraintPiece2> pieces, unsigned inner_iterations,
                                    const HostParallelFor& parallel) {
   State& s = *state_;
@@ -683,7 +665,15 @@ bool DeviceMesh::start_constraints(std::span<const ConstraintPiece2> pieces, uns
     beside->seg.resize(words);
     beside->vert_tri.resize(s.num_vertices);
     beside->flipped.resize(slots);
-    copy_links(*beside, s, words, s.num_vertices, stream);
+    const auto copy_words = [stream](std::uint32_t* dst, const std::uint32_t* src, std::size_t n) {
+      if (n > 0)
+        CDT_CUDA_CHECK(
+            cudaMemcpyAsync(dst, src, n * sizeof(std::uint32_t), cudaMemcpyDeviceToDevice, stream));
+    };
+    copy_words(beside->tri.data(), s.tri.data(), words);
+    copy_words(beside->adj.data(), s.adj.data(), words);
+    copy_words(beside->seg.data(), s.seg.data(), words);
+    copy_words(beside->vert_tri.data(), s.vert_tri.data(), s.num_vertices);
     executor.fill_bytes(beside->flipped.data(), 0, slots);
     CDT_CUDA_CHECK(cudaEventCreateWithFlags(&beside->ready, cudaEventDisableTiming));
     CDT_CUDA_CHECK(cudaEventRecord(beside->ready, stream));

@@ -1496,9 +1496,8 @@ void DeviceMesh::remove_fake_boundary(std::uint32_t first_fake, const RemoveOnHo
 void DeviceMesh::take_missing(DeviceSites& sites) {
   State& s = *state_;
   s.require_alone("take_missing");
-  DeviceSites::State& from = sites.state();
-  from.executor.synchronize(); // the list was written on the sites' stream
-  s.missing_first = std::move(from.missing);
+  // Both executors queue on the calling thread's stream: insert() reads the list after it is written.
+  s.missing_first = std::move(sites.state().missing);
 }
 
 void DeviceMesh::take_vertex_ids(DeviceSites& sites) {
