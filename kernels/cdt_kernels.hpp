@@ -57,6 +57,19 @@ void reserve_memory(std::size_t staging_blocks, std::size_t device_bytes);
 /// again. Never throws.
 void release_device() noexcept;
 
+/// The pinned result memory (cdt::keep_pinned_results): blocks of pinned host memory, up to `bytes` in
+/// all, that large result arrays are carved from; 0 unpins and frees the free blocks and keeps none.
+void set_result_blocks_limit(std::size_t bytes) noexcept;
+
+/// A free pinned block of at least `bytes` (and at most twice that), pinned now when none is free and
+/// the limit leaves room (unpinning free blocks that do not fit to make it); nullptr when the memory is
+/// not kept, there is no room or pinning failed. Never throws.
+void* take_result_block(std::size_t bytes) noexcept;
+
+/// Marks p's block free again when p is one (true; a block whose pinning stop_gpu undid is freed);
+/// false when p is no block of the result memory.
+bool give_back_result_block(void* p) noexcept;
+
 /// Synchronise after every launch so a fault shows at the launch that caused it (slow; for debugging).
 /// Also turned on by the environment variable TRIXEL_CUDA_SYNC=1.
 void set_debug_sync(bool on) noexcept;

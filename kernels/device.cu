@@ -21,6 +21,9 @@
 #if defined(__x86_64__)
 #include <emmintrin.h>
 #endif
+#if defined(__linux__)
+#include <sys/mman.h>
+#endif
 
 #include "cdt_kernels.hpp"
 #include "cuda_check.cuh"
@@ -336,6 +339,177 @@ void return_staging_block(void* block) noexcept {
   }
 }
 
+namespace {
+/// A block of the pinned result memory (keep_pinned_results).
+struct ResultBlock {
+  void* ptr = nullptr;
+  std::size_t bytes = 0;
+  bool in_use = false;
+  bool pinned = true; ///< false once release_device unpinned it: freed when given back
+};
+
+struct ResultBlocks {
+  std::mutex mutex;
+  std::size_t limit = 0; ///< bytes
+  std::size_t total = 0; ///< bytes of the pinned blocks, and of one being pinned
+  std::vector<ResultBlock> blocks;
+  std::atomic<bool> any{false}; ///< whether a block was ever made: most frees need no lock then
+};
+
+ResultBlocks& result_blocks() {
+  static auto* blocks = new ResultBlocks; // never destroyed: result arrays may be freed at exit
+  return *blocks;
+}
+
+/// Blocks are whole huge pages: the pinning's first touch faults 2 MiB at a time where the kernel lets it.
+constexpr std::size_t kResultBlockAlign = std::size_t{2} << 20;
+
+void free_result_block(const ResultBlock& b) noexcept {
+  if (b.pinned) cudaHostUnregister(b.ptr);
+  cudaGetLastError(); // nothing here is a caller's error
+  std::free(b.ptr);
+}
+
+/// Takes the free blocks out of `all` while its total is above `room` (all of them when room is 0),
+/// largest first, into `out`. Called with the lock held.
+void drop_free_blocks(ResultBlocks& all, std::size_t room, std::vector<ResultBlock>& out) {
+  while (all.total > room) {
+    auto largest = all.blocks.end();
+    for (auto it = all.blocks.begin(); it != all.blocks.end(); ++it)
+      if (!it->in_use && it->pinned && (largest == all.blocks.end() || it->bytes > largest->bytes))
+        largest = it;
+    if (largest == all.blocks.end()) return; // the rest are in use
+    all.total -= largest->bytes;
+    out.push_back(*largest);
+    all.blocks.erase(largest);
+  }
+}
+
+/// Whether [p, p + bytes) lies in a pinned block in use.
+bool in_result_block(const void* p, std::size_t bytes) noexcept {
+  ResultBlocks& all = result_blocks();
+  if (!all.any.load(std::memory_order_acquire)) return false;
+  const std::lock_guard<std::mutex> lock(all.mutex);
+  const auto at = reinterpret_cast<std::uintptr_t>(p);
+  for (const ResultBlock& b : all.blocks) {
+    const auto begin = reinterpret_cast<std::uintptr_t>(b.ptr);
+    if (b.in_use && b.pinned && at >= begin && at - begin <= b.bytes && bytes <= b.bytes - (at - begin))
+      return true;
+  }
+  return false;
+}
+
+/// Unpins every block before the devices' contexts go: free ones are freed, those in use freed when
+/// given back.
+void unpin_result_blocks() noexcept {
+  ResultBlocks& all = result_blocks();
+  const std::lock_guard<std::mutex> lock(all.mutex);
+  for (auto it = all.blocks.begin(); it != all.blocks.end();) {
+    if (it->pinned) {
+      cudaHostUnregister(it->ptr);
+      cudaGetLastError();
+      it->pinned = false;
+      all.total -= it->bytes;
+    }
+    if (!it->in_use) {
+      std::free(it->ptr);
+      it = all.blocks.erase(it);
+    } else {
+      ++it;
+    }
+  }
+}
+} // namespace
+
+} // namespace detail
+
+void set_result_blocks_limit(std::size_t bytes) noexcept {
+  detail::ResultBlocks& all = detail::result_blocks();
+  std::vector<detail::ResultBlock> dropped;
+  {
+    const std::lock_guard<std::mutex> lock(all.mutex);
+    all.limit = bytes;
+    try {
+      dropped.reserve(all.blocks.size());
+    } catch (...) {
+      return; // the limit holds from the next block on
+    }
+    detail::drop_free_blocks(all, bytes, dropped);
+  }
+  for (const detail::ResultBlock& b : dropped) detail::free_result_block(b);
+}
+
+void* take_result_block(std::size_t bytes) noexcept {
+  using detail::kResultBlockAlign;
+  detail::ResultBlocks& all = detail::result_blocks();
+  if (bytes == 0 || bytes > SIZE_MAX - kResultBlockAlign) return nullptr;
+  const std::size_t size = (bytes + kResultBlockAlign - 1) / kResultBlockAlign * kResultBlockAlign;
+  std::vector<detail::ResultBlock> dropped;
+  {
+    const std::lock_guard<std::mutex> lock(all.mutex);
+    if (size > all.limit) return nullptr;
+    detail::ResultBlock* best = nullptr;
+    for (detail::ResultBlock& b : all.blocks) {
+      if (!b.in_use && b.pinned && b.bytes >= size && b.bytes / 2 <= size &&
+          (best == nullptr || b.bytes < best->bytes))
+        best = &b;
+    }
+    if (best != nullptr) {
+      best->in_use = true;
+      return best->ptr;
+    }
+    try {
+      dropped.reserve(all.blocks.size());
+      all.blocks.reserve(all.blocks.size() + 1); // the new block's place, so that adding it cannot fail
+    } catch (...) {
+      return nullptr;
+    }
+    detail::drop_free_blocks(all, all.limit - size, dropped);
+    if (all.total > all.limit - size) return nullptr; // the blocks in use leave no room
+    all.total += size;                                // the new block's share, held while it is pinned
+  }
+  for (const detail::ResultBlock& b : dropped) detail::free_result_block(b);
+  void* p = std::aligned_alloc(kResultBlockAlign, size);
+#if defined(MADV_HUGEPAGE)
+  if (p != nullptr) madvise(p, size, MADV_HUGEPAGE);
+#endif
+  if (p != nullptr && cudaHostRegister(p, size, cudaHostRegisterDefault) == cudaSuccess) {
+    const std::lock_guard<std::mutex> lock(all.mutex);
+    all.blocks.push_back(detail::ResultBlock{p, size, true, true});
+    all.any.store(true, std::memory_order_release);
+    return p;
+  }
+  cudaGetLastError(); // a failed pinning leaves the array to the C++ allocator
+  std::free(p);
+  const std::lock_guard<std::mutex> lock(all.mutex);
+  all.total -= size;
+  return nullptr;
+}
+
+bool give_back_result_block(void* p) noexcept {
+  detail::ResultBlocks& all = detail::result_blocks();
+  if (!all.any.load(std::memory_order_acquire)) return false;
+  detail::ResultBlock gone;
+  {
+    const std::lock_guard<std::mutex> lock(all.mutex);
+    const auto it = std::find_if(all.blocks.begin(), all.blocks.end(),
+                                 [&](const detail::ResultBlock& b) { return b.ptr == p; });
+    if (it == all.blocks.end()) return false;
+    if (it->pinned && all.total <= all.limit) {
+      it->in_use = false;
+      return true;
+    }
+    // Unpinned by release_device, or beyond a lowered limit.
+    if (it->pinned) all.total -= it->bytes;
+    gone = *it;
+    all.blocks.erase(it);
+  }
+  detail::free_result_block(gone);
+  return true;
+}
+
+namespace detail {
+
 CudaExecutor::~CudaExecutor() {
   // Buffers are freed by their own destructors, in stream order; errors here were reported by the call
   // that caused them. The stream is the thread's own and stays.
@@ -390,7 +564,9 @@ void CudaExecutor::copy_to_host(void* h_dst, const void* d_src, std::size_t byte
   // kHelpedDownloadBytes or more go through the pinned blocks, in steps of a quarter of the copy or
   // less (whole parts, at most a block) so that the bus and the host's copies overlap.
   const bool helped = parallel != nullptr && *parallel && bytes >= kHelpedDownloadBytes;
-  if (bytes <= kStagingBytes && !helped) {
+  // Into the pinned result memory (keep_pinned_results) the device writes at the bus's speed itself.
+  if ((bytes <= kStagingBytes && !helped) ||
+      (bytes >= kHelpedDownloadBytes && in_result_block(h_dst, bytes))) {
     if (bytes != 0) CDT_CUDA_CHECK(cudaMemcpyAsync(h_dst, d_src, bytes, cudaMemcpyDeviceToHost, stream_));
     synchronize();
     return;
@@ -538,6 +714,7 @@ void reserve_memory(std::size_t staging_blocks, std::size_t device_bytes) {
 }
 
 void release_device() noexcept {
+  detail::unpin_result_blocks();
   {
     detail::StagingBlocks& blocks = detail::staging_blocks();
     const std::lock_guard<std::mutex> lock(blocks.mutex);

@@ -240,6 +240,7 @@ std::size_t half_the_memory() {
 int main(int argc, char** argv) {
   bool quick = false;
   bool small_pages = false;
+  bool unpinned = false;
   std::string coast;
   std::vector<std::string> files;
   unsigned threads = 0;
@@ -282,6 +283,8 @@ int main(int argc, char** argv) {
       check = false;
     else if (!std::strcmp(argv[i], "--small-pages"))
       small_pages = true;
+    else if (!std::strcmp(argv[i], "--unpinned"))
+      unpinned = true;
     else if (!std::strcmp(argv[i], "--backend") && i + 1 < argc &&
              (!std::strcmp(argv[i + 1], "auto") || !std::strcmp(argv[i + 1], "cpu") ||
               !std::strcmp(argv[i + 1], "gpu")))
@@ -290,7 +293,8 @@ int main(int argc, char** argv) {
       std::fprintf(stderr, "usage: bench_cdt [--quick] [--coast FILE] [--file PSLG]... [--threads N] "
                            "[--repeat R] [--case TEXT] "
                            "[--no-cgal] [--grid M] [--backend auto|cpu|gpu] [--sizes POINTS:SEGMENTS,...] "
-                           "[--lattice K] [--cache DIR] [--small-pages] [--together N] [--no-verify]\n");
+                           "[--lattice K] [--cache DIR] [--small-pages] [--unpinned] [--together N] "
+                           "[--no-verify]\n");
       return 2;
     }
   }
@@ -301,6 +305,10 @@ int main(int argc, char** argv) {
   std::printf("memory: freed pages reused, %s\n", small_pages ? "small pages"
                                                   : huge      ? "heap advised for huge pages"
                                                               : "huge pages refused");
+  // The GPU backend's large results go into pinned memory kept from run to run unless --unpinned (see
+  // cdt::keep_pinned_results): a run's first large result pins it, the repeats reuse it.
+  const bool pinned = !unpinned && cdt::keep_pinned_results(half_the_memory() / 2);
+  std::printf("results: %s\n", pinned ? "pinned memory kept (GPU backend)" : "not pinned");
   const cdt::Backend backend = backend_name == "cpu"   ? cdt::Backend::cpu
                                : backend_name == "gpu" ? cdt::Backend::gpu
                                                        : cdt::Backend::automatic;

@@ -1,4 +1,6 @@
-// Process-wide memory policy for large triangulations.
+// Process-wide memory policy for large triangulations, and the pinned result memory.
+#include "memory.hpp"
+
 #include "cdt/cdt.hpp"
 
 #include <cstdint>
@@ -9,7 +11,48 @@
 #include <sys/mman.h>
 #endif
 
+#if defined(TRIXEL_HAVE_CUDA)
+#include "cdt_kernels.hpp"
+#endif
+
 namespace cdt {
+
+namespace detail {
+namespace {
+thread_local int pinned_scopes = 0; // PinnedResultScopes alive on this thread
+} // namespace
+
+PinnedResultScope::PinnedResultScope() noexcept { ++pinned_scopes; }
+PinnedResultScope::~PinnedResultScope() { --pinned_scopes; }
+
+void* take_pinned_array(std::size_t bytes) noexcept {
+#if defined(TRIXEL_HAVE_CUDA)
+  if (pinned_scopes > 0) return gpu::take_result_block(bytes);
+#else
+  (void)bytes;
+#endif
+  return nullptr;
+}
+
+bool give_back_pinned_array(void* p) noexcept {
+#if defined(TRIXEL_HAVE_CUDA)
+  return gpu::give_back_result_block(p);
+#else
+  (void)p;
+  return false;
+#endif
+}
+} // namespace detail
+
+bool keep_pinned_results(std::size_t max_bytes) noexcept {
+#if defined(TRIXEL_HAVE_CUDA)
+  gpu::set_result_blocks_limit(max_bytes); // touches no CUDA call until a block is pinned or unpinned
+  return true;
+#else
+  (void)max_bytes;
+  return false;
+#endif
+}
 
 bool retain_freed_memory(std::size_t huge_page_bytes) noexcept {
 #if defined(__GLIBC__)

@@ -61,6 +61,7 @@
 #include "gcd/screen.hpp"
 #include "gcd/shift.hpp"
 #include "gcd/voronoi.hpp"
+#include "memory.hpp"
 #include "pslg.hpp"
 
 #if defined(TRIXEL_HAVE_CUDA)
@@ -437,6 +438,21 @@ std::vector<PhaseStats> add_phases(std::vector<PhaseStats> earlier, const std::v
 /// rounds that grow with their crowding, the diagram places them in one pass.
 constexpr std::size_t kRestartAbovePerSite = 1;
 
+/// Sets aside the output's per-triangle arrays for a triangulation of `points` input points (at most
+/// 2n - 5 triangles for n vertices; vertices added at crossings beyond that grow them later), before
+/// anything else is allocated; nothing is written, so no memory is used until the output is. With the
+/// GPU backend they come from the pinned result memory when the process keeps it (keep_pinned_results):
+/// the device then writes the output straight into them.
+void reserve_output(Triangulation& result, std::size_t points, bool on_gpu) {
+  if (points >= kNone / 2) return; // an input refused later, with its reason
+  std::optional<detail::PinnedResultScope> pinned;
+  if (on_gpu) pinned.emplace();
+  const std::size_t triangles = 2 * points;
+  result.triangles.reserve(triangles);
+  result.neighbors.reserve(triangles);
+  result.segment_of_edge.reserve(triangles);
+}
+
 /// The whole pipeline on the CPU executor alone, or with the CUDA executor's phases when on_gpu.
 /// `restart` carries what an earlier attempt on the same input left.
 Triangulation triangulate_on(std::span<const Point> points, std::span<const Segment> segments,
@@ -444,6 +460,7 @@ Triangulation triangulate_on(std::span<const Point> points, std::span<const Segm
   using namespace detail;
   const auto t_start = restart != nullptr ? restart->start : Clock::now();
   Triangulation result;
+  reserve_output(result, points.size(), on_gpu);
   Statistics& stats = result.stats;
   stats.backend = on_gpu ? kGpuBackendName : "cpu";
   PhaseTimer timer(stats);

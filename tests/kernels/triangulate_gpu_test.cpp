@@ -125,6 +125,54 @@ TEST_F(TriangulateGpu, StoppedDeviceStartsAgain) {
   EXPECT_TRUE(report.ok()) << (report.problems.empty() ? "" : report.problems.front());
 }
 
+// The pinned result memory: a large result's per-triangle arrays come from blocks pinned for it, the
+// next result of the same input takes the same blocks once the first is freed, and a result still held
+// when the device is given back stays whole (its blocks are unpinned, then freed with it). Every result
+// is the one made without it.
+TEST_F(TriangulateGpu, PinnedResultsAreReusedAndOutliveTheDevice) {
+  const auto in = trixel_gen::synthetic_pslg(800000, 20000, Distribution::uniform, 78);
+  cdt::Options gpu;
+  gpu.backend = cdt::Backend::gpu;
+  const auto canonical = [](const cdt::Triangulation& t) {
+    cdt::Triangulation copy = t;
+    cdt::canonicalize(copy);
+    return copy;
+  };
+  const auto same = [](const cdt::Triangulation& a, const cdt::Triangulation& b) {
+    return a.triangles == b.triangles && a.neighbors == b.neighbors &&
+           a.segment_of_edge == b.segment_of_edge && a.vertices == b.vertices &&
+           a.duplicate_of == b.duplicate_of;
+  };
+  const auto blocks = [](const cdt::Triangulation& t) {
+    std::vector<const void*> p = {t.triangles.data(), t.neighbors.data(), t.segment_of_edge.data()};
+    std::sort(p.begin(), p.end());
+    return p;
+  };
+  ASSERT_TRUE(cdt::keep_pinned_results(0));
+  const cdt::Triangulation expected = canonical(cdt::triangulate(in.points, in.segments, gpu));
+  ASSERT_GE(expected.triangles.size() * sizeof(expected.triangles[0]), cdt::detail::kPinnedArrayBytes);
+
+  ASSERT_TRUE(cdt::keep_pinned_results(std::size_t{256} << 20));
+  cdt::Triangulation first = cdt::triangulate(in.points, in.segments, gpu);
+  EXPECT_TRUE(same(canonical(first), expected));
+  const std::vector<const void*> first_blocks = blocks(first);
+  first = cdt::Triangulation{};
+  cdt::Triangulation second = cdt::triangulate(in.points, in.segments, gpu);
+  EXPECT_EQ(blocks(second), first_blocks);
+  EXPECT_TRUE(same(canonical(second), expected));
+
+  cdt::stop_gpu();
+  EXPECT_TRUE(same(canonical(second), expected));
+  second = cdt::Triangulation{};
+  cdt::Triangulation third = cdt::triangulate(in.points, in.segments, gpu);
+  EXPECT_TRUE(same(canonical(third), expected));
+  // Kept no more: the blocks in use are freed with their arrays.
+  ASSERT_TRUE(cdt::keep_pinned_results(0));
+  third = cdt::Triangulation{};
+  const cdt::Triangulation fourth = cdt::triangulate(in.points, in.segments, gpu);
+  EXPECT_TRUE(same(canonical(fourth), expected));
+}
+
 // Crossing segments: the device screens them, the host splits the suspects, and the mesh comes back
 // to the host for the crossing vertices and goes up again.
 TEST_F(TriangulateGpu, CrossingSegmentsMatchTheCpuBackend) {

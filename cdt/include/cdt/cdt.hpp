@@ -98,11 +98,24 @@ struct Statistics {
   std::vector<PhaseStats> phases;
 };
 
+namespace detail {
+/// Arrays this large or larger may come from the pinned result memory (keep_pinned_results).
+inline constexpr std::size_t kPinnedArrayBytes = std::size_t{16} << 20;
+/// A block of at least `bytes` bytes of the pinned result memory when the calling thread is inside a
+/// PinnedResultScope (cdt/src) and the memory is kept; nullptr otherwise. Never throws.
+void* take_pinned_array(std::size_t bytes) noexcept;
+/// Returns p to the pinned result memory when it came from there (true); false otherwise.
+bool give_back_pinned_array(void* p) noexcept;
+} // namespace detail
+
 /// The allocator of Triangulation's per-triangle and per-point arrays. Growing such an array (resize) leaves
 /// the new elements unwritten (default-initialised; for Point, whose members' initialisers would write
 /// zeros, not even that): the triangulation writes every element itself, in parallel, and a zero fill
 /// first would cost as much again at 10^7 elements. Construction with arguments (push_back, assign,
 /// copies) behaves as with std::allocator.
+///
+/// Arrays of kPinnedArrayBytes or more may come from pinned host memory that the process keeps for the
+/// GPU backend's results (keep_pinned_results); they go back to it when freed.
 template <class T>
 struct DefaultInitAllocator : std::allocator<T> {
   template <class U>
@@ -112,10 +125,25 @@ struct DefaultInitAllocator : std::allocator<T> {
   DefaultInitAllocator() = default;
   template <class U>
   DefaultInitAllocator(const DefaultInitAllocator<U>&) noexcept {}
+  [[nodiscard]] T* allocate(std::size_t n) {
+    if (pinnable(n)) {
+      if (void* p = detail::take_pinned_array(n * sizeof(T))) return static_cast<T*>(p);
+    }
+    return std::allocator<T>::allocate(n);
+  }
+  void deallocate(T* p, std::size_t n) noexcept {
+    if (pinnable(n) && detail::give_back_pinned_array(p)) return;
+    std::allocator<T>::deallocate(p, n);
+  }
   template <class U>
   void construct(U* p) noexcept(std::is_nothrow_default_constructible_v<U>) {
     // Point is an aggregate of two doubles (an implicit-lifetime type: the allocation holds its objects).
     if constexpr (!std::is_same_v<U, Point>) ::new (static_cast<void*>(p)) U;
+  }
+
+private:
+  static constexpr bool pinnable(std::size_t n) noexcept {
+    return n >= (detail::kPinnedArrayBytes + sizeof(T) - 1) / sizeof(T) && n <= SIZE_MAX / sizeof(T);
   }
 };
 
@@ -195,6 +223,20 @@ void stop_gpu() noexcept;
 /// setting is "madvise" or "always"; the result is false when the advice was refused (the memory
 /// policy above still holds then).
 bool retain_freed_memory(std::size_t huge_page_bytes = 0) noexcept;
+
+/// Keeps up to `max_bytes` of pinned (page-locked) host memory for the GPU backend's results, so that
+/// the device writes a large triangulation's triangles, neighbours and segments straight into the
+/// Triangulation's arrays at the bus's speed rather than through staging blocks and a copy on the host
+/// (10M points + 1M segments: 720 MB). Pinning costs as much as that copy, about 25 ms per GB, so it
+/// pays from the second large triangulation on: arrays of 16 MiB or more (results of about 700K points
+/// or more) come from blocks pinned when first needed and return to them when freed, for the next
+/// result of the same size or up to twice smaller. Blocks that no longer fit are unpinned to make room.
+/// For programs that triangulate large inputs one after another; the cdt command, one input per
+/// process, does not call it. Freeing a Triangulation from the kept memory, after stop_gpu() too, is
+/// like freeing any other. 0 gives the free blocks back and keeps none from then on. Makes no CUDA call
+/// itself (a process may fork after it). Returns false, and does nothing, where the library was built
+/// without CUDA.
+bool keep_pinned_results(std::size_t max_bytes) noexcept;
 
 /// Computes the constrained Delaunay triangulation of the points and segments.
 ///
