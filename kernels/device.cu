@@ -473,7 +473,7 @@ void* take_result_block(std::size_t bytes) noexcept {
 #if defined(MADV_HUGEPAGE)
   if (p != nullptr) madvise(p, size, MADV_HUGEPAGE);
 #endif
-  if (p != nullptr && cudaHostRegister(p, size, cudaHostRegisterDefault) == cudaSuccess) {
+  if (p != nullptr && cudaHostRegister(p, size, cudaHostRegisterPortable) == cudaSuccess) {
     const std::lock_guard<std::mutex> lock(all.mutex);
     all.blocks.push_back(detail::ResultBlock{p, size, true, true});
     all.any.store(true, std::memory_order_release);

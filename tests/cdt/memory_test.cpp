@@ -1,5 +1,6 @@
 // Tests of retain_freed_memory(): the process-wide memory policy for large triangulations. Each runs in
-// a child process (a death test's), so that the policy never reaches the other tests.
+// a child process (a death test's), so that the policy never reaches the other tests. And of the
+// pinned result memory's fallback (keep_pinned_results; its blocks are tested on the device).
 
 #include <gtest/gtest.h>
 
@@ -7,10 +8,13 @@
 #include <cstdio>
 #include <cstdlib>
 #include <fstream>
+#include <optional>
 #include <sstream>
 #include <string>
+#include <vector>
 
 #include "cdt/cdt.hpp"
+#include "memory.hpp"
 
 #if defined(__GLIBC__)
 #include <malloc.h>
@@ -108,5 +112,31 @@ TEST(RetainFreedMemory, HugePagesAdviceCoversTheHeapItGrew) {
 }
 
 #endif
+
+// With the pinned result memory kept (and, on a machine without a device, no block to be had), a large
+// array allocated where the triangulation sets its output aside holds what is written to it, is freed
+// like any other, and another like it allocated outside that place too. Without CUDA the memory is
+// never kept.
+TEST(KeepPinnedResults, LargeArraysWithoutABlockAreOrdinary) {
+  const bool kept = cdt::keep_pinned_results(std::size_t{64} << 20);
+  using Words = std::vector<std::uint32_t, cdt::DefaultInitAllocator<std::uint32_t>>;
+  constexpr std::size_t kWords = cdt::detail::kPinnedArrayBytes / sizeof(std::uint32_t) + 1;
+  for (const bool in_scope : {true, false}) {
+    Words words;
+    {
+      std::optional<cdt::detail::PinnedResultScope> scope;
+      if (in_scope) scope.emplace();
+      words.reserve(kWords);
+    }
+    words.resize(kWords);
+    for (std::size_t k = 0; k < kWords; ++k) words[k] = static_cast<std::uint32_t>(k * 2654435761u);
+    std::size_t wrong = 0;
+    for (std::size_t k = 0; k < kWords; ++k) wrong += words[k] != static_cast<std::uint32_t>(k * 2654435761u);
+    EXPECT_EQ(wrong, 0u) << (in_scope ? "in scope" : "outside");
+    Words moved = std::move(words);
+    EXPECT_EQ(moved.size(), kWords);
+  }
+  EXPECT_EQ(cdt::keep_pinned_results(0), kept);
+}
 
 } // namespace
