@@ -101,6 +101,29 @@ private:
   cudaEvent_t event_ = nullptr;
 };
 
+/// Device to host copies into pinned memory on a stream of their own, each after the work queued on
+/// another stream before it (after_queued_work): a step's parts are copied while it makes the next
+/// ones. wait() waits for them all and reports their errors; the destructor waits too, so that no
+/// copy outlives the buffers it reads.
+class PartCopies {
+public:
+  /// Throws DeviceError.
+  explicit PartCopies(cudaStream_t after);
+  ~PartCopies();
+  PartCopies(const PartCopies&) = delete;
+  PartCopies& operator=(const PartCopies&) = delete;
+  /// The copies queued from now on start once the work queued on `after` so far is done.
+  void after_queued_work();
+  /// Queues a copy of `bytes` bytes from d_src on the device to h_dst (pinned).
+  void copy(void* h_dst, const void* d_src, std::size_t bytes);
+  void wait();
+
+private:
+  cudaStream_t after_;
+  cudaStream_t stream_ = nullptr;
+  std::vector<cudaEvent_t> events_;
+};
+
 /// Copies of device arrays to host memory made on a thread of their own, after the work queued so far
 /// on the calling thread's stream: for results the host reads only much later, so that the device's
 /// next steps and the host's part of the copies run side by side. Both sides of every copy must stay

@@ -385,20 +385,6 @@ void drop_free_blocks(ResultBlocks& all, std::size_t room, std::vector<ResultBlo
   }
 }
 
-/// Whether [p, p + bytes) lies in a pinned block in use.
-bool in_result_block(const void* p, std::size_t bytes) noexcept {
-  ResultBlocks& all = result_blocks();
-  if (!all.any.load(std::memory_order_acquire)) return false;
-  const std::lock_guard<std::mutex> lock(all.mutex);
-  const auto at = reinterpret_cast<std::uintptr_t>(p);
-  for (const ResultBlock& b : all.blocks) {
-    const auto begin = reinterpret_cast<std::uintptr_t>(b.ptr);
-    if (b.in_use && b.pinned && at >= begin && at - begin <= b.bytes && bytes <= b.bytes - (at - begin))
-      return true;
-  }
-  return false;
-}
-
 /// Unpins every block before the devices' contexts go: free ones are freed, those in use freed when
 /// given back.
 void unpin_result_blocks() noexcept {
@@ -420,6 +406,19 @@ void unpin_result_blocks() noexcept {
   }
 }
 } // namespace
+
+bool in_result_block(const void* p, std::size_t bytes) noexcept {
+  ResultBlocks& all = result_blocks();
+  if (!all.any.load(std::memory_order_acquire)) return false;
+  const std::lock_guard<std::mutex> lock(all.mutex);
+  const auto at = reinterpret_cast<std::uintptr_t>(p);
+  for (const ResultBlock& b : all.blocks) {
+    const auto begin = reinterpret_cast<std::uintptr_t>(b.ptr);
+    if (b.in_use && b.pinned && at >= begin && at - begin <= b.bytes && bytes <= b.bytes - (at - begin))
+      return true;
+  }
+  return false;
+}
 
 } // namespace detail
 
@@ -615,6 +614,32 @@ float DeviceEvent::since(const DeviceEvent& start) const {
 }
 
 void CudaExecutor::synchronize() { CDT_CUDA_CHECK(cudaStreamSynchronize(stream_)); }
+
+PartCopies::PartCopies(cudaStream_t after) : after_(after) {
+  CDT_CUDA_CHECK(cudaStreamCreateWithFlags(&stream_, cudaStreamNonBlocking));
+}
+
+PartCopies::~PartCopies() {
+  // Errors were reported by wait(), or are on their way out with an exception.
+  cudaStreamSynchronize(stream_);
+  for (cudaEvent_t e : events_) cudaEventDestroy(e);
+  cudaStreamDestroy(stream_);
+}
+
+void PartCopies::after_queued_work() {
+  events_.reserve(events_.size() + 1);
+  cudaEvent_t event = nullptr;
+  CDT_CUDA_CHECK(cudaEventCreateWithFlags(&event, cudaEventDisableTiming));
+  events_.push_back(event);
+  CDT_CUDA_CHECK(cudaEventRecord(event, after_));
+  CDT_CUDA_CHECK(cudaStreamWaitEvent(stream_, event, 0));
+}
+
+void PartCopies::copy(void* h_dst, const void* d_src, std::size_t bytes) {
+  if (bytes != 0) CDT_CUDA_CHECK(cudaMemcpyAsync(h_dst, d_src, bytes, cudaMemcpyDeviceToHost, stream_));
+}
+
+void PartCopies::wait() { CDT_CUDA_CHECK(cudaStreamSynchronize(stream_)); }
 
 /// Threads that help a late download's own with the host's side of its copies.
 constexpr std::size_t kLateCopyHelpers = 3;

@@ -1504,6 +1504,10 @@ void DeviceMesh::take_vertex_ids(DeviceSites& sites) {
   state_->vertex_ids = std::move(sites.state().site_vertex);
 }
 
+/// The output's arrays are made and copied in parts of about this many bytes each when the device writes
+/// them into pinned memory.
+constexpr std::size_t kOutputPartBytes = std::size_t{16} << 20;
+
 void DeviceMesh::output(std::span<const std::uint32_t> vertex_of,
                         std::span<const std::uint32_t> segment_of_piece, TriangleArray& triangles,
                         TriangleArray& neighbors, TriangleArray& segment_of_edge,
@@ -1542,19 +1546,49 @@ void DeviceMesh::output(std::span<const std::uint32_t> vertex_of,
   std::uint32_t* sg = segments.data();
   const std::uint32_t* v_of = d_vertex_of.data();
   const std::uint32_t* s_of = d_segment_of_piece.data();
-  executor.for_each(
-      count,
-      [=] __device__(std::size_t k) {
-        ::cdt::detail::output_triangle(m, order[k], v_of, index, s_of, c + 3 * k, nb + 3 * k, sg + 3 * k);
-      },
-      "output_triangles");
+  const auto make = [&](std::uint32_t from, std::uint32_t to) {
+    executor.for_each(
+        to - from,
+        [=] __device__(std::size_t i) {
+          const std::size_t k = from + i;
+          ::cdt::detail::output_triangle(m, order[k], v_of, index, s_of, c + 3 * k, nb + 3 * k, sg + 3 * k);
+        },
+        "output_triangles");
+  };
   triangles.resize(count);
   neighbors.resize(count);
   segment_of_edge.resize(count);
+  const std::array<std::uint32_t*, 3> host = {reinterpret_cast<std::uint32_t*>(triangles.data()),
+                                              reinterpret_cast<std::uint32_t*>(neighbors.data()),
+                                              reinterpret_cast<std::uint32_t*>(segment_of_edge.data())};
+  const std::array<const std::uint32_t*, 3> device = {c, nb, sg};
+  const std::size_t bytes = words * sizeof(std::uint32_t);
+  const bool pinned = bytes >= kOutputPartBytes && detail::in_result_block(host[0], bytes) &&
+                      detail::in_result_block(host[1], bytes) && detail::in_result_block(host[2], bytes);
+  if (!pinned) {
+    make(0, count);
+    trace.mark("host arrays sized");
+    for (std::size_t a = 0; a < 3; ++a) executor.download(host[a], device[a], words, &parallel);
+    trace.mark("made and downloaded");
+    return;
+  }
+  // Into the pinned result memory the device writes directly: the triangles are made in parts, each
+  // part's copies queued on a stream of their own as soon as it is made, so that the bus does not wait
+  // for the whole output to be made.
   trace.mark("host arrays sized");
-  executor.download(reinterpret_cast<std::uint32_t*>(triangles.data()), c, words, &parallel);
-  executor.download(reinterpret_cast<std::uint32_t*>(neighbors.data()), nb, words, &parallel);
-  executor.download(reinterpret_cast<std::uint32_t*>(segment_of_edge.data()), sg, words, &parallel);
+  detail::PartCopies copies(executor.stream());
+  const std::uint32_t part =
+      static_cast<std::uint32_t>(std::max<std::size_t>(1, kOutputPartBytes / (3 * sizeof(std::uint32_t))));
+  for (std::uint32_t from = 0, to = 0; from < count; from = to) {
+    to = from + std::min(part, count - from);
+    make(from, to);
+    copies.after_queued_work();
+    for (std::size_t a = 0; a < 3; ++a)
+      copies.copy(host[a] + 3 * static_cast<std::size_t>(from),
+                  device[a] + 3 * static_cast<std::size_t>(from),
+                  3 * static_cast<std::size_t>(to - from) * sizeof(std::uint32_t));
+  }
+  copies.wait();
   trace.mark("made and downloaded");
 }
 
