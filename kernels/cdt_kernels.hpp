@@ -66,6 +66,10 @@ void set_result_blocks_limit(std::size_t bytes) noexcept;
 /// not kept, there is no room or pinning failed. Never throws.
 void* take_result_block(std::size_t bytes) noexcept;
 
+/// Whether [p, p + bytes) lies in a block of the pinned result memory in use: the device writes there
+/// at the bus's speed, with no staging.
+bool in_result_block(const void* p, std::size_t bytes) noexcept;
+
 /// Marks p's block free again when p is one (true; a block whose pinning stop_gpu undid is freed);
 /// false when p is no block of the result memory.
 bool give_back_result_block(void* p) noexcept;

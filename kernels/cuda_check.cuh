@@ -60,10 +60,6 @@ void* try_take_staging_block() noexcept;
 /// Gives a block of take_staging_block or try_take_staging_block back to the pool.
 void return_staging_block(void* block) noexcept;
 
-/// Whether [p, p + bytes) lies in a block of the pinned result memory in use (keep_pinned_results):
-/// the device can write there at the bus's speed, with no staging.
-bool in_result_block(const void* p, std::size_t bytes) noexcept;
-
 /// A free staging block held for one call (try_take_staging_block), or none when `wanted` is false or
 /// every block is in use: nothing is pinned on the way, which would stall the other threads' device
 /// work.

@@ -407,20 +407,20 @@ void unpin_result_blocks() noexcept {
 }
 } // namespace
 
+} // namespace detail
+
 bool in_result_block(const void* p, std::size_t bytes) noexcept {
-  ResultBlocks& all = result_blocks();
+  detail::ResultBlocks& all = detail::result_blocks();
   if (!all.any.load(std::memory_order_acquire)) return false;
   const std::lock_guard<std::mutex> lock(all.mutex);
   const auto at = reinterpret_cast<std::uintptr_t>(p);
-  for (const ResultBlock& b : all.blocks) {
+  for (const detail::ResultBlock& b : all.blocks) {
     const auto begin = reinterpret_cast<std::uintptr_t>(b.ptr);
     if (b.in_use && b.pinned && at >= begin && at - begin <= b.bytes && bytes <= b.bytes - (at - begin))
       return true;
   }
   return false;
 }
-
-} // namespace detail
 
 void set_result_blocks_limit(std::size_t bytes) noexcept {
   detail::ResultBlocks& all = detail::result_blocks();
@@ -457,15 +457,18 @@ void* take_result_block(std::size_t bytes) noexcept {
       best->in_use = true;
       return best->ptr;
     }
+    // The blocks in use leave no room: nothing is dropped.
+    std::size_t in_use = 0;
+    for (const detail::ResultBlock& b : all.blocks)
+      if (b.in_use && b.pinned) in_use += b.bytes;
+    if (in_use > all.limit - size) return nullptr;
     try {
       dropped.reserve(all.blocks.size());
-      all.blocks.reserve(all.blocks.size() + 1); // the new block's place, so that adding it cannot fail
     } catch (...) {
       return nullptr;
     }
     detail::drop_free_blocks(all, all.limit - size, dropped);
-    if (all.total > all.limit - size) return nullptr; // the blocks in use leave no room
-    all.total += size;                                // the new block's share, held while it is pinned
+    all.total += size; // the new block's share, held while it is pinned
   }
   for (const detail::ResultBlock& b : dropped) detail::free_result_block(b);
   void* p = std::aligned_alloc(kResultBlockAlign, size);
@@ -474,9 +477,13 @@ void* take_result_block(std::size_t bytes) noexcept {
 #endif
   if (p != nullptr && cudaHostRegister(p, size, cudaHostRegisterPortable) == cudaSuccess) {
     const std::lock_guard<std::mutex> lock(all.mutex);
-    all.blocks.push_back(detail::ResultBlock{p, size, true, true});
-    all.any.store(true, std::memory_order_release);
-    return p;
+    try {
+      all.blocks.push_back(detail::ResultBlock{p, size, true, true});
+      all.any.store(true, std::memory_order_release);
+      return p;
+    } catch (...) {
+      cudaHostUnregister(p);
+    }
   }
   cudaGetLastError(); // a failed pinning leaves the array to the C++ allocator
   std::free(p);

@@ -1563,8 +1563,8 @@ void DeviceMesh::output(std::span<const std::uint32_t> vertex_of,
                                               reinterpret_cast<std::uint32_t*>(segment_of_edge.data())};
   const std::array<const std::uint32_t*, 3> device = {c, nb, sg};
   const std::size_t bytes = words * sizeof(std::uint32_t);
-  const bool pinned = bytes >= kOutputPartBytes && detail::in_result_block(host[0], bytes) &&
-                      detail::in_result_block(host[1], bytes) && detail::in_result_block(host[2], bytes);
+  const bool pinned = bytes >= kOutputPartBytes && in_result_block(host[0], bytes) &&
+                      in_result_block(host[1], bytes) && in_result_block(host[2], bytes);
   if (!pinned) {
     make(0, count);
     trace.mark("host arrays sized");

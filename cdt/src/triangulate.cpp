@@ -794,6 +794,10 @@ Triangulation triangulate_on(std::span<const Point> points, std::span<const Segm
     device_diagram.reset();
     device_sites.reset();
 #endif
+    // The output's arrays set aside for this attempt go too (pinned blocks among them), for the next's.
+    TriangleArray().swap(result.triangles);
+    TriangleArray().swap(result.neighbors);
+    TriangleArray().swap(result.segment_of_edge);
     Restart next{t_start, restart != nullptr ? add_phases(restart->phases, stats.phases) : stats.phases,
                  restart != nullptr ? restart->attempts + 1 : 1, std::move(split_pslg)};
     return triangulate_on(points, segments, options, on_gpu, Split::first, &next);

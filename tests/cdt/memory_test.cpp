@@ -113,11 +113,12 @@ TEST(RetainFreedMemory, HugePagesAdviceCoversTheHeapItGrew) {
 
 #endif
 
-// With the pinned result memory kept (and, on a machine without a device, no block to be had), a large
-// array allocated where the triangulation sets its output aside holds what is written to it, is freed
-// like any other, and another like it allocated outside that place too. Without CUDA the memory is
-// never kept.
-TEST(KeepPinnedResults, LargeArraysWithoutABlockAreOrdinary) {
+// With the pinned result memory kept, large arrays allocated where the triangulation sets its output
+// aside (from a pinned block where there is a device) and elsewhere hold what is written to them and are
+// freed like any other. Without CUDA the memory is never kept. In a child process: a device there starts
+// CUDA, which the death tests' forks must not inherit. Returns 0 when every check passed, else which one
+// failed.
+int large_arrays_in_and_out_of_the_scope() {
   const bool kept = cdt::keep_pinned_results(std::size_t{64} << 20);
   using Words = std::vector<std::uint32_t, cdt::DefaultInitAllocator<std::uint32_t>>;
   constexpr std::size_t kWords = cdt::detail::kPinnedArrayBytes / sizeof(std::uint32_t) + 1;
@@ -130,13 +131,16 @@ TEST(KeepPinnedResults, LargeArraysWithoutABlockAreOrdinary) {
     }
     words.resize(kWords);
     for (std::size_t k = 0; k < kWords; ++k) words[k] = static_cast<std::uint32_t>(k * 2654435761u);
-    std::size_t wrong = 0;
-    for (std::size_t k = 0; k < kWords; ++k) wrong += words[k] != static_cast<std::uint32_t>(k * 2654435761u);
-    EXPECT_EQ(wrong, 0u) << (in_scope ? "in scope" : "outside");
-    Words moved = std::move(words);
-    EXPECT_EQ(moved.size(), kWords);
+    const Words moved = std::move(words);
+    if (moved.size() != kWords) return 2;
+    for (std::size_t k = 0; k < kWords; ++k)
+      if (moved[k] != static_cast<std::uint32_t>(k * 2654435761u)) return 3;
   }
-  EXPECT_EQ(cdt::keep_pinned_results(0), kept);
+  return cdt::keep_pinned_results(0) == kept ? 0 : 4;
+}
+
+TEST(KeepPinnedResults, LargeArraysHoldTheirValuesInAndOutOfTheScope) {
+  EXPECT_EXIT(std::exit(large_arrays_in_and_out_of_the_scope()), ::testing::ExitedWithCode(0), "");
 }
 
 } // namespace

@@ -19,6 +19,7 @@
 #include "cdt/cdt.hpp"
 #include "cdt/io.hpp"
 #include "cdt/verify.hpp"
+#include "cdt_kernels.hpp"
 #include "pslg_generators.hpp"
 
 namespace {
@@ -152,25 +153,65 @@ TEST_F(TriangulateGpu, PinnedResultsAreReusedAndOutliveTheDevice) {
   const cdt::Triangulation expected = canonical(cdt::triangulate(in.points, in.segments, gpu));
   ASSERT_GE(expected.triangles.size() * sizeof(expected.triangles[0]), cdt::detail::kPinnedArrayBytes);
 
+  // Whether all three arrays lie in pinned blocks in use.
+  const auto pinned = [](const cdt::Triangulation& t) {
+    const std::size_t bytes = t.triangles.size() * sizeof(t.triangles[0]);
+    return cdt::gpu::in_result_block(t.triangles.data(), bytes) &&
+           cdt::gpu::in_result_block(t.neighbors.data(), bytes) &&
+           cdt::gpu::in_result_block(t.segment_of_edge.data(), bytes);
+  };
+
   ASSERT_TRUE(cdt::keep_pinned_results(std::size_t{256} << 20));
   cdt::Triangulation first = cdt::triangulate(in.points, in.segments, gpu);
+  EXPECT_TRUE(pinned(first));
   EXPECT_TRUE(same(canonical(first), expected));
   const std::vector<const void*> first_blocks = blocks(first);
   first = cdt::Triangulation{};
+  EXPECT_FALSE(cdt::gpu::in_result_block(first_blocks[0], 1)); // free again
   cdt::Triangulation second = cdt::triangulate(in.points, in.segments, gpu);
+  EXPECT_TRUE(pinned(second));
   EXPECT_EQ(blocks(second), first_blocks);
   EXPECT_TRUE(same(canonical(second), expected));
 
   cdt::stop_gpu();
+  EXPECT_FALSE(pinned(second)); // unpinned, still whole
   EXPECT_TRUE(same(canonical(second), expected));
   second = cdt::Triangulation{};
   cdt::Triangulation third = cdt::triangulate(in.points, in.segments, gpu);
+  EXPECT_TRUE(pinned(third));
   EXPECT_TRUE(same(canonical(third), expected));
-  // Kept no more: the blocks in use are freed with their arrays.
+  // Kept no more: the blocks in use are freed with their arrays, and no array comes from them.
   ASSERT_TRUE(cdt::keep_pinned_results(0));
   third = cdt::Triangulation{};
   const cdt::Triangulation fourth = cdt::triangulate(in.points, in.segments, gpu);
+  EXPECT_FALSE(pinned(fourth));
   EXPECT_TRUE(same(canonical(fourth), expected));
+}
+
+// The pinned result memory's blocks keep to their limit: one that does not fit beside the blocks in use
+// is refused and the free ones stay for the next that fits; a free block is taken again by a request of
+// its size; 0 frees them and refuses every request.
+TEST_F(TriangulateGpu, PinnedBlocksKeepToTheirLimit) {
+  constexpr std::size_t kMiB = std::size_t{1} << 20;
+  cdt::gpu::set_result_blocks_limit(0);
+  cdt::gpu::set_result_blocks_limit(64 * kMiB);
+  void* const a = cdt::gpu::take_result_block(40 * kMiB);
+  ASSERT_NE(a, nullptr);
+  EXPECT_TRUE(cdt::gpu::in_result_block(a, 40 * kMiB));
+  EXPECT_FALSE(cdt::gpu::in_result_block(a, 40 * kMiB + 2 * kMiB)); // beyond the block
+  EXPECT_EQ(cdt::gpu::take_result_block(32 * kMiB), nullptr);       // 40 + 32 > 64
+  void* const b = cdt::gpu::take_result_block(16 * kMiB);
+  ASSERT_NE(b, nullptr);
+  EXPECT_TRUE(cdt::gpu::give_back_result_block(b));
+  EXPECT_FALSE(cdt::gpu::in_result_block(b, 1));
+  EXPECT_EQ(cdt::gpu::take_result_block(32 * kMiB), nullptr); // the block in use leaves 24
+  EXPECT_EQ(cdt::gpu::take_result_block(16 * kMiB), b);       // the free block stayed
+  int local = 0;
+  EXPECT_FALSE(cdt::gpu::give_back_result_block(&local));
+  EXPECT_TRUE(cdt::gpu::give_back_result_block(b));
+  EXPECT_TRUE(cdt::gpu::give_back_result_block(a));
+  cdt::gpu::set_result_blocks_limit(0);
+  EXPECT_EQ(cdt::gpu::take_result_block(16 * kMiB), nullptr);
 }
 
 // Crossing segments: the device screens them, the host splits the suspects, and the mesh comes back
