@@ -68,10 +68,10 @@ if want tests; then
     # TRIXEL_CUDA_SYNC=1: each launch checked where it ran, and released device blocks freed at once
     # (not kept for reuse), so a use of a released buffer is seen.
     step memcheck env TRIXEL_CUDA_SYNC=1 compute-sanitizer --tool memcheck --error-exitcode 1 build-gpu/bin/kernels_tests "$sanitized"
-    # Not under racecheck: StoppedDeviceStartsAgain, whose cudaDeviceReset ends the process there
-    # (memcheck runs it).
+    # Not under racecheck: StoppedDeviceStartsAgain and PinnedResultsAreReusedAndOutliveTheDevice, whose
+    # cudaDeviceReset ends the process there (memcheck runs them).
     step racecheck compute-sanitizer --tool racecheck --error-exitcode 1 build-gpu/bin/kernels_tests \
-      "$sanitized:TriangulateGpu.ArtemOgreFilesVerify:TriangulateGpu.LatticesVerify:TriangulateGpu.StoppedDeviceStartsAgain"
+      "$sanitized:TriangulateGpu.ArtemOgreFilesVerify:TriangulateGpu.LatticesVerify:TriangulateGpu.StoppedDeviceStartsAgain:TriangulateGpu.PinnedResultsAreReusedAndOutliveTheDevice"
   fi
 else
   step build cmake --build build-gpu -j "$(nproc)" --target bench_cdt bench_predicates bench_voronoi_gpu
