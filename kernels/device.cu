@@ -457,11 +457,11 @@ void* take_result_block(std::size_t bytes) noexcept {
       best->in_use = true;
       return best->ptr;
     }
-    // The blocks in use leave no room: nothing is dropped.
-    std::size_t in_use = 0;
+    // The blocks in use, and those another thread is pinning, leave no room: nothing is dropped.
+    std::size_t free_bytes = 0;
     for (const detail::ResultBlock& b : all.blocks)
-      if (b.in_use && b.pinned) in_use += b.bytes;
-    if (in_use > all.limit - size) return nullptr;
+      if (!b.in_use && b.pinned) free_bytes += b.bytes;
+    if (all.total - free_bytes > all.limit - size) return nullptr;
     try {
       dropped.reserve(all.blocks.size());
     } catch (...) {
