@@ -686,6 +686,10 @@ bool DeviceMesh::start_constraints(std::span<const ConstraintPiece2> pieces, uns
     const auto body = [run, copy, pieces, inner_iterations, device] {
       try {
         CDT_CUDA_CHECK(cudaSetDevice(device)); // the current device is each thread's own
+        // On a stream of the highest priority, ahead of the screen that the owner's thread runs
+        // meanwhile: sharing the device evenly, these constraints (the longer work) finished well after
+        // the screen and the split and were what the triangulation waited for.
+        detail::PriorityStream first;
         // An executor of this thread's own: its stream, and its scratch words and buffers.
         detail::CudaExecutor own;
         try {

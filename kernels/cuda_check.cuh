@@ -38,8 +38,28 @@ inline void check_launch(const char* kernel, const char* file, int line) {
 void check_free_memory(std::size_t bytes);
 inline constexpr std::size_t kCheckFreeAbove = std::size_t{64} << 20;
 
+/// The stream the calling thread queues its work on: its default stream (cudaStreamPerThread), unless a
+/// ThreadStream gave it another. Executors made on the thread use it, and buffers are allocated and
+/// freed in its order.
+cudaStream_t thread_stream() noexcept;
+
+/// Gives the calling thread a stream of its own of the highest priority while it lives, for work that
+/// shares the device with other threads' and should go first (the constraints beside the screen). Made
+/// before any executor or buffer of the thread and destroyed after them; the stream is synchronised and
+/// destroyed at the end, and the thread's default stream is its stream again. Throws DeviceError.
+class PriorityStream {
+public:
+  PriorityStream();
+  ~PriorityStream();
+  PriorityStream(const PriorityStream&) = delete;
+  PriorityStream& operator=(const PriorityStream&) = delete;
+
+private:
+  cudaStream_t stream_ = nullptr;
+};
+
 /// Device memory of `bytes` bytes for a buffer: from this library's stream-ordered pool on the calling
-/// thread's default stream (pooled = true), or with the debug switch on a plain cudaMalloc block. A
+/// thread's stream (thread_stream; pooled = true), or with the debug switch on a plain cudaMalloc block. A
 /// pooled block must be released by the thread that allocated it (the executors queue all their work
 /// on that thread's stream, so the release is ordered after every use). Returns the failing status
 /// with *d_ptr null.

@@ -106,6 +106,9 @@ bool debug_sync() noexcept {
 
 namespace {
 
+/// The calling thread's stream (thread_stream).
+thread_local cudaStream_t t_thread_stream = cudaStreamPerThread;
+
 /// Every device's buffer pool (buffer_pool), reachable for release_device.
 struct BufferPools {
   std::mutex mutex;
@@ -118,7 +121,7 @@ BufferPools& buffer_pools() {
 }
 
 /// The memory pool of device buffers on each device: stream-ordered (cudaMallocFromPoolAsync and
-/// cudaFreeAsync on the calling thread's default stream), and with no release threshold, so memory a
+/// cudaFreeAsync on the calling thread's stream), and with no release threshold, so memory a
 /// buffer frees stays in the pool for the next one instead of going back to the driver. cudaMalloc and
 /// cudaFree of hundreds of megabytes cost milliseconds each, and cudaFree waits for the whole device,
 /// which stalls every other thread's work on it; every triangulation frees and allocates the same sizes
@@ -147,7 +150,7 @@ void trim_buffer_pool() noexcept {
   if (cudaGetDevice(&device) != cudaSuccess) return;
   try {
     const cudaMemPool_t pool = buffer_pool(device);
-    cudaStreamSynchronize(cudaStreamPerThread);
+    cudaStreamSynchronize(t_thread_stream);
     cudaMemPoolTrimTo(pool, 0);
   } catch (const DeviceError&) {
     // No pool: nothing to give back.
@@ -155,6 +158,25 @@ void trim_buffer_pool() noexcept {
 }
 
 } // namespace
+
+cudaStream_t thread_stream() noexcept { return t_thread_stream; }
+
+PriorityStream::PriorityStream() {
+  if (t_thread_stream != cudaStreamPerThread)
+    throw Error("internal error: PriorityStream: the thread has a stream of its own already");
+  int least = 0, greatest = 0;
+  CDT_CUDA_CHECK(cudaDeviceGetStreamPriorityRange(&least, &greatest));
+  CDT_CUDA_CHECK(cudaStreamCreateWithPriority(&stream_, cudaStreamNonBlocking, greatest));
+  t_thread_stream = stream_;
+}
+
+PriorityStream::~PriorityStream() {
+  // Errors were reported by the work that caused them; the buffers freed on the stream go back to the
+  // pool once it is done, which destroying it does not cut short.
+  cudaStreamSynchronize(stream_);
+  t_thread_stream = cudaStreamPerThread;
+  cudaStreamDestroy(stream_);
+}
 
 cudaError_t device_allocate(void** d_ptr, std::size_t bytes, bool& pooled) {
   *d_ptr = nullptr;
@@ -165,11 +187,11 @@ cudaError_t device_allocate(void** d_ptr, std::size_t bytes, bool& pooled) {
   int device = 0;
   if (const cudaError_t status = cudaGetDevice(&device); status != cudaSuccess) return status;
   const cudaMemPool_t pool = buffer_pool(device);
-  cudaError_t status = cudaMallocFromPoolAsync(d_ptr, bytes, pool, cudaStreamPerThread);
+  cudaError_t status = cudaMallocFromPoolAsync(d_ptr, bytes, pool, t_thread_stream);
   if (status == cudaErrorMemoryAllocation) {
     cudaGetLastError();
     trim_buffer_pool();
-    status = cudaMallocFromPoolAsync(d_ptr, bytes, pool, cudaStreamPerThread);
+    status = cudaMallocFromPoolAsync(d_ptr, bytes, pool, t_thread_stream);
   }
   if (status != cudaSuccess) {
     *d_ptr = nullptr;
@@ -182,7 +204,7 @@ cudaError_t device_allocate(void** d_ptr, std::size_t bytes, bool& pooled) {
 void device_release(void* d_ptr, bool pooled) noexcept {
   if (d_ptr == nullptr) return;
   if (pooled)
-    cudaFreeAsync(d_ptr, cudaStreamPerThread);
+    cudaFreeAsync(d_ptr, t_thread_stream);
   else
     cudaFree(d_ptr);
 }
@@ -233,10 +255,10 @@ CudaExecutor::CudaExecutor() {
   CDT_CUDA_CHECK(cudaDeviceGetAttribute(&sms, cudaDevAttrMultiProcessorCount, device));
   // Enough blocks of 256 threads to fill every SM several times; longer ranges loop in the kernel.
   max_blocks_ = static_cast<std::size_t>(sms > 0 ? sms : 1) * 32;
-  // The calling thread's default stream: every executor of a thread queues in one order, which is what
-  // lets device buffers be freed and reused in stream order (see device_allocate), and threads still
-  // run side by side.
-  stream_ = cudaStreamPerThread;
+  // The calling thread's stream (its default stream, unless a PriorityStream gave it one): every
+  // executor of a thread queues in one order, which is what lets device buffers be freed and reused in
+  // stream order (see device_allocate), and threads still run side by side.
+  stream_ = thread_stream();
   scalar_.resize(1);
 }
 
@@ -663,7 +685,7 @@ void LateDownloads::start() {
   CDT_CUDA_CHECK(cudaGetDevice(&device));
   auto worker = std::make_unique<Worker>();
   CDT_CUDA_CHECK(cudaEventCreateWithFlags(&worker->ready, cudaEventDisableTiming));
-  if (const cudaError_t status = cudaEventRecord(worker->ready, cudaStreamPerThread); status != cudaSuccess) {
+  if (const cudaError_t status = cudaEventRecord(worker->ready, thread_stream()); status != cudaSuccess) {
     cudaEventDestroy(worker->ready);
     CDT_CUDA_CHECK(status);
   }
@@ -742,7 +764,7 @@ void reserve_memory(std::size_t staging_blocks, std::size_t device_bytes) {
   bool pooled = false;
   CDT_CUDA_CHECK(detail::device_allocate(&buffer, device_bytes, pooled));
   detail::device_release(buffer, pooled);
-  CDT_CUDA_CHECK(cudaStreamSynchronize(cudaStreamPerThread));
+  CDT_CUDA_CHECK(cudaStreamSynchronize(detail::thread_stream()));
 }
 
 void release_device() noexcept {
