@@ -112,24 +112,24 @@ ScreenedPieces DeviceMesh::screen(std::span<const ConstraintPiece2> host_pieces,
     detail::check_device_pieces(executor, d_pieces.data(), host_pieces, s.num_vertices);
     pieces = d_pieces.data();
   }
-  // Per edge side, the piece lying on it; per piece, whether it is walked, whether it shares a triangle
-  // and whether it is suspect; per slot, the lowest and the highest walker through it.
-  DeviceBuffer<std::uint32_t> d_piece_on(3 * static_cast<std::size_t>(s.num_slots)), d_low(s.num_slots),
-      d_high(s.num_slots);
-  DeviceBuffer<std::uint8_t> d_walker(np), d_shared(np), d_suspect(np), d_site(s.num_vertices);
+  // Per edge side, the piece lying on it; per piece, whether it is walked and whether it is suspect; per
+  // slot, the first two pieces through it and whether more pass.
+  DeviceBuffer<std::uint32_t> d_piece_on(3 * static_cast<std::size_t>(s.num_slots)), d_first(s.num_slots),
+      d_second(s.num_slots);
+  DeviceBuffer<std::uint8_t> d_walker(np), d_crowded(s.num_slots), d_suspect(np), d_site(s.num_vertices);
   DeviceBuffer<std::uint32_t> d_failed(1);
   std::uint32_t* piece_on = d_piece_on.data();
-  std::uint32_t* low = d_low.data();
-  std::uint32_t* high = d_high.data();
+  std::uint32_t* first = d_first.data();
+  std::uint32_t* second = d_second.data();
   std::uint8_t* walker = d_walker.data();
-  std::uint8_t* shared = d_shared.data();
+  std::uint8_t* crowded = d_crowded.data();
   std::uint8_t* suspect = d_suspect.data();
   std::uint8_t* site = d_site.data();
   std::uint32_t* failed = d_failed.data();
   executor.fill_bytes(piece_on, 0xFF, d_piece_on.size());
-  executor.fill_bytes(low, 0xFF, s.num_slots);
-  executor.fill_bytes(high, 0, s.num_slots);
-  executor.fill_bytes(shared, 0, np);
+  executor.fill_bytes(first, 0xFF, s.num_slots);
+  executor.fill_bytes(second, 0xFF, s.num_slots);
+  executor.fill_bytes(crowded, 0, s.num_slots);
   executor.fill_bytes(suspect, 0, np);
   executor.fill_bytes(site, 0, s.num_vertices);
   executor.fill_bytes(failed, 0, 1);
@@ -143,39 +143,34 @@ ScreenedPieces DeviceMesh::screen(std::span<const ConstraintPiece2> host_pieces,
   mark("edges");
   // The walks set bytes of other pieces and sites: several threads may store 1 to the same byte, which
   // is the only value stored.
-  // Both passes walk the long pieces in parts (walk_parts.cuh). Their marks are flags, minima and
-  // maxima: a part walked twice, or a piece walked whole again after parts out of order, changes
-  // nothing.
+  // The long pieces are walked in parts (walk_parts.cuh). Their marks are flags and claims: a part
+  // walked twice, or a piece walked whole again after parts out of order, changes nothing.
   detail::DeviceBuffer<std::uint32_t> d_hint_cells;
   const detail::WalkHints hints = detail::make_walk_hints(executor, m, d_hint_cells);
   detail::WalkParts walk_parts;
   DeviceBuffer<std::uint8_t> d_again(np);
-  std::uint8_t* again = d_again.data();
-  const auto walk_all = [&](auto wanted, auto walk, const char* name, const char* parts_name) {
-    detail::walk_corridors(executor, m, hints, walk_parts, static_cast<std::uint32_t>(np), pieces, again,
-                           failed, wanted, walk, name, parts_name);
-  };
-  walk_all([=] __device__(std::size_t k) { return walker[k] != 0; },
-           [=] __device__(std::size_t k, ::cdt::detail::CorridorPart & part) {
-             const auto flag = [](std::uint8_t& f) { f = 1; };
-             const auto lower = [](std::uint32_t* word, std::uint32_t v) {
-               return detail::atomic_min(word, v);
-             };
-             const auto raise = [](std::uint32_t* word, std::uint32_t v) { return atomicMax(word, v); };
-             return ::cdt::detail::screen_corridor(m, pieces[k], static_cast<std::uint32_t>(k), piece_on, low,
-                                                   high, shared, suspect, site, flag, lower, raise,
-                                                   part.tri == kNoId && part.stop == kNoId ? nullptr : &part);
-           },
-           "screen_corridors", "screen_corridor_parts");
+  detail::walk_corridors(
+      executor, m, hints, walk_parts, static_cast<std::uint32_t>(np), pieces, d_again.data(), failed,
+      [=] __device__(std::size_t k) { return walker[k] != 0; },
+      [=] __device__(std::size_t k, ::cdt::detail::CorridorPart & part) {
+        const auto flag = [](std::uint8_t& f) { f = 1; };
+        const auto swap = [](std::uint32_t* word, std::uint32_t expected, std::uint32_t v) {
+          return atomicCAS(word, expected, v);
+        };
+        return ::cdt::detail::screen_corridor(m, pieces[k], static_cast<std::uint32_t>(k), piece_on, first,
+                                              second, crowded, suspect, site, flag, swap,
+                                              part.tri == kNoId && part.stop == kNoId ? nullptr : &part);
+      },
+      "screen_corridors", "screen_corridor_parts");
   mark("corridors");
-  walk_all([=] __device__(std::size_t k) { return shared[k] != 0; },
-           [=] __device__(std::size_t k, ::cdt::detail::CorridorPart & part) {
-             const auto flag = [](std::uint8_t& f) { f = 1; };
-             return ::cdt::detail::screen_shared_triangles(
-                 m, pieces, static_cast<std::uint32_t>(k), piece_on, low, high, suspect, site, flag,
-                 part.tri == kNoId && part.stop == kNoId ? nullptr : &part);
-           },
-           "screen_shared", "screen_shared_parts");
+  executor.for_each(
+      s.num_slots,
+      [=] __device__(std::size_t t) {
+        const auto flag = [](std::uint8_t& f) { f = 1; };
+        ::cdt::detail::screen_settle_triangle(m, pieces, static_cast<std::uint32_t>(t), first, second,
+                                              crowded, piece_on, suspect, site, flag);
+      },
+      "screen_settle");
   mark("shared triangles");
   std::uint32_t walk_failed = 0;
   executor.download(&walk_failed, failed, 1);

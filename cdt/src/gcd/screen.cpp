@@ -22,36 +22,31 @@ ScreenedPieces screen_pieces(const MeshView& m, std::span<const ConstraintPiece2
   if (walkers.empty()) return out;
 
   // The pieces that are no edges walk their corridors: the sites on them, the edge-pieces they cross,
-  // the triangles they share; then those that share one settle it.
-  std::vector<std::uint8_t> suspect(pieces.size(), 0), shared(pieces.size(), 0), site(m.num_vertices, 0);
-  std::vector<std::uint32_t> low(m.num_slots, kNoId), high(m.num_slots, 0);
+  // the triangles they claim; then each triangle that two or more claimed is settled.
+  std::vector<std::uint8_t> suspect(pieces.size(), 0), site(m.num_vertices, 0), crowded(m.num_slots, 0);
+  std::vector<std::uint32_t> first(m.num_slots, kNoId), second(m.num_slots, kNoId);
   std::atomic<bool> failed{false};
   const auto flag = [](std::uint8_t& f) {
     std::atomic_ref<std::uint8_t>(f).store(1, std::memory_order_relaxed);
   };
-  const auto lower = [](std::uint32_t* word, std::uint32_t k) { return atomic_min(word, k); };
-  const auto raise = [](std::uint32_t* word, std::uint32_t k) { return atomic_max(word, k); };
+  const auto swap = [](std::uint32_t* word, std::uint32_t expected, std::uint32_t k) {
+    std::atomic_ref<std::uint32_t>(*word).compare_exchange_strong(expected, k, std::memory_order_relaxed);
+    return expected; // the word's old value, whether or not it was swapped
+  };
   executor.for_each(walkers.size(), [&](std::size_t w) {
     const std::uint32_t k = walkers[w];
-    if (!screen_corridor(m, pieces[k], k, piece_on.data(), low.data(), high.data(), shared.data(),
-                         suspect.data(), site.data(), flag, lower, raise))
+    if (!screen_corridor(m, pieces[k], k, piece_on.data(), first.data(), second.data(), crowded.data(),
+                         suspect.data(), site.data(), flag, swap))
       failed.store(true, std::memory_order_relaxed);
   });
   if (failed.load()) {
     out.complete = false;
     return out;
   }
-  const std::vector<std::uint32_t> sharers =
-      executor.compact(pieces.size(), [&](std::size_t k) { return shared[k] != 0; });
-  executor.for_each(sharers.size(), [&](std::size_t w) {
-    if (!screen_shared_triangles(m, pieces.data(), sharers[w], piece_on.data(), low.data(), high.data(),
-                                 suspect.data(), site.data(), flag))
-      failed.store(true, std::memory_order_relaxed);
+  executor.for_each(m.num_slots, [&](std::size_t t) {
+    screen_settle_triangle(m, pieces.data(), static_cast<std::uint32_t>(t), first.data(), second.data(),
+                           crowded.data(), piece_on.data(), suspect.data(), site.data(), flag);
   });
-  if (failed.load()) {
-    out.complete = false;
-    return out;
-  }
   // Every suspect's ends are suspect sites.
   executor.for_each(pieces.size(), [&](std::size_t k) {
     if (suspect[k] == 0) return;

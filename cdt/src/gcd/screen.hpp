@@ -222,19 +222,31 @@ CDT_HD bool walk_corridor_triangles(const MeshView& m, std::uint32_t a, std::uin
       both_sides, part);
 }
 
+/// Claims triangle t for piece k among the pieces through it: first[t] and second[t] take the first two
+/// pieces to claim it (swap(word, kNoId, k), an atomic compare-and-swap returning the word's old value);
+/// a third flags crowded[t] and flag(suspect[k]). A piece that claims a triangle again, from another
+/// part of its walk or walked whole again, finds itself there and changes nothing, so the result does
+/// not depend on the order.
+template <class Flag, class Swap>
+CDT_HD_INLINE void screen_claim(std::uint32_t t, std::uint32_t k, std::uint32_t* first, std::uint32_t* second,
+                                std::uint8_t* crowded, std::uint8_t* suspect, Flag&& flag, Swap&& swap) {
+  std::uint32_t there = swap(&first[t], kNoId, k);
+  if (there == kNoId || there == k) return;
+  there = swap(&second[t], kNoId, k);
+  if (there == kNoId || there == k) return;
+  flag(crowded[t]);
+  flag(suspect[k]);
+}
+
 /// The screen's second pass for piece k, which is no edge. For every site strictly between its ends,
 /// flag(site[v]) and flag(suspect[k]); at every edge-piece it crosses, flag(suspect[k]) and the marks
-/// around the two triangles there. Each triangle of its corridor it claims for the pieces through it:
-/// lower(&low[t], k) and raise(&high[t], k) keep the lowest and the highest (atomic minimum and maximum,
-/// high starting at 0). Where lower finds another piece j's claim, flag(shared[k]) and flag(shared[j]):
-/// of the pieces through a triangle, every one but the first sees another's, and the first is flagged by
-/// the second, so that the result does not depend on the order. flag sets a byte to 1. Returns false
-/// when the walk fails.
-template <class Flag, class Lower, class Raise>
+/// around the two triangles there; each triangle of its corridor it claims (screen_claim). flag sets a
+/// byte to 1. Returns false when the walk fails.
+template <class Flag, class Swap>
 CDT_HD bool screen_corridor(const MeshView& m, const ConstraintPiece2& p, std::uint32_t k,
-                            const std::uint32_t* piece_on, std::uint32_t* low, std::uint32_t* high,
-                            std::uint8_t* shared, std::uint8_t* suspect, std::uint8_t* site, Flag&& flag,
-                            Lower&& lower, Raise&& raise, CorridorPart* part = nullptr) {
+                            const std::uint32_t* piece_on, std::uint32_t* first, std::uint32_t* second,
+                            std::uint8_t* crowded, std::uint8_t* suspect, std::uint8_t* site, Flag&& flag,
+                            Swap&& swap, CorridorPart* part = nullptr) {
   return walk_corridor_triangles(
       m, p.a, p.b,
       [&](std::uint32_t v) {
@@ -248,47 +260,28 @@ CDT_HD bool screen_corridor(const MeshView& m, const ConstraintPiece2& p, std::u
         screen_mark_triangle(m, edge_tri(e), piece_on, suspect, site, flag);
         if (m.adj[e] != kNoId) screen_mark_triangle(m, edge_tri(m.adj[e]), piece_on, suspect, site, flag);
       },
-      [&](std::uint32_t t) {
-        raise(&high[t], k);
-        const std::uint32_t j = lower(&low[t], k);
-        if (j == kNoId || j == k) return;
-        flag(shared[k]);
-        flag(shared[j]);
-      },
-      part);
+      [&](std::uint32_t t) { screen_claim(t, k, first, second, crowded, suspect, flag, swap); }, part);
 }
 
-/// The screen's third pass for piece k, which shares a triangle of its corridor with another piece, after
-/// the second pass is done everywhere. At a triangle t whose lowest and highest pieces differ: when k is
-/// neither, three or more pieces pass t and k flags them as suspect (itself and both, which covers every
-/// piece there, as each one between flags itself); when k is the highest, it tests the lowest exactly
-/// and flags both when they cross. Each time, the marks around t. Returns false when the walk fails.
+/// The screen's third pass for triangle t, after the second pass is done everywhere: when three or more
+/// pieces pass t, the first two are flagged suspect (the others flagged themselves); when two do, they
+/// are tested exactly (the higher against the lower) and flagged when they cross. Each time, the marks
+/// around t.
 template <class Flag>
-CDT_HD bool screen_shared_triangles(const MeshView& m, const ConstraintPiece2* pieces, std::uint32_t k,
-                                    const std::uint32_t* piece_on, const std::uint32_t* low,
-                                    const std::uint32_t* high, std::uint8_t* suspect, std::uint8_t* site,
-                                    Flag&& flag, CorridorPart* part = nullptr) {
-  const ConstraintPiece2& p = pieces[k];
-  std::uint32_t last = kNoId; // consecutive claims of one triangle are settled once
-  return walk_corridor_triangles(
-      m, p.a, p.b, [](std::uint32_t) {}, [](std::uint32_t) {},
-      [&](std::uint32_t t) {
-        if (t == last) return;
-        last = t;
-        const std::uint32_t lo = low[t], hi = high[t];
-        if (lo == hi || k == lo) return;
-        if (k != hi) {
-          flag(suspect[lo]);
-          flag(suspect[hi]);
-        } else if (!pieces_cross(m, p, pieces[lo])) {
-          return;
-        } else {
-          flag(suspect[lo]);
-        }
-        flag(suspect[k]);
-        screen_mark_triangle(m, t, piece_on, suspect, site, flag);
-      },
-      part);
+CDT_HD_INLINE void screen_settle_triangle(const MeshView& m, const ConstraintPiece2* pieces, std::uint32_t t,
+                                          const std::uint32_t* first, const std::uint32_t* second,
+                                          const std::uint8_t* crowded, const std::uint32_t* piece_on,
+                                          std::uint8_t* suspect, std::uint8_t* site, Flag&& flag) {
+  const std::uint32_t j = second[t];
+  if (j == kNoId) return;
+  const std::uint32_t i = first[t];
+  if (crowded[t] == 0) {
+    const std::uint32_t lo = i < j ? i : j, hi = i < j ? j : i;
+    if (!pieces_cross(m, pieces[hi], pieces[lo])) return;
+  }
+  flag(suspect[i]);
+  flag(suspect[j]);
+  screen_mark_triangle(m, t, piece_on, suspect, site, flag);
 }
 
 } // namespace cdt::detail
