@@ -494,7 +494,7 @@ SiteCells bucket_sites(const SegmentGrid& grid, const PointArray& vertices, cons
   // By x within each cell, so that a segment short against the cell (clustered data crowd many sites
   // into one cell) tests only the sites in its x-range. Ties by id: the order is the same for any
   // thread count.
-  executor.for_each(grid.num_cells(), [&](std::size_t c) {
+  executor.for_each_costly(grid.num_cells(), [&](std::size_t c) {
     const std::size_t begin = cells.start[c];
     const std::size_t end = cells.start[c + 1];
     if (end - begin < 2) return;
@@ -642,14 +642,14 @@ PointSplits find_points_on_segments(const SegmentGrid& grid, const SiteCells& si
   // list, in cell order, so the lists come out the same for any thread count.
   const std::size_t num_cells = grid.num_cells();
   std::vector<std::size_t> offset(num_cells + 1, 0);
-  executor.for_each(num_cells, [&](std::size_t c) {
+  executor.for_each_costly(num_cells, [&](std::size_t c) {
     std::size_t count = 0;
     scan_cell(c, [&](std::uint32_t, std::uint32_t, bool) { ++count; });
     offset[c] = count;
   });
   hits.resize(executor.exclusive_scan(offset));
   std::vector<std::uint8_t> hit_snapped(hits.size(), 0);
-  executor.for_each(num_cells, [&](std::size_t c) {
+  executor.for_each_costly(num_cells, [&](std::size_t c) {
     std::size_t at = offset[c];
     if (at == offset[c + 1]) return;
     scan_cell(c, [&](std::uint32_t s, std::uint32_t v, bool snapped) {
@@ -704,17 +704,19 @@ std::vector<std::pair<std::uint32_t, std::uint32_t>> find_crossings(const Segmen
   if (every_segment_dirty) {
     // Each segment screens the pairs with the higher segments of its cells (cells list their segments
     // in increasing order).
-    crossing = executor.compact(segs.size(), [&](std::size_t k) {
+    // (Flagged first, in small chunks: in crowded cells a segment screens hundreds of pairs.)
+    std::vector<std::uint8_t> found(segs.size());
+    executor.for_each_costly(segs.size(), [&](std::size_t k) {
       const auto i = static_cast<std::uint32_t>(k);
-      bool found = false;
+      bool any = false;
       grid.for_each_cell(ends[i][0], ends[i][1], [&](std::size_t cell) {
         const std::span<const std::uint32_t> in_cell = grid.segments_in(cell);
-        for (auto it = std::upper_bound(in_cell.begin(), in_cell.end(), i); it != in_cell.end() && !found;
-             ++it)
-          found = boxes_meet(i, *it) && properly_cross(ends[i], ends[*it]);
+        for (auto it = std::upper_bound(in_cell.begin(), in_cell.end(), i); it != in_cell.end() && !any; ++it)
+          any = boxes_meet(i, *it) && properly_cross(ends[i], ends[*it]);
       });
-      return found;
+      found[k] = any ? 1 : 0;
     });
+    crossing = executor.compact(segs.size(), [&](std::size_t k) { return found[k] != 0; });
   } else {
     // A repair round: only the few dirty segments screen, marking the lower segment of each crossing,
     // so the screen costs what they meet rather than a pass over every cell's pairs. A pair of dirty
@@ -1439,13 +1441,29 @@ bool split_pieces(PreparedPslg& pslg, std::span<const std::uint32_t> suspect_pie
   std::vector<std::uint32_t> suspects(suspect_pieces.begin(), suspect_pieces.end());
   if (!std::is_sorted(suspects.begin(), suspects.end())) executor.sort(suspects, std::less<>());
   // Each resolved piece's place among all, and whether the piece there is identical (searched in
-  // parallel: on a lattice with random segments most pieces are suspects).
+  // parallel: on a lattice with random segments most pieces are suspects). The suspects' own pieces are
+  // in order too and bound each search: a piece that came back as it was is found among them alone, a
+  // new one between the two suspects around it (a search over all pieces missed the cache at nearly
+  // every step).
+  std::vector<ConstraintPiece> suspect_piece(suspects.size());
+  executor.for_each(suspects.size(), [&](std::size_t i) { suspect_piece[i] = pslg.pieces[suspects[i]]; });
   std::vector<std::size_t> at_of(resolved.size());
   std::vector<std::uint8_t> hit(resolved.size());
-  executor.for_each(resolved.size(), [&](std::size_t k) {
+  executor.for_each_costly(resolved.size(), [&](std::size_t k) {
     const ConstraintPiece& q = resolved[k];
+    const auto i = static_cast<std::size_t>(
+        std::lower_bound(suspect_piece.begin(), suspect_piece.end(), q, before) - suspect_piece.begin());
+    if (i < suspects.size() && same(suspect_piece[i], q)) {
+      at_of[k] = suspects[i];
+      hit[k] = 1;
+      return;
+    }
+    const std::size_t lo = i == 0 ? 0 : std::size_t{suspects[i - 1]} + 1;
+    const std::size_t hi = i == suspects.size() ? pslg.pieces.size() : std::size_t{suspects[i]};
     const auto at = static_cast<std::size_t>(
-        std::lower_bound(pslg.pieces.begin(), pslg.pieces.end(), q, before) - pslg.pieces.begin());
+        std::lower_bound(pslg.pieces.begin() + static_cast<std::ptrdiff_t>(lo),
+                         pslg.pieces.begin() + static_cast<std::ptrdiff_t>(hi), q, before) -
+        pslg.pieces.begin());
     at_of[k] = at;
     hit[k] = at < pslg.pieces.size() && same(pslg.pieces[at], q);
   });

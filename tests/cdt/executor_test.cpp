@@ -6,7 +6,9 @@
 #include <atomic>
 #include <chrono>
 #include <cstdint>
+#include <mutex>
 #include <numeric>
+#include <set>
 #include <thread>
 #include <utility>
 #include <vector>
@@ -24,6 +26,39 @@ TEST(CpuExecutor, ForEachVisitsEveryIndexOnce) {
       for (std::size_t i = 0; i < n; ++i) ASSERT_EQ(seen[i].load(), 1) << "threads " << threads << " n " << n;
     }
   }
+}
+
+TEST(CpuExecutor, ForEachCostlyVisitsEveryIndexOnceAndSpreadsFewIndices) {
+  for (unsigned threads : {1u, 2u, 7u}) {
+    CpuExecutor ex(threads);
+    for (std::size_t n : {std::size_t{0}, std::size_t{1}, std::size_t{63}, std::size_t{64}, std::size_t{3000},
+                          std::size_t{100000}}) {
+      std::vector<std::atomic<int>> seen(n);
+      ex.for_each_costly(n, [&](std::size_t i) { seen[i].fetch_add(1); });
+      for (std::size_t i = 0; i < n; ++i) ASSERT_EQ(seen[i].load(), 1) << "threads " << threads << " n " << n;
+    }
+  }
+  // A few hundred indices (for_each runs them on the calling thread) reach both threads: each index
+  // waits (up to a few seconds) until a second thread has taken one.
+  CpuExecutor ex(2);
+  std::mutex mutex;
+  std::set<std::thread::id> ids;
+  const auto give_up = std::chrono::steady_clock::now() + std::chrono::seconds(5);
+  ex.for_each_costly(300, [&](std::size_t) {
+    {
+      const std::lock_guard lock(mutex);
+      ids.insert(std::this_thread::get_id());
+    }
+    for (;;) {
+      {
+        const std::lock_guard lock(mutex);
+        if (ids.size() >= 2) return;
+      }
+      if (std::chrono::steady_clock::now() > give_up) return;
+      std::this_thread::yield();
+    }
+  });
+  EXPECT_EQ(ids.size(), 2u);
 }
 
 TEST(CpuExecutor, ScanCompactAndSortMatchSerialResults) {

@@ -64,16 +64,16 @@ public:
   /// Calls f(i) for every i in [0, n) in parallel. f must be safe to run concurrently for distinct i.
   template <class F>
   void for_each(std::size_t n, F&& f) {
-    if (n == 0) return;
-    if (num_threads_ == 1 || n < kSerialBelow) {
-      for (std::size_t i = 0; i < n; ++i) f(i);
-      return;
-    }
     // Several chunks per thread for balance, but not so small that handing them out dominates.
-    const std::size_t chunk = std::max<std::size_t>(1024, n / (std::size_t{num_threads_} * 8));
-    run_chunks(n, chunk, [&f](std::size_t begin, std::size_t end) {
-      for (std::size_t i = begin; i < end; ++i) f(i);
-    });
+    for_each_from(n, kSerialBelow, 1024, f);
+  }
+
+  /// for_each for elements that cost a microsecond or more each (a segment scanning the cells it
+  /// meets): parallel from a few dozen elements, handed out in small chunks, where for_each runs a few
+  /// thousand such elements on the calling thread alone.
+  template <class F>
+  void for_each_costly(std::size_t n, F&& f) {
+    for_each_from(n, kCostlySerialBelow, 1, f);
   }
 
   /// Calls f(p) for every part p in [0, parts) in parallel, one part at a time per thread: for steps
@@ -211,7 +211,22 @@ public:
   void sort_pairs_by_key(std::vector<std::uint32_t>& keys, std::vector<std::uint32_t>& values, int key_bits);
 
 private:
+  /// for_each with n below serial_below on the calling thread, else in chunks of at least min_chunk.
+  template <class F>
+  void for_each_from(std::size_t n, std::size_t serial_below, std::size_t min_chunk, F& f) {
+    if (n == 0) return;
+    if (num_threads_ == 1 || n < serial_below) {
+      for (std::size_t i = 0; i < n; ++i) f(i);
+      return;
+    }
+    const std::size_t chunk = std::max<std::size_t>(min_chunk, n / (std::size_t{num_threads_} * 8));
+    run_chunks(n, chunk, [&f](std::size_t begin, std::size_t end) {
+      for (std::size_t i = begin; i < end; ++i) f(i);
+    });
+  }
+
   static constexpr std::size_t kSerialBelow = 4096;
+  static constexpr std::size_t kCostlySerialBelow = 64;
   static constexpr std::size_t kReduceParts = 64;
 
   void run_chunks(std::size_t n, std::size_t chunk,
