@@ -39,7 +39,7 @@ void check_free_memory(std::size_t bytes);
 inline constexpr std::size_t kCheckFreeAbove = std::size_t{64} << 20;
 
 /// The stream the calling thread queues its work on: its default stream (cudaStreamPerThread), unless a
-/// ThreadStream gave it another. Executors made on the thread use it, and buffers are allocated and
+/// PriorityStream gave it another. Executors made on the thread use it, and buffers are allocated and
 /// freed in its order.
 cudaStream_t thread_stream() noexcept;
 
