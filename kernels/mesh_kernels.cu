@@ -1565,9 +1565,9 @@ void DeviceMesh::output(std::span<const std::uint32_t> vertex_of,
   const std::size_t bytes = words * sizeof(std::uint32_t);
   const bool pinned = bytes >= kOutputPartBytes && in_result_block(host[0], bytes) &&
                       in_result_block(host[1], bytes) && in_result_block(host[2], bytes);
+  trace.mark("host arrays sized");
   if (!pinned) {
     make(0, count);
-    trace.mark("host arrays sized");
     for (std::size_t a = 0; a < 3; ++a) executor.download(host[a], device[a], words, &parallel);
     trace.mark("made and downloaded");
     return;
@@ -1575,7 +1575,6 @@ void DeviceMesh::output(std::span<const std::uint32_t> vertex_of,
   // Into the pinned result memory the device writes directly: the triangles are made in parts, each
   // part's copies queued on a stream of their own as soon as it is made, so that the bus does not wait
   // for the whole output to be made.
-  trace.mark("host arrays sized");
   detail::PartCopies copies(executor.stream());
   const std::uint32_t part =
       static_cast<std::uint32_t>(std::max<std::size_t>(1, kOutputPartBytes / (3 * sizeof(std::uint32_t))));
