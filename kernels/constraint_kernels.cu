@@ -22,6 +22,7 @@
 #include <utility>
 
 #include "block_steps.cuh"
+#include "cdt/detail/trace.hpp"
 #include "cdt_kernels.hpp"
 #include "cuda_check.cuh"
 #include "cuda_executor.cuh"
@@ -306,9 +307,18 @@ ConstraintStats insert_constraints(CudaExecutor& executor, const MeshView& m,
   DeviceBuffer<std::uint8_t> d_met, d_redo;
   DeviceBuffer<ConstraintStatus> d_part_status;
 
+  // Traced, each outer iteration's walk and inner iterations are waited for and timed.
+  ::cdt::detail::StepTrace trace("device constraints");
+  const auto mark = [&](const char* step) {
+    if (::cdt::detail::trace_enabled()) executor.synchronize();
+    trace.mark(step);
+  };
+  mark("set up");
+
   for (;;) {
     if (stopped()) return stats;
     ++stats.outer_iterations;
+    trace.count("pieces walked", np);
     // Algorithm 4, line 3: marks from scratch, each piece's walk lowering them to its index.
     executor.fill_bytes(cmark, 0xFF, slots);
     {
@@ -458,10 +468,13 @@ ConstraintStats insert_constraints(CudaExecutor& executor, const MeshView& m,
       std::swap(d_pending, d_next_pending);
       np = num_left;
     }
+    mark("walked");
     if (np == 0) break;
 
     std::uint32_t na = executor.compact(
         slots, [=] __device__(std::size_t t) { return cmark[t] != kNoId; }, d_active.data());
+    trace.count("marked triangles", na);
+    const std::uint64_t inner_before = stats.inner_iterations;
     std::uint64_t outer_flips = 0;
     unsigned iteration = 0;
     while (iteration < inner_limit && na > 0) {
@@ -609,6 +622,9 @@ ConstraintStats insert_constraints(CudaExecutor& executor, const MeshView& m,
       na = num_still;
       if (stalled) break;
     }
+    trace.count("inner iterations", stats.inner_iterations - inner_before);
+    trace.count("flips", outer_flips);
+    mark("flipped");
     // Section 4.3: the lowest pending piece has all its triangles marked and always a flippable pair.
     if (outer_flips == 0) {
       throw Error("internal error: constraint insertion made no progress with " + std::to_string(np) +

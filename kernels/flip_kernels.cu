@@ -13,6 +13,7 @@
 #include <utility>
 
 #include "block_steps.cuh"
+#include "cdt/detail/trace.hpp"
 #include "cdt_kernels.hpp"
 #include "cuda_check.cuh"
 #include "cuda_executor.cuh"
@@ -261,7 +262,15 @@ FlipResult flip_mesh(DeviceMesh::State& s, const std::uint8_t* only, std::uint32
 
   DeviceBuffer<FlipRoundsEnd> d_end(1);
   FlipTeamRounds team_rounds;
+  // Traced, each round (or each run of rounds in a block or a grid) is waited for and timed.
+  ::cdt::detail::StepTrace trace("device flips");
+  const auto mark = [&](const char* step) {
+    if (::cdt::detail::trace_enabled()) executor.synchronize();
+    trace.mark(step);
+  };
+  mark("listed");
   while (n > 0) {
+    trace.count("list", n);
     if (team_rounds.takes(n)) {
       team_rounds.launch(n,
                          FlipRounds{m, first_fake, list, next, n, active_flag, marks, batch.partner.data(),
@@ -279,6 +288,8 @@ FlipResult flip_mesh(DeviceMesh::State& s, const std::uint8_t* only, std::uint32
                     " lost a neighbour link (the triangulation was not valid)");
       if (end.error == kNoPair) throw Error("internal error: a flipping round claimed no pair");
       n = end.n;
+      trace.count("rounds in a team", end.rounds);
+      mark("team rounds");
       continue;
     }
     ++result.rounds;
@@ -360,6 +371,8 @@ FlipResult flip_mesh(DeviceMesh::State& s, const std::uint8_t* only, std::uint32
     }
     std::swap(list, next);
     n = num_next;
+    trace.count("flipped", num_winners);
+    mark("round");
   }
   flipped.record(executor.stream());
   result.flip_ms = flipped.since(started);
