@@ -639,6 +639,7 @@ ConstraintStats insert_constraints(CudaExecutor& executor, const MeshView& m,
 ConstraintStats DeviceMesh::insert_constraints(std::span<const ConstraintPiece2> pieces,
                                                unsigned inner_iterations, const HostParallelFor& parallel) {
   state_->require_alone("insert_constraints");
+  state_->constrained = true;
   detail::DeviceBuffer<std::uint8_t>& flipped = state_->flipped_by_constraints;
   flipped.resize(state_->num_slots);
   state_->executor.fill_bytes(flipped.data(), 0, state_->num_slots);
@@ -759,6 +760,7 @@ std::optional<ConstraintStats> DeviceMesh::finish_constraints(bool keep) {
   std::swap(s.seg, run->seg);
   std::swap(s.vert_tri, run->vert_tri);
   std::swap(s.flipped_by_constraints, run->flipped);
+  s.constrained = true;
   return run->stats;
 }
 

@@ -128,6 +128,9 @@ struct DeviceMesh::State {
   detail::DeviceBuffer<std::uint32_t> tri, adj, seg, vert_tri;
   std::uint32_t num_slots = 0;
   std::uint32_t num_vertices = 0;
+  /// Whether seg may hold constraint ids: false for a mesh made on the device until constraints are
+  /// inserted into it (every id kNoId), when the flips leave seg alone (MeshView::seg).
+  bool constrained = true;
   detail::DeviceBuffer<std::uint32_t> failure_word{1};
   /// Per slot, 1 where the last insert_constraints flipped it (empty before the first call).
   detail::DeviceBuffer<std::uint8_t> flipped_by_constraints;

@@ -448,6 +448,7 @@ DeviceVoronoi::DualOutcome complete_dual(DeviceVoronoi::State& voronoi, ::cdt::d
   executor.upload(s.adj.data() + words, plan->adj.data(), plan->adj.size());
   executor.upload(s.vert_tri.data() + n, plan->fake_vert_tri.data(), k_fake);
   executor.fill_bytes(s.seg.data(), 0xFF, all_words);
+  s.constrained = false;
   if (!plan->links.empty()) {
     static_assert(sizeof(plan->links[0]) == 2 * sizeof(std::uint32_t));
     detail::DeviceBuffer<std::uint32_t> d_links(2 * plan->links.size());

@@ -225,7 +225,8 @@ FlipResult flip_mesh(DeviceMesh::State& s, const std::uint8_t* only, std::uint32
                         "Delaunay flipping of " + std::to_string(slots) + " triangles");
   DeviceEvent started, flipped;
   started.record(executor.stream());
-  const MeshView m = s.view();
+  MeshView m = s.view();
+  if (!s.constrained) m.seg = nullptr; // every id kNoId: the flips need not read or move them
   DeviceBuffer<std::uint32_t> d_mark(slots), d_list(slots), d_next(slots);
   DeviceBuffer<std::uint8_t> d_active_flag(slots);
   DeviceBuffer<std::uint32_t> d_cand(slots), d_nbr(slots), d_winners(slots), d_winner_edges(slots);

@@ -91,7 +91,7 @@ CDT_HD_INLINE int orient_test(const MeshView& m, std::uint32_t a, std::uint32_t 
 template <bool kExact>
 CDT_HD_INLINE int edge_flip_test(const MeshView& m, std::uint32_t t, std::uint32_t i) {
   const std::uint32_t e = m.adj[3 * t + i];
-  if (e == kNoId || m.seg[3 * t + i] != kNoId) return 0;
+  if (e == kNoId || (m.seg != nullptr && m.seg[3 * t + i] != kNoId)) return 0;
   const std::uint32_t a = m.v(t, 0), b = m.v(t, 1), c = m.v(t, 2);
   const std::uint32_t d = m.v(edge_tri(e), edge_index(e));
   int sign;
@@ -155,7 +155,7 @@ CDT_HD inline std::uint32_t fake_fan_candidate(const MeshView& m, const std::uin
                                                std::uint32_t first_fake) {
   for (std::uint32_t i = 0; i < 3; ++i) {
     const std::uint32_t e = m.adj[3 * t + i];
-    if (e == kNoId || m.seg[3 * t + i] != kNoId) continue;
+    if (e == kNoId || (m.seg != nullptr && m.seg[3 * t + i] != kNoId)) continue;
     const std::uint32_t u = edge_tri(e);
     if (u < t && active[u]) continue;
     const std::uint32_t a = m.v(t, i), b = m.v(t, next3(i)), c = m.v(t, prev3(i));

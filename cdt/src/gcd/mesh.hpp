@@ -35,7 +35,10 @@ struct MeshView {
   double* y = nullptr;
   std::uint32_t* tri = nullptr; ///< 3 per slot; tri[3t] == kNoId marks a free slot
   std::uint32_t* adj = nullptr; ///< 3 per slot: encoded neighbour edge across edge i, kNoId on the boundary
-  std::uint32_t* seg = nullptr; ///< 3 per slot: constraint id on edge i, kNoId when not a constraint
+  /// 3 per slot: constraint id on edge i, kNoId when not a constraint. Null in a view of a mesh without
+  /// constraints (every id kNoId) given to the flips alone: rewrite_flipped_pair, edge_flip_test and
+  /// fake_fan_candidate then read kNoId and skip the writes, which would keep every id kNoId.
+  std::uint32_t* seg = nullptr;
   std::uint32_t* vert_tri = nullptr; ///< per vertex: one live incident triangle, kNoId when not in the mesh
   std::uint32_t num_slots = 0;
   std::uint32_t num_vertices = 0;
@@ -101,8 +104,6 @@ CDT_HD inline FlippedPairLinks rewrite_flipped_pair(MeshView m, std::uint32_t t,
   // Outer edges before the flip: of t, (c, a) is edge i1 and (a, b) is edge i2; of u, with
   // u = (d, c, b) in order j, j1, j2: (b, d) is edge j1 and (d, c) is edge j2.
   const FlippedPairLinks outer{m.adj[3 * t + i1], m.adj[3 * t + i2], m.adj[3 * u + j1], m.adj[3 * u + j2]};
-  const std::uint32_t s_ca = m.seg[3 * t + i1], s_ab = m.seg[3 * t + i2];
-  const std::uint32_t s_bd = m.seg[3 * u + j1], s_dc = m.seg[3 * u + j2];
   // New t = (a, b, d): edge 0 = (b, d), edge 1 = (d, a) (the new diagonal), edge 2 = (a, b).
   // New u = (d, c, a): edge 0 = (c, a), edge 1 = (a, d) (the diagonal), edge 2 = (d, c).
   m.tri[3 * t + 0] = a;
@@ -117,12 +118,16 @@ CDT_HD inline FlippedPairLinks rewrite_flipped_pair(MeshView m, std::uint32_t t,
   m.adj[3 * u + 0] = outer.t_ca;
   m.adj[3 * u + 1] = edge_id(t, 1);
   m.adj[3 * u + 2] = outer.u_dc;
-  m.seg[3 * t + 0] = s_bd;
-  m.seg[3 * t + 1] = kNoId;
-  m.seg[3 * t + 2] = s_ab;
-  m.seg[3 * u + 0] = s_ca;
-  m.seg[3 * u + 1] = kNoId;
-  m.seg[3 * u + 2] = s_dc;
+  if (m.seg != nullptr) { // else every id is kNoId, before and after
+    const std::uint32_t s_ca = m.seg[3 * t + i1], s_ab = m.seg[3 * t + i2];
+    const std::uint32_t s_bd = m.seg[3 * u + j1], s_dc = m.seg[3 * u + j2];
+    m.seg[3 * t + 0] = s_bd;
+    m.seg[3 * t + 1] = kNoId;
+    m.seg[3 * t + 2] = s_ab;
+    m.seg[3 * u + 0] = s_ca;
+    m.seg[3 * u + 1] = kNoId;
+    m.seg[3 * u + 2] = s_dc;
+  }
   return outer;
 }
 
