@@ -4,7 +4,7 @@
 // optionally a GIS coastline file as printed by `gmt coast -Rg -Dh -W -M` ('>'-separated polylines).
 //
 // usage: bench_cdt [--quick] [--coast FILE] [--file PSLG]... [--threads N] [--repeat R] [--case TEXT]
-// [--no-cgal] [--grid M]
+// [--no-cgal] [--grid M] [--inner-iterations I]
 //                  [--backend auto|cpu|gpu] [--sizes LIST] [--lattice K]
 // --sizes replaces the default inputs by the paper's synthetic design at the sizes listed as
 // POINTS:SEGMENTS pairs separated by commas (e.g. 10000000:1000000), uniform and Gaussian each, and
@@ -15,14 +15,14 @@
 // --cache DIR keeps each generated input of --sizes and --lattice in DIR as a binary file and reads
 // it from there next time (large synthetic inputs take longer to generate than to triangulate).
 // --case keeps only the inputs whose name contains TEXT; --no-cgal skips the competitor (profiling);
-// --grid forces the grid side (Options::grid_size) instead of the automatic choice; --backend picks
-// the executor (Options::backend). --no-verify leaves out the verifier of the first table (its column
-// then says "not checked"): for sweeps of one input whose result another run verified, as verifying
-// 20M triangles on one core takes longer than the runs themselves.
-// Prints one Markdown row per input: median times of R runs, the backend and per-phase times of the
-// median run (with their parallel rounds in parentheses), flips,
-// missing points, the verifier's verdict, peak memory of the run (its own process), CGAL's time and
-// the ratio ours/CGAL (<= 1 means faster).
+// --grid forces the grid side (Options::grid_size) instead of the automatic choice;
+// --inner-iterations sets Options::inner_iterations (the GPU backend's flipping passes per marking pass
+// of the constraints); --backend picks the executor (Options::backend). --no-verify leaves out the verifier
+// of the first table (its column then says "not checked"): for sweeps of one input whose result another run
+// verified, as verifying 20M triangles on one core takes longer than the runs themselves. Prints one Markdown
+// row per input: median times of R runs, the backend and per-phase times of the median run (with their
+// parallel rounds in parentheses), flips, missing points, the verifier's verdict, peak memory of the run (its
+// own process), CGAL's time and the ratio ours/CGAL (<= 1 means faster).
 // --together N then triangulates N of the --file PSLGs (cycled) in one cdt::triangulate_many call and
 // each alone, R times, and prints a second table: the wall times of both ways (medians), how many
 // inputs shared the call, and whether every result verifies.
@@ -249,6 +249,7 @@ int main(int argc, char** argv) {
   bool with_cgal = true;
   bool check = true;
   std::uint32_t grid = 0;
+  unsigned inner_iterations = cdt::Options{}.inner_iterations;
   std::string backend_name = "auto";
   std::vector<std::pair<std::size_t, std::size_t>> sizes;
   std::uint32_t lattice_side = 0;
@@ -269,6 +270,8 @@ int main(int argc, char** argv) {
       only = argv[++i];
     else if (!std::strcmp(argv[i], "--grid") && i + 1 < argc)
       grid = static_cast<std::uint32_t>(std::atoi(argv[++i]));
+    else if (!std::strcmp(argv[i], "--inner-iterations") && i + 1 < argc && std::atoi(argv[i + 1]) > 0)
+      inner_iterations = static_cast<unsigned>(std::atoi(argv[++i]));
     else if (!std::strcmp(argv[i], "--sizes") && i + 1 < argc && parse_sizes(argv[i + 1], sizes))
       ++i;
     else if (!std::strcmp(argv[i], "--cache") && i + 1 < argc)
@@ -292,7 +295,8 @@ int main(int argc, char** argv) {
     else {
       std::fprintf(stderr, "usage: bench_cdt [--quick] [--coast FILE] [--file PSLG]... [--threads N] "
                            "[--repeat R] [--case TEXT] "
-                           "[--no-cgal] [--grid M] [--backend auto|cpu|gpu] [--sizes POINTS:SEGMENTS,...] "
+                           "[--no-cgal] [--grid M] [--inner-iterations I] [--backend auto|cpu|gpu] "
+                           "[--sizes POINTS:SEGMENTS,...] "
                            "[--lattice K] [--cache DIR] [--small-pages] [--unpinned] [--together N] "
                            "[--no-verify]\n");
       return 2;
@@ -389,6 +393,7 @@ int main(int argc, char** argv) {
   cdt::Options options;
   options.threads = threads;
   options.grid_size = grid;
+  options.inner_iterations = inner_iterations;
   options.backend = backend;
   for (const Input& input : inputs) {
     std::string row;
