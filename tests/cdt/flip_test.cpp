@@ -4,6 +4,7 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <cstdint>
@@ -396,6 +397,60 @@ TEST(FlipBatch, MatchesSequentialFlipEdge) {
   batch.apply(batched, back, executor);
   EXPECT_EQ(triangle_set(batched), triangle_set(input));
   expect_valid_mesh(batched);
+}
+
+TEST(FlipWithoutIds, AViewWithoutConstraintIdsFlipsAsOneWithThemAllNone) {
+  // The device's flips before the constraints take a view whose seg is null (every id kNoId): the
+  // tests read kNoId and the rewrites skip the ids. On a mesh whose ids are all kNoId that must give
+  // the same proposals, the same vertices, links and vertex triangles, and leave the ids as they were.
+  const Points pts = uniform_points(3000, 77);
+  const Mesh input = sweep_triangulate(pts.x, pts.y);
+  ASSERT_TRUE(std::all_of(input.seg.begin(), input.seg.end(), [](std::uint32_t s) { return s == kNoId; }));
+  Mesh with_ids = input, without = input;
+  MeshView full = with_ids.view();
+  MeshView bare = without.view();
+  bare.seg = nullptr;
+  const std::vector<std::uint8_t> active(input.num_slots(), 0);
+  const std::vector<std::uint32_t> partner(input.num_slots(), kNoId);
+  std::size_t proposals = 0;
+  for (std::uint32_t t = 0; t < input.num_slots(); ++t) {
+    for (std::uint32_t i = 0; i < 3; ++i) {
+      ASSERT_EQ(edge_flip_test<true>(bare, t, i), edge_flip_test<true>(full, t, i)) << t << " " << i;
+      ASSERT_EQ(edge_flip_test<false>(bare, t, i), edge_flip_test<false>(full, t, i)) << t << " " << i;
+    }
+    const std::uint32_t e = delaunay_flip_candidate(full, active.data(), partner.data(), t);
+    ASSERT_EQ(delaunay_flip_candidate(bare, active.data(), partner.data(), t), e) << t;
+    if (e != kNoId) ++proposals;
+    // Real and "fake" vertices split at the middle index: the fans' rule reads the ids too.
+    const auto first_fake = static_cast<std::uint32_t>(pts.x.size() / 2);
+    ASSERT_EQ(fake_fan_candidate(bare, active.data(), t, first_fake),
+              fake_fan_candidate(full, active.data(), t, first_fake))
+        << t;
+  }
+  EXPECT_GT(proposals, 100u);
+  // Flip every convex edge of a disjoint set of pairs, one by one, through both views.
+  std::vector<char> taken(input.num_slots(), 0);
+  std::size_t flips = 0;
+  for (std::uint32_t t = 0; t < input.num_slots(); ++t) {
+    if (taken[t]) continue;
+    for (std::uint32_t i = 0; i < 3; ++i) {
+      const std::uint32_t e = with_ids.adj[3 * t + i];
+      if (e == kNoId || taken[e / 3] || !flip_is_convex(full, t, i)) continue;
+      taken[t] = taken[e / 3] = 1;
+      flip_edge(full, t, i);
+      flip_edge(bare, t, i);
+      ++flips;
+      break;
+    }
+  }
+  ASSERT_GT(flips, 1000u);
+  EXPECT_EQ(without.tri, with_ids.tri);
+  EXPECT_EQ(without.adj, with_ids.adj);
+  EXPECT_EQ(without.vert_tri, with_ids.vert_tri);
+  EXPECT_EQ(without.seg, input.seg);
+  EXPECT_EQ(with_ids.seg, input.seg);
+  EXPECT_NE(with_ids.tri, input.tri);
+  expect_valid_mesh(without);
 }
 
 // link_triangles, which every phase that rebuilds a mesh relies on: the links and each vertex's triangle
