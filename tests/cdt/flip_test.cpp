@@ -61,6 +61,25 @@ Mesh flipped(const Mesh& input, unsigned threads, FlipStats* stats = nullptr,
   return mesh;
 }
 
+// Edges whose pairs are disjoint and strictly convex, one per pair, in slot order: a batch that can
+// flip at once.
+std::vector<std::uint32_t> disjoint_convex_edges(const Mesh& input) {
+  const MeshView view = const_cast<Mesh&>(input).view();
+  std::vector<char> taken(input.num_slots(), 0);
+  std::vector<std::uint32_t> edges;
+  for (std::uint32_t t = 0; t < input.num_slots(); ++t) {
+    if (taken[t]) continue;
+    for (std::uint32_t i = 0; i < 3; ++i) {
+      const std::uint32_t e = input.adj[3 * t + i];
+      if (e == kNoId || taken[e / 3] || !flip_is_convex(view, t, i)) continue;
+      taken[t] = taken[e / 3] = 1;
+      edges.push_back(3 * t + i);
+      break;
+    }
+  }
+  return edges;
+}
+
 TEST(FlipTestUtil, SweepTriangulatorIsValid) {
   // The reference triangulator itself, on inputs with collinear starts and collinear hull chains.
   for (const auto& p :
@@ -364,19 +383,7 @@ TEST(FlipBatch, MatchesSequentialFlipEdge) {
   // arrays of flipping them one after the other with flip_edge (which updates outer links directly).
   const Points pts = uniform_points(4000, 31);
   const Mesh input = sweep_triangulate(pts.x, pts.y);
-  const MeshView view = const_cast<Mesh&>(input).view();
-  std::vector<char> taken(input.num_slots(), 0);
-  std::vector<std::uint32_t> edges;
-  for (std::uint32_t t = 0; t < input.num_slots(); ++t) {
-    if (taken[t]) continue;
-    for (std::uint32_t i = 0; i < 3; ++i) {
-      const std::uint32_t e = input.adj[3 * t + i];
-      if (e == kNoId || taken[e / 3] || !flip_is_convex(view, t, i)) continue;
-      taken[t] = taken[e / 3] = 1;
-      edges.push_back(3 * t + i);
-      break;
-    }
-  }
+  const std::vector<std::uint32_t> edges = disjoint_convex_edges(input);
   ASSERT_GT(edges.size(), 1000u);
   Mesh sequential = input;
   for (const std::uint32_t e : edges) flip_edge(sequential.view(), e / 3, e % 3);
@@ -429,21 +436,12 @@ TEST(FlipWithoutIds, AViewWithoutConstraintIdsFlipsAsOneWithThemAllNone) {
   }
   EXPECT_GT(proposals, 100u);
   // Flip every convex edge of a disjoint set of pairs, one by one, through both views.
-  std::vector<char> taken(input.num_slots(), 0);
-  std::size_t flips = 0;
-  for (std::uint32_t t = 0; t < input.num_slots(); ++t) {
-    if (taken[t]) continue;
-    for (std::uint32_t i = 0; i < 3; ++i) {
-      const std::uint32_t e = with_ids.adj[3 * t + i];
-      if (e == kNoId || taken[e / 3] || !flip_is_convex(full, t, i)) continue;
-      taken[t] = taken[e / 3] = 1;
-      flip_edge(full, t, i);
-      flip_edge(bare, t, i);
-      ++flips;
-      break;
-    }
+  const std::vector<std::uint32_t> edges = disjoint_convex_edges(input);
+  ASSERT_GT(edges.size(), 1000u);
+  for (const std::uint32_t e : edges) {
+    flip_edge(full, e / 3, e % 3);
+    flip_edge(bare, e / 3, e % 3);
   }
-  ASSERT_GT(flips, 1000u);
   EXPECT_EQ(without.tri, with_ids.tri);
   EXPECT_EQ(without.adj, with_ids.adj);
   EXPECT_EQ(without.vert_tri, with_ids.vert_tri);
