@@ -426,7 +426,9 @@ public:
   /// sites mapped to vertex ids through vertex_of (whose first entries, taken over by take_vertex_ids,
   /// must be the ones the device holds), constraint pieces to input segments through
   /// segment_of_piece. The mesh itself is not copied back. The copies' host side runs on `parallel`
-  /// when given (it writes fresh pages of 36 bytes per triangle).
+  /// when given (it writes fresh pages of 36 bytes per triangle). Into pinned result memory, with few
+  /// pieces against the triangles, only segment_of_edge's words that are not kNoId are sent (as
+  /// (word, segment) pairs) and the host fills the rest.
   void output(std::span<const std::uint32_t> vertex_of, std::span<const std::uint32_t> segment_of_piece,
               TriangleArray& triangles, TriangleArray& neighbors, TriangleArray& segment_of_edge,
               const HostParallelFor& parallel = {}) const;

@@ -101,6 +101,10 @@ private:
   cudaEvent_t event_ = nullptr;
 };
 
+/// Sets len bytes of host memory at `to` to `byte`, spread over `parallel` when given; streamed
+/// stores, for arrays the host does not read again soon.
+void fill_host_bytes(void* to, unsigned char byte, std::size_t len, const HostParallelFor* parallel);
+
 /// Device to host copies into pinned memory on a stream of their own, each after the work queued on
 /// another stream before it (after_queued_work): a step's parts are copied while it makes the next
 /// ones. wait() waits for them all and reports their errors; the destructor waits too, so that no

@@ -313,6 +313,29 @@ void copy_parts(void* to, const void* from, std::size_t len, const HostParallelF
   });
 }
 
+/// Sets len bytes at `to` to `byte` with streamed stores, in parts of kCopyPartBytes over `parallel`
+/// when given (an array the host reads only much later, as stream_copy's).
+void stream_fill(unsigned char* to, unsigned char byte, std::size_t len) {
+#if defined(__x86_64__)
+  const std::size_t head = std::min(len, (16 - (reinterpret_cast<std::uintptr_t>(to) & 15)) & 15);
+  std::memset(to, byte, head);
+  to += head;
+  len -= head;
+  const std::size_t body = len & ~std::size_t{63};
+  const __m128i v = _mm_set1_epi8(static_cast<char>(byte));
+  for (std::size_t i = 0; i < body; i += 64) {
+    _mm_stream_si128(reinterpret_cast<__m128i*>(to + i), v);
+    _mm_stream_si128(reinterpret_cast<__m128i*>(to + i + 16), v);
+    _mm_stream_si128(reinterpret_cast<__m128i*>(to + i + 32), v);
+    _mm_stream_si128(reinterpret_cast<__m128i*>(to + i + 48), v);
+  }
+  std::memset(to + body, byte, len - body);
+  _mm_sfence();
+#else
+  std::memset(to, byte, len);
+#endif
+}
+
 /// Pinned staging blocks no executor holds. Pinning host memory costs milliseconds a call, and a
 /// triangulation's executors each stage copies: the blocks are kept for the process's lifetime (the
 /// driver frees them at exit) and handed from one executor to the next.
@@ -326,6 +349,19 @@ StagingBlocks& staging_blocks() {
   return *blocks;
 }
 } // namespace
+
+void fill_host_bytes(void* to, unsigned char byte, std::size_t len, const HostParallelFor* parallel) {
+  auto* bytes = static_cast<unsigned char*>(to);
+  if (parallel == nullptr || !*parallel) {
+    stream_fill(bytes, byte, len);
+    return;
+  }
+  const std::size_t parts = (len + kCopyPartBytes - 1) / kCopyPartBytes;
+  (*parallel)(parts, [&](std::size_t p) {
+    const std::size_t offset = p * kCopyPartBytes;
+    stream_fill(bytes + offset, byte, std::min(kCopyPartBytes, len - offset));
+  });
+}
 
 void* take_staging_block() {
   StagingBlocks& blocks = staging_blocks();

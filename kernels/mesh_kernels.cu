@@ -11,6 +11,7 @@
 #include <array>
 #include <cstddef>
 #include <cstdint>
+#include <optional>
 #include <string>
 #include <utility>
 #include <vector>
@@ -1508,6 +1509,70 @@ void DeviceMesh::take_vertex_ids(DeviceSites& sites) {
 /// them into pinned memory.
 constexpr std::size_t kOutputPartBytes = std::size_t{16} << 20;
 
+namespace {
+
+/// segment_of_edge's words that are not kNoId, as (word, segment) pairs in pinned staging blocks: for
+/// each live slot order[r] and edge i, word 3 r + i.
+class SegmentPairs {
+public:
+  SegmentPairs() = default;
+  ~SegmentPairs() {
+    for (std::uint64_t* b : blocks_)
+      if (b != nullptr) detail::return_staging_block(b);
+  }
+  SegmentPairs(const SegmentPairs&) = delete;
+  SegmentPairs& operator=(const SegmentPairs&) = delete;
+
+  /// Writes each pair's segment into host_segments at its word, spread over `parallel`.
+  void scatter(std::uint32_t* host_segments, const HostParallelFor& parallel) const {
+    constexpr std::size_t kPerPart = std::size_t{1} << 16;
+    const std::size_t parts = (n_ + kPerPart - 1) / kPerPart;
+    const auto scatter_part = [&](std::size_t p) {
+      const std::size_t end = std::min<std::size_t>(n_, (p + 1) * kPerPart);
+      for (std::size_t k = p * kPerPart; k < end; ++k) {
+        const std::uint64_t pair = blocks_[k / kPerBlock][k % kPerBlock];
+        host_segments[static_cast<std::uint32_t>(pair)] = static_cast<std::uint32_t>(pair >> 32);
+      }
+    };
+    if (parallel) {
+      parallel(parts, scatter_part);
+    } else {
+      for (std::size_t p = 0; p < parts; ++p) scatter_part(p);
+    }
+  }
+
+  /// Lists the pairs on the device and copies them into the blocks (waits for them).
+  void list(detail::CudaExecutor& executor, const ::cdt::detail::MeshView& m, const std::uint32_t* order,
+            const std::uint32_t* segment_of_piece, std::size_t words) {
+    detail::DeviceBuffer<std::uint32_t> at(words + 1);
+    const auto segment = [=] __device__(std::size_t w) {
+      const std::uint32_t piece = m.seg[3 * std::size_t{order[w / 3]} + w % 3];
+      return piece == kNoId ? kNoId : segment_of_piece[piece];
+    };
+    n_ = executor.compact(
+        words, [=] __device__(std::size_t w) { return segment(w) != kNoId; }, at.data());
+    if (n_ == 0) return;
+    detail::DeviceBuffer<std::uint64_t> pairs(n_);
+    std::uint64_t* pair = pairs.data();
+    const std::uint32_t* word = at.data();
+    executor.for_each(
+        n_, [=] __device__(std::size_t k) { pair[k] = std::uint64_t{segment(word[k])} << 32 | word[k]; },
+        "segment_pairs");
+    for (std::size_t from = 0; from < n_; from += kPerBlock) {
+      blocks_.push_back(nullptr);
+      blocks_.back() = static_cast<std::uint64_t*>(detail::take_staging_block());
+      executor.download(blocks_.back(), pair + from, std::min<std::size_t>(kPerBlock, n_ - from));
+    }
+  }
+
+private:
+  static constexpr std::size_t kPerBlock = detail::kStagingBytes / sizeof(std::uint64_t);
+  std::uint32_t n_ = 0;
+  std::vector<std::uint64_t*> blocks_;
+};
+
+} // namespace
+
 void DeviceMesh::output(std::span<const std::uint32_t> vertex_of,
                         std::span<const std::uint32_t> segment_of_piece, TriangleArray& triangles,
                         TriangleArray& neighbors, TriangleArray& segment_of_edge,
@@ -1575,6 +1640,17 @@ void DeviceMesh::output(std::span<const std::uint32_t> vertex_of,
   // Into the pinned result memory the device writes directly: the triangles are made in parts, each
   // part's copies queued on a stream of their own as soon as it is made, so that the bus does not wait
   // for the whole output to be made.
+  // At most two words a piece of segment_of_edge are not kNoId. When those are few against the array
+  // (10^6 segments among 2 10^7 triangles: a tenth), only they come down, as (word, segment) pairs of
+  // 8 bytes, and the host fills the array with kNoId while the bus carries the other two arrays: 16 MB
+  // on the bus instead of 240.
+  const bool sparse = 2 * sizeof(std::uint64_t) * segment_of_piece.size() <= bytes / 4;
+  // The pairs come first: queued behind the other arrays' copies, they would wait for them all.
+  std::optional<SegmentPairs> pairs;
+  if (sparse) {
+    pairs.emplace().list(executor, m, order, s_of, words);
+    trace.mark("segment pairs downloaded");
+  }
   detail::PartCopies copies(executor.stream());
   const std::uint32_t part =
       static_cast<std::uint32_t>(std::max<std::size_t>(1, kOutputPartBytes / (3 * sizeof(std::uint32_t))));
@@ -1582,10 +1658,15 @@ void DeviceMesh::output(std::span<const std::uint32_t> vertex_of,
     to = from + std::min(part, count - from);
     make(from, to);
     copies.after_queued_work();
-    for (std::size_t a = 0; a < 3; ++a)
+    for (std::size_t a = 0; a < (sparse ? 2 : 3); ++a)
       copies.copy(host[a] + 3 * static_cast<std::size_t>(from),
                   device[a] + 3 * static_cast<std::size_t>(from),
                   3 * static_cast<std::size_t>(to - from) * sizeof(std::uint32_t));
+  }
+  if (pairs) {
+    detail::fill_host_bytes(host[2], 0xFF, bytes, &parallel);
+    pairs->scatter(host[2], parallel);
+    trace.mark("segments written on the host");
   }
   copies.wait();
   trace.mark("made and downloaded");
