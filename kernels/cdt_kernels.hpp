@@ -433,6 +433,12 @@ public:
               TriangleArray& triangles, TriangleArray& neighbors, TriangleArray& segment_of_edge,
               const HostParallelFor& parallel = {}) const;
 
+  /// For a caller whose host threads wait on the device (constraints beside the host): sizes
+  /// segment_of_edge for an output of every slot and fills it with kNoId on `parallel`, when output()
+  /// with `pieces` pieces would send only its other words, so that output() need not. Returns whether
+  /// it did; output() fills it again should the rows have changed.
+  bool prefill_segments(std::size_t pieces, TriangleArray& segment_of_edge, const HostParallelFor& parallel);
+
 private:
   std::unique_ptr<State> state_;
 };

@@ -141,6 +141,9 @@ struct DeviceMesh::State {
   detail::DeviceBuffer<::cdt::detail::MissingPoint> missing_first;
   /// The first entries of output()'s vertex_of, already on the device (take_vertex_ids; else empty).
   detail::DeviceBuffer<std::uint32_t> vertex_ids;
+  /// segment_of_edge's words filled with kNoId by prefill_segments (null when not), for that many rows.
+  const std::uint32_t* prefilled_segments = nullptr;
+  std::uint32_t prefilled_rows = 0;
   /// The constraints started beside the host (start_constraints; else null). Declared last: it is
   /// stopped and joined before the buffers it uses go.
   std::unique_ptr<detail::ConstraintsBeside> beside;

@@ -1511,6 +1511,12 @@ constexpr std::size_t kOutputPartBytes = std::size_t{16} << 20;
 
 namespace {
 
+/// Whether output() sends segment_of_edge (`bytes` bytes, pinned) as pairs: at most two words a piece
+/// are not kNoId, and those are few against the array (10^6 segments among 2 10^7 triangles: a tenth).
+bool sends_segment_pairs(std::size_t bytes, std::size_t pieces) {
+  return 2 * sizeof(std::uint64_t) * pieces <= bytes / 4;
+}
+
 /// segment_of_edge's words that are not kNoId, as (word, segment) pairs in pinned staging blocks: for
 /// each live slot order[r] and edge i, word 3 r + i.
 class SegmentPairs {
@@ -1640,11 +1646,11 @@ void DeviceMesh::output(std::span<const std::uint32_t> vertex_of,
   // Into the pinned result memory the device writes directly: the triangles are made in parts, each
   // part's copies queued on a stream of their own as soon as it is made, so that the bus does not wait
   // for the whole output to be made.
-  // At most two words a piece of segment_of_edge are not kNoId. When those are few against the array
-  // (10^6 segments among 2 10^7 triangles: a tenth), only they come down, as (word, segment) pairs of
-  // 8 bytes, and the host fills the array with kNoId while the bus carries the other two arrays: 16 MB
-  // on the bus instead of 240.
-  const bool sparse = 2 * sizeof(std::uint64_t) * segment_of_piece.size() <= bytes / 4;
+  // Of segment_of_edge, when sends_segment_pairs, only the words that are not kNoId come down, as
+  // (word, segment) pairs of 8 bytes, and the host fills the array with kNoId while the bus carries
+  // the other two arrays (unless prefill_segments did): 16 MB on the bus instead of 240 at 10^7 points
+  // and 10^6 segments.
+  const bool sparse = sends_segment_pairs(bytes, segment_of_piece.size());
   // The pairs come first: queued behind the other arrays' copies, they would wait for them all.
   std::optional<SegmentPairs> pairs;
   if (sparse) {
@@ -1664,12 +1670,30 @@ void DeviceMesh::output(std::span<const std::uint32_t> vertex_of,
                   3 * static_cast<std::size_t>(to - from) * sizeof(std::uint32_t));
   }
   if (pairs) {
-    detail::fill_host_bytes(host[2], 0xFF, bytes, &parallel);
+    if (s.prefilled_segments != host[2] || s.prefilled_rows != count)
+      detail::fill_host_bytes(host[2], 0xFF, bytes, &parallel);
     pairs->scatter(host[2], parallel);
     trace.mark("segments written on the host");
   }
   copies.wait();
   trace.mark("made and downloaded");
+}
+
+bool DeviceMesh::prefill_segments(std::size_t pieces, TriangleArray& segment_of_edge,
+                                  const HostParallelFor& parallel) {
+  State& s = *state_;
+  s.prefilled_segments = nullptr;
+  const std::uint32_t rows = s.num_slots;
+  const std::size_t bytes = 3 * sizeof(std::uint32_t) * static_cast<std::size_t>(rows);
+  if (bytes < kOutputPartBytes || !sends_segment_pairs(bytes, pieces)) return false;
+  if (segment_of_edge.capacity() < rows) return false; // a new array would not be pinned yet
+  segment_of_edge.resize(rows);
+  auto* words = reinterpret_cast<std::uint32_t*>(segment_of_edge.data());
+  if (!in_result_block(words, bytes)) return false;
+  detail::fill_host_bytes(words, 0xFF, bytes, &parallel);
+  s.prefilled_segments = words;
+  s.prefilled_rows = rows;
+  return true;
 }
 
 void DeviceMesh::download(::cdt::detail::Mesh& mesh) const {

@@ -890,7 +890,13 @@ Triangulation triangulate_on(std::span<const Point> points, std::span<const Segm
 #if defined(TRIXEL_HAVE_CUDA)
     // Inserted beside the split, unless that run failed (then inserted again here, to fail the same way).
     std::optional<ConstraintStats> done;
-    if (beside_split.running()) done = beside_split.finish(true);
+    if (beside_split.running()) {
+      // The host's threads would only wait for the device here: the output's segment array is filled
+      // now rather than beside the output's copies, where it slowed them.
+      device_mesh->prefill_segments(pslg.pieces.size(), result.segment_of_edge, parallel);
+      trace.mark("output's segments prefilled");
+      done = beside_split.finish(true);
+    }
     if (done)
       cons = *done;
     else if (on_gpu)

@@ -188,6 +188,40 @@ TEST_F(TriangulateGpu, PinnedResultsAreReusedAndOutliveTheDevice) {
   EXPECT_TRUE(same(canonical(fourth), expected));
 }
 
+// With few segments against the triangles, segment_of_edge comes over the bus as its constraint words
+// alone and the host writes kNoId into the rest: a result in blocks that held another input's result
+// keeps nothing of it.
+TEST_F(TriangulateGpu, PinnedSegmentsKeepNothingOfTheLastResult) {
+  const auto a = trixel_gen::synthetic_pslg(800000, 20000, Distribution::uniform, 91);
+  const auto b = trixel_gen::synthetic_pslg(800000, 20000, Distribution::uniform, 92);
+  cdt::Options gpu;
+  gpu.backend = cdt::Backend::gpu;
+  const auto canonical = [](cdt::Triangulation t) {
+    cdt::canonicalize(t);
+    return t;
+  };
+  ASSERT_TRUE(cdt::keep_pinned_results(0));
+  const cdt::Triangulation expected = canonical(cdt::triangulate(b.points, b.segments, gpu));
+  ASSERT_TRUE(cdt::keep_pinned_results(std::size_t{256} << 20));
+  std::vector<const void*> blocks_of_a;
+  {
+    const cdt::Triangulation first = cdt::triangulate(a.points, a.segments, gpu);
+    blocks_of_a = {first.triangles.data(), first.neighbors.data(), first.segment_of_edge.data()};
+  }
+  const cdt::Triangulation second = cdt::triangulate(b.points, b.segments, gpu);
+  const std::size_t bytes = second.segment_of_edge.size() * sizeof(second.segment_of_edge[0]);
+  EXPECT_TRUE(cdt::gpu::in_result_block(second.segment_of_edge.data(), bytes));
+  EXPECT_NE(std::find(blocks_of_a.begin(), blocks_of_a.end(), second.segment_of_edge.data()),
+            blocks_of_a.end());
+  const cdt::Triangulation got = canonical(second);
+  EXPECT_TRUE(got.triangles == expected.triangles);
+  EXPECT_TRUE(got.segment_of_edge == expected.segment_of_edge);
+  EXPECT_GT(std::count_if(got.segment_of_edge.begin(), got.segment_of_edge.end(),
+                          [](const std::array<std::uint32_t, 3>& s) { return s[0] != cdt::kNone; }),
+            0);
+  ASSERT_TRUE(cdt::keep_pinned_results(0));
+}
+
 // The pinned result memory's blocks keep to their limit: one that does not fit beside the blocks in use
 // is refused and the free ones stay for the next that fits; a free block is taken again by a request of
 // its size; 0 frees them and refuses every request.
