@@ -1675,6 +1675,7 @@ void DeviceMesh::output(std::span<const std::uint32_t> vertex_of,
     pairs->scatter(host[2], parallel);
     trace.mark("segments written on the host");
   }
+  s.prefilled_segments = nullptr; // the array is the output's now
   copies.wait();
   trace.mark("made and downloaded");
 }
