@@ -421,8 +421,9 @@ int main(int argc, char** argv) {
               *std::find_if(runs.begin(), runs.end(),
                             [&](const cdt::Statistics& s) { return s.total_milliseconds == median(times); });
           const char* verdict = !check ? "not checked"
-                                : cdt::verify(last, input.pslg.points, input.pslg.segments).ok() ? "yes"
-                                                                                                 : "NO";
+                                : cdt::verify(last, input.pslg.points, input.pslg.segments, threads).ok()
+                                    ? "yes"
+                                    : "NO";
           std::string phases = best.backend + ":";
           std::uint64_t flips = 0;
           std::uint64_t missing = 0;
@@ -504,7 +505,7 @@ int main(int argc, char** argv) {
           bool ok = true;
           for (std::size_t k = 0; k < many.size(); ++k)
             ok = ok && !results[k].error &&
-                 cdt::verify(results[k].triangulation, many[k].points, many[k].segments).ok();
+                 cdt::verify(results[k].triangulation, many[k].points, many[k].segments, threads).ok();
           char text[256];
           const int len =
               std::snprintf(text, sizeof text, "%.1f|%.1f|%u|%s", median(alone), median(joint),

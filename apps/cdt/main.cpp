@@ -125,7 +125,7 @@ int main(int argc, char** argv) {
     cdt::retain_freed_memory(1024 * (pslg.points.size() + pslg.segments.size()));
     const cdt::Triangulation t = cdt::triangulate(pslg.points, pslg.segments, options);
     if (verify) {
-      const cdt::VerifyReport report = cdt::verify(t, pslg.points, pslg.segments);
+      const cdt::VerifyReport report = cdt::verify(t, pslg.points, pslg.segments, options.threads);
       if (!report.ok()) {
         std::cerr << "cdt: " << input.string() << ": verification FAILED with " << report.num_problems
                   << " problem(s):\n";

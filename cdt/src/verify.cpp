@@ -12,6 +12,11 @@
 // at rep(b) from rep(a) lie on one chain, in that order. A segment split at a rounded crossing point is
 // not straight any more; only for those is the chain searched edge by edge, within a tolerance of a
 // few hundred ulps (see BentChainSearch). A missing segment is walked once more, to say where it stops.
+//
+// Large triangulations are checked on every hardware thread (2M points and 200K segments took one
+// thread 6.2 s): each check runs over contiguous parts of its triangles, edges, vertices or segments,
+// each part into a report of its own, and the parts' reports are joined in order, so that the report
+// is the one a single loop gives.
 
 #include "cdt/verify.hpp"
 
@@ -20,11 +25,15 @@
 #include <bit>
 #include <cmath>
 #include <cstdint>
+#include <exception>
+#include <optional>
 #include <sstream>
 #include <string>
+#include <system_error>
 #include <utility>
 
 #include "cdt/detail/predicates.hpp"
+#include "executor/cpu_executor.hpp"
 
 namespace cdt {
 namespace {
@@ -52,10 +61,47 @@ public:
   void tally() { ++report_.num_problems; }
   /// Whether the next message will be kept: expensive diagnostics are only worth it then.
   bool keeping() const { return report_.problems.size() < VerifyReport::kMaxKept; }
+  /// Adds the problems of a later part of a check: its count, and its messages while there is room.
+  void join(const VerifyReport& part) {
+    report_.num_problems += part.num_problems;
+    for (const std::string& message : part.problems) {
+      if (!keeping()) break;
+      report_.problems.push_back(message);
+    }
+  }
 
 private:
   VerifyReport& report_;
 };
+
+/// A check's parts: at most this many, of at least kPartSize elements.
+constexpr std::size_t kMaxParts = 64;
+constexpr std::size_t kPartSize = std::size_t{1} << 14;
+
+/// Runs check(k, reporter) for every k in [0, n) in contiguous parts on the executor's threads, each
+/// part into a report of its own, then joins the parts' reports to `report` in order: the report one
+/// loop over k gives (check must only read shared data).
+template <class Check>
+void check_in_parts(detail::CpuExecutor& executor, std::size_t n, Reporter& report, Check&& check) {
+  const std::size_t parts = std::min(kMaxParts, n / kPartSize + 1);
+  if (parts == 1 || executor.threads() == 1) {
+    for (std::size_t k = 0; k < n; ++k) check(k, report);
+    return;
+  }
+  std::vector<VerifyReport> found(parts);
+  std::vector<std::exception_ptr> failed(parts); // a part's std::bad_alloc, rethrown here
+  executor.for_each_part(parts, [&](std::size_t p) {
+    try {
+      Reporter part(found[p]);
+      for (std::size_t k = n * p / parts; k < n * (p + 1) / parts; ++k) check(k, part);
+    } catch (...) {
+      failed[p] = std::current_exception();
+    }
+  });
+  for (const std::exception_ptr& e : failed)
+    if (e) std::rethrow_exception(e);
+  for (const VerifyReport& part : found) report.join(part);
+}
 
 using Triangle = std::array<std::uint32_t, 3>;
 
@@ -150,15 +196,15 @@ bool check_sizes(const Triangulation& t, std::span<const Point> points, std::spa
 
 // --- triangles and links -----------------------------------------------------------------------------
 
-void check_orientation(const Triangulation& t, Reporter& report) {
-  for (std::size_t k = 0; k < t.triangles.size(); ++k) {
+void check_orientation(const Triangulation& t, detail::CpuExecutor& executor, Reporter& report) {
+  check_in_parts(executor, t.triangles.size(), report, [&](std::size_t k, Reporter& found) {
     const Triangle& tri = t.triangles[k];
     const int o = orient(t.vertices[tri[0]], t.vertices[tri[1]], t.vertices[tri[2]]);
     if (o <= 0) {
-      report.add("triangle ", k, " (", tri[0], ", ", tri[1], ", ", tri[2], ") is ",
-                 o == 0 ? "degenerate (collinear vertices)" : "clockwise");
+      found.add("triangle ", k, " (", tri[0], ", ", tri[1], ", ", tri[2], ") is ",
+                o == 0 ? "degenerate (collinear vertices)" : "clockwise");
     }
-  }
+  });
 }
 
 /// True when neighbour k of t is a proper link: a triangle holding the edge reversed, linked back.
@@ -171,26 +217,27 @@ bool linked_back(const Triangulation& t, std::uint32_t k, std::uint32_t i, std::
   return j != 3 && t.neighbors[u][j] == k;
 }
 
-void check_links(const Triangulation& t, Reporter& report) {
+void check_links(const Triangulation& t, detail::CpuExecutor& executor, Reporter& report) {
   const auto num_t = static_cast<std::uint32_t>(t.triangles.size());
-  for (std::uint32_t k = 0; k < num_t; ++k) {
+  check_in_parts(executor, num_t, report, [&](std::size_t index, Reporter& found) {
+    const auto k = static_cast<std::uint32_t>(index);
     for (std::uint32_t i = 0; i < 3; ++i) {
       const std::uint32_t u = t.neighbors[k][i];
       if (u == kNone || u >= num_t) continue;
       const auto [p, q] = edge_of(t.triangles[k], i);
       const std::uint32_t j = reversed_edge(t.triangles[u], p, q);
       if (j == 3) {
-        report.add("triangle ", k, " names ", u, " as its neighbour across edge (", p, ", ", q, "), but ", u,
-                   " does not have that edge reversed exactly once");
+        found.add("triangle ", k, " names ", u, " as its neighbour across edge (", p, ", ", q, "), but ", u,
+                  " does not have that edge reversed exactly once");
       } else if (t.neighbors[u][j] != k) {
-        report.add("link not symmetric: triangle ", k, " -> ", u, " across edge (", p, ", ", q, "), but ", u,
-                   " -> ", id_or_none(t.neighbors[u][j]));
+        found.add("link not symmetric: triangle ", k, " -> ", u, " across edge (", p, ", ", q, "), but ", u,
+                  " -> ", id_or_none(t.neighbors[u][j]));
       } else if (k < u && t.segment_of_edge[k][i] != t.segment_of_edge[u][j]) {
-        report.add("edge (", p, ", ", q, ") is constraint ", id_or_none(t.segment_of_edge[k][i]),
-                   " in triangle ", k, " but ", id_or_none(t.segment_of_edge[u][j]), " in triangle ", u);
+        found.add("edge (", p, ", ", q, ") is constraint ", id_or_none(t.segment_of_edge[k][i]),
+                  " in triangle ", k, " but ", id_or_none(t.segment_of_edge[u][j]), " in triangle ", u);
       }
     }
-  }
+  });
 }
 
 /// Each undirected edge once, with the triangle edges (3 * triangle + i) that hold it.
@@ -206,50 +253,48 @@ struct EdgeTable {
   std::uint32_t high(std::size_t g) const { return static_cast<std::uint32_t>(entries[first[g]].key); }
 };
 
-EdgeTable collect_edges(const Triangulation& t) {
+EdgeTable collect_edges(const Triangulation& t, detail::CpuExecutor& executor) {
   EdgeTable table;
-  table.entries.reserve(3 * t.triangles.size());
-  for (std::size_t k = 0; k < t.triangles.size(); ++k) {
+  table.entries.resize(3 * t.triangles.size());
+  executor.for_each(t.triangles.size(), [&](std::size_t k) {
     for (std::uint32_t i = 0; i < 3; ++i) {
       const auto [p, q] = edge_of(t.triangles[k], i);
       const std::uint64_t key = (std::uint64_t{std::min(p, q)} << 32) | std::max(p, q);
-      table.entries.push_back({key, static_cast<std::uint32_t>(3 * k + i)});
+      table.entries[3 * k + i] = {key, static_cast<std::uint32_t>(3 * k + i)};
     }
-  }
-  std::sort(table.entries.begin(), table.entries.end(),
-            [](const EdgeTable::Entry& a, const EdgeTable::Entry& b) {
-              return a.key != b.key ? a.key < b.key : a.slot < b.slot;
-            });
-  for (std::size_t e = 0; e < table.entries.size(); ++e) {
-    if (e == 0 || table.entries[e].key != table.entries[e - 1].key) {
-      table.first.push_back(static_cast<std::uint32_t>(e));
-    }
-  }
-  table.first.push_back(static_cast<std::uint32_t>(table.entries.size()));
+  });
+  executor.sort(table.entries, [](const EdgeTable::Entry& a, const EdgeTable::Entry& b) {
+    return a.key != b.key ? a.key < b.key : a.slot < b.slot;
+  });
+  const std::vector<EdgeTable::Entry>& entries = table.entries;
+  table.first = executor.compact(
+      entries.size(), [&](std::size_t e) { return e == 0 || entries[e].key != entries[e - 1].key; });
+  table.first.push_back(static_cast<std::uint32_t>(entries.size()));
   return table;
 }
 
-void check_edge_sharing(const Triangulation& t, const EdgeTable& edges, Reporter& report) {
-  for (std::size_t g = 0; g < edges.num_edges(); ++g) {
+void check_edge_sharing(const Triangulation& t, const EdgeTable& edges, detail::CpuExecutor& executor,
+                        Reporter& report) {
+  check_in_parts(executor, edges.num_edges(), report, [&](std::size_t g, Reporter& found) {
     const std::uint32_t begin = edges.first[g];
     const std::uint32_t end = edges.first[g + 1];
     if (end - begin > 2) {
-      report.add("edge (", edges.low(g), ", ", edges.high(g), ") is in ", end - begin, " triangles, first ",
-                 edges.entries[begin].slot / 3, " and ", edges.entries[begin + 1].slot / 3);
+      found.add("edge (", edges.low(g), ", ", edges.high(g), ") is in ", end - begin, " triangles, first ",
+                edges.entries[begin].slot / 3, " and ", edges.entries[begin + 1].slot / 3);
     } else if (end - begin == 2) {
       const std::uint32_t s0 = edges.entries[begin].slot;
       const std::uint32_t s1 = edges.entries[begin + 1].slot;
       const auto d0 = edge_of(t.triangles[s0 / 3], s0 % 3);
       const auto d1 = edge_of(t.triangles[s1 / 3], s1 % 3);
       if (d0 == d1) {
-        report.add("triangles ", s0 / 3, " and ", s1 / 3, " overlap: both have edge (", d0.first, ", ",
-                   d0.second, ") in the same direction");
+        found.add("triangles ", s0 / 3, " and ", s1 / 3, " overlap: both have edge (", d0.first, ", ",
+                  d0.second, ") in the same direction");
       } else if (t.neighbors[s0 / 3][s0 % 3] == kNone || t.neighbors[s1 / 3][s1 % 3] == kNone) {
-        report.add("edge (", edges.low(g), ", ", edges.high(g), ") is shared by triangles ", s0 / 3, " and ",
-                   s1 / 3, " but marked as a hull edge (no neighbour)");
+        found.add("edge (", edges.low(g), ", ", edges.high(g), ") is shared by triangles ", s0 / 3, " and ",
+                  s1 / 3, " but marked as a hull edge (no neighbour)");
       }
     }
-  }
+  });
 }
 
 // --- the domain --------------------------------------------------------------------------------------
@@ -279,7 +324,7 @@ bool inside_convex(const std::vector<Point>& c, const Point& p) {
 }
 
 void check_hull(const Triangulation& t, std::span<const Point> points, const EdgeTable& edges,
-                const std::vector<std::uint8_t>& used, Reporter& report) {
+                const std::vector<std::uint8_t>& used, detail::CpuExecutor& executor, Reporter& report) {
   const auto num_t = static_cast<std::uint32_t>(t.triangles.size());
   if (num_t == 0) {
     report.add("no triangles");
@@ -369,51 +414,54 @@ void check_hull(const Triangulation& t, std::span<const Point> points, const Edg
     return;
   }
   // corners[k] is the vertex after cycle[k]; any rotation is the same polygon.
-  for (std::size_t v = 0; v < t.vertices.size(); ++v) {
-    if (v < points.size() && t.duplicate_of[v] != v) continue; // at its representative's place
-    if (!inside_convex(corners, t.vertices[v])) report.add("vertex ", v, " lies outside the hull");
-  }
+  check_in_parts(executor, t.vertices.size(), report, [&](std::size_t v, Reporter& found) {
+    if (v < points.size() && t.duplicate_of[v] != v) return; // at its representative's place
+    if (!inside_convex(corners, t.vertices[v])) found.add("vertex ", v, " lies outside the hull");
+  });
 }
 
 // --- duplicates and use ------------------------------------------------------------------------------
 
 void check_duplicates(const Triangulation& t, std::span<const Point> points,
-                      const std::vector<std::uint8_t>& used, Reporter& report) {
+                      const std::vector<std::uint8_t>& used, detail::CpuExecutor& executor,
+                      Reporter& report) {
   const auto num_points = static_cast<std::uint32_t>(points.size());
-  for (std::uint32_t i = 0; i < num_points; ++i) {
+  check_in_parts(executor, num_points, report, [&](std::size_t index, Reporter& found) {
+    const auto i = static_cast<std::uint32_t>(index);
     const std::uint32_t r = t.duplicate_of[i];
     if (r == i) {
-      if (used[i] == 0) report.add("input point ", i, " is used by no triangle");
-      continue;
+      if (used[i] == 0) found.add("input point ", i, " is used by no triangle");
+      return;
     }
     if (t.duplicate_of[r] != r) {
-      report.add("duplicate_of[", i, "] = ", r, ", which is not a representative (duplicate_of[", r,
-                 "] = ", t.duplicate_of[r], ")");
+      found.add("duplicate_of[", i, "] = ", r, ", which is not a representative (duplicate_of[", r,
+                "] = ", t.duplicate_of[r], ")");
     } else if (!(points[r] == points[i])) {
-      report.add("point ", i, " is mapped to ", r, " but their coordinates differ");
+      found.add("point ", i, " is mapped to ", r, " but their coordinates differ");
     }
     if (used[i] != 0) {
-      report.add("duplicate point ", i, " is used by a triangle instead of its representative ", r);
+      found.add("duplicate point ", i, " is used by a triangle instead of its representative ", r);
     }
-  }
+  });
   for (std::size_t v = num_points; v < t.vertices.size(); ++v) {
     if (used[v] == 0) report.add("added vertex ", v, " is used by no triangle");
   }
   // Identical points must share one representative, or the mesh would hold two vertices at one place.
   std::vector<std::uint32_t> order(num_points);
-  for (std::uint32_t i = 0; i < num_points; ++i) order[i] = i;
-  std::sort(order.begin(), order.end(), [&](std::uint32_t i, std::uint32_t j) {
+  executor.for_each(num_points, [&](std::size_t i) { order[i] = static_cast<std::uint32_t>(i); });
+  executor.sort(order, [&](std::uint32_t i, std::uint32_t j) {
     if (points[i].x != points[j].x) return points[i].x < points[j].x;
     if (points[i].y != points[j].y) return points[i].y < points[j].y;
     return i < j;
   });
-  for (std::size_t k = 1; k < order.size(); ++k) {
+  check_in_parts(executor, order.size(), report, [&](std::size_t k, Reporter& found) {
+    if (k == 0) return;
     const std::uint32_t i = order[k - 1];
     const std::uint32_t j = order[k];
     if (points[i] == points[j] && t.duplicate_of[i] != t.duplicate_of[j]) {
-      report.add("points ", i, " and ", j, " are identical but not merged");
+      found.add("points ", i, " and ", j, " are identical but not merged");
     }
-  }
+  });
 }
 
 // --- segments ----------------------------------------------------------------------------------------
@@ -423,7 +471,8 @@ void check_duplicates(const Triangulation& t, std::span<const Point> points,
 /// orient2d.
 class Adjacency {
 public:
-  Adjacency(const Triangulation& t, const EdgeTable& edges) : t_(t), edges_(edges) {
+  Adjacency(const Triangulation& t, const EdgeTable& edges, detail::CpuExecutor& executor)
+      : t_(t), edges_(edges) {
     const std::size_t num_v = t.vertices.size();
     std::vector<std::uint32_t> start(num_v + 1, 0);
     const auto usable = [&](std::size_t g) {
@@ -451,8 +500,9 @@ public:
       add(edges.low(g), edges.high(g), g);
       add(edges.high(g), edges.low(g), g);
     }
-    std::vector<std::pair<std::uint32_t, std::uint32_t>> scratch;
-    for (std::uint32_t v = 0; v < num_v; ++v) {
+    // Each vertex's entries sorted by direction, the vertices in parallel.
+    executor.for_each(num_v, [&](std::size_t v) {
+      thread_local std::vector<std::pair<std::uint32_t, std::uint32_t>> scratch;
       scratch.clear();
       for (std::uint32_t e = start[v]; e < start[v + 1]; ++e) scratch.emplace_back(to_[e], group_[e]);
       const Point& c = t.vertices[v];
@@ -463,7 +513,7 @@ public:
         to_[e] = scratch[e - start[v]].first;
         group_[e] = scratch[e - start[v]].second;
       }
-    }
+    });
     start_ = std::move(start);
   }
 
@@ -528,15 +578,23 @@ private:
 /// rank along it, so that "is there a straight constraint path from e to f" is one comparison.
 class Chains {
 public:
-  Chains(const Triangulation& t, const Adjacency& adj)
+  Chains(const Triangulation& t, const Adjacency& adj, detail::CpuExecutor& executor)
       : chain_(adj.num_entries(), kNone), rank_(adj.num_entries(), 0) {
     const auto n = static_cast<std::uint32_t>(adj.num_entries());
+    // Each constraint edge's straight continuation (in parallel), then in order: the first edge to
+    // name a continuation takes it.
+    std::vector<std::uint32_t> ahead(n, kNone);
+    executor.for_each(n, [&](std::size_t index) {
+      const auto e = static_cast<std::uint32_t>(index);
+      if (!adj.is_constraint(e)) return;
+      const std::uint32_t s = adj.toward(adj.to(e), t.vertices[adj.from(e)], true);
+      if (s != kNone && adj.is_constraint(s)) ahead[e] = s;
+    });
     std::vector<std::uint32_t> successor(n, kNone);
     std::vector<std::uint8_t> has_predecessor(n, 0);
     for (std::uint32_t e = 0; e < n; ++e) {
-      if (!adj.is_constraint(e)) continue;
-      const std::uint32_t s = adj.toward(adj.to(e), t.vertices[adj.from(e)], true);
-      if (s != kNone && adj.is_constraint(s) && has_predecessor[s] == 0) {
+      const std::uint32_t s = ahead[e];
+      if (s != kNone && has_predecessor[s] == 0) {
         successor[e] = s;
         has_predecessor[s] = 1;
       }
@@ -645,8 +703,23 @@ double bend_tolerance(const Triangulation& t) {
 }
 
 void check_segments(const Triangulation& t, std::span<const Point> points, std::span<const Segment> segments,
-                    const Adjacency& adj, Reporter& report) {
-  const Chains chains(t, adj);
+                    const Adjacency& adj, detail::CpuExecutor& executor, Reporter& report) {
+  const Chains chains(t, adj, executor);
+  // Whether each segment lies on one straight chain (in parallel); the others are looked at in order.
+  std::vector<std::uint8_t> straight(segments.size(), 0);
+  executor.for_each(segments.size(), [&](std::size_t s) {
+    const Segment& g = segments[s];
+    if (g.a >= points.size() || g.b >= points.size()) return;
+    const std::uint32_t ra = t.duplicate_of[g.a];
+    const std::uint32_t rb = t.duplicate_of[g.b];
+    if (ra == rb) return;
+    // The first edge of the chain leaves ra toward rb; the last arrives at rb from ra's side.
+    const std::uint32_t first = adj.toward(ra, t.vertices[rb], false);
+    const std::uint32_t back = adj.toward(rb, t.vertices[ra], false);
+    const std::uint32_t last = back == kNone ? kNone : adj.toward(adj.to(back), t.vertices[rb], false);
+    straight[s] = first != kNone && last != kNone && adj.to(last) == rb && chains.connects(first, last) &&
+                  orient(points[g.a], points[g.b], t.vertices[adj.to(first)]) == 0;
+  });
   BentChainSearch bent(t, adj, bend_tolerance(t));
   for (std::size_t s = 0; s < segments.size(); ++s) {
     const Segment& g = segments[s];
@@ -658,14 +731,7 @@ void check_segments(const Triangulation& t, std::span<const Point> points, std::
     const std::uint32_t ra = t.duplicate_of[g.a];
     const std::uint32_t rb = t.duplicate_of[g.b];
     if (ra == rb) continue;
-    // The first edge of the chain leaves ra toward rb; the last arrives at rb from ra's side.
-    const std::uint32_t first = adj.toward(ra, t.vertices[rb], false);
-    const std::uint32_t back = adj.toward(rb, t.vertices[ra], false);
-    const std::uint32_t last = back == kNone ? kNone : adj.toward(adj.to(back), t.vertices[rb], false);
-    const bool present = first != kNone && last != kNone && adj.to(last) == rb &&
-                         chains.connects(first, last) &&
-                         orient(points[g.a], points[g.b], t.vertices[adj.to(first)]) == 0;
-    if (present || bent.present(points[g.a], points[g.b], ra, rb)) continue;
+    if (straight[s] != 0 || bent.present(points[g.a], points[g.b], ra, rb)) continue;
     if (report.keeping()) {
       explain_missing_segment(t, adj, s, ra, rb, report);
     } else {
@@ -676,9 +742,10 @@ void check_segments(const Triangulation& t, std::span<const Point> points, std::
 
 // --- Delaunay ----------------------------------------------------------------------------------------
 
-void check_delaunay(const Triangulation& t, Reporter& report) {
+void check_delaunay(const Triangulation& t, detail::CpuExecutor& executor, Reporter& report) {
   const auto num_t = static_cast<std::uint32_t>(t.triangles.size());
-  for (std::uint32_t k = 0; k < num_t; ++k) {
+  check_in_parts(executor, num_t, report, [&](std::size_t index, Reporter& found) {
+    const auto k = static_cast<std::uint32_t>(index);
     const Triangle& tri = t.triangles[k];
     for (std::uint32_t i = 0; i < 3; ++i) {
       std::uint32_t u = kNone;
@@ -692,35 +759,48 @@ void check_delaunay(const Triangulation& t, Reporter& report) {
       const Point& d = t.vertices[t.triangles[u][j]];
       if (incircle_perturbed(a.x, a.y, b.x, b.y, c.x, c.y, d.x, d.y) > 0) {
         const bool inside = incircle(a.x, a.y, b.x, b.y, c.x, c.y, d.x, d.y) > 0;
-        report.add("edge (", tri[next(i)], ", ", tri[prev(i)], ") between triangles ", k, " and ", u,
-                   " is not locally Delaunay: vertex ", t.triangles[u][j],
-                   inside ? " lies inside the circumcircle of " : " lies on the circumcircle of ", k,
-                   inside ? "" : " and the tie-break among co-circular points keeps the other diagonal");
+        found.add("edge (", tri[next(i)], ", ", tri[prev(i)], ") between triangles ", k, " and ", u,
+                  " is not locally Delaunay: vertex ", t.triangles[u][j],
+                  inside ? " lies inside the circumcircle of " : " lies on the circumcircle of ", k,
+                  inside ? "" : " and the tie-break among co-circular points keeps the other diagonal");
       }
     }
-  }
+  });
 }
 
 } // namespace
 
-VerifyReport verify(const Triangulation& t, std::span<const Point> points,
-                    std::span<const Segment> segments) {
+VerifyReport verify(const Triangulation& t, std::span<const Point> points, std::span<const Segment> segments,
+                    unsigned threads) {
   VerifyReport result;
   Reporter report(result);
   if (!check_sizes(t, points, segments, report)) return result;
+  // By default every hardware thread for a large mesh and one (no thread started) for a small one;
+  // one too when no thread can be had.
+  std::optional<detail::CpuExecutor> pool;
+  const unsigned wanted = threads != 0 ? threads : t.triangles.size() >= kPartSize ? 0u : 1u;
+  if (wanted != 1) {
+    try {
+      pool.emplace(wanted);
+    } catch (const std::system_error&) {
+      pool.reset();
+    }
+  }
+  if (!pool) pool.emplace(1);
   std::vector<std::uint8_t> used(t.vertices.size(), 0);
   for (const Triangle& tri : t.triangles) {
     for (std::uint32_t v : tri) used[v] = 1;
   }
-  check_orientation(t, report);
-  check_links(t, report);
-  const EdgeTable edges = collect_edges(t);
-  check_edge_sharing(t, edges, report);
-  check_hull(t, points, edges, used, report);
-  check_duplicates(t, points, used, report);
-  const Adjacency adjacency(t, edges);
-  check_segments(t, points, segments, adjacency, report);
-  check_delaunay(t, report);
+  detail::CpuExecutor& executor = *pool;
+  check_orientation(t, executor, report);
+  check_links(t, executor, report);
+  const EdgeTable edges = collect_edges(t, executor);
+  check_edge_sharing(t, edges, executor, report);
+  check_hull(t, points, edges, used, executor, report);
+  check_duplicates(t, points, used, executor, report);
+  const Adjacency adjacency(t, edges, executor);
+  check_segments(t, points, segments, adjacency, executor, report);
+  check_delaunay(t, executor, report);
   return result;
 }
 

@@ -4,7 +4,9 @@
 
 #include <gtest/gtest.h>
 
+#include "cdt/cdt.hpp"
 #include "cdt/detail/predicates.hpp"
+#include "pslg_generators.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -538,6 +540,46 @@ TEST(Verify, LargeLatticeWithLongOverlappingSegmentsPasses) {
   }
   const auto broken = cdt::verify(t, p, s);
   EXPECT_EQ(broken.num_problems, 251u) << all_problems(broken);
+}
+
+// A large triangulation is checked on several threads, each check over parts of the mesh: its report,
+// kept messages and count alike, is the one thread's, valid or broken in many places at once.
+TEST(Verify, ManyThreadsReportAsOne) {
+  const trixel_gen::Pslg in = trixel_gen::synthetic_pslg(60000, 3000, trixel_gen::Distribution::uniform, 41);
+  cdt::Options options;
+  options.backend = cdt::Backend::cpu;
+  Triangulation t = cdt::triangulate(in.points, in.segments, options);
+  ASSERT_GE(t.triangles.size(), 4u * 16384u); // several parts in every check over the triangles
+  for (const unsigned threads : {1u, 2u, 5u}) {
+    const auto r = cdt::verify(t, in.points, in.segments, threads);
+    EXPECT_TRUE(r.ok()) << threads << " threads: " << all_problems(r);
+  }
+  // Broken all over: every 997th triangle turned clockwise (orientation, links, shared edges, the
+  // Delaunay test), every 1999th constraint flag dropped on one side (links, segments), and a few
+  // points mapped to a neighbour (duplicates, use).
+  std::size_t dropped = 0;
+  for (std::size_t k = 0; k < t.triangles.size(); k += 997) std::swap(t.triangles[k][1], t.triangles[k][2]);
+  for (std::size_t k = 0; k < t.triangles.size(); ++k) {
+    for (std::uint32_t i = 0; i < 3; ++i) {
+      if (t.segment_of_edge[k][i] != kNone && ++dropped % 1999 == 0) t.segment_of_edge[k][i] = kNone;
+    }
+  }
+  for (std::uint32_t v = 1000; v < in.points.size(); v += 15000) t.duplicate_of[v] = v - 1;
+  const auto one = cdt::verify(t, in.points, in.segments, 1);
+  EXPECT_GT(one.num_problems, 3 * cdt::VerifyReport::kMaxKept) << all_problems(one);
+  EXPECT_EQ(one.problems.size(), cdt::VerifyReport::kMaxKept);
+  for (const unsigned threads : {2u, 3u, 8u}) {
+    const auto many = cdt::verify(t, in.points, in.segments, threads);
+    EXPECT_EQ(many.num_problems, one.num_problems) << threads << " threads";
+    EXPECT_EQ(many.problems, one.problems) << threads << " threads";
+  }
+  // Only the last checks' problems: the kept messages come from the later parts too.
+  for (std::size_t k = 0; k < t.triangles.size(); k += 997) std::swap(t.triangles[k][1], t.triangles[k][2]);
+  const auto late = cdt::verify(t, in.points, in.segments, 1);
+  EXPECT_FALSE(late.ok());
+  const auto late_many = cdt::verify(t, in.points, in.segments, 4);
+  EXPECT_EQ(late_many.num_problems, late.num_problems);
+  EXPECT_EQ(late_many.problems, late.problems);
 }
 
 } // namespace

@@ -35,6 +35,10 @@ struct VerifyReport {
 /// One tolerance: a segment split at a crossing point that is not a double is bent through the rounded
 /// point, so a chain that is not straight is accepted when every vertex on it lies within
 /// 1024 * 2^-53 * (the largest coordinate magnitude of t.vertices) of the segment and of its bounding box.
-VerifyReport verify(const Triangulation& t, std::span<const Point> points, std::span<const Segment> segments);
+///
+/// threads: the checks' threads (the report is the same for any number); 0 uses every hardware thread
+/// from 16384 triangles on and the calling thread alone below.
+VerifyReport verify(const Triangulation& t, std::span<const Point> points, std::span<const Segment> segments,
+                    unsigned threads = 0);
 
 } // namespace cdt
