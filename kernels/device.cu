@@ -296,25 +296,30 @@ void stream_copy(unsigned char* to, const unsigned char* from, std::size_t len) 
 #endif
 }
 
-/// stream_copy of len bytes, in parts of kCopyPartBytes over `parallel` when given.
-void copy_parts(void* to, const void* from, std::size_t len, const HostParallelFor* parallel) {
-  const auto copy = [&](std::size_t offset, std::size_t bytes) {
-    stream_copy(static_cast<unsigned char*>(to) + offset, static_cast<const unsigned char*>(from) + offset,
-                bytes);
-  };
+/// Calls work(offset, bytes) over len bytes: in parts of kCopyPartBytes over `parallel` when given,
+/// else at once.
+template <class Work>
+void in_copy_parts(std::size_t len, const HostParallelFor* parallel, Work&& work) {
   if (parallel == nullptr || !*parallel) {
-    copy(0, len);
+    work(std::size_t{0}, len);
     return;
   }
   const std::size_t parts = (len + kCopyPartBytes - 1) / kCopyPartBytes;
   (*parallel)(parts, [&](std::size_t p) {
     const std::size_t offset = p * kCopyPartBytes;
-    copy(offset, std::min(kCopyPartBytes, len - offset));
+    work(offset, std::min(kCopyPartBytes, len - offset));
   });
 }
 
-/// Sets len bytes at `to` to `byte` with streamed stores, in parts of kCopyPartBytes over `parallel`
-/// when given (an array the host reads only much later, as stream_copy's).
+/// stream_copy of len bytes, in parts of kCopyPartBytes over `parallel` when given.
+void copy_parts(void* to, const void* from, std::size_t len, const HostParallelFor* parallel) {
+  in_copy_parts(len, parallel, [&](std::size_t offset, std::size_t bytes) {
+    stream_copy(static_cast<unsigned char*>(to) + offset, static_cast<const unsigned char*>(from) + offset,
+                bytes);
+  });
+}
+
+/// memset with streamed stores (an array the host reads only much later, as stream_copy's).
 void stream_fill(unsigned char* to, unsigned char byte, std::size_t len) {
 #if defined(__x86_64__)
   const std::size_t head = std::min(len, (16 - (reinterpret_cast<std::uintptr_t>(to) & 15)) & 15);
@@ -351,15 +356,8 @@ StagingBlocks& staging_blocks() {
 } // namespace
 
 void fill_host_bytes(void* to, unsigned char byte, std::size_t len, const HostParallelFor* parallel) {
-  auto* bytes = static_cast<unsigned char*>(to);
-  if (parallel == nullptr || !*parallel) {
-    stream_fill(bytes, byte, len);
-    return;
-  }
-  const std::size_t parts = (len + kCopyPartBytes - 1) / kCopyPartBytes;
-  (*parallel)(parts, [&](std::size_t p) {
-    const std::size_t offset = p * kCopyPartBytes;
-    stream_fill(bytes + offset, byte, std::min(kCopyPartBytes, len - offset));
+  in_copy_parts(len, parallel, [&](std::size_t offset, std::size_t bytes) {
+    stream_fill(static_cast<unsigned char*>(to) + offset, byte, bytes);
   });
 }
 

@@ -1565,7 +1565,7 @@ public:
         n_, [=] __device__(std::size_t k) { pair[k] = std::uint64_t{segment(word[k])} << 32 | word[k]; },
         "segment_pairs");
     for (std::size_t from = 0; from < n_; from += kPerBlock) {
-      blocks_.push_back(nullptr);
+      blocks_.push_back(nullptr); // room first: a block taken is always held by blocks_
       blocks_.back() = static_cast<std::uint64_t*>(detail::take_staging_block());
       executor.download(blocks_.back(), pair + from, std::min<std::size_t>(kPerBlock, n_ - from));
     }
