@@ -10,9 +10,13 @@ cd "$(dirname "$0")/.."
 
 as_root=()
 [ "$(id -u)" -ne 0 ] && as_root=(sudo)
-if ! command -v gmt >/dev/null 2>&1 || ! dpkg -s gmt-gshhg-high >/dev/null 2>&1; then
+# gmt for the coastlines; CGAL with the static archives of GMP and MPFR for the static link.
+needed=(gmt gmt-gshhg-high libcgal-dev libgmp-dev libmpfr-dev)
+missing=()
+for p in "${needed[@]}"; do dpkg -s "$p" >/dev/null 2>&1 || missing+=("$p"); done
+if [ ${#missing[@]} -gt 0 ]; then
   "${as_root[@]}" apt-get update -qq
-  DEBIAN_FRONTEND=noninteractive "${as_root[@]}" apt-get install -y -qq gmt gmt-gshhg-high >/dev/null
+  DEBIAN_FRONTEND=noninteractive "${as_root[@]}" apt-get install -y -qq "${missing[@]}" >/dev/null
 fi
 mkdir -p .carry/data .carry/bin
 coast=.carry/data/gshhg-high.txt
@@ -23,8 +27,12 @@ gzip -c "$coast" > .carry/gshhg-high.txt.gz.tmp && mv .carry/gshhg-high.txt.gz.t
 
 generator=()
 command -v ninja >/dev/null 2>&1 && generator=(-G Ninja)
-cmake -S . -B build-static "${generator[@]}" -DCMAKE_BUILD_TYPE=Release -DTRIXEL_CUDA=OFF \
-  -DTRIXEL_VECTORIZE=OFF -DTRIXEL_WERROR=ON >/dev/null
+configured=$(cmake -S . -B build-static "${generator[@]}" -DCMAKE_BUILD_TYPE=Release -DTRIXEL_CUDA=OFF \
+  -DTRIXEL_VECTORIZE=OFF -DTRIXEL_WERROR=ON 2>&1) || { echo "$configured" >&2; exit 1; }
+if ! grep -q 'CGAL oracle: ON' <<<"$configured"; then
+  echo "device-carry: CMake did not find CGAL; the benchmark would run without it" >&2
+  exit 1
+fi
 cmake --build build-static -j "$(nproc)" --target cdt
 # CGAL's CMake configuration names the shared GMP and MPFR; a static link needs their archives.
 obj=build-static/apps/bench/CMakeFiles/bench_cdt.dir/bench_cdt.cpp.o

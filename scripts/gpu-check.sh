@@ -51,7 +51,7 @@ step() { # step NAME COMMAND...: runs it, logs it, records PASS/FAIL
   if "$@" >"$logs/$name.log" 2>&1; then r=PASS; else r=FAIL; fi
   t1=$(date +%s%N)
   status+=("| $name | $r | $(( (t1 - t0) / 1000000 )) ms |")
-  echo "== $name: $r"; tail -n 25 "$logs/$name.log"
+  echo "== $name: $r ($(( (t1 - t0) / 1000000 )) ms)"; tail -n 25 "$logs/$name.log"
 }
 
 nvidia-smi --query-gpu=name,driver_version,memory.total --format=csv,noheader > "$logs/device.txt" 2>&1 || true
@@ -62,16 +62,30 @@ if want tests; then
   step gpu-tests ctest --test-dir build-gpu -L gpu --output-on-failure --no-tests=error
   step cdt-cpu-tests ctest --test-dir build-gpu -L cpu -LE build --output-on-failure --no-tests=error -j "$(nproc)"
   if command -v compute-sanitizer >/dev/null 2>&1; then
-    # Every GPU test but the million-point triangulations (minutes under the sanitizers); the mid-size
-    # PSLGs with segments of TriangulateGpu.SegmentsMatchTheCpuBackend stay in.
-    sanitized=--gtest_filter=-TriangulateGpu.PointsMatchTheCpuBackend
+    if [ "${TRIXEL_SANITIZE:-mid}" = all ]; then
+      # Every GPU test but the million-point triangulations (minutes under the sanitizers). Not under
+      # racecheck: the tests whose cudaDeviceReset ends the process there (memcheck runs them), and the
+      # lattices and files, which add minutes and no kernel of their own.
+      memchecked=--gtest_filter=-TriangulateGpu.PointsMatchTheCpuBackend
+      racechecked="$memchecked:TriangulateGpu.ArtemOgreFilesMatchTheCpuBackend:TriangulateGpu.LatticesMatchTheCpuBackend:TriangulateGpu.StoppedDeviceStartsAgain:TriangulateGpu.PinnedResultsAreReusedAndOutliveTheDevice"
+    else
+      # The default (fits one call with the benchmarks): mid-size PSLGs with segments through the whole
+      # GPU backend (100K points + 10K segments; crossing segments, split on the host), the constraints
+      # beside the host's split, and the screen.
+      memchecked=--gtest_filter=TriangulateGpu.SegmentsMatchTheCpuBackend:TriangulateGpu.CrossingSegmentsMatchTheCpuBackend:MeshGpu.ConstraintsBesideTheHostKeepOrUndo:MeshGpu.ScreenMatchesTheCpuExecutor
+      racechecked=$memchecked
+    fi
     # TRIXEL_CUDA_SYNC=1: each launch checked where it ran, and released device blocks freed at once
     # (not kept for reuse), so a use of a released buffer is seen.
-    step memcheck env TRIXEL_CUDA_SYNC=1 compute-sanitizer --tool memcheck --error-exitcode 1 build-gpu/bin/kernels_tests "$sanitized"
-    # Not under racecheck: StoppedDeviceStartsAgain and PinnedResultsAreReusedAndOutliveTheDevice, whose
-    # cudaDeviceReset ends the process there (memcheck runs them).
-    step racecheck compute-sanitizer --tool racecheck --error-exitcode 1 build-gpu/bin/kernels_tests \
-      "$sanitized:TriangulateGpu.ArtemOgreFilesVerify:TriangulateGpu.LatticesVerify:TriangulateGpu.StoppedDeviceStartsAgain:TriangulateGpu.PinnedResultsAreReusedAndOutliveTheDevice"
+    sanitize() { # sanitize TOOL FILTER [VAR=VALUE...]: fails on a finding, and when no test ran
+      local out r
+      out=$(env "${@:3}" compute-sanitizer --tool "$1" --error-exitcode 1 build-gpu/bin/kernels_tests "$2" 2>&1)
+      r=$?
+      echo "$out"
+      [ $r -eq 0 ] && grep -Eq '^\[  PASSED  \] [1-9][0-9]* tests?' <<<"$out"
+    }
+    step memcheck sanitize memcheck "$memchecked" TRIXEL_CUDA_SYNC=1
+    step racecheck sanitize racecheck "$racechecked"
   fi
 else
   step build cmake --build build-gpu -j "$(nproc)" --target bench_cdt bench_predicates bench_voronoi_gpu
@@ -196,6 +210,28 @@ echo
 for log in bench-predicates bench-voronoi bench-cdt-gpu bench-cdt-cpu; do
   [ -f "$logs/$log.log" ] && { grep -h -e '^backend' -e '^|' "$logs/$log.log" || true; echo; }
 done
+# The GPU backend against the CPU executor and CGAL, input by input (bench_cdt's rows: input, points,
+# segments, ours ms, phases, flips, missing, verified, peak MiB, CGAL ms, ours / CGAL).
+if [ -f "$logs/bench-cdt-gpu.log" ] && [ -f "$logs/bench-cdt-cpu.log" ]; then
+  echo "| input | GPU ms | verified | CPU executor ms | CGAL ms | vs CPU executor | vs CGAL |"
+  echo "| --- | --- | --- | --- | --- | --- | --- |"
+  awk -F'|' '
+    function trim(x) { gsub(/^ +| +$/, "", x); return x }
+    FNR == 1 { file++ }
+    $2 ~ /^ (input|---)/ || NF < 12 { next }
+    file == 1 { name = trim($2); order[++n] = name; gpu[name] = trim($5); ok[name] = trim($9) }
+    file == 2 { name = trim($2); cpu[name] = trim($5); cgal[name] = trim($11) }
+    END {
+      for (i = 1; i <= n; i++) {
+        name = order[i]; g = gpu[name] + 0; c = 0; k = 0
+        if (name in cpu) { c = cpu[name] + 0; k = cgal[name] + 0 }
+        printf "| %s | %s | %s | %s | %s | %s | %s |\n", name, gpu[name], ok[name],
+          (c > 0) ? cpu[name] : "-", (k > 0) ? cgal[name] : "-",
+          (g > 0 && c > 0) ? sprintf("%.1fx", c / g) : "-", (g > 0 && k > 0) ? sprintf("%.1fx", k / g) : "-"
+      }
+    }' "$logs/bench-cdt-gpu.log" "$logs/bench-cdt-cpu.log"
+  echo
+fi
 [ -f "$logs/trace.log" ] && { echo "trace (third runs):"; grep -E '^(==|trace triangulate|trace split: suspect)' "$logs/trace.log"; echo; }
 [ -f "$logs/compare.log" ] && { echo "compare (base = ${TRIXEL_BASE:-.carry/base}, gpu = this tree):"; cat "$logs/compare.log"; echo; }
 for log in bench-batch bench-batch-cpu bench-batch-own; do
