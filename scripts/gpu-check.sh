@@ -5,7 +5,9 @@
 # Logs go to $OUT (when set) or build-gpu/logs.
 #
 # usage: scripts/gpu-check.sh [PART...]   (default: all of them, in this order)
-#   tests      build, GPU tests, CPU tests of cdt, compute-sanitizer memcheck and racecheck
+#   tests      build, GPU tests, CPU tests of cdt, compute-sanitizer memcheck and racecheck (on the
+#              mid-size PSLGs with segments; TRIXEL_SANITIZE=all: on every GPU test but the largest,
+#              which takes several calls' time)
 #   micro      predicates and digital Voronoi benchmarks
 #   cdt-gpu    the CDT benchmark matrix with the GPU backend (median of 3)
 #   cdt-cpu    the same inputs on the CPU executor and CGAL (one run each: they take seconds per input);
@@ -99,7 +101,8 @@ fi
 sizes=${TRIXEL_CDT_SIZES:-1000000:0,1000000:100000,10000000:0,10000000:100000,10000000:1000000}
 mkdir -p build-gpu/inputs
 lattice=${TRIXEL_CDT_LATTICE:-4096} # 0 leaves the lattice out
-matrix=(--sizes "$sizes" --cache build-gpu/inputs)
+# Each input's runs end after 180 s at most (a row says TIMED OUT, with its threads' states on stderr).
+matrix=(--sizes "$sizes" --cache build-gpu/inputs --limit 180)
 [ "$lattice" != 0 ] && matrix+=(--lattice "$lattice")
 if [ -s .carry/gshhg-high.txt.gz ]; then
   [ -s build-gpu/inputs/gshhg-high.txt ] || gunzip -c .carry/gshhg-high.txt.gz > build-gpu/inputs/gshhg-high.txt

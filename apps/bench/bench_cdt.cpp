@@ -23,10 +23,14 @@
 // row per input: median times of R runs, the backend and per-phase times of the median run (with their
 // parallel rounds in parentheses), flips, missing points, the verifier's verdict, peak memory of the run (its
 // own process), CGAL's time and the ratio ours/CGAL (<= 1 means faster).
+// --limit SECONDS ends an input's run (its own process) that takes longer, printing its threads' states
+// to stderr and "TIMED OUT" in its row, and goes on with the next input.
 // --together N then triangulates N of the --file PSLGs (cycled) in one cdt::triangulate_many call and
 // each alone, R times, and prints a second table: the wall times of both ways (medians), how many
 // inputs shared the call, and whether every result verifies.
 
+#include <dirent.h>
+#include <poll.h>
 #include <sys/resource.h>
 #if defined(__GLIBC__)
 #include <malloc.h>
@@ -36,7 +40,9 @@
 
 #include <algorithm>
 #include <cctype>
+#include <cerrno>
 #include <chrono>
+#include <csignal>
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
@@ -205,8 +211,39 @@ double run_cgal(const trixel_gen::Pslg& in) {
 }
 #endif
 
-/// Runs f in a child process so its peak memory is its own; returns the child's maxrss in MiB.
-double peak_mib_of(const std::function<void(int)>& f, std::string& child_output) {
+/// What each thread of process `pid` is doing, from /proc: "tid state wchan syscall" lines.
+std::string threads_of(pid_t pid) {
+  const std::string task = "/proc/" + std::to_string(pid) + "/task";
+  const auto first_line = [](const std::string& path) {
+    std::ifstream in(path);
+    std::string line;
+    std::getline(in, line);
+    return line;
+  };
+  std::string out;
+  std::vector<std::string> tids;
+  if (DIR* dir = opendir(task.c_str())) {
+    while (const dirent* e = readdir(dir))
+      if (e->d_name[0] != '.') tids.emplace_back(e->d_name);
+    closedir(dir);
+  }
+  std::sort(tids.begin(), tids.end());
+  for (const std::string& tid : tids) {
+    const std::string stat = first_line(task + "/" + tid + "/stat");
+    const std::size_t close = stat.rfind(')'); // the state follows the command's closing parenthesis
+    const char state = close != std::string::npos && close + 2 < stat.size() ? stat[close + 2] : '?';
+    out += "  thread " + tid + " state " + state + " wchan " + first_line(task + "/" + tid + "/wchan") +
+           " syscall " + first_line(task + "/" + tid + "/syscall") + "\n";
+  }
+  return out;
+}
+
+/// Runs f in a child process so its peak memory is its own; returns the child's maxrss in MiB. A child
+/// still running after limit_seconds (0: no limit) has its threads' states printed to stderr and is
+/// killed; timed_out says so, and the rest of the benchmark goes on.
+double peak_mib_of(const std::function<void(int)>& f, std::string& child_output, int limit_seconds,
+                   bool& timed_out) {
+  timed_out = false;
   int fds[2];
   if (pipe(fds) != 0) return -1;
   const pid_t pid = fork();
@@ -217,10 +254,30 @@ double peak_mib_of(const std::function<void(int)>& f, std::string& child_output)
     _exit(0);
   }
   close(fds[1]);
+  const auto deadline = Clock::now() + std::chrono::seconds(limit_seconds);
   char buffer[4096];
-  ssize_t got;
-  while ((got = read(fds[0], buffer, sizeof buffer)) > 0)
+  for (;;) {
+    int wait_ms = -1;
+    if (limit_seconds > 0) {
+      const auto left =
+          std::chrono::duration_cast<std::chrono::milliseconds>(deadline - Clock::now()).count();
+      wait_ms = static_cast<int>(std::clamp<long long>(left, 0, 60000));
+    }
+    pollfd readable{fds[0], POLLIN, 0};
+    const int ready = poll(&readable, 1, wait_ms);
+    if (ready < 0 && errno == EINTR) continue;
+    if (ready == 0) {
+      if (Clock::now() < deadline) continue;
+      timed_out = true;
+      std::fprintf(stderr, "bench_cdt: the run still had not ended after %d s; its threads:\n%s",
+                   limit_seconds, threads_of(pid).c_str());
+      kill(pid, SIGKILL);
+      break;
+    }
+    const ssize_t got = read(fds[0], buffer, sizeof buffer);
+    if (got <= 0) break;
     child_output.append(buffer, static_cast<std::size_t>(got));
+  }
   close(fds[0]);
   int status = 0;
   rusage usage{};
@@ -255,6 +312,7 @@ int main(int argc, char** argv) {
   std::uint32_t lattice_side = 0;
   std::string cache;
   int together = 0;
+  int limit = 0;
   for (int i = 1; i < argc; ++i) {
     if (!std::strcmp(argv[i], "--quick"))
       quick = true;
@@ -278,6 +336,8 @@ int main(int argc, char** argv) {
       cache = argv[++i];
     else if (!std::strcmp(argv[i], "--together") && i + 1 < argc)
       together = std::max(1, std::atoi(argv[++i]));
+    else if (!std::strcmp(argv[i], "--limit") && i + 1 < argc && std::atoi(argv[i + 1]) > 0)
+      limit = std::atoi(argv[++i]);
     else if (!std::strcmp(argv[i], "--lattice") && i + 1 < argc)
       lattice_side = static_cast<std::uint32_t>(std::atoi(argv[++i]));
     else if (!std::strcmp(argv[i], "--no-cgal"))
@@ -298,7 +358,7 @@ int main(int argc, char** argv) {
                            "[--no-cgal] [--grid M] [--inner-iterations I] [--backend auto|cpu|gpu] "
                            "[--sizes POINTS:SEGMENTS,...] "
                            "[--lattice K] [--cache DIR] [--small-pages] [--unpinned] [--together N] "
-                           "[--no-verify]\n");
+                           "[--no-verify] [--limit SECONDS]\n");
       return 2;
     }
   }
@@ -397,6 +457,7 @@ int main(int argc, char** argv) {
   options.backend = backend;
   for (const Input& input : inputs) {
     std::string row;
+    bool timed_out = false;
     const double peak = peak_mib_of(
         [&](int fd) {
           // Every run gives the same triangulation; the phases printed are those of the median run
@@ -447,7 +508,13 @@ int main(int argc, char** argv) {
                                         static_cast<unsigned long long>(missing), verdict);
           if (write(fd, text, static_cast<std::size_t>(len)) < 0) _exit(1);
         },
-        row);
+        row, limit, timed_out);
+    if (timed_out) {
+      std::printf("| %s | %zu | %zu | TIMED OUT after %d s (child output: %s) |\n", input.name.c_str(),
+                  input.pslg.points.size(), input.pslg.segments.size(), limit, row.c_str());
+      std::fflush(stdout);
+      continue;
+    }
     double cgal_ms = -1;
 #if defined(TRIXEL_HAVE_CGAL)
     if (with_cgal) {
@@ -486,6 +553,7 @@ int main(int argc, char** argv) {
       segments += p.segments.size();
     }
     std::string row;
+    bool timed_out = false;
     const double peak = peak_mib_of(
         [&](int fd) {
           // A first call starts the device, if any, outside the timings.
@@ -512,9 +580,9 @@ int main(int argc, char** argv) {
                             results[0].error ? 0u : results[0].triangulation.stats.inputs, ok ? "yes" : "NO");
           if (write(fd, text, static_cast<std::size_t>(len)) < 0) _exit(1);
         },
-        row);
+        row, limit, timed_out);
     const std::vector<std::string> f = fields_of(row);
-    if (f.size() != 4) {
+    if (timed_out || f.size() != 4) {
       std::printf("| %d | %zu | %zu | FAILED (child output: %s) |\n", together, points, segments,
                   row.c_str());
     } else {
