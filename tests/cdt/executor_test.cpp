@@ -61,6 +61,42 @@ TEST(CpuExecutor, ForEachCostlyVisitsEveryIndexOnceAndSpreadsFewIndices) {
   EXPECT_EQ(ids.size(), 2u);
 }
 
+// An element's exception, thrown on whichever thread ran it, reaches the step's caller (the pool would
+// otherwise end the process), the step stops handing out work, and the pool runs the next steps.
+TEST(CpuExecutor, AnElementsExceptionReachesTheCallerAndThePoolGoesOn) {
+  struct Thrown {
+    std::size_t at;
+  };
+  for (unsigned threads : {1u, 2u, 7u}) {
+    CpuExecutor ex(threads);
+    for (const std::size_t bad : {std::size_t{0}, std::size_t{54321}, std::size_t{99999}}) {
+      std::atomic<std::size_t> visited{0};
+      try {
+        ex.for_each(100000, [&](std::size_t i) {
+          if (i == bad) throw Thrown{i};
+          visited.fetch_add(1);
+        });
+        ADD_FAILURE() << "no exception, threads " << threads << " bad " << bad;
+      } catch (const Thrown& e) {
+        EXPECT_EQ(e.at, bad) << "threads " << threads;
+      }
+      EXPECT_LT(visited.load(), std::size_t{100000}) << "threads " << threads;
+      // Every thread throws: one exception comes back, the others are dropped.
+      EXPECT_THROW(ex.for_each_part(64, [](std::size_t p) { throw Thrown{p}; }), Thrown);
+      // The pool is whole: the next steps visit every index once.
+      std::vector<std::atomic<int>> seen(100000);
+      ex.for_each(seen.size(), [&](std::size_t i) { seen[i].fetch_add(1); });
+      EXPECT_TRUE(
+          std::all_of(seen.begin(), seen.end(), [](const std::atomic<int>& k) { return k.load() == 1; }))
+          << "threads " << threads;
+      std::vector<std::uint32_t> v(50000);
+      std::iota(v.rbegin(), v.rend(), 0u);
+      ex.sort(v, std::less<>());
+      EXPECT_TRUE(std::is_sorted(v.begin(), v.end())) << "threads " << threads;
+    }
+  }
+}
+
 TEST(CpuExecutor, ScanCompactAndSortMatchSerialResults) {
   CpuExecutor ex(4);
   std::vector<std::uint32_t> v(200003);

@@ -1,6 +1,7 @@
 #include "executor/cpu_executor.hpp"
 
 #include <chrono>
+#include <utility>
 
 namespace cdt::detail {
 
@@ -58,11 +59,7 @@ void CpuExecutor::run_chunks(std::size_t n, std::size_t chunk,
     wake = sleepers_ > 0;
   }
   if (wake) start_.notify_all();
-  for (;;) {
-    const std::size_t begin = next_.fetch_add(chunk, std::memory_order_relaxed);
-    if (begin >= n) break;
-    body(begin, std::min(n, begin + chunk));
-  }
+  take_chunks(body, n, chunk);
   const auto done = [this] { return pending_.load(std::memory_order_acquire) == 0; };
   if (!spin_until(done)) {
     std::unique_lock<std::mutex> lock(mutex_);
@@ -71,6 +68,28 @@ void CpuExecutor::run_chunks(std::size_t n, std::size_t chunk,
     caller_sleeping_ = false;
   }
   body_ = nullptr;
+  // Every thread is out of the step: nobody writes failure_ now.
+  if (failure_) std::rethrow_exception(std::exchange(failure_, nullptr));
+}
+
+void CpuExecutor::take_chunks(const std::function<void(std::size_t, std::size_t)>& body, std::size_t n,
+                              std::size_t chunk) noexcept {
+  for (;;) {
+    const std::size_t begin = next_.fetch_add(chunk, std::memory_order_relaxed);
+    if (begin >= n) return;
+    try {
+      body(begin, std::min(n, begin + chunk));
+    } catch (...) {
+      {
+        std::lock_guard<std::mutex> lock(failure_mutex_);
+        if (!failure_) failure_ = std::current_exception();
+      }
+      // No more chunks for anyone: the step ends once those begun are done. (A thread that took its
+      // chunk's start before this store still runs that chunk; the value stays at n or above.)
+      next_.store(n, std::memory_order_relaxed);
+      return;
+    }
+  }
 }
 
 void CpuExecutor::sort_pairs_by_key(std::vector<std::uint32_t>& keys, std::vector<std::uint32_t>& values,
@@ -138,14 +157,7 @@ void CpuExecutor::worker_loop(unsigned) {
     }
     if (stop_.load(std::memory_order_acquire)) return;
     seen = generation_.load(std::memory_order_acquire);
-    const std::function<void(std::size_t, std::size_t)>* body = body_;
-    const std::size_t n = n_;
-    const std::size_t chunk = chunk_;
-    for (;;) {
-      const std::size_t begin = next_.fetch_add(chunk, std::memory_order_relaxed);
-      if (begin >= n) break;
-      (*body)(begin, std::min(n, begin + chunk));
-    }
+    take_chunks(*body_, n_, chunk_);
     if (pending_.fetch_sub(1, std::memory_order_acq_rel) == 1) {
       // The last one out wakes the caller should it be asleep (checked under the mutex, where the
       // caller decides to sleep).

@@ -8,6 +8,7 @@
 #include <condition_variable>
 #include <cstddef>
 #include <cstdint>
+#include <exception>
 #include <functional>
 #include <mutex>
 #include <thread>
@@ -50,7 +51,10 @@ inline std::uint32_t atomic_max(std::uint32_t* address, std::uint32_t value) {
 }
 
 /// A fixed pool of worker threads running data-parallel steps. Each step returns only when every
-/// element is done, which is the global synchronisation the algorithm relies on between steps.
+/// element is done, which is the global synchronisation the algorithm relies on between steps. An
+/// exception thrown by an element's work, on any thread, ends the step early (no further chunks are
+/// handed out; those begun finish) and is rethrown to the step's caller, the first one only; the pool
+/// stays usable.
 class CpuExecutor {
 public:
   /// threads == 0 uses every hardware thread.
@@ -231,6 +235,9 @@ private:
 
   void run_chunks(std::size_t n, std::size_t chunk,
                   const std::function<void(std::size_t, std::size_t)>& body);
+  /// Takes chunks of the current step until none are left; an exception ends the handing out.
+  void take_chunks(const std::function<void(std::size_t, std::size_t)>& body, std::size_t n,
+                   std::size_t chunk) noexcept;
   void worker_loop(unsigned index);
 
   unsigned num_threads_ = 1;
@@ -254,6 +261,9 @@ private:
   std::size_t n_ = 0;
   std::size_t chunk_ = 0;
   std::atomic<std::size_t> next_{0};
+  // The current step's first exception (under failure_mutex_), rethrown by run_chunks.
+  std::mutex failure_mutex_;
+  std::exception_ptr failure_;
   // Scratch of sort_pairs_by_key, reused from call to call.
   std::vector<std::uint32_t> sort_keys_;
   std::vector<std::uint32_t> sort_values_;
