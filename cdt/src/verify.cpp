@@ -22,6 +22,7 @@
 
 #include <algorithm>
 #include <array>
+#include <atomic>
 #include <bit>
 #include <cmath>
 #include <cstdint>
@@ -33,6 +34,7 @@
 #include <utility>
 
 #include "cdt/detail/predicates.hpp"
+#include "cdt/detail/trace.hpp"
 #include "executor/cpu_executor.hpp"
 
 namespace cdt {
@@ -131,7 +133,7 @@ std::uint32_t reversed_edge(const Triangle& u, std::uint32_t p, std::uint32_t q)
 
 /// Checks what every later check indexes with. Returns false when they cannot run safely.
 bool check_sizes(const Triangulation& t, std::span<const Point> points, std::span<const Segment> segments,
-                 Reporter& report) {
+                 detail::CpuExecutor& executor, Reporter& report) {
   const std::size_t num_t = t.triangles.size();
   bool ok = true;
   if (t.neighbors.size() != num_t || t.segment_of_edge.size() != num_t) {
@@ -152,46 +154,47 @@ bool check_sizes(const Triangulation& t, std::span<const Point> points, std::spa
     ok = false;
   }
   if (!ok) return false;
-  for (std::size_t v = 0; v < t.vertices.size(); ++v) {
+  std::atomic<bool> unsafe{false}; // set by the parts below
+  check_in_parts(executor, t.vertices.size(), report, [&](std::size_t v, Reporter& found) {
     // Exact predicates (and the angular sorts built on them) need finite coordinates.
     if (!std::isfinite(t.vertices[v].x) || !std::isfinite(t.vertices[v].y)) {
-      report.add("vertex ", v, " has a non-finite coordinate (", t.vertices[v].x, ", ", t.vertices[v].y, ")");
-      ok = false;
+      found.add("vertex ", v, " has a non-finite coordinate (", t.vertices[v].x, ", ", t.vertices[v].y, ")");
+      unsafe.store(true, std::memory_order_relaxed);
     }
-  }
-  for (std::size_t i = 0; i < points.size(); ++i) {
+  });
+  check_in_parts(executor, points.size(), report, [&](std::size_t i, Reporter& found) {
     const Point& v = t.vertices[i];
     const Point& p = points[i];
     if (std::bit_cast<std::uint64_t>(v.x) != std::bit_cast<std::uint64_t>(p.x) ||
         std::bit_cast<std::uint64_t>(v.y) != std::bit_cast<std::uint64_t>(p.y)) {
-      report.add("vertex ", i, " (", v.x, ", ", v.y, ") differs from input point ", i, " (", p.x, ", ", p.y,
-                 ")");
+      found.add("vertex ", i, " (", v.x, ", ", v.y, ") differs from input point ", i, " (", p.x, ", ", p.y,
+                ")");
     }
-  }
-  for (std::size_t k = 0; k < num_t; ++k) {
+  });
+  check_in_parts(executor, num_t, report, [&](std::size_t k, Reporter& found) {
     for (std::uint32_t i = 0; i < 3; ++i) {
       if (t.triangles[k][i] >= t.vertices.size()) {
-        report.add("triangle ", k, " has vertex index ", t.triangles[k][i], ", beyond the ",
-                   t.vertices.size(), " vertices");
-        ok = false;
+        found.add("triangle ", k, " has vertex index ", t.triangles[k][i], ", beyond the ", t.vertices.size(),
+                  " vertices");
+        unsafe.store(true, std::memory_order_relaxed);
       }
       if (t.neighbors[k][i] != kNone && t.neighbors[k][i] >= num_t) {
-        report.add("triangle ", k, " has neighbour index ", t.neighbors[k][i], ", beyond the ", num_t,
-                   " triangles");
+        found.add("triangle ", k, " has neighbour index ", t.neighbors[k][i], ", beyond the ", num_t,
+                  " triangles");
       }
       if (t.segment_of_edge[k][i] != kNone && t.segment_of_edge[k][i] >= segments.size()) {
-        report.add("edge ", i, " of triangle ", k, " names segment ", t.segment_of_edge[k][i],
-                   ", beyond the ", segments.size(), " segments");
+        found.add("edge ", i, " of triangle ", k, " names segment ", t.segment_of_edge[k][i], ", beyond the ",
+                  segments.size(), " segments");
       }
     }
-  }
-  for (std::size_t i = 0; i < points.size(); ++i) {
+  });
+  check_in_parts(executor, points.size(), report, [&](std::size_t i, Reporter& found) {
     if (t.duplicate_of[i] >= points.size()) {
-      report.add("duplicate_of[", i, "] = ", t.duplicate_of[i], " is not an input point");
-      ok = false;
+      found.add("duplicate_of[", i, "] = ", t.duplicate_of[i], " is not an input point");
+      unsafe.store(true, std::memory_order_relaxed);
     }
-  }
-  return ok;
+  });
+  return !unsafe.load();
 }
 
 // --- triangles and links -----------------------------------------------------------------------------
@@ -253,18 +256,44 @@ struct EdgeTable {
   std::uint32_t high(std::size_t g) const { return static_cast<std::uint32_t>(entries[first[g]].key); }
 };
 
+/// The bits of the numbers below count.
+int bits_below(std::size_t count) { return count <= 1 ? 0 : std::bit_width(count - 1); }
+
+/// Every triangle's edges grouped by their two vertices: sorted by (key, slot). The slots are first
+/// sorted by their edge's lower vertex (a radix sort, stable, so that each vertex's run keeps its
+/// slots in order), then each run, a few slots for most vertices, by the higher vertex: a comparison
+/// sort of all 3n entries took most of the verifier's time.
 EdgeTable collect_edges(const Triangulation& t, detail::CpuExecutor& executor) {
-  EdgeTable table;
-  table.entries.resize(3 * t.triangles.size());
+  const std::size_t n = 3 * t.triangles.size();
+  const auto key_of = [&](std::uint32_t slot) {
+    const auto [p, q] = edge_of(t.triangles[slot / 3], slot % 3);
+    return (std::uint64_t{std::min(p, q)} << 32) | std::max(p, q);
+  };
+  std::vector<std::uint32_t> low(n), slot(n);
   executor.for_each(t.triangles.size(), [&](std::size_t k) {
     for (std::uint32_t i = 0; i < 3; ++i) {
       const auto [p, q] = edge_of(t.triangles[k], i);
-      const std::uint64_t key = (std::uint64_t{std::min(p, q)} << 32) | std::max(p, q);
-      table.entries[3 * k + i] = {key, static_cast<std::uint32_t>(3 * k + i)};
+      low[3 * k + i] = std::min(p, q);
+      slot[3 * k + i] = static_cast<std::uint32_t>(3 * k + i);
     }
   });
-  executor.sort(table.entries, [](const EdgeTable::Entry& a, const EdgeTable::Entry& b) {
-    return a.key != b.key ? a.key < b.key : a.slot < b.slot;
+  executor.sort_pairs_by_key(low, slot, bits_below(t.vertices.size()));
+  // The runs of one lower vertex, each sorted by (key, slot) on its own.
+  std::vector<std::uint32_t> run =
+      executor.compact(n, [&](std::size_t e) { return e == 0 || low[e] != low[e - 1]; });
+  run.push_back(static_cast<std::uint32_t>(n));
+  EdgeTable table;
+  table.entries.resize(n);
+  executor.for_each(run.size() - 1, [&](std::size_t r) {
+    const auto begin = table.entries.begin() + run[r];
+    const auto end = table.entries.begin() + run[r + 1];
+    for (auto e = begin; e != end; ++e) {
+      const std::uint32_t s = slot[static_cast<std::size_t>(e - table.entries.begin())];
+      *e = {key_of(s), s};
+    }
+    std::sort(begin, end, [](const EdgeTable::Entry& a, const EdgeTable::Entry& b) {
+      return a.key != b.key ? a.key < b.key : a.slot < b.slot;
+    });
   });
   const std::vector<EdgeTable::Entry>& entries = table.entries;
   table.first = executor.compact(
@@ -330,8 +359,9 @@ void check_hull(const Triangulation& t, std::span<const Point> points, const Edg
     report.add("no triangles");
     return;
   }
-  std::size_t num_used = 0;
-  for (std::uint8_t u : used) num_used += u;
+  const std::size_t num_used = executor.reduce(
+      used.size(), std::size_t{0}, [&](std::size_t& c, std::size_t v) { c += used[v]; },
+      [](std::size_t& c, std::size_t part) { c += part; });
   const auto euler = static_cast<std::int64_t>(num_used) - static_cast<std::int64_t>(edges.num_edges()) +
                      static_cast<std::int64_t>(num_t);
   if (euler != 1) {
@@ -344,19 +374,18 @@ void check_hull(const Triangulation& t, std::span<const Point> points, const Edg
   std::size_t num_hull = 0;
   std::uint32_t start = kNone;
   bool pinched = false;
-  for (std::uint32_t k = 0; k < num_t; ++k) {
-    for (std::uint32_t i = 0; i < 3; ++i) {
-      if (t.neighbors[k][i] != kNone) continue;
-      const auto [p, q] = edge_of(t.triangles[k], i);
-      ++num_hull;
-      start = p;
-      if (hull_next[p] != kNone) {
-        report.add("vertex ", p, " starts two hull edges (to ", hull_next[p], " and ", q,
-                   "): the domain is pinched");
-        pinched = true;
-      }
-      hull_next[p] = q;
+  const std::vector<std::uint32_t> hull_slots = executor.compact(
+      3 * std::size_t{num_t}, [&](std::size_t slot) { return t.neighbors[slot / 3][slot % 3] == kNone; });
+  for (const std::uint32_t slot : hull_slots) { // in slot order, as one loop over the triangles
+    const auto [p, q] = edge_of(t.triangles[slot / 3], slot % 3);
+    ++num_hull;
+    start = p;
+    if (hull_next[p] != kNone) {
+      report.add("vertex ", p, " starts two hull edges (to ", hull_next[p], " and ", q,
+                 "): the domain is pinched");
+      pinched = true;
     }
+    hull_next[p] = q;
   }
   if (num_hull < 3) {
     report.add("only ", num_hull, " hull edges");
@@ -474,32 +503,40 @@ public:
   Adjacency(const Triangulation& t, const EdgeTable& edges, detail::CpuExecutor& executor)
       : t_(t), edges_(edges) {
     const std::size_t num_v = t.vertices.size();
-    std::vector<std::uint32_t> start(num_v + 1, 0);
     const auto usable = [&](std::size_t g) {
       // A zero-length edge has no direction; its triangle is reported as degenerate already.
       return !(t.vertices[edges.low(g)] == t.vertices[edges.high(g)]);
     };
-    for (std::size_t g = 0; g < edges.num_edges(); ++g) {
-      if (!usable(g)) continue;
-      ++start[edges.low(g) + 1];
-      ++start[edges.high(g) + 1];
-    }
-    for (std::size_t v = 0; v < num_v; ++v) start[v + 1] += start[v];
-    const std::size_t n = start[num_v];
-    from_.resize(n);
+    // Each edge's two ends, (low, g) then (high, g), in the order of the groups; an unusable edge's
+    // ends get the key num_v, sorted past every vertex. A stable sort by vertex then leaves each
+    // vertex's entries in the order of their groups, the order of one loop over the groups.
+    const std::size_t ends = 2 * edges.num_edges();
+    std::vector<std::uint32_t> vertex(ends), group(ends);
+    executor.for_each(edges.num_edges(), [&](std::size_t g) {
+      const bool ok = usable(g);
+      vertex[2 * g] = ok ? edges.low(g) : static_cast<std::uint32_t>(num_v);
+      vertex[2 * g + 1] = ok ? edges.high(g) : static_cast<std::uint32_t>(num_v);
+      group[2 * g] = group[2 * g + 1] = static_cast<std::uint32_t>(g);
+    });
+    executor.sort_pairs_by_key(vertex, group, bits_below(num_v + 1));
+    // start[v]: the first entry of vertex v (entries of vertices without any start where the next
+    // vertex's do).
+    std::vector<std::uint32_t> start(num_v + 1);
+    const std::size_t n = static_cast<std::size_t>(
+        std::lower_bound(vertex.begin(), vertex.end(), static_cast<std::uint32_t>(num_v)) - vertex.begin());
+    executor.for_each(n + 1, [&](std::size_t e) {
+      const std::size_t from = e == 0 ? 0 : std::size_t{vertex[e - 1]} + 1;
+      const std::size_t to = e == n ? num_v : vertex[e];
+      for (std::size_t v = from; v <= to; ++v) start[v] = static_cast<std::uint32_t>(e);
+    });
+    from_.assign(vertex.begin(), vertex.begin() + static_cast<std::ptrdiff_t>(n));
+    group.resize(n);
+    group_ = std::move(group);
     to_.resize(n);
-    group_.resize(n);
-    std::vector<std::uint32_t> fill(start.begin(), start.end() - 1);
-    const auto add = [&](std::uint32_t p, std::uint32_t q, std::size_t g) {
-      from_[fill[p]] = p;
-      to_[fill[p]] = q;
-      group_[fill[p]++] = static_cast<std::uint32_t>(g);
-    };
-    for (std::size_t g = 0; g < edges.num_edges(); ++g) {
-      if (!usable(g)) continue;
-      add(edges.low(g), edges.high(g), g);
-      add(edges.high(g), edges.low(g), g);
-    }
+    executor.for_each(n, [&](std::size_t e) {
+      const std::uint32_t g = group_[e];
+      to_[e] = from_[e] == edges.low(g) ? edges.high(g) : edges.low(g);
+    });
     // Each vertex's entries sorted by direction, the vertices in parallel.
     executor.for_each(num_v, [&](std::size_t v) {
       thread_local std::vector<std::pair<std::uint32_t, std::uint32_t>> scratch;
@@ -579,34 +616,45 @@ private:
 class Chains {
 public:
   Chains(const Triangulation& t, const Adjacency& adj, detail::CpuExecutor& executor)
-      : chain_(adj.num_entries(), kNone), rank_(adj.num_entries(), 0) {
+      : chain_(adj.num_entries()), rank_(adj.num_entries()) {
     const auto n = static_cast<std::uint32_t>(adj.num_entries());
-    // Each constraint edge's straight continuation (in parallel), then in order: the first edge to
-    // name a continuation takes it.
-    std::vector<std::uint32_t> ahead(n, kNone);
+    // Which entries are constraint edges (each a few lookups, done once), and each one's straight
+    // continuation.
+    std::vector<std::uint8_t> constraint(n);
+    executor.for_each(n, [&](std::size_t e) {
+      constraint[e] = adj.is_constraint(static_cast<std::uint32_t>(e)) ? 1 : 0;
+      chain_[e] = kNone;
+      rank_[e] = 0;
+    });
+    std::vector<std::uint32_t> ahead(n);
+    std::vector<std::uint32_t> predecessor(n);
     executor.for_each(n, [&](std::size_t index) {
       const auto e = static_cast<std::uint32_t>(index);
-      if (!adj.is_constraint(e)) return;
+      ahead[e] = kNone;
+      predecessor[e] = kNone;
+      if (constraint[e] == 0) return;
       const std::uint32_t s = adj.toward(adj.to(e), t.vertices[adj.from(e)], true);
-      if (s != kNone && adj.is_constraint(s)) ahead[e] = s;
+      if (s != kNone && constraint[s] != 0) ahead[e] = s;
     });
-    std::vector<std::uint32_t> successor(n, kNone);
-    std::vector<std::uint8_t> has_predecessor(n, 0);
-    for (std::uint32_t e = 0; e < n; ++e) {
+    // The first edge (lowest index) to name a continuation takes it.
+    executor.for_each(n, [&](std::size_t e) {
+      if (ahead[e] != kNone) detail::atomic_min(&predecessor[ahead[e]], static_cast<std::uint32_t>(e));
+    });
+    const auto successor = [&](std::uint32_t e) {
       const std::uint32_t s = ahead[e];
-      if (s != kNone && has_predecessor[s] == 0) {
-        successor[e] = s;
-        has_predecessor[s] = 1;
-      }
-    }
-    for (std::uint32_t e = 0; e < n; ++e) {
-      if (!adj.is_constraint(e) || has_predecessor[e] != 0) continue;
+      return s != kNone && predecessor[s] == e ? s : kNone;
+    };
+    // Each chain from its first edge: every edge has at most one predecessor, so the chains are
+    // disjoint paths, walked in parallel.
+    executor.for_each(n, [&](std::size_t index) {
+      const auto e = static_cast<std::uint32_t>(index);
+      if (constraint[e] == 0 || predecessor[e] != kNone) return;
       std::uint32_t r = 0;
-      for (std::uint32_t f = e; f != kNone && chain_[f] == kNone; f = successor[f]) {
+      for (std::uint32_t f = e; f != kNone && chain_[f] == kNone; f = successor(f)) {
         chain_[f] = e;
         rank_[f] = r++;
       }
-    }
+    });
   }
   /// Whether a straight run of constraint edges starts with edge first and reaches edge last.
   bool connects(std::uint32_t first, std::uint32_t last) const {
@@ -696,9 +744,13 @@ private:
 
 /// How far a bent chain may stray from its segment: 2^10 units of roundoff of the largest coordinate,
 /// room for the rounding of crossing points and a few rounds of repairs.
-double bend_tolerance(const Triangulation& t) {
-  double magnitude = 0.0;
-  for (const Point& p : t.vertices) magnitude = std::max({magnitude, std::abs(p.x), std::abs(p.y)});
+double bend_tolerance(const Triangulation& t, detail::CpuExecutor& executor) {
+  const double magnitude = executor.reduce(
+      t.vertices.size(), 0.0,
+      [&](double& m, std::size_t v) {
+        m = std::max({m, std::abs(t.vertices[v].x), std::abs(t.vertices[v].y)});
+      },
+      [](double& m, double part) { m = std::max(m, part); });
   return 1024.0 * detail::kEpsilon * magnitude;
 }
 
@@ -720,7 +772,7 @@ void check_segments(const Triangulation& t, std::span<const Point> points, std::
     straight[s] = first != kNone && last != kNone && adj.to(last) == rb && chains.connects(first, last) &&
                   orient(points[g.a], points[g.b], t.vertices[adj.to(first)]) == 0;
   });
-  BentChainSearch bent(t, adj, bend_tolerance(t));
+  BentChainSearch bent(t, adj, bend_tolerance(t, executor));
   for (std::size_t s = 0; s < segments.size(); ++s) {
     const Segment& g = segments[s];
     if (g.a >= points.size() || g.b >= points.size()) {
@@ -774,7 +826,7 @@ VerifyReport verify(const Triangulation& t, std::span<const Point> points, std::
                     unsigned threads) {
   VerifyReport result;
   Reporter report(result);
-  if (!check_sizes(t, points, segments, report)) return result;
+  detail::StepTrace trace("verify");
   // By default every hardware thread for a large mesh and one (no thread started) for a small one;
   // one too when no thread can be had.
   std::optional<detail::CpuExecutor> pool;
@@ -787,20 +839,34 @@ VerifyReport verify(const Triangulation& t, std::span<const Point> points, std::
     }
   }
   if (!pool) pool.emplace(1);
-  std::vector<std::uint8_t> used(t.vertices.size(), 0);
-  for (const Triangle& tri : t.triangles) {
-    for (std::uint32_t v : tri) used[v] = 1;
-  }
   detail::CpuExecutor& executor = *pool;
+  if (!check_sizes(t, points, segments, executor, report)) return result;
+  trace.mark("sizes");
+  std::vector<std::uint8_t> used(t.vertices.size(), 0);
+  executor.for_each(t.triangles.size(), [&](std::size_t k) {
+    // Many triangles share a vertex: the same byte written by several threads, atomically.
+    for (std::uint32_t v : t.triangles[k])
+      std::atomic_ref<std::uint8_t>(used[v]).store(1, std::memory_order_relaxed);
+  });
+  trace.mark("used vertices");
   check_orientation(t, executor, report);
+  trace.mark("orientation");
   check_links(t, executor, report);
+  trace.mark("links");
   const EdgeTable edges = collect_edges(t, executor);
+  trace.mark("edge table");
   check_edge_sharing(t, edges, executor, report);
+  trace.mark("edge sharing");
   check_hull(t, points, edges, used, executor, report);
+  trace.mark("hull");
   check_duplicates(t, points, used, executor, report);
+  trace.mark("duplicates");
   const Adjacency adjacency(t, edges, executor);
+  trace.mark("adjacency");
   check_segments(t, points, segments, adjacency, executor, report);
+  trace.mark("segments");
   check_delaunay(t, executor, report);
+  trace.mark("delaunay");
   return result;
 }
 
