@@ -41,6 +41,7 @@ parts=("$@")
 want() { [[ " ${parts[*]} " == *" $1 "* ]]; }
 logs=${OUT:-build-gpu/logs}
 mkdir -p "$logs"
+rm -f "$logs/0-all-steps.log"
 arch=${TRIXEL_GPU_ARCH:-90}
 generator=()
 command -v ninja >/dev/null 2>&1 && generator=(-G Ninja)
@@ -54,6 +55,9 @@ step() { # step NAME COMMAND...: runs it, logs it, records PASS/FAIL
   t1=$(date +%s%N)
   status+=("| $name | $r | $(( (t1 - t0) / 1000000 )) ms |")
   echo "== $name: $r ($(( (t1 - t0) / 1000000 )) ms)"; tail -n 25 "$logs/$name.log"
+  # Every step's log in one file as well, first in name order: a caller that fetches only a few files
+  # of the folder (the GPU machine's tool returns eight) still gets them all, also from a run cut short.
+  { echo "== $name: $r"; cat "$logs/$name.log"; } >> "$logs/0-all-steps.log"
 }
 
 nvidia-smi --query-gpu=name,driver_version,memory.total --format=csv,noheader > "$logs/device.txt" 2>&1 || true
