@@ -522,7 +522,8 @@ public:
       const std::size_t to = e == n ? num_v : vertex[e];
       for (std::size_t v = from; v <= to; ++v) start[v] = static_cast<std::uint32_t>(e);
     });
-    from_.assign(vertex.begin(), vertex.begin() + static_cast<std::ptrdiff_t>(n));
+    vertex.resize(n);
+    from_ = std::move(vertex);
     group.resize(n);
     group_ = std::move(group);
     to_.resize(n);
