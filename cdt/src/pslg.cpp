@@ -260,9 +260,6 @@ struct SplitLists {
 
 // --- the grid ----------------------------------------------------------------------------------------
 
-/// The number of bits needed to write every value below `count`.
-int bits_below(std::size_t count) { return count <= 1 ? 0 : std::bit_width(count - 1); }
-
 /// Per key c in [0, num_keys], the position of the first of `sorted` (increasing) that is >= c: the
 /// row starts of a compressed layout whose entries were sorted by their row.
 std::vector<std::size_t> run_starts(const std::vector<std::uint32_t>& sorted, std::size_t num_keys,

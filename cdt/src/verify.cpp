@@ -249,9 +249,6 @@ struct EdgeTable {
   std::uint32_t high(std::size_t g) const { return static_cast<std::uint32_t>(entries[first[g]].key); }
 };
 
-/// The bits of the numbers below count.
-int bits_below(std::size_t count) { return count <= 1 ? 0 : std::bit_width(count - 1); }
-
 /// Every triangle's edges grouped by their two vertices: sorted by (key, slot). The slots are first
 /// sorted by their edge's lower vertex (a radix sort, stable, so that each vertex's run keeps its
 /// slots in order), then each run, a few slots for most vertices, by the higher vertex: a comparison
@@ -270,7 +267,7 @@ EdgeTable collect_edges(const Triangulation& t, detail::CpuExecutor& executor) {
       slot[3 * k + i] = static_cast<std::uint32_t>(3 * k + i);
     }
   });
-  executor.sort_pairs_by_key(low, slot, bits_below(t.vertices.size()));
+  executor.sort_pairs_by_key(low, slot, detail::bits_below(t.vertices.size()));
   // The runs of one lower vertex, each sorted by (key, slot) on its own.
   std::vector<std::uint32_t> run =
       executor.compact(n, [&](std::size_t e) { return e == 0 || low[e] != low[e - 1]; });
@@ -511,7 +508,7 @@ public:
       vertex[2 * g + 1] = ok ? edges.high(g) : static_cast<std::uint32_t>(num_v);
       group[2 * g] = group[2 * g + 1] = static_cast<std::uint32_t>(g);
     });
-    executor.sort_pairs_by_key(vertex, group, bits_below(num_v + 1));
+    executor.sort_pairs_by_key(vertex, group, detail::bits_below(num_v + 1));
     // start[v]: the first entry of vertex v (entries of vertices without any start where the next
     // vertex's do).
     std::vector<std::uint32_t> start(num_v + 1);
@@ -610,18 +607,18 @@ private:
 class Chains {
 public:
   Chains(const Triangulation& t, const Adjacency& adj, detail::CpuExecutor& executor)
-      : chain_(adj.num_entries()), rank_(adj.num_entries()) {
+      : chain_(adj.num_entries()), rank_(adj.num_entries()) { // written below, in parallel
     const auto n = static_cast<std::uint32_t>(adj.num_entries());
     // Which entries are constraint edges (each a few lookups, done once), and each one's straight
     // continuation.
-    std::vector<std::uint8_t> constraint(n);
+    detail::UnzeroedVector<std::uint8_t> constraint(n);
     executor.for_each(n, [&](std::size_t e) {
       constraint[e] = adj.is_constraint(static_cast<std::uint32_t>(e)) ? 1 : 0;
       chain_[e] = kNone;
       rank_[e] = 0;
     });
-    std::vector<std::uint32_t> ahead(n);
-    std::vector<std::uint32_t> predecessor(n);
+    detail::UnzeroedVector<std::uint32_t> ahead(n);
+    detail::UnzeroedVector<std::uint32_t> predecessor(n);
     executor.for_each(n, [&](std::size_t index) {
       const auto e = static_cast<std::uint32_t>(index);
       ahead[e] = kNone;
@@ -656,8 +653,8 @@ public:
   }
 
 private:
-  std::vector<std::uint32_t> chain_;
-  std::vector<std::uint32_t> rank_;
+  detail::UnzeroedVector<std::uint32_t> chain_;
+  detail::UnzeroedVector<std::uint32_t> rank_;
 };
 
 /// Walks segment s edge by edge from rep(a) toward rep(b) and reports where the chain of constraint

@@ -5,6 +5,7 @@
 
 #include <algorithm>
 #include <atomic>
+#include <bit>
 #include <condition_variable>
 #include <cstddef>
 #include <cstdint>
@@ -49,6 +50,10 @@ inline std::uint32_t atomic_max(std::uint32_t* address, std::uint32_t value) {
   }
   return current;
 }
+
+/// The number of bits needed to write every value below `count`: the key_bits of
+/// CpuExecutor::sort_pairs_by_key for keys below count.
+inline int bits_below(std::size_t count) { return count <= 1 ? 0 : std::bit_width(count - 1); }
 
 /// A fixed pool of worker threads running data-parallel steps. Each step returns only when every
 /// element is done, which is the global synchronisation the algorithm relies on between steps. An
