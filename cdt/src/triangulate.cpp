@@ -439,15 +439,17 @@ std::vector<PhaseStats> add_phases(std::vector<PhaseStats> earlier, const std::v
 constexpr std::size_t kRestartAbovePerSite = 1;
 
 /// Sets aside the output's per-triangle arrays for a triangulation of `points` input points (at most
-/// 2n - 5 triangles for n vertices; vertices added at crossings beyond that grow them later), before
-/// anything else is allocated; nothing is written, so no memory is used until the output is. With the
-/// GPU backend they come from the pinned result memory when the process keeps it (keep_pinned_results):
-/// the device then writes the output straight into them.
+/// 2n - 5 triangles for n vertices, and two more for each vertex added at a crossing: room for one
+/// added vertex in 64 points; more grow the arrays later), before anything else is allocated; nothing
+/// is written, so no memory is used until the output is. With the GPU backend they come from the pinned
+/// result memory when the process keeps it (keep_pinned_results): the device then writes the output
+/// straight into them. Without the room for added vertices a lattice with random segments (one added
+/// vertex in 250 points) outgrew them, and its output went through the staging copies instead.
 void reserve_output(Triangulation& result, std::size_t points, bool on_gpu) {
   if (points >= kNone / 2) return; // an input refused later, with its reason
   std::optional<detail::PinnedResultScope> pinned;
   if (on_gpu) pinned.emplace();
-  const std::size_t triangles = 2 * points;
+  const std::size_t triangles = 2 * points + points / 32;
   result.triangles.reserve(triangles);
   result.neighbors.reserve(triangles);
   result.segment_of_edge.reserve(triangles);

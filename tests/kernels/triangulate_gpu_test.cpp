@@ -224,6 +224,26 @@ TEST_F(TriangulateGpu, PinnedSegmentsKeepNothingOfTheLastResult) {
   ASSERT_TRUE(cdt::keep_pinned_results(0));
 }
 
+// Vertices added at crossings give a result more than 2n triangles (a lattice with random segments: one
+// added vertex in 250 points); the room the output sets aside for them keeps it in the pinned result
+// memory, which the device writes directly, instead of arrays grown outside it.
+TEST_F(TriangulateGpu, PinnedResultsHoldTheSplitsVertices) {
+  const auto in = trixel_gen::lattice_with_segments(1024, 1024 * 1024 / 16, 5);
+  cdt::Options gpu;
+  gpu.backend = cdt::Backend::gpu;
+  ASSERT_TRUE(cdt::keep_pinned_results(std::size_t{512} << 20));
+  const cdt::Triangulation t = cdt::triangulate(in.points, in.segments, gpu);
+  EXPECT_GT(t.stats.added_vertices, 0u);
+  EXPECT_GT(t.triangles.size(), 2 * in.points.size());
+  const std::size_t bytes = t.triangles.size() * sizeof(t.triangles[0]);
+  EXPECT_TRUE(cdt::gpu::in_result_block(t.triangles.data(), bytes) &&
+              cdt::gpu::in_result_block(t.neighbors.data(), bytes) &&
+              cdt::gpu::in_result_block(t.segment_of_edge.data(), bytes));
+  const cdt::VerifyReport report = cdt::verify(t, in.points, in.segments);
+  EXPECT_TRUE(report.ok()) << (report.problems.empty() ? "" : report.problems.front());
+  ASSERT_TRUE(cdt::keep_pinned_results(0));
+}
+
 // The pinned result memory's blocks keep to their limit: one that does not fit beside the blocks in use
 // is refused and the free ones stay for the next that fits; a free block is taken again by a request of
 // its size; 0 frees them and refuses every request.
