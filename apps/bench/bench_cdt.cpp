@@ -24,7 +24,8 @@
 // parallel rounds in parentheses), flips, missing points, the verifier's verdict, peak memory of the run (its
 // own process), CGAL's time and the ratio ours/CGAL (<= 1 means faster).
 // --limit SECONDS ends an input's run (its own process) that takes longer, printing its threads' states
-// to stderr and "TIMED OUT" in its row, and goes on with the next input.
+// and, where gdb or cuda-gdb is installed, their stacks (and the device's running kernels) to stderr and
+// "TIMED OUT" in its row, and goes on with the next input.
 // --together N then triangulates N of the --file PSLGs (cycled) in one cdt::triangulate_many call and
 // each alone, R times, and prints a second table: the wall times of both ways (medians), how many
 // inputs shared the call, and whether every result verifies.
@@ -238,6 +239,28 @@ std::string threads_of(pid_t pid) {
   return out;
 }
 
+/// The stacks of process pid's threads from a debugger, when one is installed (cuda-gdb first, which
+/// also lists the kernels running on the device; else gdb), or a line saying there is none. The
+/// debugger is killed after a minute: attaching to a process stuck in the driver can hang.
+std::string debugger_report(pid_t pid) {
+  const std::string id = std::to_string(pid);
+  const std::string command =
+      "d=$(command -v cuda-gdb || ls /usr/local/cuda/bin/cuda-gdb 2>/dev/null); "
+      "if [ -n \"$d\" ]; then timeout -s KILL 60 \"$d\" -p " +
+      id +
+      " -batch -ex 'info cuda kernels' -ex 'thread apply all bt 24' 2>&1; "
+      "elif command -v gdb >/dev/null; then timeout -s KILL 60 gdb -p " +
+      id +
+      " -batch -ex 'thread apply all bt 24' 2>&1; else echo 'no debugger installed (gdb or cuda-gdb)'; fi";
+  std::string out;
+  if (FILE* pipe = popen(command.c_str(), "r")) {
+    char buffer[4096];
+    for (std::size_t got; (got = std::fread(buffer, 1, sizeof buffer, pipe)) > 0;) out.append(buffer, got);
+    pclose(pipe);
+  }
+  return out;
+}
+
 /// Runs f in a child process so its peak memory is its own; returns the child's maxrss in MiB. A child
 /// still running after limit_seconds (0: no limit) has its threads' states printed to stderr and is
 /// killed; timed_out says so, and the rest of the benchmark goes on.
@@ -271,6 +294,7 @@ double peak_mib_of(const std::function<void(int)>& f, std::string& child_output,
       timed_out = true;
       std::fprintf(stderr, "bench_cdt: the run still had not ended after %d s; its threads:\n%s",
                    limit_seconds, threads_of(pid).c_str());
+      std::fprintf(stderr, "bench_cdt: its threads' stacks:\n%s", debugger_report(pid).c_str());
       kill(pid, SIGKILL);
       break;
     }
