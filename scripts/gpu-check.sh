@@ -31,6 +31,11 @@
 #              TRIXEL_COMPARE_SIZES (POINTS:SEGMENTS pairs, default 10000000:1000000),
 #              TRIXEL_COMPARE_CASE (default uniform; "" for uniform and Gaussian) and
 #              TRIXEL_COMPARE_LATTICE (K, default 0: none) choose the synthetic inputs
+#   stall      (not in the default list) 10M points + 1M segments with the GPU backend in one process
+#              after another (at most TRIXEL_STALL_RUNS, default 40, within TRIXEL_STALL_SECONDS, default
+#              300), each cut after 30 s: now and then one does not end; bench_cdt --limit then prints
+#              its threads' states and stacks (cuda-gdb, with the device's running kernels), and the
+#              step fails
 # The CDT matrix (TRIXEL_CDT_SIZES, POINTS:SEGMENTS pairs) is the paper's synthetic design, uniform and
 # Gaussian, plus a 4096 x 4096 lattice with random segments (TRIXEL_CDT_LATTICE=K for K x K, 0 for
 # none) and the GSHHG coastlines when carried (.carry/gshhg-high.txt.gz). Generated inputs are cached in build-gpu/inputs for the later parts.
@@ -181,6 +186,24 @@ if want trace; then
     fi
   }
   step trace trace_all
+fi
+if want stall; then
+  [ -x build-gpu/bin/bench_cdt ] || step build-bench cmake --build build-gpu -j "$(nproc)" --target bench_cdt
+  stall_hunt() {
+    local r out start=$SECONDS
+    for r in $(seq 1 "${TRIXEL_STALL_RUNS:-40}"); do
+      ((SECONDS - start > ${TRIXEL_STALL_SECONDS:-300})) && break
+      out=$(build-gpu/bin/bench_cdt --repeat 3 --no-cgal --no-verify --backend gpu --cache build-gpu/inputs \
+        --sizes 10000000:1000000 --case uniform --limit 30 2>&1)
+      if grep -q 'TIMED OUT' <<<"$out"; then
+        echo "process $r did not end:"
+        echo "$out"
+        return 1
+      fi
+      echo "process $r:$(grep '^| s' <<<"$out" | cut -d'|' -f5)ms"
+    done
+  }
+  step stall stall_hunt
 fi
 if want compare; then
   base=${TRIXEL_BASE:-.carry/base}
