@@ -33,9 +33,9 @@
 #              TRIXEL_COMPARE_LATTICE (K, default 0: none) choose the synthetic inputs
 #   stall      (not in the default list) 10M points + 1M segments with the GPU backend in one process
 #              after another (at most TRIXEL_STALL_RUNS, default 40, within TRIXEL_STALL_SECONDS, default
-#              300), each cut after 30 s: now and then one does not end; bench_cdt --limit then prints
-#              its threads' states and stacks (cuda-gdb, with the device's running kernels), and the
-#              step fails
+#              300; TRIXEL_STALL_REPEAT runs each, default 3), each cut after 30 s: now and then one
+#              does not end; bench_cdt --limit then prints its threads' states and stacks, turned into
+#              functions and source lines here, and the step fails
 # The CDT matrix (TRIXEL_CDT_SIZES, POINTS:SEGMENTS pairs) is the paper's synthetic design, uniform and
 # Gaussian, plus a 4096 x 4096 lattice with random segments (TRIXEL_CDT_LATTICE=K for K x K, 0 for
 # none) and the GSHHG coastlines when carried (.carry/gshhg-high.txt.gz). Generated inputs are cached in build-gpu/inputs for the later parts.
@@ -67,8 +67,11 @@ step() { # step NAME COMMAND...: runs it, logs it, records PASS/FAIL
 }
 
 nvidia-smi --query-gpu=name,driver_version,memory.total --format=csv,noheader > "$logs/device.txt" 2>&1 || true
+# The stall part's stacks name source lines: host code with line tables then (the same machine code).
+lines=()
+want stall && lines=(-DCMAKE_CXX_FLAGS=-g1 -DCMAKE_CUDA_FLAGS=-Xcompiler=-g1)
 step configure cmake -S . -B build-gpu "${generator[@]}" -DCMAKE_BUILD_TYPE=Release -DTRIXEL_CUDA=ON \
-  -DCMAKE_CUDA_ARCHITECTURES="$arch" -DTRIXEL_VECTORIZE=AUTO -DTRIXEL_WERROR=ON
+  -DCMAKE_CUDA_ARCHITECTURES="$arch" -DTRIXEL_VECTORIZE=AUTO -DTRIXEL_WERROR=ON "${lines[@]}"
 if want tests; then
   step build cmake --build build-gpu -j "$(nproc)"
   step gpu-tests ctest --test-dir build-gpu -L gpu --output-on-failure --no-tests=error
@@ -189,18 +192,33 @@ if want trace; then
 fi
 if want stall; then
   [ -x build-gpu/bin/bench_cdt ] || step build-bench cmake --build build-gpu -j "$(nproc)" --target bench_cdt
+  # The stacks that bench_cdt --limit prints, as functions and source lines (the build has line tables
+  # when this part is asked for: see the configure step).
+  resolve_stacks() {
+    local line offset
+    while IFS= read -r line; do
+      if [[ $line =~ bench_cdt\(\+(0x[0-9a-f]+)\) ]]; then
+        offset=$(printf '0x%x' $((BASH_REMATCH[1] - 1))) # the call, not the return address after it
+        echo "    $(addr2line -f -i -C -p -e build-gpu/bin/bench_cdt "$offset" 2>&1 | cut -c1-400 | paste -sd'|')"
+      else
+        echo "$line"
+      fi
+    done
+  }
   stall_hunt() {
-    local r out start=$SECONDS
+    local r start=$SECONDS run="$logs/stall-run.txt"
     for r in $(seq 1 "${TRIXEL_STALL_RUNS:-40}"); do
       ((SECONDS - start > ${TRIXEL_STALL_SECONDS:-300})) && break
-      out=$(build-gpu/bin/bench_cdt --repeat 3 --no-cgal --no-verify --backend gpu --cache build-gpu/inputs \
-        --sizes 10000000:1000000 --case uniform --limit 30 2>&1)
-      if grep -q 'TIMED OUT' <<<"$out"; then
+      # Written to a file as it comes, and cut by a timeout of its own: a call that ends this script
+      # early still returns what the stalled process printed.
+      timeout -s KILL 90 build-gpu/bin/bench_cdt --repeat "${TRIXEL_STALL_REPEAT:-3}" --no-cgal --no-verify \
+        --backend gpu --cache build-gpu/inputs --sizes 10000000:1000000 --case uniform --limit 30 >"$run" 2>&1
+      if grep -q 'TIMED OUT' "$run" || ! grep -q '^| s' "$run"; then
         echo "process $r did not end:"
-        echo "$out"
+        resolve_stacks <"$run"
         return 1
       fi
-      echo "process $r:$(grep '^| s' <<<"$out" | cut -d'|' -f5)ms"
+      echo "process $r:$(grep '^| s' "$run" | cut -d'|' -f5)ms"
     done
   }
   step stall stall_hunt

@@ -24,18 +24,21 @@
 // parallel rounds in parentheses), flips, missing points, the verifier's verdict, peak memory of the run (its
 // own process), CGAL's time and the ratio ours/CGAL (<= 1 means faster).
 // --limit SECONDS ends an input's run (its own process) that takes longer, printing its threads' states
-// and, where gdb or cuda-gdb is installed, their stacks (and the device's running kernels) to stderr and
-// "TIMED OUT" in its row, and goes on with the next input.
+// and stacks (return addresses, and the executable's mappings to place them) to stderr and "TIMED OUT"
+// in its row, and goes on with the next input.
 // --together N then triangulates N of the --file PSLGs (cycled) in one cdt::triangulate_many call and
 // each alone, R times, and prints a second table: the wall times of both ways (medians), how many
 // inputs shared the call, and whether every result verifies.
 
 #include <dirent.h>
+#include <execinfo.h>
 #include <poll.h>
 #include <sys/resource.h>
+#include <sys/syscall.h>
 #if defined(__GLIBC__)
 #include <malloc.h>
 #endif
+#include <signal.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
@@ -51,6 +54,7 @@
 #include <functional>
 #include <sstream>
 #include <string>
+#include <thread>
 #include <utility>
 #include <vector>
 
@@ -239,26 +243,61 @@ std::string threads_of(pid_t pid) {
   return out;
 }
 
-/// The stacks of process pid's threads from a debugger, when one is installed (cuda-gdb first, which
-/// also lists the kernels running on the device; else gdb), or a line saying there is none. The
-/// debugger is killed after a minute: attaching to a process stuck in the driver can hang.
-std::string debugger_report(pid_t pid) {
-  const std::string id = std::to_string(pid);
-  const std::string command =
-      "d=$(command -v cuda-gdb || ls /usr/local/cuda/bin/cuda-gdb 2>/dev/null); "
-      "if [ -n \"$d\" ]; then timeout -s KILL 60 \"$d\" -p " +
-      id +
-      " -batch -ex 'info cuda kernels' -ex 'thread apply all bt 24' 2>&1; "
-      "elif command -v gdb >/dev/null; then timeout -s KILL 60 gdb -p " +
-      id +
-      " -batch -ex 'thread apply all bt 24' 2>&1; else echo 'no debugger installed (gdb or cuda-gdb)'; fi";
-  std::string out;
-  if (FILE* pipe = popen(command.c_str(), "r")) {
-    char buffer[4096];
-    for (std::size_t got; (got = std::fread(buffer, 1, sizeof buffer, pipe)) > 0;) out.append(buffer, got);
-    pclose(pipe);
+/// The signal that makes a thread of a benchmark's child write its own stack to stderr.
+constexpr int kStackSignal = SIGUSR2;
+
+/// Writes the calling thread's stack (return addresses, with their module and offset where known) to
+/// stderr; async-signal-safe once backtrace() has been called before (it loads the unwinder).
+void write_own_stack(int) {
+  void* frames[48];
+  const int n = backtrace(frames, 48);
+  char head[48] = "stack of thread ";
+  std::size_t len = std::strlen(head);
+  char digits[24];
+  std::size_t d = 0;
+  for (auto tid = static_cast<unsigned long>(syscall(SYS_gettid)); d == 0 || tid != 0; tid /= 10)
+    digits[d++] = static_cast<char>('0' + tid % 10);
+  while (d > 0 && len + 2 < sizeof head) head[len++] = digits[--d];
+  head[len++] = ':';
+  head[len++] = '\n';
+  [[maybe_unused]] const ssize_t wrote = write(STDERR_FILENO, head, len);
+  backtrace_symbols_fd(frames, n, STDERR_FILENO);
+}
+
+/// In a benchmark's child: lets every thread answer kStackSignal with its stack (stacks_of).
+void answer_stack_requests() {
+  void* warm[1];
+  backtrace(warm, 1);
+  struct sigaction action {};
+  action.sa_handler = write_own_stack;
+  action.sa_flags = SA_RESTART;
+  sigemptyset(&action.sa_mask);
+  sigaction(kStackSignal, &action, nullptr);
+}
+
+/// Every thread of child `pid` (answer_stack_requests) writes its stack to stderr, one after another,
+/// then the child's executable mappings follow, so that the addresses can be turned into source lines
+/// (scripts/gpu-check.sh's stall part does). A debugger is no help here: cuda-gdb's attach to a child
+/// whose device work did not end did not return either.
+void stacks_of(pid_t pid) {
+  const std::string task = "/proc/" + std::to_string(pid) + "/task";
+  if (DIR* dir = opendir(task.c_str())) {
+    std::vector<long> tids;
+    while (const dirent* e = readdir(dir))
+      if (e->d_name[0] != '.') tids.push_back(std::atol(e->d_name));
+    closedir(dir);
+    std::sort(tids.begin(), tids.end());
+    for (const long tid : tids) {
+      syscall(SYS_tgkill, pid, tid, kStackSignal);
+      std::this_thread::sleep_for(std::chrono::milliseconds(300)); // one stack at a time on stderr
+    }
   }
-  return out;
+  std::ifstream maps("/proc/" + std::to_string(pid) + "/maps");
+  std::fprintf(stderr, "bench_cdt: the child's executable mappings:\n");
+  for (std::string line; std::getline(maps, line);)
+    if (line.find('/') != std::string::npos &&
+        (line.find(" r-xp ") != std::string::npos || line.find(" 00000000 ") != std::string::npos))
+      std::fprintf(stderr, "  %s\n", line.c_str());
 }
 
 /// Runs f in a child process so its peak memory is its own; returns the child's maxrss in MiB. A child
@@ -272,6 +311,7 @@ double peak_mib_of(const std::function<void(int)>& f, std::string& child_output,
   const pid_t pid = fork();
   if (pid == 0) {
     close(fds[0]);
+    answer_stack_requests();
     f(fds[1]);
     close(fds[1]);
     _exit(0);
@@ -294,7 +334,8 @@ double peak_mib_of(const std::function<void(int)>& f, std::string& child_output,
       timed_out = true;
       std::fprintf(stderr, "bench_cdt: the run still had not ended after %d s; its threads:\n%s",
                    limit_seconds, threads_of(pid).c_str());
-      std::fprintf(stderr, "bench_cdt: its threads' stacks:\n%s", debugger_report(pid).c_str());
+      std::fflush(stderr);
+      stacks_of(pid);
       kill(pid, SIGKILL);
       break;
     }
@@ -305,7 +346,13 @@ double peak_mib_of(const std::function<void(int)>& f, std::string& child_output,
   close(fds[0]);
   int status = 0;
   rusage usage{};
-  wait4(pid, &status, 0, &usage);
+  if (!timed_out) {
+    wait4(pid, &status, 0, &usage);
+    return usage.ru_maxrss / 1024.0;
+  }
+  // A child killed inside the driver may take its time to go (or never): not waited for past 10 s.
+  for (int i = 0; i < 100 && wait4(pid, &status, WNOHANG, &usage) == 0; ++i)
+    std::this_thread::sleep_for(std::chrono::milliseconds(100));
   return usage.ru_maxrss / 1024.0;
 }
 
