@@ -18,7 +18,6 @@
 #include <optional>
 #include <string>
 #include <system_error>
-#include <thread>
 #include <utility>
 
 #include "block_steps.cuh"
@@ -722,7 +721,7 @@ bool DeviceMesh::start_constraints(std::span<const ConstraintPiece2> pieces, uns
         if (!run->failure) run->failure = std::current_exception();
       }
     };
-    run->thread = std::thread(body);
+    run->done = detail::run_beside(body);
   } catch (const DeviceError&) {
     return false;
   } catch (const std::system_error&) {
@@ -743,7 +742,7 @@ std::optional<ConstraintStats> DeviceMesh::finish_constraints(bool keep) {
   if (!s.beside) throw Error("internal error: finish_constraints: no constraints run beside the host");
   const std::unique_ptr<detail::ConstraintsBeside> run = std::move(s.beside);
   if (!keep) run->stop = true;
-  run->thread.join();
+  run->done.wait();
   if (run->failure) {
     try {
       std::rethrow_exception(run->failure);

@@ -3,12 +3,15 @@
 #include <algorithm>
 #include <atomic>
 #include <chrono>
+#include <condition_variable>
 #include <cstdint>
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
+#include <deque>
 #include <exception>
 #include <functional>
+#include <future>
 #include <limits>
 #include <map>
 #include <memory>
@@ -158,6 +161,71 @@ void trim_buffer_pool() noexcept {
 }
 
 } // namespace
+
+namespace {
+
+/// A task of run_beside and what tells its caller that it has ended.
+struct SideJob {
+  std::function<void()> run;
+  std::promise<void> ended;
+};
+
+/// The side threads of run_beside and their queue; never destroyed (idle ones wait on it at exit).
+struct SideThreads {
+  std::mutex mutex;
+  std::condition_variable queued;
+  std::deque<SideJob> queue;
+  std::size_t idle = 0; ///< threads waiting for a task, or about to report one's end
+};
+
+SideThreads& side_threads() {
+  static auto* threads = new SideThreads;
+  return *threads;
+}
+
+void side_thread_loop(SideThreads& s) {
+  std::unique_lock lock(s.mutex);
+  ++s.idle;
+  for (;;) {
+    s.queued.wait(lock, [&] { return !s.queue.empty(); });
+    --s.idle;
+    SideJob task = std::move(s.queue.front());
+    s.queue.pop_front();
+    lock.unlock();
+    std::exception_ptr failure;
+    try {
+      task.run();
+    } catch (...) {
+      failure = std::current_exception();
+    }
+    // Idle again before the caller hears of the end: a task it gives next takes this thread.
+    lock.lock();
+    ++s.idle;
+    lock.unlock();
+    if (failure)
+      task.ended.set_exception(failure);
+    else
+      task.ended.set_value();
+    lock.lock();
+  }
+}
+
+} // namespace
+
+std::future<void> run_beside(std::function<void()> task) {
+  SideThreads& s = side_threads();
+  SideJob job{std::move(task), {}};
+  std::future<void> ended = job.ended.get_future();
+  {
+    std::lock_guard lock(s.mutex);
+    // A new thread when every idle one has a task waiting for it already (it throws before anything
+    // is queued).
+    if (s.idle <= s.queue.size()) std::thread(side_thread_loop, std::ref(s)).detach();
+    s.queue.push_back(std::move(job));
+  }
+  s.queued.notify_one();
+  return ended;
+}
 
 cudaStream_t thread_stream() noexcept { return t_thread_stream; }
 
@@ -710,7 +778,7 @@ constexpr std::size_t kLateCopyHelpers = 3;
 struct LateDownloads::Worker {
   cudaEvent_t ready = nullptr; ///< recorded on the starting thread's stream after the data's steps
   std::exception_ptr failure;
-  std::thread thread;
+  std::future<void> done; ///< of the copies, on a side thread (run_beside)
 };
 
 void LateDownloads::start() {
@@ -724,7 +792,7 @@ void LateDownloads::start() {
     CDT_CUDA_CHECK(status);
   }
   Worker* w = worker.get();
-  w->thread = std::thread([this, w, device] {
+  w->done = run_beside([this, w, device] {
     try {
       CDT_CUDA_CHECK(cudaSetDevice(device)); // the current device is each thread's own
       CudaExecutor executor;                 // this thread's stream and staging blocks
@@ -767,7 +835,7 @@ void LateDownloads::wait() {
   if (worker_ == nullptr) return;
   std::unique_ptr<Worker> worker(worker_);
   worker_ = nullptr;
-  worker->thread.join();
+  worker->done.wait();
   copies_.clear();
   cudaEventDestroy(worker->ready);
   if (worker->failure) std::rethrow_exception(worker->failure);

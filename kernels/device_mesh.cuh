@@ -6,9 +6,9 @@
 #include <cstddef>
 #include <cstdint>
 #include <exception>
+#include <future>
 #include <span>
 #include <string>
-#include <thread>
 
 #include "block_steps.cuh"
 #include "cdt_kernels.hpp"
@@ -96,11 +96,12 @@ void check_device_pieces(CudaExecutor& executor, const ::cdt::detail::Constraint
 /// Device memory of a mesh of `slots` triangles over nv vertices, in bytes.
 std::size_t mesh_device_bytes(std::size_t slots, std::size_t nv);
 
-/// insert_constraints running on a thread of its own (DeviceMesh::start_constraints) on a copy of the
-/// mesh's links, which becomes the mesh when kept. The destructor stops it at its next step and joins it.
+/// insert_constraints running on a side thread (DeviceMesh::start_constraints, run_beside) on a copy of
+/// the mesh's links, which becomes the mesh when kept. The destructor stops it at its next step and
+/// waits for it.
 /// Its buffers are allocated and released by the owner's thread.
 struct ConstraintsBeside {
-  std::thread thread;
+  std::future<void> done;
   std::atomic<bool> stop{false}; ///< set by the owner: the run returns at its next step
   std::exception_ptr failure;    ///< what the run threw
   ::cdt::detail::ConstraintStats stats;
@@ -115,7 +116,7 @@ struct ConstraintsBeside {
   ConstraintsBeside& operator=(const ConstraintsBeside&) = delete;
   ~ConstraintsBeside() {
     stop = true;
-    if (thread.joinable()) thread.join();
+    if (done.valid()) done.wait();
     if (ready != nullptr) cudaEventDestroy(ready);
   }
 };

@@ -5,9 +5,14 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <chrono>
 #include <cstdint>
+#include <filesystem>
+#include <future>
 #include <numeric>
+#include <stdexcept>
 #include <string>
+#include <thread>
 #include <utility>
 #include <vector>
 
@@ -385,6 +390,57 @@ TEST_F(GpuExecutor, DebugSyncStillGivesTheSameResults) {
   for (std::size_t i = 0; i < h.size(); ++i)
     if (h[i] % 7 == 0) expected.push_back(static_cast<std::uint32_t>(i));
   EXPECT_EQ(kept, expected);
+}
+
+/// Threads of this process, from /proc.
+std::size_t threads_of_this_process() {
+  std::size_t n = 0;
+  for ([[maybe_unused]] const auto& entry : std::filesystem::directory_iterator("/proc/self/task")) ++n;
+  return n;
+}
+
+// run_beside: tasks given while every side thread is busy get a thread of their own (two tasks that wait
+// for each other both end), the threads stay and take later tasks, and a task's exception reaches the
+// caller. No device needed: the side threads are host threads.
+TEST(RunBeside, RunsTasksSideBySideOnThreadsThatStay) {
+  using cdt::gpu::detail::run_beside;
+  using namespace std::chrono_literals;
+  std::promise<void> first_started, second_started;
+  std::shared_future<void> first_up = first_started.get_future().share();
+  std::shared_future<void> second_up = second_started.get_future().share();
+  std::thread::id first_id, second_id;
+  std::future<void> first = run_beside([&] {
+    first_id = std::this_thread::get_id();
+    first_started.set_value();
+    if (second_up.wait_for(20s) != std::future_status::ready) throw std::runtime_error("second never ran");
+  });
+  std::future<void> second = run_beside([&] {
+    second_id = std::this_thread::get_id();
+    second_started.set_value();
+    if (first_up.wait_for(20s) != std::future_status::ready) throw std::runtime_error("first never ran");
+  });
+  ASSERT_EQ(first.wait_for(30s), std::future_status::ready);
+  ASSERT_EQ(second.wait_for(30s), std::future_status::ready);
+  EXPECT_NO_THROW(first.get());
+  EXPECT_NO_THROW(second.get());
+  EXPECT_NE(first_id, second_id);
+  EXPECT_NE(first_id, std::this_thread::get_id());
+  // Its threads are idle again (counted so before their tasks' ends were told): later tasks, one after
+  // another, run on them, not on new ones.
+  const std::size_t threads_before = threads_of_this_process();
+  for (int k = 0; k < 4; ++k) {
+    std::thread::id id;
+    run_beside([&] { id = std::this_thread::get_id(); }).get();
+    EXPECT_NE(id, std::this_thread::get_id());
+  }
+  EXPECT_EQ(threads_of_this_process(), threads_before);
+  std::future<void> failing = run_beside([] { throw std::runtime_error("the task's own failure"); });
+  try {
+    failing.get();
+    ADD_FAILURE() << "the task's exception did not reach the caller";
+  } catch (const std::runtime_error& e) {
+    EXPECT_STREQ(e.what(), "the task's own failure");
+  }
 }
 
 } // namespace
