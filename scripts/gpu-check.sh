@@ -31,6 +31,9 @@
 #              TRIXEL_COMPARE_SIZES (POINTS:SEGMENTS pairs, default 10000000:1000000),
 #              TRIXEL_COMPARE_CASE (default uniform; "" for uniform and Gaussian) and
 #              TRIXEL_COMPARE_LATTICE (K, default 0: none) choose the synthetic inputs
+#   batch-stall (not in the default list) the carried vectorize bundle's batch of the Kodak images with
+#              the GPU backend, one process after another (TRIXEL_STALL_RUNS, TRIXEL_STALL_SECONDS as
+#              below), each given 60 s: its worker threads use the device and end with the batch
 #   stall      (not in the default list) 10M points + 1M segments with the GPU backend in one process
 #              after another (at most TRIXEL_STALL_RUNS, default 40, within TRIXEL_STALL_SECONDS, default
 #              300; TRIXEL_STALL_REPEAT runs each, default 3), each cut after 30 s: now and then one
@@ -222,6 +225,42 @@ if want stall; then
     done
   }
   step stall stall_hunt
+fi
+if want batch-stall && [ -x .carry/bundle/vectorize ] && [ -d .carry/kodak ]; then
+  export LD_LIBRARY_PATH=$PWD/.carry/bundle/lib${LD_LIBRARY_PATH:+:$LD_LIBRARY_PATH}
+  # The batch's worker threads use the device and end with the batch: a batch after another, each
+  # given 60 s; one that does not end has its threads' states printed and the step fails.
+  batch_stall_hunt() {
+    local r t pid task start=$SECONDS dir
+    dir=$(mktemp -d)
+    for r in $(seq 1 "${TRIXEL_STALL_RUNS:-40}"); do
+      ((SECONDS - start > ${TRIXEL_STALL_SECONDS:-300})) && break
+      rm -rf "$dir/out"
+      .carry/bundle/vectorize .carry/kodak -o "$dir/out" -q --backend gpu &
+      pid=$!
+      for ((t = 0; t < 600; ++t)); do
+        kill -0 "$pid" 2>/dev/null || break
+        sleep 0.1
+      done
+      if kill -0 "$pid" 2>/dev/null; then
+        echo "batch $r did not end within 60 s; its threads (tid, state, wait channel, syscall):"
+        for task in /proc/"$pid"/task/*; do
+          echo "  ${task##*/} $(cut -d' ' -f3 "$task/stat") $(cat "$task/wchan") $(cut -d' ' -f1 "$task/syscall")"
+        done
+        kill -9 "$pid"
+        rm -rf "$dir"
+        return 1
+      fi
+      if ! wait "$pid"; then
+        echo "batch $r failed"
+        rm -rf "$dir"
+        return 1
+      fi
+      echo "batch $r: $(ls "$dir/out" | wc -l) SVGs"
+    done
+    rm -rf "$dir"
+  }
+  step batch-stall batch_stall_hunt
 fi
 if want compare; then
   base=${TRIXEL_BASE:-.carry/base}
