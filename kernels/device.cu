@@ -160,10 +160,6 @@ void trim_buffer_pool() noexcept {
   }
 }
 
-} // namespace
-
-namespace {
-
 /// A task of run_beside and what tells its caller that it has ended.
 struct SideJob {
   std::function<void()> run;
@@ -198,6 +194,7 @@ void side_thread_loop(SideThreads& s) {
     } catch (...) {
       failure = std::current_exception();
     }
+    task.run = nullptr; // its captures go before the caller hears of the end
     // Idle again before the caller hears of the end: a task it gives next takes this thread.
     lock.lock();
     ++s.idle;
