@@ -216,6 +216,19 @@ double run_cgal(const trixel_gen::Pslg& in) {
 }
 #endif
 
+/// The ids of process pid's threads, from /proc, in increasing order.
+std::vector<long> thread_ids_of(pid_t pid) {
+  std::vector<long> tids;
+  const std::string task = "/proc/" + std::to_string(pid) + "/task";
+  if (DIR* dir = opendir(task.c_str())) {
+    while (const dirent* e = readdir(dir))
+      if (e->d_name[0] != '.') tids.push_back(std::atol(e->d_name));
+    closedir(dir);
+  }
+  std::sort(tids.begin(), tids.end());
+  return tids;
+}
+
 /// What each thread of process `pid` is doing, from /proc: "tid state wchan syscall" lines.
 std::string threads_of(pid_t pid) {
   const std::string task = "/proc/" + std::to_string(pid) + "/task";
@@ -226,14 +239,8 @@ std::string threads_of(pid_t pid) {
     return line;
   };
   std::string out;
-  std::vector<std::string> tids;
-  if (DIR* dir = opendir(task.c_str())) {
-    while (const dirent* e = readdir(dir))
-      if (e->d_name[0] != '.') tids.emplace_back(e->d_name);
-    closedir(dir);
-  }
-  std::sort(tids.begin(), tids.end());
-  for (const std::string& tid : tids) {
+  for (const long id : thread_ids_of(pid)) {
+    const std::string tid = std::to_string(id);
     const std::string stat = first_line(task + "/" + tid + "/stat");
     const std::size_t close = stat.rfind(')'); // the state follows the command's closing parenthesis
     const char state = close != std::string::npos && close + 2 < stat.size() ? stat[close + 2] : '?';
@@ -280,17 +287,9 @@ void answer_stack_requests() {
 /// (scripts/gpu-check.sh's stall part does). A debugger is no help here: cuda-gdb's attach to a child
 /// whose device work did not end did not return either.
 void stacks_of(pid_t pid) {
-  const std::string task = "/proc/" + std::to_string(pid) + "/task";
-  if (DIR* dir = opendir(task.c_str())) {
-    std::vector<long> tids;
-    while (const dirent* e = readdir(dir))
-      if (e->d_name[0] != '.') tids.push_back(std::atol(e->d_name));
-    closedir(dir);
-    std::sort(tids.begin(), tids.end());
-    for (const long tid : tids) {
-      syscall(SYS_tgkill, pid, tid, kStackSignal);
-      std::this_thread::sleep_for(std::chrono::milliseconds(300)); // one stack at a time on stderr
-    }
+  for (const long tid : thread_ids_of(pid)) {
+    syscall(SYS_tgkill, pid, tid, kStackSignal);
+    std::this_thread::sleep_for(std::chrono::milliseconds(300)); // one stack at a time on stderr
   }
   std::ifstream maps("/proc/" + std::to_string(pid) + "/maps");
   std::fprintf(stderr, "bench_cdt: the child's executable mappings:\n");
