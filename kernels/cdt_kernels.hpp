@@ -25,6 +25,7 @@ struct ConstraintPiece2; // cdt/src/gcd/constraints.hpp
 struct ConstraintStats;  // cdt/src/gcd/constraints.hpp
 struct ScreenedPieces;   // cdt/src/gcd/screen.hpp
 struct ConstraintPiece;  // cdt/src/pslg.hpp
+struct PieceRun;         // cdt/src/pslg.hpp
 using PieceArray = std::vector<ConstraintPiece, DefaultInitAllocator<ConstraintPiece>>; // as in pslg.hpp
 using MissingArray = std::vector<MissingPoint, DefaultInitAllocator<MissingPoint>>;     // as in shift.hpp
 using FlagArray = std::vector<std::uint8_t, DefaultInitAllocator<std::uint8_t>>;        // as in dualize.hpp
@@ -383,9 +384,12 @@ public:
 
   /// cdt::detail::insert_constraints (Step 2, Algorithms 4 and 5), with the same hang guard. Keeps on
   /// the device which slots its flips rewrote, for flip_after_constraints().
+  /// With `more`, the pieces are added to constraints already in the mesh (a run beside the host that
+  /// left some out, then restart_constraints' renumbering and added vertices): the slots rewritten since
+  /// then (by that run, by the last insert() and by these flips) are what flip_after_constraints checks.
   ::cdt::detail::ConstraintStats insert_constraints(std::span<const ::cdt::detail::ConstraintPiece2> pieces,
                                                     unsigned inner_iterations,
-                                                    const HostParallelFor& parallel = {});
+                                                    const HostParallelFor& parallel = {}, bool more = false);
 
   /// insert_constraints started on a thread of its own, on a copy of the mesh's links, while the
   /// caller goes on: for the host's split of the suspects, which on most inputs changes nothing, and
@@ -402,6 +406,21 @@ public:
   /// nothing, the mesh as it was, when not kept or when the run failed with Error or DeviceError (the
   /// caller inserts the pieces it has then and meets any such error itself).
   std::optional<::cdt::detail::ConstraintStats> finish_constraints(bool keep);
+
+  /// Stops what start_constraints started and starts the same pieces again beside the host but those
+  /// listed in `skip` (indices, increasing: the screen's suspects, when it says the split will change
+  /// them), on a fresh copy of the links; each id in the mesh is then an index into start_constraints'
+  /// pieces (renumber_constraints maps them through the split). Returns false, nothing running, when
+  /// it cannot be started.
+  bool restart_constraints(std::span<const std::uint32_t> skip, unsigned inner_iterations);
+
+  /// After the split moved the pieces (split_pieces' runs): every constraint id in the mesh becomes its
+  /// piece's new index. Throws Error for an id in no run (a piece the split took away).
+  void renumber_constraints(std::span<const ::cdt::detail::PieceRun> runs);
+
+  /// Throws Error when a vertex from `first` on lies inside a constraint edge that it split (insert()
+  /// places a point on an edge by splitting it, which a constraint must not be).
+  void check_constraints_unsplit(std::uint32_t first);
 
   /// cdt::detail::flip_to_delaunay (constraint edges never flip); upload_ms and download_ms stay 0.
   FlipResult flip();

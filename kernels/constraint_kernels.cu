@@ -27,6 +27,7 @@
 #include "cuda_executor.cuh"
 #include "device_mesh.cuh"
 #include "gcd/constraints.hpp"
+#include "pslg.hpp"
 #include "walk_parts.cuh"
 
 namespace cdt::gpu {
@@ -251,11 +252,12 @@ ConstraintStats insert_constraints(CudaExecutor& executor, const MeshView& m,
                                    std::span<const ConstraintPiece2> host_pieces, unsigned inner_iterations,
                                    std::uint8_t* flipped, const HostParallelFor& parallel,
                                    const ConstraintPiece2* checked_pieces = nullptr,
-                                   const std::atomic<bool>* stop = nullptr) {
+                                   const std::atomic<bool>* stop = nullptr,
+                                   const std::uint32_t* only = nullptr, std::uint32_t num_only = 0) {
   ConstraintStats stats;
   const std::uint32_t slots = m.num_slots;
   ::cdt::detail::check_constraint_counts(slots, host_pieces.size());
-  if (host_pieces.empty()) return stats;
+  if (host_pieces.empty() || (only != nullptr && num_only == 0)) return stats;
   const std::uint64_t max_inner_iterations = ::cdt::detail::constraint_iteration_bound(m.num_vertices);
   const unsigned inner_limit = inner_iterations == 0 ? 1u : inner_iterations;
   const auto num_pieces = static_cast<std::uint32_t>(host_pieces.size());
@@ -277,13 +279,18 @@ ConstraintStats insert_constraints(CudaExecutor& executor, const MeshView& m,
   DeviceBuffer<std::uint32_t> d_pending(num_pieces), d_next_pending(num_pieces), d_left(num_pieces);
   DeviceBuffer<ConstraintStatus> d_walk_status(num_pieces);
   DeviceBuffer<std::uint32_t> d_present(num_pieces), d_crossings(num_pieces);
+  // Every piece pending, or those listed in `only` (device indices).
+  const std::uint32_t np_first = only != nullptr ? num_only : num_pieces;
   {
     std::uint32_t* pending = d_pending.data();
     executor.for_each(
-        num_pieces, [=] __device__(std::size_t k) { pending[k] = static_cast<std::uint32_t>(k); },
+        np_first,
+        [=] __device__(std::size_t k) {
+          pending[k] = only != nullptr ? only[k] : static_cast<std::uint32_t>(k);
+        },
         "pieces_pending");
   }
-  std::uint32_t np = num_pieces;
+  std::uint32_t np = np_first;
   // The proposals' buffers, per active triangle (at most every slot).
   DeviceBuffer<std::uint32_t> d_active(slots), d_next_active(slots), d_picked(slots);
   DeviceBuffer<std::uint32_t> d_edge(slots), d_next_tri(slots), d_prev_tri(slots), d_label(slots);
@@ -636,15 +643,94 @@ ConstraintStats insert_constraints(CudaExecutor& executor, const MeshView& m,
 } // namespace detail
 
 ConstraintStats DeviceMesh::insert_constraints(std::span<const ConstraintPiece2> pieces,
-                                               unsigned inner_iterations, const HostParallelFor& parallel) {
-  state_->require_alone("insert_constraints");
-  state_->constrained = true;
-  detail::DeviceBuffer<std::uint8_t>& flipped = state_->flipped_by_constraints;
-  flipped.resize(state_->num_slots);
-  state_->executor.fill_bytes(flipped.data(), 0, state_->num_slots);
-  return detail::insert_constraints(state_->executor, state_->view(), pieces, inner_iterations,
-                                    flipped.data(), parallel);
+                                               unsigned inner_iterations, const HostParallelFor& parallel,
+                                               bool more) {
+  State& s = *state_;
+  s.require_alone("insert_constraints");
+  detail::CudaExecutor& executor = s.executor;
+  detail::DeviceBuffer<std::uint8_t>& flipped = s.flipped_by_constraints;
+  if (more && s.constrained && flipped.size() > 0) {
+    // The slots the earlier run flipped and those the last insert() made stay flagged; slots added
+    // since (the added vertices') start clear.
+    const std::size_t had = std::min<std::size_t>(flipped.size(), s.num_slots);
+    detail::DeviceBuffer<std::uint8_t> grown(s.num_slots);
+    executor.fill_bytes(grown.data(), 0, s.num_slots);
+    CDT_CUDA_CHECK(
+        cudaMemcpyAsync(grown.data(), flipped.data(), had, cudaMemcpyDeviceToDevice, executor.stream()));
+    if (s.made_by_insert.size() > 0) {
+      const std::uint8_t* made = s.made_by_insert.data();
+      std::uint8_t* into = grown.data();
+      executor.for_each(
+          std::min<std::size_t>(s.made_by_insert.size(), s.num_slots),
+          [=] __device__(std::size_t t) { into[t] |= made[t]; }, "flags_of_insert");
+    }
+    std::swap(flipped, grown);
+  } else {
+    flipped.resize(s.num_slots);
+    executor.fill_bytes(flipped.data(), 0, s.num_slots);
+  }
+  s.constrained = true;
+  return detail::insert_constraints(executor, s.view(), pieces, inner_iterations, flipped.data(), parallel);
 }
+
+namespace {
+
+/// Copies the mesh's links into the run's buffers (sized here) on the owner's stream and starts the run
+/// of insert_constraints on them on a side thread (the pending pieces: every one, or `only`).
+void launch_beside(DeviceMesh::State& s, detail::ConstraintsBeside& beside, unsigned inner_iterations,
+                   const std::uint32_t* only, std::uint32_t num_only) {
+  detail::CudaExecutor& executor = s.executor;
+  const std::size_t words = 3 * static_cast<std::size_t>(s.num_slots);
+  const cudaStream_t stream = executor.stream();
+  beside.tri.resize(words);
+  beside.adj.resize(words);
+  beside.seg.resize(words);
+  beside.vert_tri.resize(s.num_vertices);
+  beside.flipped.resize(s.num_slots);
+  const auto copy_words = [stream](std::uint32_t* dst, const std::uint32_t* src, std::size_t n) {
+    if (n > 0)
+      CDT_CUDA_CHECK(cudaMemcpyAsync(dst, src, n * sizeof(std::uint32_t), cudaMemcpyDeviceToDevice, stream));
+  };
+  copy_words(beside.tri.data(), s.tri.data(), words);
+  copy_words(beside.adj.data(), s.adj.data(), words);
+  copy_words(beside.seg.data(), s.seg.data(), words);
+  copy_words(beside.vert_tri.data(), s.vert_tri.data(), s.num_vertices);
+  executor.fill_bytes(beside.flipped.data(), 0, s.num_slots);
+  if (beside.ready == nullptr)
+    CDT_CUDA_CHECK(cudaEventCreateWithFlags(&beside.ready, cudaEventDisableTiming));
+  CDT_CUDA_CHECK(cudaEventRecord(beside.ready, stream));
+  int device = 0;
+  CDT_CUDA_CHECK(cudaGetDevice(&device));
+  detail::ConstraintsBeside* run = &beside;
+  const ::cdt::detail::MeshView copy{s.x.data(),      s.y.data(),           run->tri.data(), run->adj.data(),
+                                     run->seg.data(), run->vert_tri.data(), s.num_slots,     s.num_vertices};
+  const std::span<const ConstraintPiece2> pieces = run->host_pieces;
+  const auto body = [run, copy, pieces, inner_iterations, device, only, num_only] {
+    try {
+      CDT_CUDA_CHECK(cudaSetDevice(device)); // the current device is each thread's own
+      // On a stream of the highest priority, ahead of the screen that the owner's thread runs
+      // meanwhile: sharing the device evenly, these constraints (the longer work) finished well after
+      // the screen and the split and were what the triangulation waited for.
+      detail::PriorityStream first;
+      // An executor of this thread's own: its stream, and its scratch words and buffers.
+      detail::CudaExecutor own;
+      try {
+        CDT_CUDA_CHECK(cudaStreamWaitEvent(own.stream(), run->ready, 0)); // after the copies
+        run->stats = detail::insert_constraints(own, copy, pieces, inner_iterations, run->flipped.data(), {},
+                                                run->pieces.data(), &run->stop, only, num_only);
+        own.synchronize(); // everything it queued is done before the owner goes on
+      } catch (...) {
+        run->failure = std::current_exception();
+        own.synchronize(); // the executor's destructor waits too, and reports nothing
+      }
+    } catch (...) {
+      if (!run->failure) run->failure = std::current_exception();
+    }
+  };
+  run->done = detail::run_beside(body);
+}
+
+} // namespace
 
 bool DeviceMesh::start_constraints(std::span<const ConstraintPiece2> pieces, unsigned inner_iterations,
                                    const HostParallelFor& parallel) {
@@ -670,58 +756,10 @@ bool DeviceMesh::start_constraints(std::span<const ConstraintPiece2> pieces, uns
   try {
     beside = std::make_unique<detail::ConstraintsBeside>();
     beside->host_pieces = pieces;
-    detail::CudaExecutor& executor = s.executor;
     beside->pieces.resize(np);
-    executor.upload(beside->pieces.data(), pieces.data(), np, &parallel);
-    detail::check_device_pieces(executor, beside->pieces.data(), pieces, s.num_vertices);
-    const std::size_t words = 3 * slots;
-    const cudaStream_t stream = executor.stream();
-    beside->tri.resize(words);
-    beside->adj.resize(words);
-    beside->seg.resize(words);
-    beside->vert_tri.resize(s.num_vertices);
-    beside->flipped.resize(slots);
-    const auto copy_words = [stream](std::uint32_t* dst, const std::uint32_t* src, std::size_t n) {
-      if (n > 0)
-        CDT_CUDA_CHECK(
-            cudaMemcpyAsync(dst, src, n * sizeof(std::uint32_t), cudaMemcpyDeviceToDevice, stream));
-    };
-    copy_words(beside->tri.data(), s.tri.data(), words);
-    copy_words(beside->adj.data(), s.adj.data(), words);
-    copy_words(beside->seg.data(), s.seg.data(), words);
-    copy_words(beside->vert_tri.data(), s.vert_tri.data(), s.num_vertices);
-    executor.fill_bytes(beside->flipped.data(), 0, slots);
-    CDT_CUDA_CHECK(cudaEventCreateWithFlags(&beside->ready, cudaEventDisableTiming));
-    CDT_CUDA_CHECK(cudaEventRecord(beside->ready, stream));
-    int device = 0;
-    CDT_CUDA_CHECK(cudaGetDevice(&device));
-    detail::ConstraintsBeside* run = beside.get();
-    const ::cdt::detail::MeshView copy{s.x.data(),      s.y.data(),      run->tri.data(),
-                                       run->adj.data(), run->seg.data(), run->vert_tri.data(),
-                                       s.num_slots,     s.num_vertices};
-    const auto body = [run, copy, pieces, inner_iterations, device] {
-      try {
-        CDT_CUDA_CHECK(cudaSetDevice(device)); // the current device is each thread's own
-        // On a stream of the highest priority, ahead of the screen that the owner's thread runs
-        // meanwhile: sharing the device evenly, these constraints (the longer work) finished well after
-        // the screen and the split and were what the triangulation waited for.
-        detail::PriorityStream first;
-        // An executor of this thread's own: its stream, and its scratch words and buffers.
-        detail::CudaExecutor own;
-        try {
-          CDT_CUDA_CHECK(cudaStreamWaitEvent(own.stream(), run->ready, 0)); // after the copies
-          run->stats = detail::insert_constraints(own, copy, pieces, inner_iterations, run->flipped.data(),
-                                                  {}, run->pieces.data(), &run->stop);
-          own.synchronize(); // everything it queued is done before the owner goes on
-        } catch (...) {
-          run->failure = std::current_exception();
-          own.synchronize(); // the executor's destructor waits too, and reports nothing
-        }
-      } catch (...) {
-        if (!run->failure) run->failure = std::current_exception();
-      }
-    };
-    run->done = detail::run_beside(body);
+    s.executor.upload(beside->pieces.data(), pieces.data(), np, &parallel);
+    detail::check_device_pieces(s.executor, beside->pieces.data(), pieces, s.num_vertices);
+    launch_beside(s, *beside, inner_iterations, nullptr, 0);
   } catch (const DeviceError&) {
     return false;
   } catch (const std::system_error&) {
@@ -729,6 +767,110 @@ bool DeviceMesh::start_constraints(std::span<const ConstraintPiece2> pieces, uns
   }
   s.beside = std::move(beside);
   return true;
+}
+
+bool DeviceMesh::restart_constraints(std::span<const std::uint32_t> skip, unsigned inner_iterations) {
+  State& s = *state_;
+  if (!s.beside) throw Error("internal error: restart_constraints: no constraints run beside the host");
+  // The run is stopped at its next step; its pieces (uploaded and checked) and buffers serve the new one.
+  std::unique_ptr<detail::ConstraintsBeside> old = std::move(s.beside);
+  old->stop = true;
+  old->done.wait();
+  try {
+    auto beside = std::make_unique<detail::ConstraintsBeside>();
+    beside->host_pieces = old->host_pieces;
+    std::swap(beside->pieces, old->pieces);
+    std::swap(beside->tri, old->tri);
+    std::swap(beside->adj, old->adj);
+    std::swap(beside->seg, old->seg);
+    std::swap(beside->vert_tri, old->vert_tri);
+    std::swap(beside->flipped, old->flipped);
+    // The pending list: every piece but the skipped ones.
+    const auto np = static_cast<std::uint32_t>(beside->host_pieces.size());
+    detail::CudaExecutor& executor = s.executor;
+    detail::DeviceBuffer<std::uint32_t> d_skip(skip.size());
+    executor.upload(d_skip.data(), skip.data(), skip.size());
+    detail::DeviceBuffer<std::uint8_t> d_left_out(np);
+    std::uint8_t* left_out = d_left_out.data();
+    executor.fill_bytes(left_out, 0, np);
+    const std::uint32_t* skipped = d_skip.data();
+    executor.for_each(
+        skip.size(),
+        [=] __device__(std::size_t k) {
+          if (skipped[k] < np) left_out[skipped[k]] = 1;
+        },
+        "skipped_pieces");
+    beside->only.resize(np);
+    const std::uint32_t num_only = executor.compact(
+        np, [=] __device__(std::size_t k) { return left_out[k] == 0; }, beside->only.data());
+    launch_beside(s, *beside, inner_iterations, beside->only.data(), num_only);
+    s.beside = std::move(beside);
+  } catch (const DeviceError&) {
+    return false;
+  } catch (const std::system_error&) {
+    return false;
+  }
+  return true;
+}
+
+void DeviceMesh::renumber_constraints(std::span<const ::cdt::detail::PieceRun> runs) {
+  State& s = *state_;
+  s.require_alone("renumber_constraints");
+  if (!s.constrained) return;
+  detail::CudaExecutor& executor = s.executor;
+  detail::DeviceBuffer<::cdt::detail::PieceRun> d_runs(runs.size());
+  if (!runs.empty()) executor.upload(d_runs.data(), runs.data(), runs.size());
+  const ::cdt::detail::PieceRun* run = d_runs.data();
+  const auto num_runs = static_cast<std::uint32_t>(runs.size());
+  std::uint32_t* seg = s.seg.data();
+  const detail::FailureWord failure = s.failure();
+  executor.for_each(
+      3 * static_cast<std::size_t>(s.num_slots),
+      [=] __device__(std::size_t w) {
+        const std::uint32_t id = seg[w];
+        if (id == kNoId) return;
+        // The last run starting at or before id.
+        std::uint32_t lo = 0, hi = num_runs;
+        while (lo < hi) {
+          const std::uint32_t mid = (lo + hi) / 2;
+          if (run[mid].from <= id) {
+            lo = mid + 1;
+          } else {
+            hi = mid;
+          }
+        }
+        if (lo == 0 || id - run[lo - 1].from >= run[lo - 1].count) {
+          failure.record(::cdt::detail::WorkStatus::stuck);
+          return;
+        }
+        seg[w] = run[lo - 1].to + (id - run[lo - 1].from);
+      },
+      "renumber_constraints");
+  s.check(failure, "renumbering the constraints after the split (an id of a piece that left)");
+}
+
+void DeviceMesh::check_constraints_unsplit(std::uint32_t first) {
+  State& s = *state_;
+  s.require_alone("check_constraints_unsplit");
+  if (!s.constrained) return;
+  const ::cdt::detail::MeshView m = s.view();
+  const detail::FailureWord failure = s.failure();
+  s.executor.for_each(
+      m.num_slots,
+      [=] __device__(std::size_t t) {
+        if (!m.alive(static_cast<std::uint32_t>(t))) return;
+        for (std::uint32_t i = 0; i < 3; ++i) {
+          const std::uint32_t v = m.tri[3 * t + i];
+          if (v < first || v >= m.num_vertices) continue;
+          // The two edges at corner i (edge k is opposite corner k).
+          if (m.seg[3 * t + (i + 1) % 3] != kNoId || m.seg[3 * t + (i + 2) % 3] != kNoId)
+            failure.record(::cdt::detail::WorkStatus::stuck);
+        }
+      },
+      "constraints_unsplit");
+  std::uint32_t code = 0;
+  s.executor.download(&code, failure.word, 1);
+  if (code != 0) throw Error("a vertex added at a crossing lies on a constraint piece already inserted");
 }
 
 const ConstraintPiece2* DeviceMesh::State::pieces_beside(std::span<const ConstraintPiece2> host) const {
@@ -760,6 +902,9 @@ std::optional<ConstraintStats> DeviceMesh::finish_constraints(bool keep) {
   std::swap(s.vert_tri, run->vert_tri);
   std::swap(s.flipped_by_constraints, run->flipped);
   s.constrained = true;
+  // The last insert()'s slots are flipped to Delaunay already; a later insert_constraints with `more`
+  // adds only the slots of an insert() after this.
+  s.made_by_insert = {};
   return run->stats;
 }
 

@@ -110,6 +110,7 @@ struct ConstraintsBeside {
   DeviceBuffer<::cdt::detail::ConstraintPiece2> pieces;         ///< host_pieces uploaded and checked
   DeviceBuffer<std::uint32_t> tri, adj, seg, vert_tri;          ///< the copy of the links the run changes
   DeviceBuffer<std::uint8_t> flipped; ///< per slot of the copy, 1 where the run flipped
+  DeviceBuffer<std::uint32_t> only;   ///< the pieces pending at the start, when not every one
 
   ConstraintsBeside() = default;
   ConstraintsBeside(const ConstraintsBeside&) = delete;

@@ -118,6 +118,7 @@ ScreenedPieces DeviceMesh::screen(std::span<const ConstraintPiece2> host_pieces,
       d_second(s.num_slots);
   DeviceBuffer<std::uint8_t> d_walker(np), d_crowded(s.num_slots), d_suspect(np), d_site(s.num_vertices);
   DeviceBuffer<std::uint32_t> d_failed(1);
+  DeviceBuffer<std::uint8_t> d_changes(1);
   std::uint32_t* piece_on = d_piece_on.data();
   std::uint32_t* first = d_first.data();
   std::uint32_t* second = d_second.data();
@@ -126,6 +127,7 @@ ScreenedPieces DeviceMesh::screen(std::span<const ConstraintPiece2> host_pieces,
   std::uint8_t* suspect = d_suspect.data();
   std::uint8_t* site = d_site.data();
   std::uint32_t* failed = d_failed.data();
+  std::uint8_t* changes = d_changes.data();
   executor.fill_bytes(piece_on, 0xFF, d_piece_on.size());
   executor.fill_bytes(first, 0xFF, s.num_slots);
   executor.fill_bytes(second, 0xFF, s.num_slots);
@@ -133,6 +135,7 @@ ScreenedPieces DeviceMesh::screen(std::span<const ConstraintPiece2> host_pieces,
   executor.fill_bytes(suspect, 0, np);
   executor.fill_bytes(site, 0, s.num_vertices);
   executor.fill_bytes(failed, 0, 1);
+  executor.fill_bytes(changes, 0, 1);
   executor.for_each(
       np,
       [=] __device__(std::size_t k) {
@@ -158,7 +161,7 @@ ScreenedPieces DeviceMesh::screen(std::span<const ConstraintPiece2> host_pieces,
           return atomicCAS(word, expected, v);
         };
         return ::cdt::detail::screen_corridor(m, pieces[k], static_cast<std::uint32_t>(k), piece_on, first,
-                                              second, crowded, suspect, site, flag, swap,
+                                              second, crowded, suspect, site, *changes, flag, swap,
                                               part.tri == kNoId && part.stop == kNoId ? nullptr : &part);
       },
       "screen_corridors", "screen_corridor_parts");
@@ -168,7 +171,7 @@ ScreenedPieces DeviceMesh::screen(std::span<const ConstraintPiece2> host_pieces,
       [=] __device__(std::size_t t) {
         const auto flag = [](std::uint8_t& f) { f = 1; };
         ::cdt::detail::screen_settle_triangle(m, pieces, static_cast<std::uint32_t>(t), first, second,
-                                              crowded, piece_on, suspect, site, flag);
+                                              crowded, piece_on, suspect, site, *changes, flag);
       },
       "screen_settle");
   mark("shared triangles");
@@ -186,6 +189,9 @@ ScreenedPieces DeviceMesh::screen(std::span<const ConstraintPiece2> host_pieces,
         site[pieces[k].b] = 1;
       },
       "screen_ends");
+  std::uint8_t changed = 0;
+  executor.download(&changed, changes, 1);
+  out.changes = changed != 0;
   out.pieces = detail::flagged(executor, suspect, np);
   if (out.pieces.empty()) return out;
   out.sites = detail::flagged(executor, site, s.num_vertices);

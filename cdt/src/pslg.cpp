@@ -1396,10 +1396,20 @@ void split_pieces(PreparedPslg& pslg, CrossingSegments policy, CpuExecutor& exec
                         snap_tolerance_of(box), policy, executor);
 }
 
+std::uint32_t moved_piece(std::span<const PieceRun> runs, std::uint32_t old) {
+  const auto after = std::upper_bound(runs.begin(), runs.end(), old,
+                                      [](std::uint32_t k, const PieceRun& r) { return k < r.from; });
+  if (after == runs.begin()) return kNone;
+  const PieceRun& r = *(after - 1);
+  return old - r.from < r.count ? r.to + (old - r.from) : kNone;
+}
+
 bool split_pieces(PreparedPslg& pslg, std::span<const std::uint32_t> suspect_pieces,
                   std::span<const std::uint32_t> suspect_sites, CrossingSegments policy,
-                  CpuExecutor& executor, double sites_magnitude, std::vector<std::uint32_t>* new_pieces) {
+                  CpuExecutor& executor, double sites_magnitude, std::vector<std::uint32_t>* new_pieces,
+                  PieceMoves* moves) {
   if (new_pieces != nullptr) new_pieces->clear();
+  if (moves != nullptr) *moves = {};
   if (suspect_pieces.empty()) return false;
   StepTrace trace("split");
   trace.count("suspect pieces", suspect_pieces.size());
@@ -1535,6 +1545,15 @@ bool split_pieces(PreparedPslg& pslg, std::span<const std::uint32_t> suspect_pie
   for (std::size_t k = 0; k < inserted.size(); ++k) merged[inserted_at[k]] = inserted[k];
   if (new_pieces != nullptr)
     for (const std::size_t at : inserted_at) new_pieces->push_back(static_cast<std::uint32_t>(at));
+  if (moves != nullptr) {
+    for (const Run& r : runs)
+      moves->runs.push_back({static_cast<std::uint32_t>(r.from), static_cast<std::uint32_t>(r.to),
+                             static_cast<std::uint32_t>(r.count)});
+    for (const std::size_t at : inserted_at) moves->from_suspects.push_back(static_cast<std::uint32_t>(at));
+    for (std::size_t i = 0; i < suspects.size(); ++i)
+      if (stays[i] != 0) moves->from_suspects.push_back(moved_piece(moves->runs, suspects[i]));
+    std::sort(moves->from_suspects.begin(), moves->from_suspects.end());
+  }
   pslg.pieces = std::move(merged);
   trace.mark("pieces merged");
   return true;

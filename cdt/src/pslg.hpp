@@ -36,6 +36,20 @@ struct ConstraintPiece {
 /// Pieces, grown without a zero fill: every element is written in parallel where it is made.
 using PieceArray = std::vector<ConstraintPiece, DefaultInitAllocator<ConstraintPiece>>;
 
+/// Pieces [from, from + count) of an array that are [to, to + count) of its successor: how the suspects'
+/// split (split_pieces) moved the pieces that stayed, runs by increasing from.
+struct PieceRun {
+  std::uint32_t from, to, count;
+};
+
+/// Where the suspects' split put the pieces, when pieces came or went: the runs of those that stayed
+/// (every piece that is in no run left), and the new indices of the pieces made from the suspects
+/// (those that came, and the suspects that came back as they were), increasing.
+struct PieceMoves {
+  std::vector<PieceRun> runs;
+  std::vector<std::uint32_t> from_suspects;
+};
+
 /// The cleaned input of the triangulator.
 struct PreparedPslg {
   /// The input points at their input indices, then the vertices added at crossings.
@@ -161,9 +175,14 @@ void split_pieces(PreparedPslg& pslg, CrossingSegments policy, CpuExecutor& exec
 /// whether pieces came or went; when not, pslg.pieces holds the same pieces in the same places (only
 /// their segment ids may be lower) and no vertex was added. new_pieces, when given, is set to the
 /// indices of the pieces that came, increasing (every piece at an added vertex is among them).
+/// moves, when given and pieces came or went, says where every old piece that stayed went and which
+/// pieces came from the suspects (PieceMoves).
 bool split_pieces(PreparedPslg& pslg, std::span<const std::uint32_t> suspect_pieces,
                   std::span<const std::uint32_t> suspect_sites, CrossingSegments policy,
                   CpuExecutor& executor, double sites_magnitude = -1.0,
-                  std::vector<std::uint32_t>* new_pieces = nullptr);
+                  std::vector<std::uint32_t>* new_pieces = nullptr, PieceMoves* moves = nullptr);
+
+/// The new index of old piece `old` after a split that moved the pieces by `runs`, or kNone when it left.
+std::uint32_t moved_piece(std::span<const PieceRun> runs, std::uint32_t old);
 
 } // namespace cdt::detail

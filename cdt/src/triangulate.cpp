@@ -164,10 +164,12 @@ void mesh_pieces(const detail::PreparedPslg& pslg, const IndexArray& site_of_ver
 /// site_vertex maps mesh vertices to the PSLG's; sites_magnitude is the largest absolute coordinate of
 /// the sites where known (negative: split_pieces computes it). Returns whether the pieces may have
 /// changed places (false: the same pieces in the same places, their segment ids perhaps lowered), and
-/// in new_pieces the indices of the pieces that came when known (the suspects' split), else nothing.
+/// in new_pieces the indices of the pieces that came when known (the suspects' split), else nothing;
+/// in moves, when the suspects' split moved the pieces, where they went (split_pieces).
 bool split_screened(detail::PreparedPslg& pslg, const detail::ScreenedPieces& screen,
                     const IndexArray& site_vertex, CrossingSegments policy, detail::CpuExecutor& executor,
-                    double sites_magnitude, std::optional<std::vector<std::uint32_t>>& new_pieces) {
+                    double sites_magnitude, std::optional<std::vector<std::uint32_t>>& new_pieces,
+                    detail::PieceMoves& moves) {
   using namespace detail;
   new_pieces.reset();
   if (!screen.complete) {
@@ -178,7 +180,7 @@ bool split_screened(detail::PreparedPslg& pslg, const detail::ScreenedPieces& sc
   if (screen.pieces.empty()) return false;
   std::vector<std::uint32_t> sites(screen.sites.size());
   executor.for_each(sites.size(), [&](std::size_t k) { sites[k] = site_vertex[screen.sites[k]]; });
-  return split_pieces(pslg, screen.pieces, sites, policy, executor, sites_magnitude, &*new_pieces);
+  return split_pieces(pslg, screen.pieces, sites, policy, executor, sites_magnitude, &*new_pieces, &moves);
 }
 
 /// The vertices the PSLG gained from first_added on, numbered after the mesh's vertices (as many as
@@ -347,6 +349,16 @@ public:
     if (mesh.start_constraints(pieces, inner_iterations, parallel)) mesh_ = &mesh;
   }
   bool running() const { return mesh_ != nullptr; }
+  /// Whether the run leaves the suspects out (restart).
+  bool without_suspects() const { return without_suspects_; }
+  /// Starts the run again without the suspects, which the split alone may change (their pieces are
+  /// inserted after it). Returns whether it did.
+  bool restart_without(std::span<const std::uint32_t> suspects, unsigned inner_iterations) {
+    if (mesh_ == nullptr || suspects.empty()) return false;
+    without_suspects_ = mesh_->restart_constraints(suspects, inner_iterations);
+    if (!without_suspects_) mesh_ = nullptr; // nothing runs
+    return without_suspects_;
+  }
   /// DeviceMesh::finish_constraints.
   std::optional<detail::ConstraintStats> finish(bool keep) {
     return std::exchange(mesh_, nullptr)->finish_constraints(keep);
@@ -354,6 +366,7 @@ public:
 
 private:
   gpu::DeviceMesh* mesh_ = nullptr;
+  bool without_suspects_ = false;
 };
 #endif
 
@@ -810,6 +823,10 @@ Triangulation triangulate_on(std::span<const Point> points, std::span<const Segm
   // their flips, so the mesh stays Delaunay.
   bool screened = false;
   bool pieces_stale = true;
+  // The constraints inserted beside the split without the suspects (their statistics), and the indices
+  // of the pieces that came from the suspects, inserted after the added vertices.
+  std::optional<ConstraintStats> before_suspects;
+  std::vector<std::uint32_t> suspects_after;
   if (screen_first) {
     screened = true;
     const std::size_t first_added = pslg.vertices.size();
@@ -829,14 +846,32 @@ Triangulation triangulate_on(std::span<const Point> points, std::span<const Segm
 #endif
     if (!on_gpu) screen = screen_pieces(mesh.view(), pieces, executor);
     trace.mark("screened");
+#if defined(TRIXEL_HAVE_CUDA)
+    // When the split will change the pieces (the coastlines: sites on pieces, crossings), the run would
+    // be undone after it: it starts again at once without the suspects, beside the split, and the
+    // pieces made from the suspects are inserted after it. (Where the screen cannot tell, the run goes
+    // on with every piece: most such splits change nothing, 10^7 points + 10^6 segments among them.)
+    if (screen.complete && screen.changes &&
+        beside_split.restart_without(screen.pieces, std::max(1u, options.inner_iterations)))
+      trace.mark("constraints started again without the suspects");
+#endif
     std::optional<std::vector<std::uint32_t>> new_pieces;
-    pieces_stale =
-        split_screened(pslg, screen, site_vertex, options.crossings, executor, sites_magnitude, new_pieces);
+    PieceMoves moves;
+    pieces_stale = split_screened(pslg, screen, site_vertex, options.crossings, executor, sites_magnitude,
+                                  new_pieces, moves);
     trace.mark("split");
     InsertStats placed;
     const std::size_t added = pslg.vertices.size() - first_added;
 #if defined(TRIXEL_HAVE_CUDA)
-    if (beside_split.running() && (pieces_stale || added > 0)) {
+    if (beside_split.running() && beside_split.without_suspects()) {
+      before_suspects = beside_split.finish(true);
+      if (before_suspects) {
+        // Its ids are the old pieces' indices.
+        if (pieces_stale) device_mesh->renumber_constraints(moves.runs);
+        suspects_after = pieces_stale ? std::move(moves.from_suspects) : std::move(screen.pieces);
+      }
+      trace.mark("constraints beside the split kept");
+    } else if (beside_split.running() && (pieces_stale || added > 0)) {
       beside_split.finish(false);
       trace.mark("constraints beside the split undone");
     }
@@ -849,14 +884,20 @@ Triangulation triangulate_on(std::span<const Point> points, std::span<const Segm
       const MissingArray fresh =
           added_vertices(pslg, first_added, site_vertex, site_of_vertex, executor, new_pieces);
       trace.mark("added vertices listed");
-      // The new pieces in mesh ids while the device inserts the vertices.
-      if (pieces_stale) {
+      // The new pieces in mesh ids while the device inserts the vertices (not needed when only the
+      // suspects' are inserted after them).
+      if (pieces_stale && !before_suspects) {
         beside_device.start(make_pieces, on_its_own());
         pieces_stale = false;
       }
       try {
 #if defined(TRIXEL_HAVE_CUDA)
-        if (on_gpu) placed = insert_added_vertices(*device_mesh, pslg, fresh, site_vertex);
+        if (on_gpu) {
+          const auto first_fresh = fresh.empty() ? 0u : fresh.front().vertex;
+          placed = insert_added_vertices(*device_mesh, pslg, fresh, site_vertex);
+          // Into constraints inserted already, a vertex must not land on one.
+          if (before_suspects) device_mesh->check_constraints_unsplit(first_fresh);
+        }
 #endif
         if (!on_gpu) placed = insert_added_vertices(mesh, pslg, fresh, site_vertex, executor);
       } catch (const DeviceError&) {
@@ -875,7 +916,7 @@ Triangulation triangulate_on(std::span<const Point> points, std::span<const Segm
   stats.added_vertices = pslg.vertices.size() - points.size();
 
   // Step 2: constraints (pieces named by their index; seg holds the piece index).
-  if (pieces_stale) make_pieces();
+  if (pieces_stale && !before_suspects) make_pieces();
   trace.mark("pieces");
   // The output's segment of each piece, while the device inserts the constraints (one thread: the
   // constraints use the host's threads for their copies).
@@ -892,7 +933,21 @@ Triangulation triangulate_on(std::span<const Point> points, std::span<const Segm
 #if defined(TRIXEL_HAVE_CUDA)
     // Inserted beside the split, unless that run failed (then inserted again here, to fail the same way).
     std::optional<ConstraintStats> done;
-    if (beside_split.running()) {
+    if (before_suspects) {
+      // The suspects' pieces, into the mesh that holds the others.
+      std::vector<ConstraintPiece2> rest(suspects_after.size());
+      for (std::size_t k = 0; k < rest.size(); ++k) {
+        const ConstraintPiece& p = pslg.pieces[suspects_after[k]];
+        rest[k] = {site_of_vertex[p.a], site_of_vertex[p.b], suspects_after[k]};
+      }
+      const ConstraintStats after =
+          device_mesh->insert_constraints(rest, std::max(1u, options.inner_iterations), parallel, true);
+      done = *before_suspects;
+      done->flips += after.flips;
+      done->outer_iterations += after.outer_iterations;
+      done->inner_iterations += after.inner_iterations;
+      done->intersections += after.intersections;
+    } else if (beside_split.running()) {
       // The host's threads would only wait for the device here: the output's segment array is filled
       // now rather than beside the output's copies, where it slowed them.
       device_mesh->prefill_segments(pslg.pieces.size(), result.segment_of_edge, parallel);

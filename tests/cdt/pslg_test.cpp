@@ -200,9 +200,30 @@ SuspectSplit expect_suspects_split_as_all(const std::vector<Point>& points,
   const std::vector<std::uint32_t> sites(some.sites.begin(), some.sites.end());
   const auto before = piece_pairs(some);
   std::vector<std::uint32_t> new_pieces{7}; // replaced
+  cdt::detail::PieceMoves moves;
+  moves.from_suspects = {3}; // replaced
   EXPECT_TRUE(cdt::detail::split_pieces(some, suspects, sites, CrossingSegments::resolve, executor, -1.0,
-                                        &new_pieces));
+                                        &new_pieces, &moves));
   EXPECT_EQ(some.vertices.size(), all.vertices.size());
+  // The moves: every piece that was no suspect went to a place of its own holding the same piece, and
+  // the pieces made from the suspects fill exactly the other places.
+  std::vector<int> filled(some.pieces.size(), 0);
+  for (std::uint32_t k = 0, s = 0; k < before.size(); ++k) {
+    const bool suspect = s < suspects.size() && suspects[s] == k;
+    s += suspect ? 1 : 0;
+    const std::uint32_t to = cdt::detail::moved_piece(moves.runs, k);
+    if (suspect) continue;
+    EXPECT_LT(to, some.pieces.size()) << "piece " << k;
+    if (to >= some.pieces.size()) continue;
+    EXPECT_EQ((std::pair{some.pieces[to].a, some.pieces[to].b}), before[k]) << "piece " << k;
+    ++filled[to];
+  }
+  EXPECT_TRUE(std::is_sorted(moves.from_suspects.begin(), moves.from_suspects.end()));
+  for (const std::uint32_t k : moves.from_suspects) {
+    EXPECT_LT(k, some.pieces.size());
+    if (k < some.pieces.size()) ++filled[k];
+  }
+  EXPECT_EQ(std::count(filled.begin(), filled.end(), 1), static_cast<std::ptrdiff_t>(filled.size()));
   // The pieces that came: the ones not in the list before, in increasing order.
   std::vector<std::uint32_t> came;
   for (std::uint32_t k = 0; k < some.pieces.size(); ++k)

@@ -165,6 +165,7 @@ TEST(ScreenPieces, EdgesAreCleanTheOthersAndWhatTheyCrossSuspect) {
     const cdt::detail::ScreenedPieces s = cdt::detail::screen_pieces(mesh.view(), pieces, executor);
     ASSERT_TRUE(s.complete);
     EXPECT_EQ(s.pieces, (std::vector<std::uint32_t>{5, 6})) << threads << " threads";
+    EXPECT_TRUE(s.changes) << threads << " threads"; // a crossing: the split will change the pieces
     // The ends of both: the corners of the two triangles at the crossed edge.
     std::vector<std::uint32_t> want{at(1, 0), at(3, 1), at(2, 0), at(2, 1)};
     std::sort(want.begin(), want.end());
@@ -185,15 +186,18 @@ TEST(ScreenPieces, PiecesThatAreNoEdgesAreSuspectOnlyWhereTheyMeet) {
   const cdt::detail::ScreenedPieces apart = screen({{at(0, 0), at(2, 1), 0}, {at(3, 3), at(5, 4), 0}});
   EXPECT_TRUE(apart.pieces.empty());
   EXPECT_TRUE(apart.sites.empty());
+  EXPECT_FALSE(apart.changes);
   // Crossing at (1, 0.5), inside the edge (1, 0)-(1, 1): both suspect, with the corners around.
   const cdt::detail::ScreenedPieces crossing = screen({{at(0, 0), at(2, 1), 0}, {at(0, 1), at(2, 0), 0}});
   EXPECT_EQ(crossing.pieces, (std::vector<std::uint32_t>{0, 1}));
+  EXPECT_TRUE(crossing.changes);
   for (const std::uint32_t v : {at(0, 0), at(2, 1), at(0, 1), at(2, 0), at(1, 0), at(1, 1)})
     EXPECT_TRUE(std::binary_search(crossing.sites.begin(), crossing.sites.end(), v)) << v;
   // One runs along the edges of the row y = 2 through (1, 2); the other crosses it at (0.5, 2), inside
   // the edge (0, 2)-(1, 2) that the first runs along. Both orders: the lower piece owns the triangles.
   const cdt::detail::ConstraintPiece2 along{at(0, 2), at(2, 2), 0}, across{at(0, 1), at(1, 3), 0};
   EXPECT_EQ(screen({along, across}).pieces, (std::vector<std::uint32_t>{0, 1}));
+  EXPECT_TRUE(screen({along, across}).changes);
   EXPECT_EQ(screen({across, along}).pieces, (std::vector<std::uint32_t>{0, 1}));
   // A fan from (0, 0): both pass the triangle (0, 0), (1, 0), (1, 1) and meet only at their common end,
   // which the exact test of the two settles. In every order of the pieces.
@@ -202,12 +206,14 @@ TEST(ScreenPieces, PiecesThatAreNoEdgesAreSuspectOnlyWhereTheyMeet) {
     const cdt::detail::ScreenedPieces s = screen(fan);
     EXPECT_TRUE(s.pieces.empty());
     EXPECT_TRUE(s.sites.empty());
+    EXPECT_FALSE(s.changes);
   }
   // A third through that triangle keeps all three suspect, with the triangle's corners.
   const cdt::detail::ConstraintPiece2 third{at(0, 0), at(5, 2), 0};
   for (const auto& fan : {std::vector{low, high, third}, std::vector{third, high, low}}) {
     const cdt::detail::ScreenedPieces s = screen(fan);
     EXPECT_EQ(s.pieces, (std::vector<std::uint32_t>{0, 1, 2}));
+    EXPECT_FALSE(s.changes); // suspects that meet nothing: the screen cannot tell
     for (const std::uint32_t v : {at(0, 0), at(1, 0), at(1, 1), at(3, 1), at(2, 1), at(5, 2)})
       EXPECT_TRUE(std::binary_search(s.sites.begin(), s.sites.end(), v)) << v;
   }
@@ -215,6 +221,7 @@ TEST(ScreenPieces, PiecesThatAreNoEdgesAreSuspectOnlyWhereTheyMeet) {
   const std::vector<cdt::detail::ConstraintPiece2> mixed{
       {at(0, 0), at(2, 1), 0}, {at(0, 1), at(2, 0), 0}, {at(2, 2), at(5, 3), 0}, {at(2, 2), at(4, 3), 0}};
   EXPECT_EQ(screen(mixed).pieces, (std::vector<std::uint32_t>{0, 1}));
+  EXPECT_TRUE(screen(mixed).changes);
 }
 
 TEST(ScreenPieces, AnEndOutsideTheMeshMakesEverythingSuspect) {

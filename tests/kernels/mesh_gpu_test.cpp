@@ -6,6 +6,7 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <array>
 #include <chrono>
 #include <cstdint>
 #include <optional>
@@ -479,6 +480,7 @@ TEST_F(MeshGpu, ConstraintsBesideTheHostKeepOrUndo) {
   cdt::gpu::DeviceMesh plain(start);
   const ScreenedPieces plain_screen = plain.screen(pieces); // no suspects: the pieces cross nothing
   ASSERT_TRUE(plain_screen.complete);
+  EXPECT_FALSE(plain_screen.changes);
   const ConstraintStats plain_stats = plain.insert_constraints(pieces, 8);
   const cdt::gpu::FlipResult plain_flips = plain.flip_after_constraints();
   Mesh expected;
@@ -560,6 +562,88 @@ TEST_F(MeshGpu, ConstraintsBesideTheHostKeepOrUndo) {
   }
 }
 
+/// A mesh's live triangles with their constraint ids, each from its lowest vertex, sorted: the same for
+/// two meshes that hold the same triangulation in other slots.
+std::vector<std::array<std::uint32_t, 6>> triangle_set(const Mesh& mesh) {
+  std::vector<std::array<std::uint32_t, 6>> out;
+  for (std::uint32_t t = 0; t < mesh.num_slots(); ++t) {
+    if (mesh.tri[3 * t] == kNoId) continue;
+    std::uint32_t r = 0;
+    for (std::uint32_t i = 1; i < 3; ++i)
+      if (mesh.tri[3 * t + i] < mesh.tri[3 * t + r]) r = i;
+    std::array<std::uint32_t, 6> row{};
+    for (std::uint32_t i = 0; i < 3; ++i) {
+      row[i] = mesh.tri[3 * t + (r + i) % 3];
+      row[3 + i] = mesh.seg[3 * t + (r + i) % 3];
+    }
+    out.push_back(row);
+  }
+  std::sort(out.begin(), out.end());
+  return out;
+}
+
+// The constraints beside the split without the suspects: where the screen sees that the split will
+// change the pieces (a piece through a vertex), the run beside it starts again without the screen's
+// suspects; its ids are renumbered as a split moves the pieces; the suspects' pieces then go into the
+// constrained mesh, and the Lawson flips after them check the slots of both runs. The result is the
+// triangulation of every final piece inserted at once.
+TEST_F(MeshGpu, ConstraintsBesideTheSplitWithoutTheSuspects) {
+  CpuExecutor executor(4);
+  trixel_gen::Pslg pslg = trixel_gen::synthetic_pslg(60000, 6000, trixel_gen::Distribution::uniform, 37);
+  // Three points on a short horizontal line, exactly: the piece from the first to the third runs
+  // through the second.
+  const auto p1 = static_cast<std::uint32_t>(pslg.points.size());
+  pslg.points.push_back({0.5, 0.4375});
+  pslg.points.push_back({0.5 + 0x1p-20, 0.4375});
+  pslg.points.push_back({0.5 + 0x1p-19, 0.4375});
+  const Mesh start = sweep_mesh(pslg, true, executor);
+  std::vector<ConstraintPiece2> pieces;
+  for (std::size_t k = 0; k < pslg.segments.size(); ++k)
+    pieces.push_back({pslg.segments[k].a, pslg.segments[k].b, static_cast<std::uint32_t>(k)});
+  const auto m = static_cast<std::uint32_t>(pieces.size());
+  pieces.push_back({p1, p1 + 2, m}); // through p1 + 1
+
+  cdt::gpu::DeviceMesh device(start);
+  EXPECT_THROW(device.restart_constraints({}, 8), cdt::Error); // nothing ran
+  ASSERT_TRUE(device.start_constraints(pieces, 8));
+  const ScreenedPieces screen = device.screen(pieces);
+  ASSERT_TRUE(screen.complete);
+  EXPECT_TRUE(screen.changes);
+  ASSERT_TRUE(std::binary_search(screen.pieces.begin(), screen.pieces.end(), m));
+  ASSERT_TRUE(device.restart_constraints(screen.pieces, 8));
+  const std::optional<ConstraintStats> before = device.finish_constraints(true);
+  ASSERT_TRUE(before.has_value());
+  EXPECT_GT(before->flips, 0u);
+  // The split as it would be: the piece through the vertex leaves, its halves come first and last.
+  const std::vector<PieceRun> runs = {{0, 1, m}};
+  device.renumber_constraints(runs);
+  device.check_constraints_unsplit(p1 + 1); // no constraint ends there yet
+  std::vector<ConstraintPiece2> final_pieces = {{p1, p1 + 1, 0}};
+  for (std::uint32_t k = 0; k < m; ++k) final_pieces.push_back({pieces[k].a, pieces[k].b, k + 1});
+  final_pieces.push_back({p1 + 1, p1 + 2, m + 1});
+  std::vector<ConstraintPiece2> rest = {final_pieces.front(), final_pieces.back()};
+  for (const std::uint32_t k : screen.pieces)
+    if (k != m) rest.push_back(final_pieces[k + 1]);
+  device.insert_constraints(rest, 8, {}, true);
+  device.flip_after_constraints();
+  EXPECT_THROW(device.check_constraints_unsplit(p1 + 1), cdt::Error); // now both halves end there
+  Mesh got;
+  device.download(got);
+
+  cdt::gpu::DeviceMesh plain(start);
+  plain.insert_constraints(final_pieces, 8);
+  plain.flip_after_constraints();
+  Mesh expected;
+  plain.download(expected);
+  EXPECT_EQ(triangle_set(got), triangle_set(expected));
+  std::size_t constrained = 0;
+  for (const std::uint32_t id : got.seg) constrained += id != kNoId ? 1 : 0;
+  EXPECT_GE(constrained, 2 * final_pieces.size() - 8); // every piece (but a few on the hull) twice
+
+  // An id in no run is an error.
+  EXPECT_THROW(device.renumber_constraints(std::vector<PieceRun>{{0, 0, 5}}), cdt::Error);
+}
+
 // The segments' screen (gcd/screen.hpp) on the device: the same suspect pieces and sites as the CPU
 // executor's, on Delaunay meshes with non-crossing segments plus long ones that cross them and pass
 // through vertices, and on a lattice where segments overlap and run through points.
@@ -599,6 +683,8 @@ TEST_F(MeshGpu, ScreenMatchesTheCpuExecutor) {
     EXPECT_LT(host.pieces.size(), pieces.size()) << c.name;
     EXPECT_EQ(on_device.pieces, host.pieces) << c.name;
     EXPECT_EQ(on_device.sites, host.sites) << c.name;
+    EXPECT_TRUE(host.changes) << c.name; // long pieces across others, pieces through points
+    EXPECT_EQ(on_device.changes, host.changes) << c.name;
   }
   // An end outside the mesh: the walk fails on both.
   Mesh mesh = trixel_test::sweep_triangulate({0, 1, 0, 5}, {0, 0, 1, 5});

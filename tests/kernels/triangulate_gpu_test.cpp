@@ -292,6 +292,24 @@ TEST_F(TriangulateGpu, CrossingSegmentsMatchTheCpuBackend) {
   }
 }
 
+// Enough pieces for the constraints beside the split (2^16), some through points and some crossing: the
+// run beside the split ends at its first walk and starts again without the suspects, whose pieces go in
+// after the crossing vertices.
+TEST_F(TriangulateGpu, PiecesThroughPointsAndCrossingsBesideTheSplitMatchTheCpuBackend) {
+  trixel_gen::Pslg in = trixel_gen::synthetic_pslg(150000, 70000, Distribution::uniform, 54);
+  ASSERT_GE(in.segments.size(), std::size_t{1} << 16);
+  // Short horizontal runs of three points, exactly collinear, each with a segment over all three.
+  for (std::uint32_t k = 0; k < 20; ++k) {
+    const auto first = static_cast<std::uint32_t>(in.points.size());
+    const double x = 0.03125 + 0.046875 * k, y = 0.0078125 + 0.046875 * k;
+    for (std::uint32_t i = 0; i < 3; ++i) in.points.push_back({x + i * 0x1p-21, y});
+    in.segments.push_back({first, first + 2});
+  }
+  trixel_gen::Random rng(55);
+  trixel_gen::add_random_segments(in, 6, rng); // long ones, across many
+  expect_same_as_cpu(in.points, in.segments, "pieces through points, crossings");
+}
+
 // Co-circular everywhere: many ties in the diagram and in every flip.
 TEST_F(TriangulateGpu, LatticesMatchTheCpuBackend) {
   for (std::uint32_t k : {10u, 64u, 200u}) {

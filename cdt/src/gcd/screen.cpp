@@ -26,6 +26,7 @@ ScreenedPieces screen_pieces(const MeshView& m, std::span<const ConstraintPiece2
   std::vector<std::uint8_t> suspect(pieces.size(), 0), site(m.num_vertices, 0), crowded(m.num_slots, 0);
   std::vector<std::uint32_t> first(m.num_slots, kNoId), second(m.num_slots, kNoId);
   std::atomic<bool> failed{false};
+  std::uint8_t changes = 0;
   const auto flag = [](std::uint8_t& f) {
     std::atomic_ref<std::uint8_t>(f).store(1, std::memory_order_relaxed);
   };
@@ -36,7 +37,7 @@ ScreenedPieces screen_pieces(const MeshView& m, std::span<const ConstraintPiece2
   executor.for_each(walkers.size(), [&](std::size_t w) {
     const std::uint32_t k = walkers[w];
     if (!screen_corridor(m, pieces[k], k, piece_on.data(), first.data(), second.data(), crowded.data(),
-                         suspect.data(), site.data(), flag, swap))
+                         suspect.data(), site.data(), changes, flag, swap))
       failed.store(true, std::memory_order_relaxed);
   });
   if (failed.load()) {
@@ -45,8 +46,9 @@ ScreenedPieces screen_pieces(const MeshView& m, std::span<const ConstraintPiece2
   }
   executor.for_each(m.num_slots, [&](std::size_t t) {
     screen_settle_triangle(m, pieces.data(), static_cast<std::uint32_t>(t), first.data(), second.data(),
-                           crowded.data(), piece_on.data(), suspect.data(), site.data(), flag);
+                           crowded.data(), piece_on.data(), suspect.data(), site.data(), changes, flag);
   });
+  out.changes = changes != 0;
   // Every suspect's ends are suspect sites.
   executor.for_each(pieces.size(), [&](std::size_t k) {
     if (suspect[k] == 0) return;

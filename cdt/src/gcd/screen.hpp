@@ -42,6 +42,9 @@ struct ScreenedPieces {
   bool complete = true;
   std::vector<std::uint32_t> pieces; ///< suspect pieces: indices into the screened list, increasing
   std::vector<std::uint32_t> sites;  ///< suspect sites: mesh vertex ids, increasing
+  /// A site lies on a piece or two pieces cross: the split will change the pieces. (Without, it may
+  /// still, where three or more corridors share a triangle.)
+  bool changes = false;
 };
 
 /// Screens pieces (mesh vertex ids; the id field is ignored) against a triangulation whose vertices
@@ -240,23 +243,25 @@ CDT_HD_INLINE void screen_claim(std::uint32_t t, std::uint32_t k, std::uint32_t*
 
 /// The screen's second pass for piece k, which is no edge. For every site strictly between its ends,
 /// flag(site[v]) and flag(suspect[k]); at every edge-piece it crosses, flag(suspect[k]) and the marks
-/// around the two triangles there; each triangle of its corridor it claims (screen_claim). flag sets a
-/// byte to 1. Returns false when the walk fails.
+/// around the two triangles there; each triangle of its corridor it claims (screen_claim). Either
+/// meeting also flags `changes`. flag sets a byte to 1. Returns false when the walk fails.
 template <class Flag, class Swap>
 CDT_HD bool screen_corridor(const MeshView& m, const ConstraintPiece2& p, std::uint32_t k,
                             const std::uint32_t* piece_on, std::uint32_t* first, std::uint32_t* second,
-                            std::uint8_t* crowded, std::uint8_t* suspect, std::uint8_t* site, Flag&& flag,
-                            Swap&& swap, CorridorPart* part = nullptr) {
+                            std::uint8_t* crowded, std::uint8_t* suspect, std::uint8_t* site,
+                            std::uint8_t& changes, Flag&& flag, Swap&& swap, CorridorPart* part = nullptr) {
   return walk_corridor_triangles(
       m, p.a, p.b,
       [&](std::uint32_t v) {
         if (v == p.a || v == p.b) return;
         flag(site[v]);
         flag(suspect[k]);
+        flag(changes);
       },
       [&](std::uint32_t e) {
         if (piece_on[e] == kNoId) return;
         flag(suspect[k]);
+        flag(changes);
         screen_mark_triangle(m, edge_tri(e), piece_on, suspect, site, flag);
         if (m.adj[e] != kNoId) screen_mark_triangle(m, edge_tri(m.adj[e]), piece_on, suspect, site, flag);
       },
@@ -265,19 +270,21 @@ CDT_HD bool screen_corridor(const MeshView& m, const ConstraintPiece2& p, std::u
 
 /// The screen's third pass for triangle t, after the second pass is done everywhere: when three or more
 /// pieces pass t, the first two are flagged suspect (the others flagged themselves); when two do, they
-/// are tested exactly (the higher against the lower) and flagged when they cross. Each time, the marks
-/// around t.
+/// are tested exactly (the higher against the lower) and flagged when they cross (and `changes` with
+/// them). Each time, the marks around t.
 template <class Flag>
 CDT_HD_INLINE void screen_settle_triangle(const MeshView& m, const ConstraintPiece2* pieces, std::uint32_t t,
                                           const std::uint32_t* first, const std::uint32_t* second,
                                           const std::uint8_t* crowded, const std::uint32_t* piece_on,
-                                          std::uint8_t* suspect, std::uint8_t* site, Flag&& flag) {
+                                          std::uint8_t* suspect, std::uint8_t* site, std::uint8_t& changes,
+                                          Flag&& flag) {
   const std::uint32_t j = second[t];
   if (j == kNoId) return;
   const std::uint32_t i = first[t];
   if (crowded[t] == 0) {
     const std::uint32_t lo = i < j ? i : j, hi = i < j ? j : i;
     if (!pieces_cross(m, pieces[hi], pieces[lo])) return;
+    flag(changes);
   }
   flag(suspect[i]);
   flag(suspect[j]);
