@@ -870,7 +870,8 @@ Triangulation triangulate_on(std::span<const Point> points, std::span<const Segm
         if (pieces_stale) device_mesh->renumber_constraints(moves.runs);
         suspects_after = pieces_stale ? std::move(moves.from_suspects) : std::move(screen.pieces);
       }
-      trace.mark("constraints beside the split kept");
+      trace.mark(before_suspects ? "constraints beside the split kept"
+                                 : "constraints beside the split failed");
     } else if (beside_split.running() && (pieces_stale || added > 0)) {
       beside_split.finish(false);
       trace.mark("constraints beside the split undone");

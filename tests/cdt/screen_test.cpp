@@ -198,6 +198,7 @@ TEST(ScreenPieces, PiecesThatAreNoEdgesAreSuspectOnlyWhereTheyMeet) {
   const cdt::detail::ConstraintPiece2 along{at(0, 2), at(2, 2), 0}, across{at(0, 1), at(1, 3), 0};
   EXPECT_EQ(screen({along, across}).pieces, (std::vector<std::uint32_t>{0, 1}));
   EXPECT_TRUE(screen({along, across}).changes);
+  EXPECT_TRUE(screen({across, along}).changes);
   EXPECT_EQ(screen({across, along}).pieces, (std::vector<std::uint32_t>{0, 1}));
   // A fan from (0, 0): both pass the triangle (0, 0), (1, 0), (1, 1) and meet only at their common end,
   // which the exact test of the two settles. In every order of the pieces.

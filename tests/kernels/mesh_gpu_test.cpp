@@ -603,6 +603,10 @@ TEST_F(MeshGpu, ConstraintsBesideTheSplitWithoutTheSuspects) {
   const auto m = static_cast<std::uint32_t>(pieces.size());
   pieces.push_back({p1, p1 + 2, m}); // through p1 + 1
 
+  // A vertex added between the runs (as a crossing's would be), in a free spot: its slots are new.
+  const double extra_x = 0.3125, extra_y = 0.6875;
+  const auto extra = static_cast<std::uint32_t>(start.x.size());
+
   cdt::gpu::DeviceMesh device(start);
   EXPECT_THROW(device.restart_constraints({}, 8), cdt::Error); // nothing ran
   ASSERT_TRUE(device.start_constraints(pieces, 8));
@@ -618,6 +622,11 @@ TEST_F(MeshGpu, ConstraintsBesideTheSplitWithoutTheSuspects) {
   const std::vector<PieceRun> runs = {{0, 1, m}};
   device.renumber_constraints(runs);
   device.check_constraints_unsplit(p1 + 1); // no constraint ends there yet
+  device.add_vertices(std::vector<double>{extra_x}, std::vector<double>{extra_y});
+  const std::vector<MissingPoint> fresh = {{extra, 0}};
+  device.insert(fresh);
+  device.flip_after_insert();
+  device.check_constraints_unsplit(extra); // in no constraint
   std::vector<ConstraintPiece2> final_pieces = {{p1, p1 + 1, 0}};
   for (std::uint32_t k = 0; k < m; ++k) final_pieces.push_back({pieces[k].a, pieces[k].b, k + 1});
   final_pieces.push_back({p1 + 1, p1 + 2, m + 1});
@@ -630,12 +639,20 @@ TEST_F(MeshGpu, ConstraintsBesideTheSplitWithoutTheSuspects) {
   Mesh got;
   device.download(got);
 
-  cdt::gpu::DeviceMesh plain(start);
+  trixel_gen::Pslg with_extra = pslg;
+  with_extra.points.push_back({extra_x, extra_y});
+  cdt::gpu::DeviceMesh plain(sweep_mesh(with_extra, true, executor));
   plain.insert_constraints(final_pieces, 8);
   plain.flip_after_constraints();
   Mesh expected;
   plain.download(expected);
   EXPECT_EQ(triangle_set(got), triangle_set(expected));
+
+  // A vertex inside a constraint already in the mesh splits it: refused.
+  plain.add_vertices(std::vector<double>{0.5 + 0x1p-21}, std::vector<double>{0.4375}); // halfway p1, p1 + 1
+  const std::vector<MissingPoint> inside = {{extra + 1, p1}};
+  plain.insert(inside);
+  EXPECT_THROW(plain.check_constraints_unsplit(extra + 1), cdt::Error);
   std::size_t constrained = 0;
   for (const std::uint32_t id : got.seg) constrained += id != kNoId ? 1 : 0;
   EXPECT_GE(constrained, 2 * final_pieces.size() - 8); // every piece (but a few on the hull) twice

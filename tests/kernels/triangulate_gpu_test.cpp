@@ -308,6 +308,11 @@ TEST_F(TriangulateGpu, PiecesThroughPointsAndCrossingsBesideTheSplitMatchTheCpuB
   trixel_gen::Random rng(55);
   trixel_gen::add_random_segments(in, 6, rng); // long ones, across many
   expect_same_as_cpu(in.points, in.segments, "pieces through points, crossings");
+  cdt::Options gpu;
+  gpu.backend = cdt::Backend::gpu;
+  const cdt::Triangulation t = cdt::triangulate(in.points, in.segments, gpu);
+  EXPECT_GT(t.stats.added_vertices, 0u);
+  EXPECT_EQ(t.stats.attempts, 1u); // the added vertices went into the constrained mesh
 }
 
 // Co-circular everywhere: many ties in the diagram and in every flip.
