@@ -707,6 +707,12 @@ ShiftStats shift(DeviceMesh::State& s, std::uint32_t num_sites, const double* tx
     num = num_rest;
   }
 
+  // Traced: how the phase's rounds divide between the two algorithms (each step waited for).
+  ::cdt::detail::StepTrace trace("device shift");
+  if (::cdt::detail::trace_enabled()) executor.synchronize();
+  trace.count("sites checked", num_sites);
+  trace.count("algorithm 1 rounds", stats.rounds);
+  trace.mark("algorithm 1");
   // Algorithm 2: the bad cases deleted in rounds of pairwise non-adjacent vertices.
   DeviceBuffer<std::uint8_t> d_leaving(m.num_vertices);
   std::uint8_t* leaving = d_leaving.data();
@@ -721,10 +727,14 @@ ShiftStats shift(DeviceMesh::State& s, std::uint32_t num_sites, const double* tx
       d_scratch.data());
   DeviceBuffer<MissingPoint> d_deleted(num_bad);
   DeletedStars stars{tx, ty, d_deleted.data(), 0};
-  stats.rounds += delete_vertices(s, d_bad, num_bad, leaving, &stars);
+  const std::uint64_t deletion_rounds = delete_vertices(s, d_bad, num_bad, leaving, &stars);
+  stats.rounds += deletion_rounds;
   const std::size_t first = missing.size();
   missing.resize(first + stars.written);
   executor.download(missing.data() + first, d_deleted.data(), stars.written);
+  trace.count("bad cases", num_bad);
+  trace.count("deletion rounds", deletion_rounds);
+  trace.mark("algorithm 2");
   return stats;
 }
 
@@ -1120,6 +1130,10 @@ InsertStats insert(DeviceMesh::State& s, std::span<const MissingPoint> missing,
     std::swap(d_remaining, d_rest);
     n = num_rest;
   }
+  // Traced: the rounds of Algorithm 3 alone (the phase's count adds the fake fans' flips).
+  ::cdt::detail::StepTrace trace("device missing points");
+  trace.count("points", num_points);
+  trace.count("rounds", stats.rounds);
   return stats;
 }
 
