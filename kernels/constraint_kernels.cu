@@ -829,21 +829,9 @@ void DeviceMesh::renumber_constraints(std::span<const ::cdt::detail::PieceRun> r
       [=] __device__(std::size_t w) {
         const std::uint32_t id = seg[w];
         if (id == kNoId) return;
-        // The last run starting at or before id.
-        std::uint32_t lo = 0, hi = num_runs;
-        while (lo < hi) {
-          const std::uint32_t mid = (lo + hi) / 2;
-          if (run[mid].from <= id) {
-            lo = mid + 1;
-          } else {
-            hi = mid;
-          }
-        }
-        if (lo == 0 || id - run[lo - 1].from >= run[lo - 1].count) {
-          failure.record(::cdt::detail::WorkStatus::stuck);
-          return;
-        }
-        seg[w] = run[lo - 1].to + (id - run[lo - 1].from);
+        const std::uint32_t to = ::cdt::detail::moved_piece(run, num_runs, id);
+        if (to == kNoId) failure.record(::cdt::detail::WorkStatus::stuck);
+        seg[w] = to;
       },
       "renumber_constraints");
   s.check(failure, "renumbering the constraints after the split (an id of a piece that left)");

@@ -117,8 +117,9 @@ ScreenedPieces DeviceMesh::screen(std::span<const ConstraintPiece2> host_pieces,
   DeviceBuffer<std::uint32_t> d_piece_on(3 * static_cast<std::size_t>(s.num_slots)), d_first(s.num_slots),
       d_second(s.num_slots);
   DeviceBuffer<std::uint8_t> d_walker(np), d_crowded(s.num_slots), d_suspect(np), d_site(s.num_vertices);
-  DeviceBuffer<std::uint32_t> d_failed(1);
-  DeviceBuffer<std::uint8_t> d_changes(1);
+  // Two words, read back together: whether a walk failed, and (its first byte) whether the split will
+  // change the pieces.
+  DeviceBuffer<std::uint32_t> d_failed(2);
   std::uint32_t* piece_on = d_piece_on.data();
   std::uint32_t* first = d_first.data();
   std::uint32_t* second = d_second.data();
@@ -127,15 +128,14 @@ ScreenedPieces DeviceMesh::screen(std::span<const ConstraintPiece2> host_pieces,
   std::uint8_t* suspect = d_suspect.data();
   std::uint8_t* site = d_site.data();
   std::uint32_t* failed = d_failed.data();
-  std::uint8_t* changes = d_changes.data();
+  std::uint8_t* changes = reinterpret_cast<std::uint8_t*>(failed + 1);
   executor.fill_bytes(piece_on, 0xFF, d_piece_on.size());
   executor.fill_bytes(first, 0xFF, s.num_slots);
   executor.fill_bytes(second, 0xFF, s.num_slots);
   executor.fill_bytes(crowded, 0, s.num_slots);
   executor.fill_bytes(suspect, 0, np);
   executor.fill_bytes(site, 0, s.num_vertices);
-  executor.fill_bytes(failed, 0, 1);
-  executor.fill_bytes(changes, 0, 1);
+  executor.fill_bytes(failed, 0, 2);
   executor.for_each(
       np,
       [=] __device__(std::size_t k) {
@@ -175,9 +175,9 @@ ScreenedPieces DeviceMesh::screen(std::span<const ConstraintPiece2> host_pieces,
       },
       "screen_settle");
   mark("shared triangles");
-  std::uint32_t walk_failed = 0;
-  executor.download(&walk_failed, failed, 1);
-  if (walk_failed != 0) {
+  std::uint32_t words[2] = {0, 0};
+  executor.download(words, failed, 2);
+  if (words[0] != 0) {
     out.complete = false;
     return out;
   }
@@ -189,9 +189,7 @@ ScreenedPieces DeviceMesh::screen(std::span<const ConstraintPiece2> host_pieces,
         site[pieces[k].b] = 1;
       },
       "screen_ends");
-  std::uint8_t changed = 0;
-  executor.download(&changed, changes, 1);
-  out.changes = changed != 0;
+  out.changes = words[1] != 0;
   out.pieces = detail::flagged(executor, suspect, np);
   if (out.pieces.empty()) return out;
   out.sites = detail::flagged(executor, site, s.num_vertices);

@@ -1396,14 +1396,6 @@ void split_pieces(PreparedPslg& pslg, CrossingSegments policy, CpuExecutor& exec
                         snap_tolerance_of(box), policy, executor);
 }
 
-std::uint32_t moved_piece(std::span<const PieceRun> runs, std::uint32_t old) {
-  const auto after = std::upper_bound(runs.begin(), runs.end(), old,
-                                      [](std::uint32_t k, const PieceRun& r) { return k < r.from; });
-  if (after == runs.begin()) return kNone;
-  const PieceRun& r = *(after - 1);
-  return old - r.from < r.count ? r.to + (old - r.from) : kNone;
-}
-
 bool split_pieces(PreparedPslg& pslg, std::span<const std::uint32_t> suspect_pieces,
                   std::span<const std::uint32_t> suspect_sites, CrossingSegments policy,
                   CpuExecutor& executor, double sites_magnitude, std::vector<std::uint32_t>* new_pieces,

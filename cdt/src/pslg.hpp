@@ -182,7 +182,24 @@ bool split_pieces(PreparedPslg& pslg, std::span<const std::uint32_t> suspect_pie
                   CpuExecutor& executor, double sites_magnitude = -1.0,
                   std::vector<std::uint32_t>* new_pieces = nullptr, PieceMoves* moves = nullptr);
 
-/// The new index of old piece `old` after a split that moved the pieces by `runs`, or kNone when it left.
-std::uint32_t moved_piece(std::span<const PieceRun> runs, std::uint32_t old);
+/// The new index of old piece `old` after a split that moved the pieces by runs[0, num_runs) (by
+/// increasing from), or kNone when it left. The same on the host and the device (renumbered constraints).
+CDT_HD inline std::uint32_t moved_piece(const PieceRun* runs, std::uint32_t num_runs, std::uint32_t old) {
+  // The last run starting at or before old.
+  std::uint32_t lo = 0, hi = num_runs;
+  while (lo < hi) {
+    const std::uint32_t mid = (lo + hi) / 2;
+    if (runs[mid].from <= old) {
+      lo = mid + 1;
+    } else {
+      hi = mid;
+    }
+  }
+  if (lo == 0 || old - runs[lo - 1].from >= runs[lo - 1].count) return kNone;
+  return runs[lo - 1].to + (old - runs[lo - 1].from);
+}
+inline std::uint32_t moved_piece(std::span<const PieceRun> runs, std::uint32_t old) {
+  return moved_piece(runs.data(), static_cast<std::uint32_t>(runs.size()), old);
+}
 
 } // namespace cdt::detail
