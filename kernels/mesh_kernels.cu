@@ -319,6 +319,9 @@ std::uint64_t delete_vertices(DeviceMesh::State& s, DeviceBuffer<std::uint32_t>&
   std::uint64_t rounds = 0;
   DeviceBuffer<DeleteRoundsEnd> d_end(1);
   bool in_block = true; // false for one round after the block's holes ran out of room
+  // Traced: each launched round and each run of the block's rounds (every step waited for).
+  ::cdt::detail::StepTrace trace("device deletion");
+  const bool traced = ::cdt::detail::trace_enabled();
   while (n > 0) {
     if (in_block && n <= kDeleteBlockLimit) {
       if (s.num_slots >= ::cdt::detail::kBoundaryRef / 3)
@@ -373,6 +376,9 @@ std::uint64_t delete_vertices(DeviceMesh::State& s, DeviceBuffer<std::uint32_t>&
       rounds += end.rounds;
       if (stars != nullptr) stars->written = end.written;
       if (end.in_rest != 0) std::swap(pending, rest);
+      trace.count("block list", n);
+      trace.count("block rounds", end.rounds);
+      trace.mark("block's rounds");
       n = end.n;
       in_block = end.room == 0;
       continue;
@@ -428,6 +434,10 @@ std::uint64_t delete_vertices(DeviceMesh::State& s, DeviceBuffer<std::uint32_t>&
     executor.for_each(
         num_rest, [=] __device__(std::size_t i) { r[i] = list[pick[i]]; }, "gather_rest");
     std::swap(pending, rest);
+    if (traced) executor.synchronize();
+    trace.count("launched round's list", n);
+    trace.count("launched round's deletions", num_active);
+    trace.mark("launched round");
     n = num_rest;
   }
   return rounds;
@@ -561,6 +571,8 @@ ShiftStats shift(DeviceMesh::State& s, std::uint32_t num_sites, const double* tx
     throw Error("internal error: shift_to_true_positions: fewer vertices than sites");
   ShiftStats stats;
   CudaExecutor& executor = s.executor;
+  // Traced: how the phase's rounds divide between the two algorithms (each step waited for).
+  ::cdt::detail::StepTrace trace("device shift");
   const MeshView m = s.view();
   DeviceBuffer<std::uint8_t> d_state(m.num_vertices);
   std::uint8_t* state = d_state.data();
@@ -622,6 +634,8 @@ ShiftStats shift(DeviceMesh::State& s, std::uint32_t num_sites, const double* tx
   std::uint8_t* ready = d_ready.data();
   DeviceBuffer<ShiftRoundsEnd> d_block_end(1);
   ShiftTeamRounds team_rounds;
+  if (::cdt::detail::trace_enabled()) executor.synchronize();
+  trace.mark("set up");
   while (num > 0) {
     if (team_rounds.takes(num)) {
       const ShiftRounds args{m,
@@ -653,6 +667,9 @@ ShiftStats shift(DeviceMesh::State& s, std::uint32_t num_sites, const double* tx
         std::swap(d_cursor, d_next_cursor);
         std::swap(d_end, d_next_end);
       }
+      trace.count("team's list", num);
+      trace.count("team's rounds", end.rounds);
+      trace.mark("team's rounds");
       num = end.n;
       continue;
     }
@@ -704,11 +721,12 @@ ShiftStats shift(DeviceMesh::State& s, std::uint32_t num_sites, const double* tx
     std::swap(d_unchecked, d_next_unchecked);
     std::swap(d_cursor, d_next_cursor);
     std::swap(d_end, d_next_end);
+    if (::cdt::detail::trace_enabled()) executor.synchronize();
+    trace.count("launched round's list", num);
+    trace.mark("launched round");
     num = num_rest;
   }
 
-  // Traced: how the phase's rounds divide between the two algorithms (each step waited for).
-  ::cdt::detail::StepTrace trace("device shift");
   if (::cdt::detail::trace_enabled()) executor.synchronize();
   trace.count("sites checked", num_sites);
   trace.count("algorithm 1 rounds", stats.rounds);
@@ -1000,6 +1018,12 @@ InsertStats insert(DeviceMesh::State& s, std::span<const MissingPoint> missing,
 
   DeviceBuffer<InsertRoundsEnd> d_end(1);
   InsertTeamRounds team_rounds;
+  // Traced: the rounds of Algorithm 3 alone (the phase's count adds the fake fans' flips), each launched
+  // round and each run of the team's rounds (every step waited for).
+  ::cdt::detail::StepTrace trace("device missing points");
+  const bool traced = ::cdt::detail::trace_enabled();
+  if (traced) executor.synchronize();
+  trace.mark("set up");
   while (n > 0) {
     if (team_rounds.takes(n)) {
       const InsertRounds args{m,
@@ -1045,6 +1069,9 @@ InsertStats insert(DeviceMesh::State& s, std::span<const MissingPoint> missing,
       stats.inserted += end.inserted;
       cursor = end.cursor;
       if (end.in_rest != 0) std::swap(d_remaining, d_rest);
+      trace.count("team's list", n);
+      trace.count("team's rounds", end.rounds);
+      trace.mark("team's rounds");
       n = end.n;
       continue;
     }
@@ -1128,10 +1155,12 @@ InsertStats insert(DeviceMesh::State& s, std::span<const MissingPoint> missing,
     executor.for_each(
         num_rest, [=] __device__(std::size_t r) { rest[r] = remaining[picked[r]]; }, "gather_rest");
     std::swap(d_remaining, d_rest);
+    if (traced) executor.synchronize();
+    trace.count("launched round's list", n);
+    trace.count("launched round's insertions", num_winners);
+    trace.mark("launched round");
     n = num_rest;
   }
-  // Traced: the rounds of Algorithm 3 alone (the phase's count adds the fake fans' flips).
-  ::cdt::detail::StepTrace trace("device missing points");
   trace.count("points", num_points);
   trace.count("rounds", stats.rounds);
   return stats;
