@@ -38,6 +38,7 @@
 #include <algorithm>
 #include <bit>
 #include <chrono>
+#include <cmath>
 #include <exception>
 #include <functional>
 #include <iterator>
@@ -541,7 +542,7 @@ Triangulation triangulate_on(std::span<const Point> points, std::span<const Segm
   GridSites grid;
   Box bounds; // the box of both positions of every site
   std::vector<std::uint32_t> colour;
-  double sites_magnitude = -1.0; // the largest absolute coordinate of the sites, where the device gives it
+  double sites_magnitude = -1.0; // the largest absolute coordinate of the sites (negative: unknown)
 #if defined(TRIXEL_HAVE_CUDA)
   std::optional<gpu::DeviceVoronoi> device_diagram; // Phase 1's colouring stays on the device for Phase 2
   if (on_gpu) {
@@ -608,16 +609,26 @@ Triangulation triangulate_on(std::span<const Point> points, std::span<const Segm
       b.max_x = std::max(b.max_x, px);
       b.max_y = std::max(b.max_y, py);
     };
-    bounds = executor.reduce(
-        n, Box{true_x[0], true_y[0], true_x[0], true_y[0]},
-        [&](Box& b, std::size_t s) {
-          extend(b, x[s], y[s]);
-          extend(b, true_x[s], true_y[s]);
+    // With the box, the largest absolute coordinate of the sites' true positions: the split's snap
+    // tolerance is made from it (as the device gives it), without another pass over the sites there.
+    struct Extent {
+      Box box;
+      double magnitude;
+    };
+    const Extent extent = executor.reduce(
+        n, Extent{Box{true_x[0], true_y[0], true_x[0], true_y[0]}, 0.0},
+        [&](Extent& e, std::size_t s) {
+          extend(e.box, x[s], y[s]);
+          extend(e.box, true_x[s], true_y[s]);
+          e.magnitude = std::max({e.magnitude, std::abs(true_x[s]), std::abs(true_y[s])});
         },
-        [&](Box& b, const Box& part) {
-          extend(b, part.min_x, part.min_y);
-          extend(b, part.max_x, part.max_y);
+        [&](Extent& e, const Extent& part) {
+          extend(e.box, part.box.min_x, part.box.min_y);
+          extend(e.box, part.box.max_x, part.box.max_y);
+          e.magnitude = std::max(e.magnitude, part.magnitude);
         });
+    bounds = extent.box;
+    sites_magnitude = extent.magnitude;
     trace.mark("bounds");
     missing.reserve(n); // room for the sites appended later (see DeviceSites::prepare)
     missing.resize(grid.missing.size());
