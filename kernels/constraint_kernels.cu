@@ -200,7 +200,7 @@ using ConstraintTeamRounds = TeamRounds<ConstraintLoop, ConstraintRounds, Constr
 WalkHints make_walk_hints(CudaExecutor& executor, const MeshView& m, DeviceBuffer<std::uint32_t>& cells) {
   WalkHints h;
   if (m.num_vertices < 3) return h;
-  const Extent box = box_of(executor, m.num_vertices, m.x, m.y);
+  const Extent box = box_of(executor, m.num_vertices, m.xy);
   const double width = box.max_x - box.min_x, height = box.max_y - box.min_y;
   const double extent = width > height ? width : height;
   if (!(extent > 0.0) || !std::isfinite(extent)) return h;
@@ -221,7 +221,7 @@ WalkHints make_walk_hints(CudaExecutor& executor, const MeshView& m, DeviceBuffe
   executor.for_each(
       m.num_vertices,
       [=] __device__(std::size_t v) {
-        if (m.vert_tri[v] != kNoId) cell[hints.cell_of(m.x[v], m.y[v])] = static_cast<std::uint32_t>(v);
+        if (m.vert_tri[v] != kNoId) cell[hints.cell_of(m.xy[v].x, m.xy[v].y)] = static_cast<std::uint32_t>(v);
       },
       "walk_hints");
   return h;
@@ -702,8 +702,8 @@ void launch_beside(DeviceMesh::State& s, detail::ConstraintsBeside& beside, unsi
   int device = 0;
   CDT_CUDA_CHECK(cudaGetDevice(&device));
   detail::ConstraintsBeside* run = &beside;
-  const ::cdt::detail::MeshView copy{s.x.data(),      s.y.data(),           run->tri.data(), run->adj.data(),
-                                     run->seg.data(), run->vert_tri.data(), s.num_slots,     s.num_vertices};
+  const ::cdt::detail::MeshView copy{s.xy.data(),          run->tri.data(), run->adj.data(), run->seg.data(),
+                                     run->vert_tri.data(), s.num_slots,     s.num_vertices};
   const std::span<const ConstraintPiece2> pieces = run->host_pieces;
   const auto body = [run, copy, pieces, inner_iterations, device, only, num_only] {
     try {

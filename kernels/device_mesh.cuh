@@ -126,7 +126,7 @@ struct ConstraintsBeside {
 
 struct DeviceMesh::State {
   detail::CudaExecutor executor; // declared first: destroyed after the buffers queued on its stream
-  detail::DeviceBuffer<double> x, y;
+  detail::DeviceBuffer<::cdt::detail::Vec2> xy;
   detail::DeviceBuffer<std::uint32_t> tri, adj, seg, vert_tri;
   std::uint32_t num_slots = 0;
   std::uint32_t num_vertices = 0;
@@ -162,8 +162,8 @@ struct DeviceMesh::State {
   pieces_beside(std::span<const ::cdt::detail::ConstraintPiece2> host) const;
 
   ::cdt::detail::MeshView view() {
-    return ::cdt::detail::MeshView{x.data(),   y.data(),        tri.data(), adj.data(),
-                                   seg.data(), vert_tri.data(), num_slots,  num_vertices};
+    return ::cdt::detail::MeshView{xy.data(),       tri.data(), adj.data(),  seg.data(),
+                                   vert_tri.data(), num_slots,  num_vertices};
   }
 
   /// A clear failure word for the next step.

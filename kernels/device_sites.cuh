@@ -8,6 +8,7 @@
 #include "cdt_kernels.hpp"
 #include "cuda_check.cuh"
 #include "cuda_executor.cuh"
+#include "gcd/mesh.hpp"
 
 namespace cdt::gpu {
 
@@ -33,6 +34,9 @@ struct Extent {
 /// block's part each on the device, the parts merged on the host (waits for them).
 Extent box_of(CudaExecutor& executor, std::size_t n, const double* x, const double* y,
               const double* x2 = nullptr, const double* y2 = nullptr);
+
+/// The box of the interleaved points xy[i], i in [0, n), n >= 1 (a mesh's vertices).
+Extent box_of(CudaExecutor& executor, std::size_t n, const ::cdt::detail::Vec2* xy);
 
 } // namespace detail
 

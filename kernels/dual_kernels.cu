@@ -212,8 +212,6 @@ DeviceVoronoi::DualOutcome build_dual(DeviceVoronoi::State& state, ::cdt::detail
   detail::CudaExecutor& executor = state_->executor;
   const std::uint32_t m = state_->m;
   const std::uint32_t n = sites != nullptr ? sites->n : mesh.num_vertices();
-  if (sites == nullptr && mesh.y.size() != n)
-    throw Error("DeviceVoronoi::dual: x and y have different lengths");
   mesh.tri.clear();
   mesh.adj.clear();
   mesh.seg.clear();
@@ -230,8 +228,14 @@ DeviceVoronoi::DualOutcome build_dual(DeviceVoronoi::State& state, ::cdt::detail
   if (sites == nullptr) {
     state_->site_x.resize(n);
     state_->site_y.resize(n);
-    executor.upload(state_->site_x.data(), mesh.x.data(), n);
-    executor.upload(state_->site_y.data(), mesh.y.data(), n);
+    std::vector<double> hx(n), hy(n);
+    for (std::uint32_t v = 0; v < n; ++v) {
+      hx[v] = mesh.xy[v].x;
+      hy[v] = mesh.xy[v].y;
+    }
+    executor.upload(state_->site_x.data(), hx.data(), n);
+    executor.upload(state_->site_y.data(), hy.data(), n);
+    executor.synchronize(); // hx and hy go out of scope
   }
   const double* x = site_positions_x(state, sites);
   const double* y = site_positions_y(state, sites);
@@ -428,20 +432,24 @@ DeviceVoronoi::DualOutcome complete_dual(DeviceVoronoi::State& voronoi, ::cdt::d
   if (!plan) return DualOutcome::declined;
   trace.mark("completion planned");
 
-  const auto k_fake = static_cast<std::uint32_t>(plan->fake_x.size());
+  const auto k_fake = static_cast<std::uint32_t>(plan->fake.size());
   const auto added = static_cast<std::uint32_t>(plan->triangles.size());
   auto state = std::make_unique<DeviceMesh::State>();
   DeviceMesh::State& s = *state;
   s.allocate(num_dual + added, n + k_fake);
   const std::size_t all_words = 3 * static_cast<std::size_t>(s.num_slots);
   // The dual's arrays copied on the device, the added parts uploaded behind them.
-  detail::copy_on_device(executor, s.x.data(), site_x, n, "copy_x");
-  detail::copy_on_device(executor, s.y.data(), site_y, n, "copy_y");
+  ::cdt::detail::Vec2* xy = s.xy.data();
+  executor.for_each(
+      n,
+      [=] __device__(std::size_t v) {
+        xy[v] = {site_x[v], site_y[v]};
+      },
+      "copy_xy");
   detail::copy_on_device(executor, s.tri.data(), tri, words, "copy_tri");
   detail::copy_on_device(executor, s.adj.data(), adj, words, "copy_adj");
   detail::copy_on_device(executor, s.vert_tri.data(), b.vert_tri.data(), n, "copy_vert_tri");
-  executor.upload(s.x.data() + n, plan->fake_x.data(), k_fake);
-  executor.upload(s.y.data() + n, plan->fake_y.data(), k_fake);
+  executor.upload(s.xy.data() + n, plan->fake.data(), k_fake);
   static_assert(sizeof(::cdt::detail::DualTriangle) == 3 * sizeof(std::uint32_t));
   executor.upload(s.tri.data() + words, reinterpret_cast<const std::uint32_t*>(plan->triangles.data()),
                   3 * static_cast<std::size_t>(added));

@@ -138,7 +138,7 @@ void delete_vertex_round(DeviceMesh::State& s, const std::uint32_t* active, std:
       n,
       [=] __device__(std::size_t i) {
         const std::uint32_t v = active[i], base = offset[i], size = count[i];
-        const WorkStatus status = ::cdt::detail::cut_ears(m, h, base, size, m.x[v], m.y[v]);
+        const WorkStatus status = ::cdt::detail::cut_ears(m, h, base, size, m.xy[v].x, m.xy[v].y);
         if (hint != nullptr) hint[i] = ::cdt::detail::ring_hint(h, base, size, leaving);
         if (status != WorkStatus::ok) failure.record(status);
         m.vert_tri[v] = kNoId;
@@ -267,7 +267,7 @@ __global__ void __launch_bounds__(kBlockRoundThreads)
     __syncthreads();
     block_for_each(num_active, [&](std::uint32_t i) {
       const std::uint32_t v = a.active[i], base = a.offset[i], size = a.count[i];
-      const WorkStatus status = ::cdt::detail::cut_ears(m, h, base, size, m.x[v], m.y[v]);
+      const WorkStatus status = ::cdt::detail::cut_ears(m, h, base, size, m.xy[v].x, m.xy[v].y);
       a.hint[i] = ::cdt::detail::ring_hint(h, base, size, a.leaving);
       if (status != WorkStatus::ok) record(status);
       m.vert_tri[v] = kNoId;
@@ -287,8 +287,7 @@ __global__ void __launch_bounds__(kBlockRoundThreads)
       const std::uint32_t v = a.active[i];
       a.leaving[v] = 0;
       if (a.true_x == nullptr) return;
-      m.x[v] = a.true_x[v];
-      m.y[v] = a.true_y[v];
+      m.xy[v] = {a.true_x[v], a.true_y[v]};
       a.out[written + i] = MissingPoint{v, a.hint[i]};
     });
     if (a.true_x != nullptr) written += num_active;
@@ -416,13 +415,11 @@ std::uint64_t delete_vertices(DeviceMesh::State& s, DeviceBuffer<std::uint32_t>&
       const double* tx = stars->true_x;
       const double* ty = stars->true_y;
       MissingPoint* out = stars->out + stars->written;
-      double* x = m.x;
-      double* y = m.y;
+      ::cdt::detail::Vec2* xy = m.xy;
       executor.for_each(
           num_active,
           [=] __device__(std::size_t i) {
-            x[act[i]] = tx[act[i]];
-            y[act[i]] = ty[act[i]];
+            xy[act[i]] = {tx[act[i]], ty[act[i]]};
             out[i] = MissingPoint{act[i], hint[i]};
           },
           "deleted_to_missing");
@@ -522,8 +519,7 @@ __device__ void ShiftLoop::operator()(const Team& team, const ShiftRounds& a, st
       const WorkStatus s = ::cdt::detail::shift_is_good(m, v, a.tx[v], a.ty[v], good);
       if (s != WorkStatus::ok) atomicCAS(team.word, 0u, static_cast<std::uint32_t>(s));
       if (good) {
-        m.x[v] = a.tx[v];
-        m.y[v] = a.ty[v];
+        m.xy[v] = {a.tx[v], a.ty[v]};
       }
       a.state[v] = good ? kGood : kBad;
     });
@@ -581,8 +577,7 @@ ShiftStats shift(DeviceMesh::State& s, std::uint32_t num_sites, const double* tx
       num_sites,
       [=] __device__(std::size_t v) {
         if (m.vert_tri[v] == kNoId) {
-          m.x[v] = tx[v];
-          m.y[v] = ty[v];
+          m.xy[v] = {tx[v], ty[v]};
         } else {
           state[v] = kUnchecked;
         }
@@ -693,8 +688,7 @@ ShiftStats shift(DeviceMesh::State& s, std::uint32_t num_sites, const double* tx
           const WorkStatus status = ::cdt::detail::shift_is_good(m, v, tx[v], ty[v], good);
           if (status != WorkStatus::ok) failure.record(status);
           if (good) {
-            m.x[v] = tx[v];
-            m.y[v] = ty[v];
+            m.xy[v] = {tx[v], ty[v]};
           }
           state[v] = good ? kGood : kBad;
         },
@@ -1254,13 +1248,13 @@ void remove_fake_fans(DeviceMesh::State& s, std::uint32_t first_fake,
   const std::size_t words = 3 * static_cast<std::size_t>(num_local + 1);
   const std::size_t copy_size = 3 * words + 2 * static_cast<std::size_t>(num_ids);
   DeviceBuffer<std::uint32_t> d_copy(copy_size);
-  DeviceBuffer<double> d_xy(2 * static_cast<std::size_t>(num_ids));
+  DeviceBuffer<::cdt::detail::Vec2> d_xy(num_ids);
   std::uint32_t* ltri = d_copy.data();
   std::uint32_t* ladj = ltri + words;
   std::uint32_t* lseg = ladj + words;
   std::uint32_t* lvt = lseg + words;
   std::uint32_t* lids = lvt + num_ids;
-  double* lxy = d_xy.data();
+  ::cdt::detail::Vec2* lxy = d_xy.data();
   executor.fill_bytes(ltri, 0xFF, 3 * words);
   executor.for_each(
       fan_edges,
@@ -1290,12 +1284,11 @@ void remove_fake_fans(DeviceMesh::State& s, std::uint32_t first_fake,
         const std::uint32_t lt = t == kNoId ? kNoId : local[t];
         lvt[i] = lt != kNoId ? lt : (t == kNoId ? kNoId : num_local);
         lids[i] = v;
-        lxy[2 * i] = m.x[v];
-        lxy[2 * i + 1] = m.y[v];
+        lxy[i] = m.xy[v];
       },
       "copy_fan_vertices");
   std::vector<std::uint32_t> copy(copy_size);
-  std::vector<double> xy(2 * static_cast<std::size_t>(num_ids));
+  std::vector<::cdt::detail::Vec2> xy(num_ids);
   executor.download(copy.data(), d_copy.data(), copy_size);
   executor.download(xy.data(), lxy, xy.size());
 
@@ -1304,12 +1297,7 @@ void remove_fake_fans(DeviceMesh::State& s, std::uint32_t first_fake,
   host.adj.assign(copy.begin() + words, copy.begin() + 2 * words);
   host.seg.assign(copy.begin() + 2 * words, copy.begin() + 3 * words);
   host.vert_tri.assign(copy.begin() + 3 * words, copy.begin() + 3 * words + num_ids);
-  host.x.resize(num_ids);
-  host.y.resize(num_ids);
-  for (std::size_t i = 0; i < num_ids; ++i) {
-    host.x[i] = xy[2 * i];
-    host.y[i] = xy[2 * i + 1];
-  }
+  host.xy = std::move(xy);
   const std::span<const std::uint32_t> ranked_as(copy.data() + 3 * words + num_ids, num_ids);
   const auto first_local_fake = static_cast<std::uint32_t>(
       std::lower_bound(ranked_as.begin(), ranked_as.end(), first_fake) - ranked_as.begin());
@@ -1462,11 +1450,11 @@ void DeviceMesh::add_vertices(std::span<const double> x, std::span<const double>
   const std::size_t count = used + x.size();
   if (count >= kNoId) throw Error("internal error: add_vertices: too many vertices");
   detail::require_device_memory(20 * count, 0, "growing the mesh to " + std::to_string(count) + " vertices");
-  detail::grow_buffer(s.executor, s.x, used, count, 0);
-  detail::grow_buffer(s.executor, s.y, used, count, 0);
+  detail::grow_buffer(s.executor, s.xy, used, count, 0);
   detail::grow_buffer(s.executor, s.vert_tri, used, count, 0xFF);
-  s.executor.upload(s.x.data() + used, x.data(), x.size());
-  s.executor.upload(s.y.data() + used, y.data(), y.size());
+  std::vector<::cdt::detail::Vec2> added(x.size());
+  for (std::size_t i = 0; i < x.size(); ++i) added[i] = {x[i], y[i]};
+  s.executor.upload(s.xy.data() + used, added.data(), added.size());
   s.num_vertices = static_cast<std::uint32_t>(count);
 }
 
@@ -1474,8 +1462,7 @@ DeviceMesh::DeviceMesh(const ::cdt::detail::Mesh& mesh) : state_(std::make_uniqu
   State& s = *state_;
   s.allocate(mesh.num_slots(), mesh.num_vertices());
   const std::size_t words = 3 * static_cast<std::size_t>(s.num_slots);
-  s.executor.upload(s.x.data(), mesh.x.data(), s.num_vertices);
-  s.executor.upload(s.y.data(), mesh.y.data(), s.num_vertices);
+  s.executor.upload(s.xy.data(), mesh.xy.data(), s.num_vertices);
   s.executor.upload(s.tri.data(), mesh.tri.data(), words);
   s.executor.upload(s.adj.data(), mesh.adj.data(), words);
   s.executor.upload(s.seg.data(), mesh.seg.data(), words);
@@ -1488,8 +1475,7 @@ void DeviceMesh::State::allocate(std::uint32_t slots, std::uint32_t nv) {
   num_slots = slots;
   num_vertices = nv;
   const std::size_t words = 3 * static_cast<std::size_t>(slots);
-  x.resize(nv);
-  y.resize(nv);
+  xy.resize(nv);
   tri.resize(words);
   adj.resize(words);
   seg.resize(words);
@@ -1743,14 +1729,12 @@ bool DeviceMesh::prefill_segments(std::size_t pieces, TriangleArray& segment_of_
 void DeviceMesh::download(::cdt::detail::Mesh& mesh) const {
   State& s = *state_;
   const std::size_t words = 3 * static_cast<std::size_t>(s.num_slots);
-  mesh.x.resize(s.num_vertices);
-  mesh.y.resize(s.num_vertices);
+  mesh.xy.resize(s.num_vertices);
   mesh.tri.resize(words);
   mesh.adj.resize(words);
   mesh.seg.resize(words);
   mesh.vert_tri.resize(s.num_vertices);
-  s.executor.download(mesh.x.data(), s.x.data(), s.num_vertices);
-  s.executor.download(mesh.y.data(), s.y.data(), s.num_vertices);
+  s.executor.download(mesh.xy.data(), s.xy.data(), s.num_vertices);
   s.executor.download(mesh.tri.data(), s.tri.data(), words);
   s.executor.download(mesh.adj.data(), s.adj.data(), words);
   s.executor.download(mesh.seg.data(), s.seg.data(), words);

@@ -42,15 +42,15 @@ constexpr std::size_t kLateDownloadBytes = std::size_t{4} << 20;
 constexpr unsigned kBoxThreads = 256;
 constexpr unsigned kBoxBlocks = 256;
 
-/// Per block, the box of the points (x[i], y[i]) and, when x2 is given, (x2[i], y2[i]), over the
-/// block's grid-stride share of [0, n), n >= 1.
-__global__ void box_kernel(std::size_t n, const double* x, const double* y, const double* x2,
-                           const double* y2, Extent* out) {
+/// Per block, the box of the points (x[k i], y[k i]) and, when x2 is given, (x2[i], y2[i]), over the
+/// block's grid-stride share of [0, n), n >= 1 (k = step: 2 for interleaved coordinates).
+__global__ void box_kernel(std::size_t n, const double* x, const double* y, std::size_t step,
+                           const double* x2, const double* y2, Extent* out) {
   __shared__ Extent part[kBoxThreads];
   Extent e{x[0], y[0], x[0], y[0]};
   const std::size_t stride = static_cast<std::size_t>(gridDim.x) * blockDim.x;
   for (std::size_t i = blockIdx.x * static_cast<std::size_t>(blockDim.x) + threadIdx.x; i < n; i += stride) {
-    e.add(x[i], y[i]);
+    e.add(x[step * i], y[step * i]);
     if (x2 != nullptr) e.add(x2[i], y2[i]);
   }
   part[threadIdx.x] = e;
@@ -64,16 +64,30 @@ __global__ void box_kernel(std::size_t n, const double* x, const double* y, cons
 
 } // namespace
 
-Extent box_of(CudaExecutor& executor, std::size_t n, const double* x, const double* y, const double* x2,
-              const double* y2) {
+namespace {
+
+Extent box_of_strided(CudaExecutor& executor, std::size_t n, const double* x, const double* y,
+                      std::size_t step, const double* x2, const double* y2) {
   DeviceBuffer<Extent> d_parts(kBoxBlocks);
-  box_kernel<<<kBoxBlocks, kBoxThreads, 0, executor.stream()>>>(n, x, y, x2, y2, d_parts.data());
+  box_kernel<<<kBoxBlocks, kBoxThreads, 0, executor.stream()>>>(n, x, y, step, x2, y2, d_parts.data());
   CDT_CUDA_CHECK_LAUNCH("site_box");
   std::vector<Extent> parts(kBoxBlocks);
   executor.download(parts.data(), d_parts.data(), kBoxBlocks);
   Extent all = parts[0];
   for (const Extent& p : parts) all.add(p);
   return all;
+}
+
+} // namespace
+
+Extent box_of(CudaExecutor& executor, std::size_t n, const double* x, const double* y, const double* x2,
+              const double* y2) {
+  return box_of_strided(executor, n, x, y, 1, x2, y2);
+}
+
+Extent box_of(CudaExecutor& executor, std::size_t n, const ::cdt::detail::Vec2* xy) {
+  static_assert(sizeof(::cdt::detail::Vec2) == 2 * sizeof(double));
+  return box_of_strided(executor, n, &xy->x, &xy->y, 2, nullptr, nullptr);
 }
 
 namespace {

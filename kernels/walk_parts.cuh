@@ -48,7 +48,8 @@ struct WalkHints {
   __device__ std::uint32_t parts_of(const ::cdt::detail::MeshView& m, std::uint32_t a,
                                     std::uint32_t b) const {
     if (part_length <= 0.0) return 1;
-    const double dx = m.x[b] - m.x[a], dy = m.y[b] - m.y[a];
+    const ::cdt::detail::Vec2 pa = m.xy[a], pb = m.xy[b];
+    const double dx = pb.x - pa.x, dy = pb.y - pa.y;
     const double parts = sqrt(dx * dx + dy * dy) / part_length;
     return parts < 1.0 ? 1u : parts >= kMaxParts - 1 ? kMaxParts : 1u + static_cast<std::uint32_t>(parts);
   }
@@ -155,8 +156,8 @@ WalkPartsView plan_walk_parts(CudaExecutor& executor, const ::cdt::detail::MeshV
         const std::uint32_t end = l + 1 < num_long ? long_first[l + 1] : num_parts;
         const std::uint32_t parts = end - long_first[l] + 1;
         const double along = static_cast<double>(u - long_first[l] + 1) / parts;
-        const double px = m.x[p.a] + along * (m.x[p.b] - m.x[p.a]);
-        const double py = m.y[p.a] + along * (m.y[p.b] - m.y[p.a]);
+        const double px = m.xy[p.a].x + along * (m.xy[p.b].x - m.xy[p.a].x);
+        const double py = m.xy[p.a].y + along * (m.xy[p.b].y - m.xy[p.a].y);
         PartStart start{kNoId, {}};
         const std::uint32_t from = hints.cell[hints.cell_of(px, py)];
         if (from != kNoId) {

@@ -244,8 +244,7 @@ detail::InsertStats insert_added_vertices(detail::Mesh& mesh, const detail::Prep
   using namespace detail;
   for (const MissingPoint& f : fresh) {
     const Point& p = pslg.vertices[site_vertex[f.vertex]];
-    mesh.x.push_back(p.x);
-    mesh.y.push_back(p.y);
+    mesh.xy.push_back({p.x, p.y});
     mesh.vert_tri.push_back(kNoId);
   }
   std::vector<std::uint8_t> again;

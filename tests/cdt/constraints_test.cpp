@@ -39,8 +39,7 @@ struct Pt {
 Mesh points_only(const std::vector<Pt>& pts) {
   Mesh mesh;
   for (const Pt& p : pts) {
-    mesh.x.push_back(p.x);
-    mesh.y.push_back(p.y);
+    mesh.xy.push_back({p.x, p.y});
   }
   mesh.vert_tri.assign(pts.size(), kNoId);
   return mesh;
@@ -176,16 +175,16 @@ TEST(ConstraintPairConfig, FlippedPairCrossingsAgreeWithTheTriangleTest) {
     if (pick == 1) a = 0;
     if (pick == 2) a = 2;
     if (pick == 3) std::tie(a, b) = std::pair{0u, 2u};
-    if (mesh.x[a] == mesh.x[b] && mesh.y[a] == mesh.y[b]) continue;
+    if (mesh.xy[a].x == mesh.xy[b].x && mesh.xy[a].y == mesh.xy[b].y) continue;
     if (orient_vertices(m, 0, 1, 3) <= 0 || orient_vertices(m, 3, 1, 2) <= 0) continue;
     if (orient_vertices(m, 0, 1, 2) <= 0 || orient_vertices(m, 2, 3, 0) <= 0) continue; // convex after
     bool on_piece = false;
     for (std::uint32_t v = 0; v < 4; ++v) {
       if (v == a || v == b || orient_vertices(m, a, b, v) != 0) continue;
-      const double t = (mesh.x[v] - mesh.x[a]) * (mesh.x[b] - mesh.x[a]) +
-                       (mesh.y[v] - mesh.y[a]) * (mesh.y[b] - mesh.y[a]);
-      const double len = (mesh.x[b] - mesh.x[a]) * (mesh.x[b] - mesh.x[a]) +
-                         (mesh.y[b] - mesh.y[a]) * (mesh.y[b] - mesh.y[a]);
+      const double t = (mesh.xy[v].x - mesh.xy[a].x) * (mesh.xy[b].x - mesh.xy[a].x) +
+                       (mesh.xy[v].y - mesh.xy[a].y) * (mesh.xy[b].y - mesh.xy[a].y);
+      const double len = (mesh.xy[b].x - mesh.xy[a].x) * (mesh.xy[b].x - mesh.xy[a].x) +
+                         (mesh.xy[b].y - mesh.xy[a].y) * (mesh.xy[b].y - mesh.xy[a].y);
       on_piece = on_piece || (t > 0 && t < len);
     }
     // The endpoints are mesh vertices too: none may lie inside the quadrilateral.
@@ -757,8 +756,7 @@ TEST(ConstraintInsert, ViolatedPreconditionsThrowInsteadOfLooping) {
   // A vertex not in the mesh.
   {
     Mesh mesh = trixel_test::sweep_triangulate({0, 1, 0}, {0, 0, 1});
-    mesh.x.push_back(5);
-    mesh.y.push_back(5);
+    mesh.xy.push_back({5, 5});
     mesh.vert_tri.push_back(kNoId);
     EXPECT_THROW(insert_constraints(mesh, std::vector<ConstraintPiece2>{{0, 3, 0}}, 5, executor), cdt::Error);
   }
@@ -905,8 +903,7 @@ TEST(ConstraintOneByOne, ViolatedPreconditionsThrowInsteadOfLooping) {
   }
   {
     Mesh mesh = trixel_test::sweep_triangulate({0, 1, 0}, {0, 0, 1});
-    mesh.x.push_back(5);
-    mesh.y.push_back(5);
+    mesh.xy.push_back({5, 5});
     mesh.vert_tri.push_back(kNoId);
     EXPECT_THROW(insert_constraints_one_by_one(mesh, std::vector<ConstraintPiece2>{{0, 3, 0}}, executor),
                  cdt::Error);
@@ -945,7 +942,7 @@ TEST(ConstraintWalk, PartsOfALongWalkMakeTheWholeWalk) {
     std::vector<WalkEntry> entry;
     for (int j = 1; j < q; ++j) {
       const double s = static_cast<double>(j) / q;
-      const double px = m.x[a] + s * (m.x[b] - m.x[a]), py = m.y[a] + s * (m.y[b] - m.y[a]);
+      const double px = m.xy[a].x + s * (m.xy[b].x - m.xy[a].x), py = m.xy[a].y + s * (m.xy[b].y - m.xy[a].y);
       const PointLocation loc = locate_point(m, static_cast<std::uint32_t>(rng.next() % n), px, py);
       WalkEntry at;
       if (loc.status == WorkStatus::ok && walk_entry(m, a, b, loc.tri, at)) {

@@ -41,7 +41,7 @@ void expect_valid(const Mesh& mesh) {
   for (std::uint32_t t = 0; t < mesh.num_slots(); ++t) {
     if (!mesh.alive(t)) continue;
     const std::uint32_t a = mesh.tri[3 * t], b = mesh.tri[3 * t + 1], c = mesh.tri[3 * t + 2];
-    ASSERT_GT(orient2d(mesh.x[a], mesh.y[a], mesh.x[b], mesh.y[b], mesh.x[c], mesh.y[c]), 0)
+    ASSERT_GT(orient2d(mesh.xy[a].x, mesh.xy[a].y, mesh.xy[b].x, mesh.xy[b].y, mesh.xy[c].x, mesh.xy[c].y), 0)
         << "triangle " << t;
     for (std::uint32_t i = 0; i < 3; ++i) {
       const std::uint32_t e = mesh.adj[3 * t + i];

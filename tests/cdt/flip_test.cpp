@@ -484,8 +484,7 @@ TEST(LinkTriangles, AnEdgeOfThreeTrianglesIsAnErrorWhateverTheThreads) {
   // Triangles (0, 1, 2), (1, 0, 3) and (0, 1, 4) all have edge 0-1; the first two use it in opposite
   // directions, the third again from 0 to 1.
   Mesh mesh;
-  mesh.x = {0, 1, 0.5, 0.5, 0.2};
-  mesh.y = {0, 0, 1, -1, 2};
+  mesh.xy = {{0, 0}, {1, 0}, {0.5, 1}, {0.5, -1}, {0.2, 2}};
   mesh.add_triangle(0, 1, 2);
   mesh.add_triangle(1, 0, 3);
   mesh.add_triangle(0, 1, 4);

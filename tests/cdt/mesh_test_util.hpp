@@ -25,15 +25,15 @@ namespace trixel_test {
 using Triangle = std::array<std::uint32_t, 3>;
 
 inline int orient_of(const cdt::detail::Mesh& mesh, std::uint32_t a, std::uint32_t b, std::uint32_t c) {
-  return cdt::detail::orient2d(mesh.x[a], mesh.y[a], mesh.x[b], mesh.y[b], mesh.x[c], mesh.y[c]);
+  return cdt::detail::orient2d(mesh.xy[a].x, mesh.xy[a].y, mesh.xy[b].x, mesh.xy[b].y, mesh.xy[c].x,
+                               mesh.xy[c].y);
 }
 
 /// A mesh of the given counter-clockwise triangles, linked by link_triangles.
 inline cdt::detail::Mesh mesh_from_triangles(const std::vector<double>& x, const std::vector<double>& y,
                                              const std::vector<Triangle>& triangles) {
   cdt::detail::Mesh mesh;
-  mesh.x = x;
-  mesh.y = y;
+  mesh.set_points(x, y);
   for (const Triangle& t : triangles) mesh.add_triangle(t[0], t[1], t[2]);
   cdt::detail::CpuExecutor serial(1);
   cdt::detail::link_triangles(mesh, serial);
@@ -208,8 +208,8 @@ inline void expect_valid_mesh(const cdt::detail::Mesh& mesh) {
     for (std::uint32_t steps = 0; steps <= mesh.num_slots(); ++steps) {
       const std::uint32_t k = mesh.tri[3 * t] == v ? 0 : mesh.tri[3 * t + 1] == v ? 1 : 2;
       const std::uint32_t p = mesh.tri[3 * t + next3(k)], q = mesh.tri[3 * t + prev3(k)];
-      const double px = mesh.x[p] - mesh.x[v], py = mesh.y[p] - mesh.y[v];
-      const double qx = mesh.x[q] - mesh.x[v], qy = mesh.y[q] - mesh.y[v];
+      const double px = mesh.xy[p].x - mesh.xy[v].x, py = mesh.xy[p].y - mesh.xy[v].y;
+      const double qx = mesh.xy[q].x - mesh.xy[v].x, qy = mesh.xy[q].y - mesh.xy[v].y;
       turn += std::atan2(px * qy - py * qx, px * qx + py * qy);
       const std::uint32_t e = mesh.adj[3 * t + next3(k)];
       if (e == kNoId) break;
@@ -236,8 +236,8 @@ inline std::size_t count_non_delaunay_edges(const cdt::detail::Mesh& mesh) {
       const std::uint32_t e = mesh.adj[3 * t + i];
       if (e == cdt::detail::kNoId || mesh.seg[3 * t + i] != cdt::detail::kNoId) continue;
       const std::uint32_t d = mesh.tri[e];
-      if (cdt::detail::incircle(mesh.x[a], mesh.y[a], mesh.x[b], mesh.y[b], mesh.x[c], mesh.y[c], mesh.x[d],
-                                mesh.y[d]) > 0) {
+      if (cdt::detail::incircle(mesh.xy[a].x, mesh.xy[a].y, mesh.xy[b].x, mesh.xy[b].y, mesh.xy[c].x,
+                                mesh.xy[c].y, mesh.xy[d].x, mesh.xy[d].y) > 0) {
         ++bad;
       }
     }
@@ -264,7 +264,8 @@ inline std::uint64_t serial_lawson(cdt::detail::Mesh& mesh, std::uint64_t max_fl
         if (e == kNoId || m.seg[3 * t + i] != kNoId) continue;
         const std::uint32_t a = m.tri[3 * t + i], b = m.tri[3 * t + cdt::detail::next3(i)],
                             c = m.tri[3 * t + cdt::detail::prev3(i)], d = m.tri[e];
-        if (cdt::detail::incircle(m.x[a], m.y[a], m.x[b], m.y[b], m.x[c], m.y[c], m.x[d], m.y[d]) <= 0)
+        if (cdt::detail::incircle(m.xy[a].x, m.xy[a].y, m.xy[b].x, m.xy[b].y, m.xy[c].x, m.xy[c].y, m.xy[d].x,
+                                  m.xy[d].y) <= 0)
           continue;
         if (orient_of(mesh, a, b, d) <= 0 || orient_of(mesh, d, c, a) <= 0) continue;
         cdt::detail::flip_edge(m, t, i);

@@ -76,9 +76,9 @@ Walked brute_force(const Mesh& mesh, std::uint32_t a, std::uint32_t b) {
   w.ok = true;
   const auto on_segment = [&](std::uint32_t v) {
     if (orient_of(mesh, a, b, v) != 0) return false;
-    const double lo_x = std::min(mesh.x[a], mesh.x[b]), hi_x = std::max(mesh.x[a], mesh.x[b]);
-    const double lo_y = std::min(mesh.y[a], mesh.y[b]), hi_y = std::max(mesh.y[a], mesh.y[b]);
-    return mesh.x[v] >= lo_x && mesh.x[v] <= hi_x && mesh.y[v] >= lo_y && mesh.y[v] <= hi_y;
+    const double lo_x = std::min(mesh.xy[a].x, mesh.xy[b].x), hi_x = std::max(mesh.xy[a].x, mesh.xy[b].x);
+    const double lo_y = std::min(mesh.xy[a].y, mesh.xy[b].y), hi_y = std::max(mesh.xy[a].y, mesh.xy[b].y);
+    return mesh.xy[v].x >= lo_x && mesh.xy[v].x <= hi_x && mesh.xy[v].y >= lo_y && mesh.xy[v].y <= hi_y;
   };
   for (std::uint32_t v = 0; v < mesh.num_vertices(); ++v)
     if (on_segment(v)) w.vertices.insert(v);
@@ -425,7 +425,7 @@ TEST(ScreenWalk, PartsOfACorridorMakeTheWholeWalk) {
     std::vector<CorridorPart> parts(1); // the first from a
     for (int j = 1; j < q; ++j) {
       const double s = static_cast<double>(j) / q;
-      const double px = m.x[a] + s * (m.x[b] - m.x[a]), py = m.y[a] + s * (m.y[b] - m.y[a]);
+      const double px = m.xy[a].x + s * (m.xy[b].x - m.xy[a].x), py = m.xy[a].y + s * (m.xy[b].y - m.xy[a].y);
       const cdt::detail::PointLocation loc =
           cdt::detail::locate_point(m, static_cast<std::uint32_t>(rng.next() % n), px, py);
       CorridorPart part;

@@ -231,8 +231,7 @@ FansCopy copy_fans(const Mesh& mesh, std::uint32_t first_fake) {
     if (u >= c.num_fans) c.fans.adj[3 * u + e % 3] = k;
   }
   for (const std::uint32_t v : c.vertex) {
-    c.fans.x.push_back(mesh.x[v]);
-    c.fans.y.push_back(mesh.y[v]);
+    c.fans.xy.push_back(mesh.xy[v]);
     const std::uint32_t t = mesh.vert_tri[v];
     c.fans.vert_tri.push_back(t == kNoId          ? kNoId
                               : local.contains(t) ? local[t]
@@ -293,8 +292,7 @@ TEST(FakeBoundary, RemovalFromACopyOfTheFansMatchesTheWholeMesh) {
     ASSERT_LT(copy.slot.size(), patched.num_slots()) << c.name << ": the copy must be a part of the mesh";
     delete_fake_vertices(copy.fans, copy.first_fake, ex, copy.vertex.data());
     write_back(patched, copy);
-    patched.x.resize(f.num_sites);
-    patched.y.resize(f.num_sites);
+    patched.xy.resize(f.num_sites);
     patched.vert_tri.resize(f.num_sites);
     EXPECT_EQ(patched.tri, whole.tri) << c.name;
     EXPECT_EQ(patched.adj, whole.adj) << c.name;
@@ -433,11 +431,9 @@ TEST(InsertInParts, UselessHintsAndPointsOnEdges) {
 /// A square 0-1-2-3 (CCW) split into the two triangles of the diagonal 0-2; further vertices unplaced.
 Mesh square_mesh(std::vector<std::pair<double, double>> extra) {
   Mesh m;
-  m.x = {0, 4, 4, 0};
-  m.y = {0, 0, 4, 4};
+  m.xy = {{0, 0}, {4, 0}, {4, 4}, {0, 4}};
   for (auto [px, py] : extra) {
-    m.x.push_back(px);
-    m.y.push_back(py);
+    m.xy.push_back({px, py});
   }
   m.add_triangle(0, 1, 2);
   m.add_triangle(0, 2, 3);
@@ -544,11 +540,9 @@ TEST(InsertMissing, ClaimKeysAreInvertible) {
 /// Vertex 0 at (cx, cy) surrounded by ring vertices 1..n; triangles (0, i, i + 1).
 Mesh star_mesh(double cx, double cy, const std::vector<std::pair<double, double>>& ring) {
   Mesh m;
-  m.x = {cx};
-  m.y = {cy};
+  m.xy = {{cx, cy}};
   for (auto [px, py] : ring) {
-    m.x.push_back(px);
-    m.y.push_back(py);
+    m.xy.push_back({px, py});
   }
   const auto n = static_cast<std::uint32_t>(ring.size());
   for (std::uint32_t i = 1; i <= n; ++i) m.add_triangle(0, i, i == n ? 1 : i + 1);
@@ -634,8 +628,7 @@ TEST(ShiftCheckMesh, RejectsBrokenMeshes) {
   }
   {
     Mesh m; // a valid triangulation of an L-shape: right everywhere except that it is not the convex hull
-    m.x = {0, 2, 2, 1, 1, 0};
-    m.y = {0, 0, 1, 1, 2, 2};
+    m.xy = {{0, 0}, {2, 0}, {2, 1}, {1, 1}, {1, 2}, {0, 2}};
     for (std::uint32_t k = 1; k + 1 < 6; ++k) m.add_triangle(0, k, k + 1);
     CpuExecutor ex(1);
     cdt::detail::link_triangles(m, ex);

@@ -99,9 +99,10 @@ inline void lawson_flip(cdt::detail::Mesh& mesh) {
     if (!m.alive(t) || f == kNoId) continue;
     const std::uint32_t a = m.v(t, i), b = m.v(t, next3(i)), c = m.v(t, prev3(i));
     const std::uint32_t u = edge_tri(f), d = m.v(u, edge_index(f));
-    if (incircle(m.x[a], m.y[a], m.x[b], m.y[b], m.x[c], m.y[c], m.x[d], m.y[d]) <= 0) continue;
-    if (orient2d(m.x[a], m.y[a], m.x[b], m.y[b], m.x[d], m.y[d]) <= 0) continue;
-    if (orient2d(m.x[d], m.y[d], m.x[c], m.y[c], m.x[a], m.y[a]) <= 0) continue;
+    if (incircle(m.xy[a].x, m.xy[a].y, m.xy[b].x, m.xy[b].y, m.xy[c].x, m.xy[c].y, m.xy[d].x, m.xy[d].y) <= 0)
+      continue;
+    if (orient2d(m.xy[a].x, m.xy[a].y, m.xy[b].x, m.xy[b].y, m.xy[d].x, m.xy[d].y) <= 0) continue;
+    if (orient2d(m.xy[d].x, m.xy[d].y, m.xy[c].x, m.xy[c].y, m.xy[a].x, m.xy[a].y) <= 0) continue;
     flip_edge(m, t, i);
     for (std::uint32_t k = 0; k < 3; ++k) {
       stack.push_back(edge_id(t, k));
@@ -135,19 +136,18 @@ inline Fixture make_fixture(std::vector<double> tx, std::vector<double> ty, Fixt
   f.true_x = std::move(tx);
   f.true_y = std::move(ty);
   Mesh& mesh = f.mesh;
-  mesh.x.resize(n);
-  mesh.y.resize(n);
+  mesh.xy.resize(n);
   std::map<std::pair<double, double>, std::uint32_t> kept;
   std::vector<std::uint32_t> ids;
   double lo_x = f.true_x[0], hi_x = lo_x, lo_y = f.true_y[0], hi_y = lo_y;
   for (std::uint32_t v = 0; v < n; ++v) {
-    mesh.x[v] = std::floor(f.true_x[v] / opt.cell) * opt.cell;
-    mesh.y[v] = std::floor(f.true_y[v] / opt.cell) * opt.cell;
+    mesh.xy[v].x = std::floor(f.true_x[v] / opt.cell) * opt.cell;
+    mesh.xy[v].y = std::floor(f.true_y[v] / opt.cell) * opt.cell;
     lo_x = std::min(lo_x, f.true_x[v]);
     hi_x = std::max(hi_x, f.true_x[v]);
     lo_y = std::min(lo_y, f.true_y[v]);
     hi_y = std::max(hi_y, f.true_y[v]);
-    const auto [it, fresh] = kept.emplace(std::make_pair(mesh.x[v], mesh.y[v]), v);
+    const auto [it, fresh] = kept.emplace(std::make_pair(mesh.xy[v].x, mesh.xy[v].y), v);
     if (fresh)
       ids.push_back(v);
     else
@@ -158,11 +158,15 @@ inline Fixture make_fixture(std::vector<double> tx, std::vector<double> ty, Fixt
   const double radius = 4 * std::max({hi_x - lo_x, hi_y - lo_y, 1.0}) + 16 * opt.cell;
   for (std::uint32_t k = 0; k < opt.fakes; ++k) {
     const double angle = 2 * std::numbers::pi * (k + 0.5) / opt.fakes;
-    mesh.x.push_back(std::round(cx + radius * std::cos(angle)));
-    mesh.y.push_back(std::round(cy + radius * std::sin(angle)));
+    mesh.xy.push_back({std::round(cx + radius * std::cos(angle)), std::round(cy + radius * std::sin(angle))});
     ids.push_back(n + k);
   }
-  const std::vector<std::uint32_t> tris = sweep_triangulate(mesh.x, mesh.y, ids);
+  std::vector<double> grid_x, grid_y;
+  for (const Vec2& p : mesh.xy) {
+    grid_x.push_back(p.x);
+    grid_y.push_back(p.y);
+  }
+  const std::vector<std::uint32_t> tris = sweep_triangulate(grid_x, grid_y, ids);
   for (std::size_t k = 0; k < tris.size(); k += 3) mesh.add_triangle(tris[k], tris[k + 1], tris[k + 2]);
   CpuExecutor serial(1);
   link_triangles(mesh, serial);
@@ -218,10 +222,12 @@ inline std::string check_mesh(const cdt::detail::Mesh& mesh, bool convex_hull = 
   using namespace cdt::detail;
   std::ostringstream err;
   const std::uint32_t slots = mesh.num_slots(), nv = mesh.num_vertices();
-  const auto& x = mesh.x;
-  const auto& y = mesh.y;
-  if (mesh.tri.size() != mesh.adj.size() || mesh.tri.size() != mesh.seg.size() ||
-      mesh.vert_tri.size() != nv || mesh.y.size() != nv)
+  std::vector<double> x, y;
+  for (const Vec2& p : mesh.xy) {
+    x.push_back(p.x);
+    y.push_back(p.y);
+  }
+  if (mesh.tri.size() != mesh.adj.size() || mesh.tri.size() != mesh.seg.size() || mesh.vert_tri.size() != nv)
     return "array sizes disagree";
   std::vector<std::uint32_t> incident(nv, 0);
   std::uint64_t faces = 0, boundary = 0;
@@ -393,7 +399,7 @@ inline RunResult run_phases(Fixture& f, cdt::detail::CpuExecutor& executor, bool
     return r;
   }
   for (std::uint32_t v = 0; v < f.num_sites; ++v) {
-    if (mesh.x[v] != f.true_x[v] || mesh.y[v] != f.true_y[v]) {
+    if (mesh.xy[v].x != f.true_x[v] || mesh.xy[v].y != f.true_y[v]) {
       r.error = "after shift: site " + std::to_string(v) + " is not at its true position";
       return r;
     }
@@ -449,7 +455,7 @@ inline RunResult run_phases(Fixture& f, cdt::detail::CpuExecutor& executor, bool
       r.error = "site " + std::to_string(v) + " is not in the final triangulation";
       return r;
     }
-    if (mesh.x[v] != f.true_x[v] || mesh.y[v] != f.true_y[v]) {
+    if (mesh.xy[v].x != f.true_x[v] || mesh.xy[v].y != f.true_y[v]) {
       r.error = "site " + std::to_string(v) + " moved";
       return r;
     }

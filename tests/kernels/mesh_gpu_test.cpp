@@ -45,8 +45,7 @@ protected:
 };
 
 void expect_same_mesh(const Mesh& device, const Mesh& host, const std::string& what) {
-  EXPECT_EQ(device.x, host.x) << what;
-  EXPECT_EQ(device.y, host.y) << what;
+  EXPECT_EQ(device.xy, host.xy) << what;
   ASSERT_EQ(device.num_slots(), host.num_slots()) << what;
   EXPECT_EQ(device.tri, host.tri) << what;
   EXPECT_EQ(device.adj, host.adj) << what;
@@ -123,8 +122,7 @@ TEST_F(MeshGpu, DualMatchesTheCpuExecutor) {
       std::vector<std::uint32_t> degenerate;
       const Mesh host = dualize(colour, in.m, in.x, in.y, in.kept, in.bounds, executor, nullptr, &degenerate);
       Mesh dual;
-      dual.x = in.x;
-      dual.y = in.y;
+      dual.set_points(in.x, in.y);
       reserve_mesh_slots(dual, static_cast<std::uint32_t>(in.x.size()));
       cdt::gpu::DualStats stats;
       std::vector<std::uint32_t> culprits;
@@ -136,8 +134,7 @@ TEST_F(MeshGpu, DualMatchesTheCpuExecutor) {
         expect_same_mesh(device, host, what);
         // Completed on the device, without the copy to the host: the same mesh, slot for slot.
         Mesh sites;
-        sites.x = in.x;
-        sites.y = in.y;
+        sites.set_points(in.x, in.y);
         std::optional<cdt::gpu::DeviceMesh> on_device;
         std::vector<std::uint32_t> site_vert_tri;
         ASSERT_EQ(diagram.complete_dual(sites, in.bounds, on_device, site_vert_tri),
@@ -188,8 +185,7 @@ TEST_F(MeshGpu, DualDeclinesADegenerateCorner) {
   cdt::gpu::DeviceVoronoi diagram(in.grid.cell_owner, in.grid.gx, in.grid.gy, in.m);
   EXPECT_EQ(diagram.colour(), colour);
   Mesh dual;
-  dual.x = in.x;
-  dual.y = in.y;
+  dual.set_points(in.x, in.y);
   std::vector<std::uint32_t> culprits;
   const bool accepted = diagram.dual(dual, nullptr, &culprits) == cdt::gpu::DeviceVoronoi::DualOutcome::built;
   // Whatever the CPU executor made of this diagram in one pass, the device agrees.
@@ -605,7 +601,7 @@ TEST_F(MeshGpu, ConstraintsBesideTheSplitWithoutTheSuspects) {
 
   // A vertex added between the runs (as a crossing's would be), in a free spot: its slots are new.
   const double extra_x = 0.3125, extra_y = 0.6875;
-  const auto extra = static_cast<std::uint32_t>(start.x.size());
+  const auto extra = static_cast<std::uint32_t>(start.xy.size());
 
   cdt::gpu::DeviceMesh device(start);
   EXPECT_THROW(device.restart_constraints({}, 8), cdt::Error); // nothing ran
@@ -740,8 +736,7 @@ TEST_F(MeshGpu, ConstraintsReportAVertexOnAPiece) {
 TEST_F(MeshGpu, InsertReportsBadMissingPointsAsTheCpuExecutor) {
   const std::vector<double> x = {0, 4, 0, 4}, y = {0, 0, 4, 4};
   Mesh start = trixel_test::sweep_triangulate(x, y);
-  start.x.push_back(1); // vertex 4, not in the mesh yet
-  start.y.push_back(1);
+  start.xy.push_back({1, 1}); // vertex 4, not in the mesh yet
   start.vert_tri.push_back(kNoId);
   const std::vector<MissingArray> lists = {
       {{4, 0}, {4, 0}}, // listed twice

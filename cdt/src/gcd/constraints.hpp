@@ -415,9 +415,10 @@ CDT_HD inline void mark_after_flip(const MeshView& m, std::uint32_t* cmark, cons
 
 /// Exact: whether p and q, both on a line through a and distinct from a, lie on the same side of a.
 CDT_HD_INLINE bool same_direction(const MeshView& m, std::uint32_t a, std::uint32_t p, std::uint32_t q) {
-  const int px = (m.x[p] > m.x[a]) - (m.x[p] < m.x[a]), qx = (m.x[q] > m.x[a]) - (m.x[q] < m.x[a]);
+  const Vec2 pa = m.xy[a], pp = m.xy[p], pq = m.xy[q];
+  const int px = (pp.x > pa.x) - (pp.x < pa.x), qx = (pq.x > pa.x) - (pq.x < pa.x);
   if (px != 0 || qx != 0) return px == qx;
-  return (m.y[p] > m.y[a]) == (m.y[q] > m.y[a]);
+  return (pp.y > pa.y) == (pq.y > pa.y);
 }
 
 /// Whether a step of a piece's insertion stayed within the slots it may touch.

@@ -30,7 +30,7 @@ CDT_HD_INLINE int orient(const double* x, const double* y, std::uint32_t a, std:
 
 /// The fake boundary: a regular polygon of k vertices around `bounds`, its inscribed circle three
 /// times as large as the box's circumscribed one, so every site position is strictly inside.
-void fake_polygon(const Box& bounds, std::uint32_t k, std::vector<double>& fx, std::vector<double>& fy) {
+void fake_polygon(const Box& bounds, std::uint32_t k, std::vector<Vec2>& out) {
   const double cx = 0.5 * (bounds.min_x + bounds.max_x);
   const double cy = 0.5 * (bounds.min_y + bounds.max_y);
   double half_diagonal = 0.5 * std::hypot(bounds.max_x - bounds.min_x, bounds.max_y - bounds.min_y);
@@ -38,8 +38,7 @@ void fake_polygon(const Box& bounds, std::uint32_t k, std::vector<double>& fx, s
   const double radius = 3.0 * half_diagonal / std::cos(std::numbers::pi / k);
   for (std::uint32_t i = 0; i < k; ++i) {
     const double angle = 2.0 * std::numbers::pi * i / k;
-    fx.push_back(cx + radius * std::cos(angle));
-    fy.push_back(cy + radius * std::sin(angle));
+    out.push_back({cx + radius * std::cos(angle), cy + radius * std::sin(angle)});
   }
 }
 
@@ -166,11 +165,10 @@ std::vector<std::uint32_t> boundary_cycle(std::span<const OpenEdge> open) {
 Mesh fake_polygon_only(std::span<const double> x, std::span<const double> y, const Box& bounds,
                        CpuExecutor& executor, DualizeStats* stats) {
   Mesh mesh;
-  mesh.x.assign(x.begin(), x.end());
-  mesh.y.assign(y.begin(), y.end());
+  mesh.set_points(x, y);
   const auto n = static_cast<std::uint32_t>(x.size());
   constexpr std::uint32_t k = 8;
-  fake_polygon(bounds, k, mesh.x, mesh.y);
+  fake_polygon(bounds, k, mesh.xy);
   for (std::uint32_t i = 1; i + 1 < k; ++i) mesh.add_triangle(n, n + i, n + i + 1);
   link_triangles(mesh, executor);
   if (stats != nullptr) *stats = DualizeStats{0, 0, k};
@@ -263,8 +261,7 @@ Mesh dualize(std::span<const std::uint32_t> colour, std::uint32_t m, std::span<c
   if (invalid || num_dual == 0) return fake_polygon_only(x, y, bounds, executor, stats);
 
   Mesh mesh;
-  mesh.x.assign(x.begin(), x.end());
-  mesh.y.assign(y.begin(), y.end());
+  mesh.set_points(x, y);
   reserve_mesh_slots(mesh, n);
   mesh.grow_slots(num_dual);
   // Slots ordered by each triangle's lowest vertex (a stable radix sort, the same for any thread
@@ -309,16 +306,15 @@ void reserve_mesh_slots(Mesh& mesh, std::uint32_t n) {
   mesh.seg.reserve(room);
 }
 
-std::optional<DualCompletion> plan_dual_completion(std::span<const OpenEdge> open, std::span<const double> x,
-                                                   std::span<const double> y, std::uint32_t num_dual,
-                                                   const Box& bounds) {
+std::optional<DualCompletion> plan_dual_completion(std::span<const OpenEdge> open, std::span<const Vec2> xy,
+                                                   std::uint32_t num_dual, const Box& bounds) {
   std::vector<double> open_x(open.size());
   std::vector<double> open_y(open.size());
   for (std::size_t k = 0; k < open.size(); ++k) {
-    open_x[k] = x[open[k].from];
-    open_y[k] = y[open[k].from];
+    open_x[k] = xy[open[k].from].x;
+    open_y[k] = xy[open[k].from].y;
   }
-  return plan_dual_completion(open, open_x, open_y, static_cast<std::uint32_t>(x.size()), num_dual, bounds);
+  return plan_dual_completion(open, open_x, open_y, static_cast<std::uint32_t>(xy.size()), num_dual, bounds);
 }
 
 std::optional<DualCompletion> plan_dual_completion(std::span<const OpenEdge> open,
@@ -362,9 +358,11 @@ std::optional<DualCompletion> plan_dual_completion(std::span<const OpenEdge> ope
   // Fake boundary: about sqrt(k) vertices (k = hull size), as the paper suggests, at least 8.
   const auto k_fake = std::max<std::uint32_t>(
       8, static_cast<std::uint32_t>(std::ceil(std::sqrt(static_cast<double>(hull.size())))));
-  fake_polygon(bounds, k_fake, plan.fake_x, plan.fake_y);
-  lx.insert(lx.end(), plan.fake_x.begin(), plan.fake_x.end());
-  ly.insert(ly.end(), plan.fake_y.begin(), plan.fake_y.end());
+  fake_polygon(bounds, k_fake, plan.fake);
+  for (const Vec2& f : plan.fake) {
+    lx.push_back(f.x);
+    ly.push_back(f.y);
+  }
   if (!zip_fake_boundary(hull, b, k_fake, lx.data(), ly.data(), added)) {
     for (std::uint32_t f = b; f < b + k_fake; ++f) add_outside_vertex(hull, f, lx.data(), ly.data(), added);
   }
@@ -450,11 +448,17 @@ Mesh complete_dual(Mesh mesh, std::span<const std::uint8_t> kept, const Box& bou
     const std::uint32_t e = open_ids[k];
     open[k] = {e, m.v(edge_tri(e), next3(edge_index(e))), m.v(edge_tri(e), prev3(edge_index(e)))};
   }
-  const std::optional<DualCompletion> plan = plan_dual_completion(open, mesh.x, mesh.y, num_dual, bounds);
-  if (!plan) return fake_polygon_only(mesh.x, mesh.y, bounds, executor, stats);
+  const std::optional<DualCompletion> plan = plan_dual_completion(open, mesh.xy, num_dual, bounds);
+  if (!plan) {
+    std::vector<double> x(n), y(n);
+    for (std::uint32_t v = 0; v < n; ++v) {
+      x[v] = mesh.xy[v].x;
+      y[v] = mesh.xy[v].y;
+    }
+    return fake_polygon_only(x, y, bounds, executor, stats);
+  }
 
-  mesh.x.insert(mesh.x.end(), plan->fake_x.begin(), plan->fake_x.end());
-  mesh.y.insert(mesh.y.end(), plan->fake_y.begin(), plan->fake_y.end());
+  mesh.xy.insert(mesh.xy.end(), plan->fake.begin(), plan->fake.end());
   for (const Tri& t : plan->triangles) mesh.add_triangle(t.a, t.b, t.c);
   std::copy(plan->adj.begin(), plan->adj.end(), mesh.adj.begin() + 3 * static_cast<std::ptrdiff_t>(num_dual));
   for (const auto& [e, to] : plan->links) mesh.adj[e] = to;
@@ -462,7 +466,7 @@ Mesh complete_dual(Mesh mesh, std::span<const std::uint8_t> kept, const Box& bou
   mesh.vert_tri.insert(mesh.vert_tri.end(), plan->fake_vert_tri.begin(), plan->fake_vert_tri.end());
   check_missing_sites_left_out(kept, mesh.vert_tri, executor);
   if (stats != nullptr) {
-    *stats = DualizeStats{num_dual, plan->hull_triangles, static_cast<std::uint32_t>(plan->fake_x.size())};
+    *stats = DualizeStats{num_dual, plan->hull_triangles, static_cast<std::uint32_t>(plan->fake.size())};
   }
   return mesh;
 }

@@ -98,8 +98,7 @@ struct OpenEdge {
 /// out from the dual's open edges alone, so that it applies alike to a mesh on the host and one on the
 /// device. The dual has n sites and num_dual slots; what is added comes after them.
 struct DualCompletion {
-  std::vector<double> fake_x; ///< the fake boundary's vertices, numbered n, n + 1, ...
-  std::vector<double> fake_y;
+  std::vector<Vec2> fake;              ///< the fake boundary's vertices, numbered n, n + 1, ...
   std::vector<DualTriangle> triangles; ///< in slots num_dual, num_dual + 1, ...
   std::vector<std::uint32_t> adj;      ///< 3 per added triangle
   /// (open edge of the dual, the added edge now across it)
@@ -109,12 +108,11 @@ struct DualCompletion {
 };
 
 /// Plans the completion of a dual from its open edges (in increasing edge order) and the sites'
-/// positions x, y (the n sites as the dual has them). std::nullopt when the open edges are not one simple
+/// positions xy (the n sites as the dual has them). std::nullopt when the open edges are not one simple
 /// cycle: then only the fake polygon alone can start the mesh. Throws Error when the added triangles
 /// do not pair up with the open edges (not a valid dual).
-std::optional<DualCompletion> plan_dual_completion(std::span<const OpenEdge> open, std::span<const double> x,
-                                                   std::span<const double> y, std::uint32_t num_dual,
-                                                   const Box& bounds);
+std::optional<DualCompletion> plan_dual_completion(std::span<const OpenEdge> open, std::span<const Vec2> xy,
+                                                   std::uint32_t num_dual, const Box& bounds);
 
 /// The same, given only the positions of the open edges' first vertices: open[k].from is at (open_x[k],
 /// open_y[k]) (each boundary vertex is the first of one open edge); n: the number of sites.

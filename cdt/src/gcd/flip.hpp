@@ -58,7 +58,8 @@ FlipStats flip_fake_fans(Mesh& mesh, std::uint32_t first_fake, CpuExecutor& exec
 // --- per-element work (host and device) --------------------------------------------------------------
 
 CDT_HD_INLINE int orient_vertices(const MeshView& m, std::uint32_t a, std::uint32_t b, std::uint32_t c) {
-  return orient2d(m.x[a], m.y[a], m.x[b], m.y[b], m.x[c], m.y[c]);
+  const Vec2 pa = m.xy[a], pb = m.xy[b], pc = m.xy[c];
+  return orient2d(pa.x, pa.y, pb.x, pb.y, pc.x, pc.y);
 }
 
 /// True when flipping edge i of t (t = (a, b, c), neighbour (c, b, d)) gives two counter-clockwise
@@ -76,8 +77,10 @@ template <bool kExact>
 CDT_HD_INLINE int orient_test(const MeshView& m, std::uint32_t a, std::uint32_t b, std::uint32_t c) {
   if constexpr (kExact)
     return orient_vertices(m, a, b, c);
-  else
-    return orient2d_filter(m.x[a], m.y[a], m.x[b], m.y[b], m.x[c], m.y[c]);
+  else {
+    const Vec2 pa = m.xy[a], pb = m.xy[b], pc = m.xy[c];
+    return orient2d_filter(pa.x, pa.y, pb.x, pb.y, pc.x, pc.y);
+  }
 }
 
 /// Whether edge i of t is to be flipped (1) or not (0): it is not a constraint, has a neighbour, fails
@@ -95,11 +98,12 @@ CDT_HD_INLINE int edge_flip_test(const MeshView& m, std::uint32_t t, std::uint32
   const std::uint32_t a = m.v(t, 0), b = m.v(t, 1), c = m.v(t, 2);
   const std::uint32_t d = m.v(edge_tri(e), edge_index(e));
   int sign;
+  const Vec2 pa = m.xy[a], pb = m.xy[b], pc = m.xy[c], pd = m.xy[d];
   if constexpr (kExact) {
-    sign = incircle_perturbed(m.x[a], m.y[a], m.x[b], m.y[b], m.x[c], m.y[c], m.x[d], m.y[d]);
+    sign = incircle_perturbed(pa.x, pa.y, pb.x, pb.y, pc.x, pc.y, pd.x, pd.y);
   } else {
     double det;
-    sign = incircle_filter(m.x[a], m.y[a], m.x[b], m.y[b], m.x[c], m.y[c], m.x[d], m.y[d], det);
+    sign = incircle_filter(pa.x, pa.y, pb.x, pb.y, pc.x, pc.y, pd.x, pd.y, det);
     if (sign == kUndecided) return kUndecided;
   }
   if (sign <= 0) return 0;

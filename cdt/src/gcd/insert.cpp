@@ -149,7 +149,7 @@ PartWalk walk_in_part(const MeshView& m, Owns&& owns, std::uint32_t& t, double p
     for (std::uint32_t r = 0; r < 3 && next == kNoId; ++r) {
       const std::uint32_t k = (step + r) % 3;
       const std::uint32_t a = m.tri[3 * t + next3(k)], b = m.tri[3 * t + prev3(k)];
-      const int o = orient2d(m.x[a], m.y[a], m.x[b], m.y[b], px, py);
+      const int o = orient2d(m.xy[a].x, m.xy[a].y, m.xy[b].x, m.xy[b].y, px, py);
       if (o < 0) {
         next = m.adj[3 * t + k];
         if (next == kNoId) return PartWalk::failed;
@@ -256,7 +256,7 @@ InsertStats insert_missing_points_in_parts(Mesh& mesh, std::span<const MissingPo
     for (const std::uint32_t k : ks) {
       const std::uint32_t q = order[k];
       const std::uint32_t v = missing[q].vertex;
-      const double px = m.x[v], py = m.y[v];
+      const double px = m.xy[v].x, py = m.xy[v].y;
       std::uint32_t t = kNoId, edge = 3;
       PartWalk where = PartWalk::failed;
       for (const std::uint32_t origin : {last, from[q]}) {
@@ -384,8 +384,7 @@ void remove_fake_boundary(Mesh& mesh, std::uint32_t first_fake, CpuExecutor& exe
   delete_fake_vertices(mesh, first_fake, executor);
 
   if (!compact) {
-    mesh.x.resize(first_fake);
-    mesh.y.resize(first_fake);
+    mesh.xy.resize(first_fake);
     mesh.vert_tri.resize(first_fake);
     return;
   }
@@ -438,8 +437,7 @@ void remove_fake_boundary(Mesh& mesh, std::uint32_t first_fake, CpuExecutor& exe
     mesh.adj[k] = adj[k];
     mesh.seg[k] = seg[k];
   });
-  mesh.x.resize(first_fake);
-  mesh.y.resize(first_fake);
+  mesh.xy.resize(first_fake);
   mesh.vert_tri.resize(first_fake);
 }
 

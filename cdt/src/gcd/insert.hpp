@@ -128,7 +128,8 @@ CDT_HD inline PointLocation locate_point(MeshView m, std::uint32_t origin, doubl
   PointLocation fail;
   fail.status = WorkStatus::lost;
   for (;;) {
-    const double ox = m.x[origin], oy = m.y[origin];
+    const Vec2 o = m.xy[origin];
+    const double ox = o.x, oy = o.y;
     if (ox == px && oy == py) return PointLocation{kNoId, 3, WorkStatus::duplicate};
     // Find the wedge of origin's fan that holds the ray towards p (any visiting order will do).
     std::uint32_t e_cross = kNoId, a = kNoId, b = kNoId, next_origin = kNoId;
@@ -138,7 +139,8 @@ CDT_HD inline PointLocation locate_point(MeshView m, std::uint32_t origin, doubl
     const bool fan_ok = visit_fan(m, origin, closed, [&](std::uint32_t t, std::uint32_t k) {
       if (++steps > max_steps) return false;
       const std::uint32_t va = m.v(t, next3(k)), vb = m.v(t, prev3(k));
-      const double ax = m.x[va], ay = m.y[va], bx = m.x[vb], by = m.y[vb];
+      const Vec2 pa = m.xy[va], pb = m.xy[vb];
+      const double ax = pa.x, ay = pa.y, bx = pb.x, by = pb.y;
       const int oa = orient2d(ox, oy, ax, ay, px, py);
       const int ob = orient2d(ox, oy, bx, by, px, py);
       // Edge (origin, va) is edge prev3(k); edge (vb, origin) is edge next3(k).
@@ -189,7 +191,8 @@ CDT_HD inline PointLocation locate_point(MeshView m, std::uint32_t origin, doubl
       if (e == kNoId) return fail;
       const std::uint32_t u = edge_tri(e), j = edge_index(e);
       const std::uint32_t c = m.v(u, j); // u = (c, b, a) from index j on
-      const double ax = m.x[a], ay = m.y[a], bx = m.x[b], by = m.y[b], cx = m.x[c], cy = m.y[c];
+      const Vec2 pa = m.xy[a], pb = m.xy[b], pc = m.xy[c];
+      const double ax = pa.x, ay = pa.y, bx = pb.x, by = pb.y, cx = pc.x, cy = pc.y;
       const int s_ac = orient2d(ax, ay, cx, cy, px, py);
       const int s_cb = orient2d(cx, cy, bx, by, px, py);
       if (s_ac >= 0 && s_cb >= 0) {
@@ -406,7 +409,8 @@ CDT_HD inline void locate_and_claim(const MeshView& m, const InsertClaims& c, st
     c.start[q] = o;
   }
   const std::uint32_t v = c.points[q].vertex;
-  const MissingPointPlace at = place_missing_point(m, o, m.x[v], m.y[v]);
+  const Vec2 p = m.xy[v];
+  const MissingPointPlace at = place_missing_point(m, o, p.x, p.y);
   if (at.status != WorkStatus::ok) {
     fail(at.status);
     return;

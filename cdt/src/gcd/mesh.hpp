@@ -15,6 +15,7 @@
 // MeshView holds raw pointers so that per-element functions run unchanged on the host and the device.
 
 #include <cstdint>
+#include <span>
 #include <vector>
 
 #include "cdt/detail/host_device.hpp"
@@ -29,10 +30,17 @@ CDT_HD_INLINE std::uint32_t edge_id(std::uint32_t t, std::uint32_t i) { return 3
 CDT_HD_INLINE std::uint32_t edge_tri(std::uint32_t e) { return e / 3; }
 CDT_HD_INLINE std::uint32_t edge_index(std::uint32_t e) { return e % 3; }
 
+/// A vertex's coordinates, both in one aligned 16 bytes: a predicate reads each of its vertices in one
+/// load (one memory sector on the device) rather than one from each of two arrays.
+struct alignas(16) Vec2 {
+  double x = 0.0;
+  double y = 0.0;
+  friend bool operator==(const Vec2&, const Vec2&) = default;
+};
+
 /// Raw view of a Mesh for per-element work (host or device pointers).
 struct MeshView {
-  double* x = nullptr; ///< vertex coordinates
-  double* y = nullptr;
+  Vec2* xy = nullptr;           ///< vertex coordinates
   std::uint32_t* tri = nullptr; ///< 3 per slot; tri[3t] == kNoId marks a free slot
   std::uint32_t* adj = nullptr; ///< 3 per slot: encoded neighbour edge across edge i, kNoId on the boundary
   /// 3 per slot: constraint id on edge i, kNoId when not a constraint. Null in a view of a mesh without
@@ -53,16 +61,21 @@ struct MeshView {
 
 /// Host-side storage of a triangulation under construction.
 struct Mesh {
-  std::vector<double> x;
-  std::vector<double> y;
+  std::vector<Vec2> xy;
   std::vector<std::uint32_t> tri;
   std::vector<std::uint32_t> adj;
   std::vector<std::uint32_t> seg;
   std::vector<std::uint32_t> vert_tri;
 
   std::uint32_t num_slots() const { return static_cast<std::uint32_t>(tri.size() / 3); }
-  std::uint32_t num_vertices() const { return static_cast<std::uint32_t>(x.size()); }
+  std::uint32_t num_vertices() const { return static_cast<std::uint32_t>(xy.size()); }
   bool alive(std::uint32_t t) const { return tri[3 * t] != kNoId; }
+
+  /// Sets the vertices' coordinates from separate arrays of x and y (of equal lengths).
+  void set_points(std::span<const double> px, std::span<const double> py) {
+    xy.resize(px.size());
+    for (std::size_t i = 0; i < px.size(); ++i) xy[i] = Vec2{px[i], py[i]};
+  }
 
   /// Adds a triangle slot (a, b, c must be counter-clockwise) with no links; returns its index.
   std::uint32_t add_triangle(std::uint32_t a, std::uint32_t b, std::uint32_t c);
@@ -70,8 +83,8 @@ struct Mesh {
   std::uint32_t grow_slots(std::uint32_t n);
 
   MeshView view() {
-    return MeshView{x.data(),   y.data(),        tri.data(),  adj.data(),
-                    seg.data(), vert_tri.data(), num_slots(), num_vertices()};
+    return MeshView{xy.data(),       tri.data(),  adj.data(),    seg.data(),
+                    vert_tri.data(), num_slots(), num_vertices()};
   }
 };
 

@@ -150,7 +150,7 @@ void delete_vertex_round(Mesh& mesh, std::span<const std::uint32_t> active, Hole
     const std::uint32_t v = active[i], base = ws.offset[i], count = ws.count[i];
     WorkStatus s = WorkStatus::ok;
     if (star) {
-      s = cut_ears(m, h, base, count, m.x[v], m.y[v]);
+      s = cut_ears(m, h, base, count, m.xy[v].x, m.xy[v].y);
       if (hint != nullptr) hint[i] = ring_hint(h, base, count, leaving);
     } else {
       s = fill_pockets(m, h, base, count);
@@ -179,8 +179,7 @@ ShiftStats shift_to_true_positions(Mesh& mesh, std::uint32_t num_sites, std::spa
   // Sites outside the mesh are unreferenced, so they can take their true position now, ready for Phase 4.
   executor.for_each(num_sites, [&](std::size_t v) {
     if (m.vert_tri[v] == kNoId) {
-      m.x[v] = true_x[v];
-      m.y[v] = true_y[v];
+      m.xy[v] = {true_x[v], true_y[v]};
     } else {
       state[v] = kUnchecked;
     }
@@ -227,8 +226,7 @@ ShiftStats shift_to_true_positions(Mesh& mesh, std::uint32_t num_sites, std::spa
       const WorkStatus s = shift_is_good(m, v, true_x[v], true_y[v], good);
       if (s != WorkStatus::ok) failure.record(s);
       if (good) {
-        m.x[v] = true_x[v];
-        m.y[v] = true_y[v];
+        m.xy[v] = {true_x[v], true_y[v]};
       }
       state[v] = good ? kGood : kBad;
     });
@@ -261,8 +259,7 @@ ShiftStats shift_to_true_positions(Mesh& mesh, std::uint32_t num_sites, std::spa
       mesh, std::move(bad), HoleShape::star, leaving,
       [&](std::span<const std::uint32_t> active, std::span<const std::uint32_t> hints) {
         executor.for_each(active.size(), [&](std::size_t i) {
-          m.x[active[i]] = true_x[active[i]];
-          m.y[active[i]] = true_y[active[i]];
+          m.xy[active[i]] = {true_x[active[i]], true_y[active[i]]};
         });
         const std::size_t first = missing.size();
         missing.resize(first + active.size());

@@ -239,7 +239,8 @@ CDT_HD inline WorkStatus shift_is_good(MeshView m, std::uint32_t v, double tx, d
   bool closed = false;
   const bool ok = visit_fan(m, v, closed, [&](std::uint32_t t, std::uint32_t k) {
     const std::uint32_t a = m.v(t, next3(k)), b = m.v(t, prev3(k));
-    if (orient2d(tx, ty, m.x[a], m.y[a], m.x[b], m.y[b]) <= 0) good = false;
+    const Vec2 pa = m.xy[a], pb = m.xy[b];
+    if (orient2d(tx, ty, pa.x, pa.y, pb.x, pb.y) <= 0) good = false;
     return good;
   });
   if (!ok) return WorkStatus::broken_fan;
@@ -388,23 +389,22 @@ CDT_HD inline WorkStatus cut_ears(MeshView m, HoleView h, std::uint32_t base, st
     h.prev[i] = i == base ? last : i - 1;
     h.ref[i] = kBoundaryRef | i;
   }
-  auto px = [&](std::uint32_t p) { return m.x[h.vertex[p]]; };
-  auto py = [&](std::uint32_t p) { return m.y[h.vertex[p]]; };
-  auto convex = [&](std::uint32_t b) {
-    const std::uint32_t a = h.prev[b], c = h.next[b];
-    return orient2d(px(a), py(a), px(b), py(b), px(c), py(c)) > 0;
+  auto pt = [&](std::uint32_t p) { return m.xy[h.vertex[p]]; };
+  auto turns_left = [](const Vec2& p, const Vec2& q, const Vec2& r) {
+    return orient2d(p.x, p.y, q.x, q.y, r.x, r.y);
   };
+  auto convex = [&](std::uint32_t b) { return turns_left(pt(h.prev[b]), pt(b), pt(h.next[b])) > 0; };
   auto kernel_ear = [&](std::uint32_t b) {
-    const std::uint32_t a = h.prev[b], c = h.next[b];
-    return convex(b) && orient2d(px(a), py(a), px(c), py(c), kx, ky) > 0;
+    const Vec2 pa = pt(h.prev[b]), pb = pt(b), pc = pt(h.next[b]);
+    return turns_left(pa, pb, pc) > 0 && orient2d(pa.x, pa.y, pc.x, pc.y, kx, ky) > 0;
   };
   auto empty_ear = [&](std::uint32_t b) {
     if (!convex(b)) return false;
     const std::uint32_t a = h.prev[b], c = h.next[b];
+    const Vec2 pa = pt(a), pb = pt(b), pc = pt(c);
     for (std::uint32_t w = h.next[c]; w != a; w = h.next[w]) {
-      if (orient2d(px(a), py(a), px(b), py(b), px(w), py(w)) >= 0 &&
-          orient2d(px(b), py(b), px(c), py(c), px(w), py(w)) >= 0 &&
-          orient2d(px(c), py(c), px(a), py(a), px(w), py(w)) >= 0)
+      const Vec2 pw = pt(w);
+      if (turns_left(pa, pb, pw) >= 0 && turns_left(pb, pc, pw) >= 0 && turns_left(pc, pa, pw) >= 0)
         return false;
     }
     return true;
@@ -435,7 +435,7 @@ CDT_HD inline WorkStatus cut_ears(MeshView m, HoleView h, std::uint32_t base, st
     cur = a;
   }
   const std::uint32_t a = cur, b = h.next[a], c = h.next[b];
-  if (orient2d(px(a), py(a), px(b), py(b), px(c), py(c)) <= 0) return WorkStatus::no_ear;
+  if (turns_left(pt(a), pt(b), pt(c)) <= 0) return WorkStatus::no_ear;
   const std::uint32_t s = h.slot[base + used++];
   emit_hole_triangle(m, h, s, a, b, c);
   // The closing triangle's edge 1 is the ring edge after c, not a new diagonal.
@@ -470,7 +470,8 @@ CDT_HD inline WorkStatus fill_pockets(MeshView m, HoleView h, std::uint32_t base
     while (top >= 2) {
       const std::uint32_t a = stack[top - 2], b = stack[top - 1];
       const std::uint32_t va = h.vertex[a], vb = h.vertex[b], vc = h.vertex[c];
-      if (orient2d(m.x[va], m.y[va], m.x[vb], m.y[vb], m.x[vc], m.y[vc]) <= 0) break;
+      const Vec2 pa = m.xy[va], pb = m.xy[vb], pc = m.xy[vc];
+      if (orient2d(pa.x, pa.y, pb.x, pb.y, pc.x, pc.y) <= 0) break;
       h.ref[b] = edge_in;
       emit_hole_triangle(m, h, h.slot[base + used++], a, b, c);
       edge_in = h.ref[a];
