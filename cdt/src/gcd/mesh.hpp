@@ -51,12 +51,6 @@ struct alignas(32) Slot {
            p.link[1] == q.link[1] && p.link[2] == q.link[2];
   }
 };
-/// Word i (0..2) of a slot's three, chosen by selects: an index into a copy of a slot held in registers
-/// would put the copy in the device's local memory.
-CDT_HD_INLINE std::uint32_t word3(const std::uint32_t (&w)[3], std::uint32_t i) {
-  return i == 0 ? w[0] : i == 1 ? w[1] : w[2];
-}
-
 /// A free slot: every vertex and link kNoId.
 inline constexpr Slot kFreeSlot{{kNoId, kNoId, kNoId}, {kNoId, kNoId, kNoId}, {kNoId, kNoId}};
 
@@ -143,18 +137,17 @@ struct FlippedPairLinks {
 CDT_HD inline FlippedPairLinks rewrite_flipped_pair(MeshView m, std::uint32_t t, std::uint32_t i) {
   // Both slots read and written whole: one sector each way on the device.
   const Slot st = m.slots[t];
-  const std::uint32_t e = word3(st.link, i);
+  const std::uint32_t e = st.link[i];
   const std::uint32_t u = edge_tri(e);
   const std::uint32_t j = edge_index(e);
   const Slot su = m.slots[u];
   const std::uint32_t i1 = next3(i), i2 = prev3(i);
   const std::uint32_t j1 = next3(j), j2 = prev3(j);
-  const std::uint32_t a = word3(st.v, i), b = word3(st.v, i1), c = word3(st.v, i2);
-  const std::uint32_t d = word3(su.v, j);
+  const std::uint32_t a = st.v[i], b = st.v[i1], c = st.v[i2];
+  const std::uint32_t d = su.v[j];
   // Outer edges before the flip: of t, (c, a) is edge i1 and (a, b) is edge i2; of u, with
   // u = (d, c, b) in order j, j1, j2: (b, d) is edge j1 and (d, c) is edge j2.
-  const FlippedPairLinks outer{word3(st.link, i1), word3(st.link, i2), word3(su.link, j1),
-                               word3(su.link, j2)};
+  const FlippedPairLinks outer{st.link[i1], st.link[i2], su.link[j1], su.link[j2]};
   // New t = (a, b, d): edge 0 = (b, d), edge 1 = (d, a) (the new diagonal), edge 2 = (a, b).
   // New u = (d, c, a): edge 0 = (c, a), edge 1 = (a, d) (the diagonal), edge 2 = (d, c).
   m.slots[t] = Slot{{a, b, d}, {outer.u_bd, edge_id(u, 1), outer.t_ab}, {st.spare[0], st.spare[1]}};
