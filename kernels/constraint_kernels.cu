@@ -461,7 +461,7 @@ ConstraintStats insert_constraints(CudaExecutor& executor, const MeshView& m,
             if (st[k] != ConstraintStatus::present) return;
             const std::uint32_t id = piece[pend[k]].id;
             atomicMin(m.seg + present[k], id);
-            const std::uint32_t twin = m.link(present[k]);
+            const std::uint32_t twin = m.adj[present[k]];
             if (twin != kNoId) atomicMin(m.seg + twin, id);
           },
           "present_pieces");
@@ -682,7 +682,8 @@ void launch_beside(DeviceMesh::State& s, detail::ConstraintsBeside& beside, unsi
   detail::CudaExecutor& executor = s.executor;
   const std::size_t words = 3 * static_cast<std::size_t>(s.num_slots);
   const cudaStream_t stream = executor.stream();
-  beside.slots.resize(s.num_slots);
+  beside.tri.resize(words);
+  beside.adj.resize(words);
   beside.seg.resize(words);
   beside.vert_tri.resize(s.num_vertices);
   beside.flipped.resize(s.num_slots);
@@ -690,10 +691,8 @@ void launch_beside(DeviceMesh::State& s, detail::ConstraintsBeside& beside, unsi
     if (n > 0)
       CDT_CUDA_CHECK(cudaMemcpyAsync(dst, src, n * sizeof(std::uint32_t), cudaMemcpyDeviceToDevice, stream));
   };
-  if (s.num_slots > 0)
-    CDT_CUDA_CHECK(cudaMemcpyAsync(beside.slots.data(), s.slots.data(),
-                                   s.num_slots * sizeof(::cdt::detail::Slot), cudaMemcpyDeviceToDevice,
-                                   stream));
+  copy_words(beside.tri.data(), s.tri.data(), words);
+  copy_words(beside.adj.data(), s.adj.data(), words);
   copy_words(beside.seg.data(), s.seg.data(), words);
   copy_words(beside.vert_tri.data(), s.vert_tri.data(), s.num_vertices);
   executor.fill_bytes(beside.flipped.data(), 0, s.num_slots);
@@ -703,8 +702,8 @@ void launch_beside(DeviceMesh::State& s, detail::ConstraintsBeside& beside, unsi
   int device = 0;
   CDT_CUDA_CHECK(cudaGetDevice(&device));
   detail::ConstraintsBeside* run = &beside;
-  const ::cdt::detail::MeshView copy{s.xy.data(),          run->slots.data(), run->seg.data(),
-                                     run->vert_tri.data(), s.num_slots,       s.num_vertices};
+  const ::cdt::detail::MeshView copy{s.xy.data(),          run->tri.data(), run->adj.data(), run->seg.data(),
+                                     run->vert_tri.data(), s.num_slots,     s.num_vertices};
   const std::span<const ConstraintPiece2> pieces = run->host_pieces;
   const auto body = [run, copy, pieces, inner_iterations, device, only, num_only] {
     try {
@@ -739,14 +738,13 @@ bool DeviceMesh::start_constraints(std::span<const ConstraintPiece2> pieces, uns
   if (s.beside) throw Error("internal error: start_constraints: constraints already run beside the host");
   ::cdt::detail::check_constraint_counts(s.num_slots, pieces.size());
   if (pieces.empty()) return false;
-  // The copy of the links (44 bytes a slot, 4 a vertex), the flags of its flips and the pieces; the
+  // The copy of the links (36 bytes a slot, 4 a vertex), the flags of its flips and the pieces; the
   // constraints' own buffers (about 64 bytes a slot, 32 a piece, as insert_constraints allocates them)
   // and a screen's beside them (about 24 a slot, 4 a piece), with room to spare: else the caller
   // inserts them after its split.
   const std::size_t slots = s.num_slots, np = pieces.size();
-  const std::size_t needed = (sizeof(::cdt::detail::Slot) + 12 + 1 + 64 + 24) * slots +
-                             4 * static_cast<std::size_t>(s.num_vertices) + (12 + 32 + 4) * np +
-                             (std::size_t{64} << 20);
+  const std::size_t needed = (36 + 1 + 64 + 24) * slots + 4 * static_cast<std::size_t>(s.num_vertices) +
+                             (12 + 32 + 4) * np + (std::size_t{64} << 20);
   try {
     detail::require_device_memory(needed, 0, "constraints beside the host");
   } catch (const DeviceError&) {
@@ -782,7 +780,8 @@ bool DeviceMesh::restart_constraints(std::span<const std::uint32_t> skip, unsign
     auto beside = std::make_unique<detail::ConstraintsBeside>();
     beside->host_pieces = old->host_pieces;
     std::swap(beside->pieces, old->pieces);
-    std::swap(beside->slots, old->slots);
+    std::swap(beside->tri, old->tri);
+    std::swap(beside->adj, old->adj);
     std::swap(beside->seg, old->seg);
     std::swap(beside->vert_tri, old->vert_tri);
     std::swap(beside->flipped, old->flipped);
@@ -849,7 +848,7 @@ void DeviceMesh::check_constraints_unsplit(std::uint32_t first) {
       [=] __device__(std::size_t t) {
         if (!m.alive(static_cast<std::uint32_t>(t))) return;
         for (std::uint32_t i = 0; i < 3; ++i) {
-          const std::uint32_t v = m.v(t, i);
+          const std::uint32_t v = m.tri[3 * t + i];
           if (v < first || v >= m.num_vertices) continue;
           // The two edges at corner i (edge k is opposite corner k).
           if (m.seg[3 * t + (i + 1) % 3] != kNoId || m.seg[3 * t + (i + 2) % 3] != kNoId)
@@ -885,7 +884,8 @@ std::optional<ConstraintStats> DeviceMesh::finish_constraints(bool keep) {
   }
   if (!keep) return std::nullopt; // the mesh itself was not touched
   // The copy becomes the mesh; the mesh's old arrays go with `run`, after the work queued on them.
-  std::swap(s.slots, run->slots);
+  std::swap(s.tri, run->tri);
+  std::swap(s.adj, run->adj);
   std::swap(s.seg, run->seg);
   std::swap(s.vert_tri, run->vert_tri);
   std::swap(s.flipped_by_constraints, run->flipped);

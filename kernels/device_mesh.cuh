@@ -69,7 +69,7 @@ __device__ std::uint32_t team_apply_flips(const Team& team, const ::cdt::detail:
   team.for_each(n, [&](std::uint32_t k) {
     const std::uint32_t e = edge_of(k);
     const std::uint32_t t = edge_tri(e);
-    const std::uint32_t u = edge_tri(m.link(e));
+    const std::uint32_t u = edge_tri(m.adj[e]);
     partner[t] = u;
     partner[u] = t;
     last[2 * k] = t;
@@ -108,8 +108,7 @@ struct ConstraintsBeside {
   cudaEvent_t ready = nullptr; ///< recorded on the owner's stream once the copies are made
   std::span<const ::cdt::detail::ConstraintPiece2> host_pieces; ///< the caller's
   DeviceBuffer<::cdt::detail::ConstraintPiece2> pieces;         ///< host_pieces uploaded and checked
-  DeviceBuffer<::cdt::detail::Slot> slots;                      ///< the copy of the links the run changes
-  DeviceBuffer<std::uint32_t> seg, vert_tri;                    ///< with the slots
+  DeviceBuffer<std::uint32_t> tri, adj, seg, vert_tri;          ///< the copy of the links the run changes
   DeviceBuffer<std::uint8_t> flipped; ///< per slot of the copy, 1 where the run flipped
   DeviceBuffer<std::uint32_t> only;   ///< the pieces pending at the start, when not every one
 
@@ -128,8 +127,7 @@ struct ConstraintsBeside {
 struct DeviceMesh::State {
   detail::CudaExecutor executor; // declared first: destroyed after the buffers queued on its stream
   detail::DeviceBuffer<::cdt::detail::Vec2> xy;
-  detail::DeviceBuffer<::cdt::detail::Slot> slots;
-  detail::DeviceBuffer<std::uint32_t> seg, vert_tri;
+  detail::DeviceBuffer<std::uint32_t> tri, adj, seg, vert_tri;
   std::uint32_t num_slots = 0;
   std::uint32_t num_vertices = 0;
   /// Whether seg may hold constraint ids: false for a mesh made on the device until constraints are
@@ -164,8 +162,8 @@ struct DeviceMesh::State {
   pieces_beside(std::span<const ::cdt::detail::ConstraintPiece2> host) const;
 
   ::cdt::detail::MeshView view() {
-    return ::cdt::detail::MeshView{xy.data(),       slots.data(), seg.data(),
-                                   vert_tri.data(), num_slots,    num_vertices};
+    return ::cdt::detail::MeshView{xy.data(),       tri.data(), adj.data(),  seg.data(),
+                                   vert_tri.data(), num_slots,  num_vertices};
   }
 
   /// A clear failure word for the next step.

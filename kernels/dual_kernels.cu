@@ -55,19 +55,6 @@ void copy_on_device(CudaExecutor& executor, T* dst, const T* src, std::size_t n,
       n, [=] __device__(std::size_t k) { dst[k] = src[k]; }, name);
 }
 
-/// slots[0, n) from the vertex words tri[0, 3n) and link words adj[0, 3n), on the executor's stream.
-void interleave_slots(CudaExecutor& executor, ::cdt::detail::Slot* slots, const std::uint32_t* tri,
-                      const std::uint32_t* adj, std::size_t n) {
-  executor.for_each(
-      n,
-      [=] __device__(std::size_t t) {
-        slots[t] = ::cdt::detail::Slot{{tri[3 * t], tri[3 * t + 1], tri[3 * t + 2]},
-                                       {adj[3 * t], adj[3 * t + 1], adj[3 * t + 2]},
-                                       {::cdt::detail::kNoId, ::cdt::detail::kNoId}};
-      },
-      "interleave_slots");
-}
-
 /// Device memory of the dual and its links for n sites, in bytes (about 2n triangles; the sorts'
 /// second buffers included).
 std::size_t dual_device_bytes(std::size_t n) {
@@ -225,7 +212,8 @@ DeviceVoronoi::DualOutcome build_dual(DeviceVoronoi::State& state, ::cdt::detail
   detail::CudaExecutor& executor = state_->executor;
   const std::uint32_t m = state_->m;
   const std::uint32_t n = sites != nullptr ? sites->n : mesh.num_vertices();
-  mesh.slots.clear();
+  mesh.tri.clear();
+  mesh.adj.clear();
   mesh.seg.clear();
   mesh.vert_tri.clear();
   if (m < 2 || n < 3) return DualOutcome::declined;
@@ -352,12 +340,12 @@ DeviceVoronoi::DualOutcome DeviceVoronoi::dual(::cdt::detail::Mesh& mesh, DualSt
   detail::CudaExecutor& executor = state_->executor;
 
   const std::size_t words = 3 * static_cast<std::size_t>(num_dual);
-  detail::DeviceBuffer<::cdt::detail::Slot> d_slots(num_dual);
-  detail::interleave_slots(executor, d_slots.data(), b.tri.data(), b.adj.data(), num_dual);
-  mesh.slots.resize(num_dual);
+  mesh.tri.resize(words);
+  mesh.adj.resize(words);
   mesh.seg.assign(words, ::cdt::detail::kNoId);
   mesh.vert_tri.resize(n);
-  executor.download(mesh.slots.data(), d_slots.data(), num_dual);
+  executor.download(mesh.tri.data(), b.tri.data(), words);
+  executor.download(mesh.adj.data(), b.adj.data(), words);
   executor.download(mesh.vert_tri.data(), b.vert_tri.data(), n);
   done.record(executor.stream());
   st.download_ms = done.since(linked);
@@ -458,17 +446,14 @@ DeviceVoronoi::DualOutcome complete_dual(DeviceVoronoi::State& voronoi, ::cdt::d
         xy[v] = {site_x[v], site_y[v]};
       },
       "copy_xy");
-  detail::interleave_slots(executor, s.slots.data(), tri, adj, num_dual);
+  detail::copy_on_device(executor, s.tri.data(), tri, words, "copy_tri");
+  detail::copy_on_device(executor, s.adj.data(), adj, words, "copy_adj");
   detail::copy_on_device(executor, s.vert_tri.data(), b.vert_tri.data(), n, "copy_vert_tri");
   executor.upload(s.xy.data() + n, plan->fake.data(), k_fake);
-  std::vector<::cdt::detail::Slot> added_slots(added);
-  for (std::uint32_t k = 0; k < added; ++k) {
-    const ::cdt::detail::DualTriangle& t = plan->triangles[k];
-    added_slots[k] = ::cdt::detail::Slot{{t.a, t.b, t.c},
-                                         {plan->adj[3 * k], plan->adj[3 * k + 1], plan->adj[3 * k + 2]},
-                                         {::cdt::detail::kNoId, ::cdt::detail::kNoId}};
-  }
-  executor.upload(s.slots.data() + num_dual, added_slots.data(), added);
+  static_assert(sizeof(::cdt::detail::DualTriangle) == 3 * sizeof(std::uint32_t));
+  executor.upload(s.tri.data() + words, reinterpret_cast<const std::uint32_t*>(plan->triangles.data()),
+                  3 * static_cast<std::size_t>(added));
+  executor.upload(s.adj.data() + words, plan->adj.data(), plan->adj.size());
   executor.upload(s.vert_tri.data() + n, plan->fake_vert_tri.data(), k_fake);
   executor.fill_bytes(s.seg.data(), 0xFF, all_words);
   s.constrained = false;
@@ -478,9 +463,9 @@ DeviceVoronoi::DualOutcome complete_dual(DeviceVoronoi::State& voronoi, ::cdt::d
     executor.upload(d_links.data(), reinterpret_cast<const std::uint32_t*>(plan->links.data()),
                     2 * plan->links.size());
     std::uint32_t* links = d_links.data();
-    const ::cdt::detail::MeshView view = s.view();
+    std::uint32_t* new_adj = s.adj.data();
     executor.for_each(
-        plan->links.size(), [=] __device__(std::size_t k) { view.link(links[2 * k]) = links[2 * k + 1]; },
+        plan->links.size(), [=] __device__(std::size_t k) { new_adj[links[2 * k]] = links[2 * k + 1]; },
         "link_open_edges");
     executor.synchronize(); // d_links is freed at the end of this scope
   }

@@ -34,10 +34,10 @@ std::size_t mesh_device_bytes(std::size_t slots, std::size_t nv);
 
 /// Device memory that flipping a mesh of num_slots slots and num_vertices vertices needs, in bytes.
 std::size_t flip_device_bytes(std::size_t num_slots, std::size_t num_vertices) {
-  // The mesh (slots, seg; xy, vert_tri); per slot: mark, partner, active flag, two slot lists,
+  // The mesh (tri, adj, seg; x, y, vert_tri); per slot: mark, partner, active flag, two slot lists,
   // the round's candidates, neighbours, ownership bits, winners and their edges, the last pairs and
   // vertex fixes; CUB's scratch and the executor's own.
-  return mesh_device_bytes(num_slots, num_vertices) + num_slots * (4 + 4 + 1 + 8 + 8 + 1 + 8 + 8 + 1) +
+  return 36 * num_slots + 20 * num_vertices + num_slots * (4 + 4 + 1 + 8 + 8 + 1 + 8 + 8 + 1) +
          (std::size_t{4} << 20);
 }
 
@@ -62,7 +62,7 @@ void apply_flips(CudaExecutor& executor, DeviceFlipBatch& batch, const MeshView&
       n,
       [=] __device__(std::size_t k) {
         const std::uint32_t t = edge_tri(edges[k]);
-        const std::uint32_t u = edge_tri(m.link(edges[k]));
+        const std::uint32_t u = edge_tri(m.adj[edges[k]]);
         partner[t] = u;
         partner[u] = t;
         last[2 * k] = t;
@@ -245,8 +245,8 @@ FlipResult flip_mesh(DeviceMesh::State& s, const std::uint8_t* only, std::uint32
       slots,
       [=] __device__(std::size_t t) {
         if (!m.alive(static_cast<std::uint32_t>(t)) || (only != nullptr && only[t] == 0)) return false;
-        return first_fake == kNoId ||
-               (m.v(t, 0) >= first_fake || m.v(t, 1) >= first_fake || m.v(t, 2) >= first_fake);
+        return first_fake == kNoId || (m.tri[3 * t] >= first_fake || m.tri[3 * t + 1] >= first_fake ||
+                                       m.tri[3 * t + 2] >= first_fake);
       },
       list);
   {

@@ -450,13 +450,13 @@ std::uint32_t sites_in_slot_order(DeviceMesh::State& s, std::uint32_t num_sites,
       [=] __device__(std::size_t k) {
         // index_of names the first corner of v, so a triangle repeating a vertex (a corrupt mesh)
         // cannot list it twice and overrun `out`.
-        const std::uint32_t v = m.opposite(k);
+        const std::uint32_t v = m.tri[k];
         return v < num_sites && state[v] == wanted && m.vert_tri[v] == k / 3 &&
                m.index_of(static_cast<std::uint32_t>(k / 3), v) == k % 3;
       },
       out);
   s.executor.for_each(
-      n, [=] __device__(std::size_t i) { out[i] = m.opposite(out[i]); }, "corner_vertices");
+      n, [=] __device__(std::size_t i) { out[i] = m.tri[out[i]]; }, "corner_vertices");
   return n;
 }
 
@@ -979,7 +979,7 @@ InsertStats insert(DeviceMesh::State& s, std::span<const MissingPoint> missing,
   }
   if (words[1] == kNoId) throw Error("internal error: inserting missing points into an empty mesh");
   std::uint32_t fallback = kNoId;
-  executor.download(&fallback, &m.slots[words[1]].v[0], 1);
+  executor.download(&fallback, m.tri + 3 * static_cast<std::size_t>(words[1]), 1);
 
   DeviceBuffer<std::uint32_t> d_start(num), d_loc_t(num), d_loc_e(num), d_loc_u(num), d_loc_j(num),
       d_new0(num), d_new1(num), d_mark(m.num_slots), d_remaining(num), d_rest(num), d_winners(num),
@@ -1184,7 +1184,7 @@ void remove_fake_fans(DeviceMesh::State& s, std::uint32_t first_fake,
   const std::uint32_t num_fans = executor.compact(
       m.num_slots,
       [=] __device__(std::size_t t) {
-        const std::uint32_t* c = m.slots[t].v;
+        const std::uint32_t* c = m.tri + 3 * t;
         return c[0] != kNoId && (c[0] >= first_fake || c[1] >= first_fake || c[2] >= first_fake);
       },
       fans);
@@ -1197,7 +1197,7 @@ void remove_fake_fans(DeviceMesh::State& s, std::uint32_t first_fake,
   executor.for_each(
       fan_edges,
       [=] __device__(std::size_t k) {
-        const std::uint32_t e = m.link(fans[k / 3], k % 3);
+        const std::uint32_t e = m.adj[3 * fans[k / 3] + k % 3];
         if (e != kNoId) atomicMin(local + edge_tri(e), kClaim | static_cast<std::uint32_t>(k));
       },
       "claim_across");
@@ -1206,7 +1206,7 @@ void remove_fake_fans(DeviceMesh::State& s, std::uint32_t first_fake,
   const std::uint32_t num_across = executor.compact(
       fan_edges,
       [=] __device__(std::size_t k) {
-        const std::uint32_t e = m.link(fans[k / 3], k % 3);
+        const std::uint32_t e = m.adj[3 * fans[k / 3] + k % 3];
         return e != kNoId && local[edge_tri(e)] == (kClaim | static_cast<std::uint32_t>(k));
       },
       across);
@@ -1221,7 +1221,7 @@ void remove_fake_fans(DeviceMesh::State& s, std::uint32_t first_fake,
           return;
         }
         const std::uint32_t k = across[q - num_fans];
-        const std::uint32_t u = edge_tri(m.link(fans[k / 3], k % 3));
+        const std::uint32_t u = edge_tri(m.adj[3 * fans[k / 3] + k % 3]);
         global[q] = u;
         local[u] = static_cast<std::uint32_t>(q);
       },
@@ -1233,7 +1233,7 @@ void remove_fake_fans(DeviceMesh::State& s, std::uint32_t first_fake,
   executor.for_each(
       num_local,
       [=] __device__(std::size_t q) {
-        for (std::uint32_t j = 0; j < 3; ++j) vlocal[m.v(global[q], j)] = 0;
+        for (std::uint32_t j = 0; j < 3; ++j) vlocal[m.tri[3 * global[q] + j]] = 0;
       },
       "mark_fan_vertices");
   DeviceBuffer<std::uint32_t> d_ids(m.num_vertices);
@@ -1260,8 +1260,8 @@ void remove_fake_fans(DeviceMesh::State& s, std::uint32_t first_fake,
       fan_edges,
       [=] __device__(std::size_t k) {
         const std::uint32_t t = fans[k / 3], i = k % 3;
-        const std::uint32_t e = m.link(t, i);
-        ltri[k] = vlocal[m.v(t, i)];
+        const std::uint32_t e = m.adj[3 * t + i];
+        ltri[k] = vlocal[m.tri[3 * t + i]];
         lseg[k] = m.seg[3 * t + i];
         if (e == kNoId) return;
         const std::uint32_t u = local[edge_tri(e)];
@@ -1273,7 +1273,7 @@ void remove_fake_fans(DeviceMesh::State& s, std::uint32_t first_fake,
       num_across,
       [=] __device__(std::size_t q) {
         const std::uint32_t u = global[num_fans + q];
-        for (std::uint32_t j = 0; j < 3; ++j) ltri[3 * (num_fans + q) + j] = vlocal[m.v(u, j)];
+        for (std::uint32_t j = 0; j < 3; ++j) ltri[3 * (num_fans + q) + j] = vlocal[m.tri[3 * u + j]];
       },
       "copy_across");
   executor.for_each(
@@ -1293,11 +1293,8 @@ void remove_fake_fans(DeviceMesh::State& s, std::uint32_t first_fake,
   executor.download(xy.data(), lxy, xy.size());
 
   ::cdt::detail::Mesh host;
-  host.slots.resize(words / 3);
-  for (std::size_t k = 0; k < words; ++k) {
-    host.slots[k / 3].v[k % 3] = copy[k];
-    host.slots[k / 3].link[k % 3] = copy[words + k];
-  }
+  host.tri.assign(copy.begin(), copy.begin() + words);
+  host.adj.assign(copy.begin() + words, copy.begin() + 2 * words);
   host.seg.assign(copy.begin() + 2 * words, copy.begin() + 3 * words);
   host.vert_tri.assign(copy.begin() + 3 * words, copy.begin() + 3 * words + num_ids);
   host.xy = std::move(xy);
@@ -1305,7 +1302,8 @@ void remove_fake_fans(DeviceMesh::State& s, std::uint32_t first_fake,
   const auto first_local_fake = static_cast<std::uint32_t>(
       std::lower_bound(ranked_as.begin(), ranked_as.end(), first_fake) - ranked_as.begin());
   remove_on_host(host, first_local_fake, ranked_as);
-  if (3 * host.slots.size() != words || host.seg.size() != words || host.vert_tri.size() < first_local_fake)
+  if (host.tri.size() != words || host.adj.size() != words || host.seg.size() != words ||
+      host.vert_tri.size() < first_local_fake)
     throw Error("internal error: remove_fake_boundary: the fans' copy changed size on the host");
 
   // Write back: the fans' slots whole, the links back from the triangles across, the real vertices'
@@ -1315,12 +1313,8 @@ void remove_fake_fans(DeviceMesh::State& s, std::uint32_t first_fake,
   std::uint32_t* badj = btri + words;
   std::uint32_t* bseg = badj + words;
   std::uint32_t* bvt = bseg + words;
-  std::vector<std::uint32_t> back_links(2 * words);
-  for (std::size_t k = 0; k < words; ++k) {
-    back_links[k] = host.slots[k / 3].v[k % 3];
-    back_links[words + k] = host.slots[k / 3].link[k % 3];
-  }
-  executor.upload(btri, back_links.data(), 2 * words);
+  executor.upload(btri, host.tri.data(), words);
+  executor.upload(badj, host.adj.data(), words);
   executor.upload(bseg, host.seg.data(), words);
   executor.upload(bvt, host.vert_tri.data(), first_local_fake);
   const FailureWord failure = s.failure();
@@ -1334,14 +1328,14 @@ void remove_fake_fans(DeviceMesh::State& s, std::uint32_t first_fake,
           failure.record(WorkStatus::broken_fan);
           return;
         }
-        const std::uint32_t e = m.link(t, i); // still the old link: the triangles across are read here
+        const std::uint32_t e = m.adj[3 * t + i]; // still the old link: the triangles across are read here
         if (e != kNoId && local[edge_tri(e)] >= num_fans) {
           const std::uint32_t back = badj[edge_id(local[edge_tri(e)], edge_index(e))];
           if (back != kNoId && edge_tri(back) >= slots) {
             failure.record(WorkStatus::broken_fan);
             return;
           }
-          m.link(e) = global_edge(global, back);
+          m.adj[e] = global_edge(global, back);
         }
       },
       "write_back_links");
@@ -1351,8 +1345,8 @@ void remove_fake_fans(DeviceMesh::State& s, std::uint32_t first_fake,
         const std::uint32_t t = fans[k / 3], i = k % 3;
         const std::uint32_t lv = btri[k], le = badj[k];
         if ((lv != kNoId && lv >= num_ids) || (le != kNoId && edge_tri(le) >= slots)) return;
-        m.v(t, i) = lv == kNoId ? kNoId : lids[lv];
-        m.link(t, i) = global_edge(global, le);
+        m.tri[3 * t + i] = lv == kNoId ? kNoId : lids[lv];
+        m.adj[3 * t + i] = global_edge(global, le);
         m.seg[3 * t + i] = bseg[k];
       },
       "write_back_fans");
@@ -1388,7 +1382,7 @@ void compact_after_fake_removal(DeviceMesh::State& s, std::uint32_t first_fake) 
       num_live,
       [=] __device__(std::size_t r) {
         const std::uint32_t t = live[r];
-        const std::uint32_t a = m.v(t, 0), b = m.v(t, 1), c = m.v(t, 2);
+        const std::uint32_t a = m.tri[3 * t], b = m.tri[3 * t + 1], c = m.tri[3 * t + 2];
         key[r] = a < b ? (a < c ? a : c) : (b < c ? b : c);
       },
       "lowest_vertex");
@@ -1400,21 +1394,20 @@ void compact_after_fake_removal(DeviceMesh::State& s, std::uint32_t first_fake) 
       num_live, [=] __device__(std::size_t r) { new_id[live[r]] = static_cast<std::uint32_t>(r); },
       "new_ids");
   const std::size_t words = 3 * static_cast<std::size_t>(num_live);
-  DeviceBuffer<::cdt::detail::Slot> d_slots(num_live);
-  DeviceBuffer<std::uint32_t> d_seg(words);
-  ::cdt::detail::Slot* slots = d_slots.data();
+  DeviceBuffer<std::uint32_t> d_tri(words), d_adj(words), d_seg(words);
+  std::uint32_t* tri = d_tri.data();
+  std::uint32_t* adj = d_adj.data();
   std::uint32_t* seg = d_seg.data();
   executor.for_each(
       num_live,
       [=] __device__(std::size_t r) {
         const std::uint32_t t = live[r];
-        ::cdt::detail::Slot slot = m.slots[t];
         for (std::uint32_t i = 0; i < 3; ++i) {
-          const std::uint32_t e = slot.link[i];
-          slot.link[i] = e == kNoId ? kNoId : edge_id(new_id[edge_tri(e)], edge_index(e));
+          const std::uint32_t e = m.adj[3 * t + i];
+          tri[3 * r + i] = m.tri[3 * t + i];
+          adj[3 * r + i] = e == kNoId ? kNoId : edge_id(new_id[edge_tri(e)], edge_index(e));
           seg[3 * r + i] = m.seg[3 * t + i];
         }
-        slots[r] = slot;
       },
       "compact_slots");
   executor.for_each(
@@ -1425,25 +1418,25 @@ void compact_after_fake_removal(DeviceMesh::State& s, std::uint32_t first_fake) 
       },
       "renumber_vert_tri");
   executor.synchronize(); // the old arrays are freed next
-  s.slots = std::move(d_slots);
+  s.tri = std::move(d_tri);
+  s.adj = std::move(d_adj);
   s.seg = std::move(d_seg);
   s.num_slots = num_live;
   s.num_vertices = first_fake;
 }
 
 /// Device memory of a mesh with `slots` slots and nv vertices, in bytes.
-std::size_t mesh_device_bytes(std::size_t slots, std::size_t nv) {
-  return (sizeof(::cdt::detail::Slot) + 12) * slots + (sizeof(::cdt::detail::Vec2) + 4) * nv;
-}
+std::size_t mesh_device_bytes(std::size_t slots, std::size_t nv) { return 36 * slots + 20 * nv; }
 
 } // namespace detail
 
 void DeviceMesh::State::grow_slots(std::uint32_t n) {
   const std::size_t used = 3 * static_cast<std::size_t>(num_slots);
   const std::size_t count = used + 3 * static_cast<std::size_t>(n);
-  detail::require_device_memory((sizeof(::cdt::detail::Slot) + 12) * (count / 3), 0,
+  detail::require_device_memory(3 * 4 * count, 0,
                                 "growing the mesh to " + std::to_string(count / 3) + " slots");
-  detail::grow_buffer(executor, slots, num_slots, count / 3, 0xFF);
+  detail::grow_buffer(executor, tri, used, count, 0xFF);
+  detail::grow_buffer(executor, adj, used, count, 0xFF);
   detail::grow_buffer(executor, seg, used, count, 0xFF);
   num_slots += n;
 }
@@ -1470,19 +1463,21 @@ DeviceMesh::DeviceMesh(const ::cdt::detail::Mesh& mesh) : state_(std::make_uniqu
   s.allocate(mesh.num_slots(), mesh.num_vertices());
   const std::size_t words = 3 * static_cast<std::size_t>(s.num_slots);
   s.executor.upload(s.xy.data(), mesh.xy.data(), s.num_vertices);
-  s.executor.upload(s.slots.data(), mesh.slots.data(), s.num_slots);
+  s.executor.upload(s.tri.data(), mesh.tri.data(), words);
+  s.executor.upload(s.adj.data(), mesh.adj.data(), words);
   s.executor.upload(s.seg.data(), mesh.seg.data(), words);
   s.executor.upload(s.vert_tri.data(), mesh.vert_tri.data(), s.num_vertices);
 }
 
-void DeviceMesh::State::allocate(std::uint32_t slots_count, std::uint32_t nv) {
-  detail::require_device_memory(detail::mesh_device_bytes(slots_count, nv), 0,
-                                "a mesh of " + std::to_string(slots_count) + " triangles");
-  num_slots = slots_count;
+void DeviceMesh::State::allocate(std::uint32_t slots, std::uint32_t nv) {
+  detail::require_device_memory(detail::mesh_device_bytes(slots, nv), 0,
+                                "a mesh of " + std::to_string(slots) + " triangles");
+  num_slots = slots;
   num_vertices = nv;
-  const std::size_t words = 3 * static_cast<std::size_t>(slots_count);
+  const std::size_t words = 3 * static_cast<std::size_t>(slots);
   xy.resize(nv);
-  slots.resize(slots_count);
+  tri.resize(words);
+  adj.resize(words);
   seg.resize(words);
   vert_tri.resize(nv);
 }
@@ -1735,11 +1730,13 @@ void DeviceMesh::download(::cdt::detail::Mesh& mesh) const {
   State& s = *state_;
   const std::size_t words = 3 * static_cast<std::size_t>(s.num_slots);
   mesh.xy.resize(s.num_vertices);
-  mesh.slots.resize(s.num_slots);
+  mesh.tri.resize(words);
+  mesh.adj.resize(words);
   mesh.seg.resize(words);
   mesh.vert_tri.resize(s.num_vertices);
   s.executor.download(mesh.xy.data(), s.xy.data(), s.num_vertices);
-  s.executor.download(mesh.slots.data(), s.slots.data(), s.num_slots);
+  s.executor.download(mesh.tri.data(), s.tri.data(), words);
+  s.executor.download(mesh.adj.data(), s.adj.data(), words);
   s.executor.download(mesh.seg.data(), s.seg.data(), words);
   s.executor.download(mesh.vert_tri.data(), s.vert_tri.data(), s.num_vertices);
 }

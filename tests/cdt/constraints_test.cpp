@@ -95,7 +95,7 @@ PairConfig next_pair_config(Mesh& mesh, std::uint32_t t, std::uint32_t a, std::u
   ChainLinks links;
   EXPECT_EQ(chain_links(m, t, a, b, links), ConstraintStatus::ok);
   EXPECT_NE(links.exit, 3u);
-  const std::uint32_t e = m.link(t, links.exit);
+  const std::uint32_t e = m.adj[3 * t + links.exit];
   return classify_pair(m, m.v(t, links.exit), m.v(t, next3(links.exit)), m.v(t, prev3(links.exit)),
                        m.v(e / 3, e % 3), a, b);
 }
@@ -167,8 +167,7 @@ TEST(ConstraintPairConfig, FlippedPairCrossingsAgreeWithTheTriangleTest) {
     std::vector<Pt> pts(6);
     for (Pt& v : pts) v = {static_cast<double>(rng.range(-5, 5)), static_cast<double>(rng.range(-5, 5))};
     Mesh mesh = points_only(pts);
-    mesh.slots = {{{0, 1, 3}, {kNoId, kNoId, kNoId}, {}},
-                  {{3, 1, 2}, {kNoId, kNoId, kNoId}, {}}}; // the old pair: (x, p, q) and (q, p, y)
+    mesh.tri = {0, 1, 3, 3, 1, 2}; // the old pair: (x, p, q) and (q, p, y)
     const MeshView m = mesh.view();
     // Vertices: x 0, p 1, y 2, q 3; the piece a-b is 4-5, or starts at x or y.
     std::uint32_t a = 4, b = 5;
@@ -198,8 +197,7 @@ TEST(ConstraintPairConfig, FlippedPairCrossingsAgreeWithTheTriangleTest) {
     if (on_piece || inside || !triangle_crosses_segment(m, 0, a, b) || !triangle_crosses_segment(m, 1, a, b))
       continue;
     ++tried;
-    mesh.slots = {{{0, 1, 2}, {kNoId, kNoId, kNoId}, {}},
-                  {{2, 3, 0}, {kNoId, kNoId, kNoId}, {}}}; // after the flip: (x, p, y) and (y, q, x)
+    mesh.tri = {0, 1, 2, 2, 3, 0}; // after the flip: (x, p, y) and (y, q, x)
     const MeshView after = mesh.view();
     const bool t_full = triangle_crosses_segment(after, 0, a, b);
     const bool u_full = triangle_crosses_segment(after, 1, a, b);
@@ -247,7 +245,7 @@ FlipProposal propose(CaseSetup& s, std::uint32_t t) {
 // Flips A's proposal serially and updates the marks as the inner loop does.
 void flip_proposal(CaseSetup& s, std::uint32_t t, const FlipProposal& p) {
   const MeshView m = s.mesh.view();
-  const std::uint32_t u = m.link(p.edge) / 3;
+  const std::uint32_t u = m.adj[p.edge] / 3;
   flip_edge(m, t, p.edge % 3);
   mark_after_flip(m, s.cmark.data(), s.pieces.data(), t, u, 0);
 }
@@ -507,7 +505,7 @@ TEST(ConstraintInsert, RandomSegmentsGiveTheConstrainedDelaunayTriangulation) {
     // into the Delaunay triangulation instead of the sweep all end in the same triangles.
     EXPECT_EQ(triangle_set(mesh), triangle_set(insert_and_flip(input, in.pieces, 1, 1)));
     const Mesh one_thread = insert_and_flip(input, in.pieces, 1, 5);
-    EXPECT_EQ(mesh.slots, one_thread.slots) << "the same flips whatever the thread count";
+    EXPECT_EQ(mesh.tri, one_thread.tri) << "the same flips whatever the thread count";
     Mesh delaunay = input;
     CpuExecutor executor(2);
     flip_to_delaunay(delaunay, executor);
@@ -531,7 +529,8 @@ TEST(ConstraintInsert, StepThreeFromTheFlippedSlotsAfterPhaseFive) {
     ASSERT_GT(stats.flips, 0u);
     std::size_t changed = 0;
     for (std::uint32_t t = 0; t < mesh.num_slots(); ++t) {
-      const bool same = std::equal(mesh.slots[t].v, mesh.slots[t].v + 3, delaunay.slots[t].v);
+      const bool same =
+          std::equal(mesh.tri.begin() + 3 * t, mesh.tri.begin() + 3 * t + 3, delaunay.tri.begin() + 3 * t);
       if (!same) {
         ++changed;
         EXPECT_EQ(flipped[t], 1) << "slot " << t << " changed but is not recorded";
@@ -589,7 +588,7 @@ TEST(ConstraintInsert, LatticeWithAxisAndDiagonalConstraints) {
   expect_valid_mesh(mesh);
   expect_pieces_present(mesh, in.pieces);
   EXPECT_TRUE(trixel_test::is_locally_delaunay(mesh));
-  EXPECT_EQ(mesh.slots, insert_and_flip(input, in.pieces, 1, 5).slots);
+  EXPECT_EQ(mesh.tri, insert_and_flip(input, in.pieces, 1, 5).tri);
 }
 
 // A k x k lattice (k from 16 to 31) and segments with coprime steps (up to 8 x 8), which pass through no
@@ -686,8 +685,8 @@ TEST(ConstraintInsert, HullEdgesAndChords) {
   std::vector<ConstraintPiece2> hull_edges;
   for (std::uint32_t t = 0; t < input.num_slots(); ++t)
     for (std::uint32_t i = 0; i < 3; ++i)
-      if (input.link(t, i) == kNoId) {
-        hull_edges.push_back({input.v(t, next3(i)), input.v(t, prev3(i)), t});
+      if (input.adj[3 * t + i] == kNoId) {
+        hull_edges.push_back({input.tri[3 * t + next3(i)], input.tri[3 * t + prev3(i)], t});
       }
   ConstraintStats stats;
   Mesh mesh = insert_and_flip(input, hull_edges, 2, 5, &stats);
@@ -717,7 +716,7 @@ DuplicateEdgeCase duplicate_edge_case() {
   const Input in = random_input(200, 0, 4);
   DuplicateEdgeCase c;
   c.mesh = trixel_test::sweep_triangulate(in.x, in.y);
-  const std::uint32_t a = c.mesh.v(5, 2), b = c.mesh.v(5, 0);
+  const std::uint32_t a = c.mesh.tri[3 * 5 + 2], b = c.mesh.tri[3 * 5 + 0];
   c.pieces = {{a, b, 9}, {b, a, 3}, {a, b, 5}};
   return c;
 }
@@ -729,7 +728,7 @@ TEST(ConstraintInsert, PresentAndDuplicatePieces) {
   EXPECT_EQ(stats.flips, 0u);
   EXPECT_EQ(stats.intersections, 0u);
   EXPECT_EQ(mesh.seg[e], 3u);
-  EXPECT_EQ(mesh.seg[mesh.link(e)], 3u);
+  EXPECT_EQ(mesh.seg[mesh.adj[e]], 3u);
   expect_valid_mesh(mesh);
   EXPECT_EQ(insert_constraints(mesh, {}, 5, executor).outer_iterations, 0u);
 }
@@ -789,7 +788,8 @@ TEST(ConstraintOneByOne, SameConstrainedDelaunayTriangulationAsAlgorithmFive) {
         expect_valid_mesh(mesh);
         expect_pieces_present(mesh, in.pieces);
         for (std::uint32_t t = 0; t < mesh.num_slots(); ++t) {
-          if (!std::equal(mesh.slots[t].v, mesh.slots[t].v + 3, start->slots[t].v)) {
+          if (!std::equal(mesh.tri.begin() + 3 * t, mesh.tri.begin() + 3 * t + 3,
+                          start->tri.begin() + 3 * t)) {
             EXPECT_EQ(flipped[t], 1) << "slot " << t << " changed but is not recorded";
           }
         }
@@ -799,7 +799,7 @@ TEST(ConstraintOneByOne, SameConstrainedDelaunayTriangulationAsAlgorithmFive) {
         EXPECT_TRUE(trixel_test::is_locally_delaunay(mesh)) << "constrained Delaunay, seed " << seed;
         results.push_back(mesh);
       }
-      EXPECT_EQ(results[0].slots, results[1].slots) << "the same flips whatever the thread count";
+      EXPECT_EQ(results[0].tri, results[1].tri) << "the same flips whatever the thread count";
       EXPECT_EQ(triangle_set(results[0]), triangle_set(insert_and_flip(*start, in.pieces, 2, 5)));
     }
     // From a mesh far from Delaunay (the sweep's fans) too.
@@ -833,8 +833,8 @@ TEST(ConstraintOneByOne, PiecesAcrossPartsGiveTheSameTriangulationForAnyThreadCo
     EXPECT_TRUE(trixel_test::is_locally_delaunay(mesh));
     results.push_back(mesh);
   }
-  EXPECT_EQ(results[0].slots, results[1].slots);
-  EXPECT_EQ(results[0].slots, results[2].slots);
+  EXPECT_EQ(results[0].tri, results[1].tri);
+  EXPECT_EQ(results[0].tri, results[2].tri);
   EXPECT_EQ(triangle_set(results[0]), triangle_set(insert_and_flip(delaunay, in.pieces, 2, 5)));
 }
 
@@ -876,7 +876,7 @@ TEST(ConstraintOneByOne, PresentAndDuplicatePieces) {
   EXPECT_EQ(stats.flips, 0u);
   EXPECT_EQ(stats.outer_iterations, 1u);
   EXPECT_EQ(mesh.seg[e], 3u);
-  EXPECT_EQ(mesh.seg[mesh.link(e)], 3u);
+  EXPECT_EQ(mesh.seg[mesh.adj[e]], 3u);
   expect_valid_mesh(mesh);
   EXPECT_EQ(insert_constraints_one_by_one(mesh, {}, executor).outer_iterations, 0u);
 }
@@ -921,9 +921,9 @@ TEST(ConstraintWalk, PartsOfALongWalkMakeTheWholeWalk) {
   trixel_gen::Random rng(91);
   Mesh mesh = trixel_test::points_and_lattice_mesh([&] { return rng.unit(); }, 2500, 30);
   // Some edges constraints, both sides.
-  for (std::uint32_t e = 0; e < 3 * mesh.num_slots(); ++e) {
-    if (mesh.link(e) != kNoId && e < mesh.link(e) && rng.next() % 40 == 0)
-      mesh.seg[e] = mesh.seg[mesh.link(e)] = 7;
+  for (std::uint32_t e = 0; e < mesh.adj.size(); ++e) {
+    if (mesh.adj[e] != kNoId && e < mesh.adj[e] && rng.next() % 40 == 0)
+      mesh.seg[e] = mesh.seg[mesh.adj[e]] = 7;
   }
   const MeshView m = mesh.view();
   const std::uint32_t n = mesh.num_vertices();

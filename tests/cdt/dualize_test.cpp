@@ -40,25 +40,25 @@ void expect_valid(const Mesh& mesh) {
   std::size_t boundary_edges = 0;
   for (std::uint32_t t = 0; t < mesh.num_slots(); ++t) {
     if (!mesh.alive(t)) continue;
-    const std::uint32_t a = mesh.v(t, 0), b = mesh.v(t, 1), c = mesh.v(t, 2);
+    const std::uint32_t a = mesh.tri[3 * t], b = mesh.tri[3 * t + 1], c = mesh.tri[3 * t + 2];
     ASSERT_GT(orient2d(mesh.xy[a].x, mesh.xy[a].y, mesh.xy[b].x, mesh.xy[b].y, mesh.xy[c].x, mesh.xy[c].y), 0)
         << "triangle " << t;
     for (std::uint32_t i = 0; i < 3; ++i) {
-      const std::uint32_t e = mesh.link(t, i);
+      const std::uint32_t e = mesh.adj[3 * t + i];
       if (e == kNoId) {
         ++boundary_edges;
         continue;
       }
-      ASSERT_EQ(mesh.link(e), 3 * t + i);
+      ASSERT_EQ(mesh.adj[e], 3 * t + i);
       const std::uint32_t u = e / 3, j = e % 3;
-      EXPECT_EQ(mesh.v(u, next3(j)), mesh.v(t, prev3(i)));
-      EXPECT_EQ(mesh.v(u, prev3(j)), mesh.v(t, next3(i)));
+      EXPECT_EQ(mesh.tri[3 * u + next3(j)], mesh.tri[3 * t + prev3(i)]);
+      EXPECT_EQ(mesh.tri[3 * u + prev3(j)], mesh.tri[3 * t + next3(i)]);
     }
   }
   for (std::uint32_t v = 0; v < mesh.num_vertices(); ++v) {
     const std::uint32_t t = mesh.vert_tri[v];
     if (t != kNoId) {
-      EXPECT_TRUE(mesh.v(t, 0) == v || mesh.v(t, 1) == v || mesh.v(t, 2) == v);
+      EXPECT_TRUE(mesh.tri[3 * t] == v || mesh.tri[3 * t + 1] == v || mesh.tri[3 * t + 2] == v);
     }
   }
   EXPECT_GE(boundary_edges, 3u);
@@ -184,7 +184,7 @@ TEST(Dualize, FakeVerticesShareAStraightHull) {
   for (std::uint32_t t = 0; t < mesh.num_slots(); ++t) {
     if (!mesh.alive(t)) continue;
     for (std::uint32_t i = 0; i < 3; ++i)
-      if (mesh.v(t, i) >= n) ++fan[mesh.v(t, i) - n];
+      if (mesh.tri[3 * t + i] >= n) ++fan[mesh.tri[3 * t + i] - n];
   }
   std::uint32_t total = 0;
   for (std::uint32_t f = 0; f < stats.fake_vertices; ++f) {
@@ -225,7 +225,8 @@ TEST(Dualize, SecondPassReusesTheRowsThatDidNotChange) {
     const Mesh cached =
         dualize(colour, m, s.x, s.y, s.kept, box, executor, nullptr, &cached_culprits, &corners);
     const Mesh full = dualize(colour, m, s.x, s.y, s.kept, box, executor, nullptr, &full_culprits);
-    EXPECT_EQ(cached.slots, full.slots) << "seed " << seed;
+    EXPECT_EQ(cached.tri, full.tri) << "seed " << seed;
+    EXPECT_EQ(cached.adj, full.adj) << "seed " << seed;
     EXPECT_EQ(cached_culprits, full_culprits) << "seed " << seed;
   }
   EXPECT_GE(second_passes, 20);

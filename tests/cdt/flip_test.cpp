@@ -70,7 +70,7 @@ std::vector<std::uint32_t> disjoint_convex_edges(const Mesh& input) {
   for (std::uint32_t t = 0; t < input.num_slots(); ++t) {
     if (taken[t]) continue;
     for (std::uint32_t i = 0; i < 3; ++i) {
-      const std::uint32_t e = input.link(t, i);
+      const std::uint32_t e = input.adj[3 * t + i];
       if (e == kNoId || taken[e / 3] || !flip_is_convex(view, t, i)) continue;
       taken[t] = taken[e / 3] = 1;
       edges.push_back(3 * t + i);
@@ -89,8 +89,7 @@ TEST(FlipTestUtil, SweepTriangulatorIsValid) {
     expect_valid_mesh(mesh);
     // Every point used: 2n - 2 - h triangles with h points on the hull boundary (the boundary edges).
     std::size_t boundary = 0;
-    for (const cdt::detail::Slot& s : mesh.slots)
-      for (const std::uint32_t e : s.link) boundary += e == kNoId;
+    for (const std::uint32_t e : mesh.adj) boundary += e == kNoId;
     EXPECT_EQ(triangle_set(mesh).size(), 2 * pts.x.size() - 2 - boundary);
   }
   // All collinear: no triangle.
@@ -128,8 +127,9 @@ TEST(FlipToDelaunayInParts, ManyPartsGiveTheSameMeshForAnyThreadCount) {
   const Mesh four = flipped(input, 4, &four_stats, &flip_to_delaunay_in_parts);
   expect_valid_mesh(four);
   EXPECT_TRUE(is_locally_delaunay(four));
-  EXPECT_EQ(one.slots, two.slots);
-  EXPECT_EQ(one.slots, four.slots);
+  EXPECT_EQ(one.tri, two.tri);
+  EXPECT_EQ(one.tri, four.tri);
+  EXPECT_EQ(one.adj, four.adj);
   EXPECT_EQ(one.vert_tri, two.vert_tri);
   EXPECT_EQ(one.vert_tri, four.vert_tri);
   EXPECT_EQ(one_stats.flips, four_stats.flips);
@@ -149,7 +149,8 @@ TEST(FlipToDelaunay, SingleAndFourThreadsAgree) {
   const Mesh one = flipped(input, 1, &one_stats);
   const Mesh four = flipped(input, 4, &four_stats);
   EXPECT_EQ(triangle_set(one), triangle_set(four));
-  EXPECT_EQ(one.slots, four.slots);
+  EXPECT_EQ(one.tri, four.tri);
+  EXPECT_EQ(one.adj, four.adj);
   EXPECT_EQ(one_stats.flips, four_stats.flips);
   EXPECT_EQ(one_stats.rounds, four_stats.rounds);
   expect_valid_mesh(four);
@@ -165,7 +166,7 @@ TEST(FlipToDelaunay, LatticeTerminates) {
       expect_valid_mesh(mesh);
       EXPECT_TRUE(is_locally_delaunay(mesh)) << schedule.name << " " << k;
       EXPECT_EQ(triangle_set(mesh).size(), 2u * (k - 1) * (k - 1)) << schedule.name << " " << k;
-      EXPECT_EQ(mesh.slots, flipped(input, 1, nullptr, schedule.flip).slots) << schedule.name << " " << k;
+      EXPECT_EQ(mesh.tri, flipped(input, 1, nullptr, schedule.flip).tri) << schedule.name << " " << k;
     }
   }
 }
@@ -285,12 +286,12 @@ TEST(FlipToDelaunay, ConstraintEdgesAreNeverFlipped) {
   std::vector<std::pair<std::uint32_t, std::uint32_t>> fixed;
   for (std::uint32_t t = 0; t < input.num_slots(); ++t) {
     for (std::uint32_t i = 0; i < 3; ++i) {
-      const std::uint32_t e = input.link(t, i);
+      const std::uint32_t e = input.adj[3 * t + i];
       if (e == kNoId || e < 3 * t + i || rng.unit() > 0.05) continue;
       const std::uint32_t id = static_cast<std::uint32_t>(fixed.size());
       input.seg[3 * t + i] = id;
       input.seg[e] = id;
-      fixed.emplace_back(input.v(t, next3(i)), input.v(t, prev3(i)));
+      fixed.emplace_back(input.tri[3 * t + next3(i)], input.tri[3 * t + prev3(i)]);
     }
   }
   ASSERT_GT(fixed.size(), 100u);
@@ -318,7 +319,7 @@ TEST(FlipToDelaunay, DelaunayInputNeedsNoFlip) {
   const Mesh twice = flipped(once, 2, &stats);
   EXPECT_EQ(stats.flips, 0u);
   EXPECT_EQ(stats.rounds, 1u);
-  EXPECT_EQ(twice.slots, once.slots);
+  EXPECT_EQ(twice.tri, once.tri);
 }
 
 TEST(FlipToDelaunay, OnlyTheGivenSlotsAreCheckedAtFirst) {
@@ -332,7 +333,7 @@ TEST(FlipToDelaunay, OnlyTheGivenSlotsAreCheckedAtFirst) {
   for (std::uint32_t t = 0; t < mesh.num_slots() && undone < 40; t += 61) {
     const MeshView m = mesh.view();
     for (std::uint32_t i = 0; i < 3; ++i) {
-      const std::uint32_t e = m.link(t, i);
+      const std::uint32_t e = m.adj[3 * t + i];
       if (e == kNoId || only[t] || only[edge_tri(e)] || !flip_is_convex(m, t, i)) continue;
       only[t] = only[edge_tri(e)] = 1;
       flip_edge(m, t, i);
@@ -390,11 +391,12 @@ TEST(FlipBatch, MatchesSequentialFlipEdge) {
   CpuExecutor executor(4);
   FlipBatch batch(batched.num_slots());
   batch.apply(batched, edges, executor);
-  EXPECT_EQ(batched.slots, sequential.slots);
+  EXPECT_EQ(batched.tri, sequential.tri);
+  EXPECT_EQ(batched.adj, sequential.adj);
   EXPECT_EQ(batched.seg, sequential.seg);
   expect_valid_mesh(batched);
   for (const std::uint32_t e : edges) {
-    EXPECT_EQ(batch.partner()[e / 3], sequential.link(e / 3, 1) / 3);
+    EXPECT_EQ(batch.partner()[e / 3], sequential.adj[3 * (e / 3) + 1] / 3);
   }
   // A second batch through the same scratch flips the diagonals back.
   std::vector<std::uint32_t> back;
@@ -440,11 +442,12 @@ TEST(FlipWithoutIds, AViewWithoutConstraintIdsFlipsAsOneWithThemAllNone) {
     flip_edge(full, e / 3, e % 3);
     flip_edge(bare, e / 3, e % 3);
   }
-  EXPECT_EQ(without.slots, with_ids.slots);
+  EXPECT_EQ(without.tri, with_ids.tri);
+  EXPECT_EQ(without.adj, with_ids.adj);
   EXPECT_EQ(without.vert_tri, with_ids.vert_tri);
   EXPECT_EQ(without.seg, input.seg);
   EXPECT_EQ(with_ids.seg, input.seg);
-  EXPECT_NE(with_ids.slots, input.slots);
+  EXPECT_NE(with_ids.tri, input.tri);
   expect_valid_mesh(without);
 }
 
@@ -454,25 +457,26 @@ TEST(LinkTriangles, SameLinksAndVertexTrianglesWhateverTheThreads) {
   const Points p = from_pslg(trixel_gen::random_points(20000, trixel_gen::Distribution::gaussian, 17));
   Mesh serial = sweep_triangulate(p.x, p.y);
   // Free a few slots (a free slot's first vertex is kNoId): their triangles disappear from the links.
-  for (std::uint32_t t = 0; t < serial.num_slots(); t += 997) serial.v(t, 0) = kNoId;
+  for (std::uint32_t t = 0; t < serial.num_slots(); t += 997) serial.tri[3 * t] = kNoId;
   Mesh parallel = serial;
   CpuExecutor one(1);
   CpuExecutor four(4);
   link_triangles(serial, one);
   link_triangles(parallel, four);
+  EXPECT_EQ(parallel.adj, serial.adj);
   EXPECT_EQ(parallel.vert_tri, serial.vert_tri);
   std::vector<std::uint32_t> highest(serial.num_vertices(), kNoId);
   for (std::uint32_t t = 0; t < serial.num_slots(); ++t) {
     if (!serial.alive(t)) continue;
-    for (std::uint32_t i = 0; i < 3; ++i) highest[serial.v(t, i)] = t;
+    for (std::uint32_t i = 0; i < 3; ++i) highest[serial.tri[3 * t + i]] = t;
   }
   EXPECT_EQ(serial.vert_tri, highest);
-  for (std::uint32_t e = 0; e < 3 * serial.num_slots(); ++e) {
-    const std::uint32_t f = serial.link(e);
+  for (std::uint32_t e = 0; e < serial.adj.size(); ++e) {
+    const std::uint32_t f = serial.adj[e];
     if (f == kNoId) continue;
     ASSERT_TRUE(serial.alive(edge_tri(e)));
     ASSERT_TRUE(serial.alive(edge_tri(f)));
-    ASSERT_EQ(serial.link(f), e);
+    ASSERT_EQ(serial.adj[f], e);
   }
 }
 

@@ -99,7 +99,7 @@ inline std::vector<Triangle> triangle_set(const cdt::detail::Mesh& mesh) {
   std::vector<Triangle> out;
   for (std::uint32_t t = 0; t < mesh.num_slots(); ++t) {
     if (!mesh.alive(t)) continue;
-    Triangle v{mesh.v(t, 0), mesh.v(t, 1), mesh.v(t, 2)};
+    Triangle v{mesh.tri[3 * t], mesh.tri[3 * t + 1], mesh.tri[3 * t + 2]};
     std::rotate(v.begin(), std::min_element(v.begin(), v.end()), v.end());
     out.push_back(v);
   }
@@ -117,7 +117,8 @@ inline std::unordered_map<std::uint64_t, std::uint32_t> directed_edges(const cdt
   for (std::uint32_t t = 0; t < mesh.num_slots(); ++t) {
     if (!mesh.alive(t)) continue;
     for (std::uint32_t i = 0; i < 3; ++i) {
-      edges[directed_key(mesh.v(t, cdt::detail::next3(i)), mesh.v(t, cdt::detail::prev3(i)))] = 3 * t + i;
+      edges[directed_key(mesh.tri[3 * t + cdt::detail::next3(i)], mesh.tri[3 * t + cdt::detail::prev3(i)])] =
+          3 * t + i;
     }
   }
   return edges;
@@ -128,7 +129,8 @@ inline std::uint32_t find_edge(const cdt::detail::Mesh& mesh, std::uint32_t a, s
   for (std::uint32_t t = 0; t < mesh.num_slots(); ++t) {
     if (!mesh.alive(t)) continue;
     for (std::uint32_t i = 0; i < 3; ++i) {
-      const std::uint32_t p = mesh.v(t, cdt::detail::next3(i)), q = mesh.v(t, cdt::detail::prev3(i));
+      const std::uint32_t p = mesh.tri[3 * t + cdt::detail::next3(i)],
+                          q = mesh.tri[3 * t + cdt::detail::prev3(i)];
       if ((p == a && q == b) || (p == b && q == a)) return 3 * t + i;
     }
   }
@@ -146,33 +148,34 @@ inline void expect_valid_mesh(const cdt::detail::Mesh& mesh) {
   using cdt::detail::prev3;
   const std::uint32_t nv = mesh.num_vertices();
   ASSERT_EQ(mesh.vert_tri.size(), nv);
-  ASSERT_EQ(mesh.seg.size(), 3 * mesh.slots.size());
+  ASSERT_EQ(mesh.adj.size(), mesh.tri.size());
+  ASSERT_EQ(mesh.seg.size(), mesh.tri.size());
   std::vector<char> used(nv, 0);
   std::set<std::uint64_t> directed;
   std::uint64_t faces = 0, half_edges = 0, boundary = 0;
   for (std::uint32_t t = 0; t < mesh.num_slots(); ++t) {
     if (!mesh.alive(t)) continue;
     ++faces;
-    const std::uint32_t a = mesh.v(t, 0), b = mesh.v(t, 1), c = mesh.v(t, 2);
+    const std::uint32_t a = mesh.tri[3 * t], b = mesh.tri[3 * t + 1], c = mesh.tri[3 * t + 2];
     ASSERT_TRUE(a < nv && b < nv && c < nv) << "triangle " << t;
     ASSERT_TRUE(a != b && b != c && a != c) << "triangle " << t;
     ASSERT_GT(orient_of(mesh, a, b, c), 0) << "triangle " << t << " is not counter-clockwise";
     used[a] = used[b] = used[c] = 1;
     for (std::uint32_t i = 0; i < 3; ++i) {
-      const std::uint32_t from = mesh.v(t, next3(i)), to = mesh.v(t, prev3(i));
+      const std::uint32_t from = mesh.tri[3 * t + next3(i)], to = mesh.tri[3 * t + prev3(i)];
       ASSERT_TRUE(directed.insert(directed_key(from, to)).second) << "directed edge used twice at " << t;
       ++half_edges;
-      const std::uint32_t e = mesh.link(t, i);
+      const std::uint32_t e = mesh.adj[3 * t + i];
       if (e == kNoId) {
         ++boundary;
         continue;
       }
       ASSERT_LT(e / 3, mesh.num_slots());
       ASSERT_TRUE(mesh.alive(e / 3)) << "link to a free slot at " << t;
-      ASSERT_EQ(mesh.link(e), 3 * t + i) << "asymmetric link at triangle " << t << " edge " << i;
+      ASSERT_EQ(mesh.adj[e], 3 * t + i) << "asymmetric link at triangle " << t << " edge " << i;
       const std::uint32_t u = e / 3, j = e % 3;
-      ASSERT_EQ(mesh.v(u, next3(j)), to) << "link joins different edges at " << t;
-      ASSERT_EQ(mesh.v(u, prev3(j)), from) << "link joins different edges at " << t;
+      ASSERT_EQ(mesh.tri[3 * u + next3(j)], to) << "link joins different edges at " << t;
+      ASSERT_EQ(mesh.tri[3 * u + prev3(j)], from) << "link joins different edges at " << t;
       ASSERT_EQ(mesh.seg[e], mesh.seg[3 * t + i]) << "constraint flag differs across edge at " << t;
     }
   }
@@ -187,7 +190,8 @@ inline void expect_valid_mesh(const cdt::detail::Mesh& mesh) {
     ASSERT_NE(t, kNoId) << "vertex " << v;
     ASSERT_LT(t, mesh.num_slots());
     ASSERT_TRUE(mesh.alive(t)) << "vertex " << v;
-    ASSERT_TRUE(mesh.v(t, 0) == v || mesh.v(t, 1) == v || mesh.v(t, 2) == v) << "vertex " << v;
+    ASSERT_TRUE(mesh.tri[3 * t] == v || mesh.tri[3 * t + 1] == v || mesh.tri[3 * t + 2] == v)
+        << "vertex " << v;
   }
   if (faces == 0) return;
   const std::uint64_t edges = (half_edges + boundary) / 2;
@@ -202,12 +206,12 @@ inline void expect_valid_mesh(const cdt::detail::Mesh& mesh) {
     double turn = 0;
     bool closed = false;
     for (std::uint32_t steps = 0; steps <= mesh.num_slots(); ++steps) {
-      const std::uint32_t k = mesh.v(t, 0) == v ? 0 : mesh.v(t, 1) == v ? 1 : 2;
-      const std::uint32_t p = mesh.v(t, next3(k)), q = mesh.v(t, prev3(k));
+      const std::uint32_t k = mesh.tri[3 * t] == v ? 0 : mesh.tri[3 * t + 1] == v ? 1 : 2;
+      const std::uint32_t p = mesh.tri[3 * t + next3(k)], q = mesh.tri[3 * t + prev3(k)];
       const double px = mesh.xy[p].x - mesh.xy[v].x, py = mesh.xy[p].y - mesh.xy[v].y;
       const double qx = mesh.xy[q].x - mesh.xy[v].x, qy = mesh.xy[q].y - mesh.xy[v].y;
       turn += std::atan2(px * qy - py * qx, px * qx + py * qy);
-      const std::uint32_t e = mesh.link(t, next3(k));
+      const std::uint32_t e = mesh.adj[3 * t + next3(k)];
       if (e == kNoId) break;
       t = e / 3;
       if (t == start) {
@@ -227,11 +231,11 @@ inline std::size_t count_non_delaunay_edges(const cdt::detail::Mesh& mesh) {
   std::size_t bad = 0;
   for (std::uint32_t t = 0; t < mesh.num_slots(); ++t) {
     if (!mesh.alive(t)) continue;
-    const std::uint32_t a = mesh.v(t, 0), b = mesh.v(t, 1), c = mesh.v(t, 2);
+    const std::uint32_t a = mesh.tri[3 * t], b = mesh.tri[3 * t + 1], c = mesh.tri[3 * t + 2];
     for (std::uint32_t i = 0; i < 3; ++i) {
-      const std::uint32_t e = mesh.link(t, i);
+      const std::uint32_t e = mesh.adj[3 * t + i];
       if (e == cdt::detail::kNoId || mesh.seg[3 * t + i] != cdt::detail::kNoId) continue;
-      const std::uint32_t d = mesh.opposite(e);
+      const std::uint32_t d = mesh.tri[e];
       if (cdt::detail::incircle(mesh.xy[a].x, mesh.xy[a].y, mesh.xy[b].x, mesh.xy[b].y, mesh.xy[c].x,
                                 mesh.xy[c].y, mesh.xy[d].x, mesh.xy[d].y) > 0) {
         ++bad;
@@ -256,10 +260,10 @@ inline std::uint64_t serial_lawson(cdt::detail::Mesh& mesh, std::uint64_t max_fl
     for (std::uint32_t t = 0; t < mesh.num_slots(); ++t) {
       if (!mesh.alive(t)) continue;
       for (std::uint32_t i = 0; i < 3; ++i) {
-        const std::uint32_t e = m.link(t, i);
+        const std::uint32_t e = m.adj[3 * t + i];
         if (e == kNoId || m.seg[3 * t + i] != kNoId) continue;
-        const std::uint32_t a = m.v(t, i), b = m.v(t, cdt::detail::next3(i)),
-                            c = m.v(t, cdt::detail::prev3(i)), d = m.opposite(e);
+        const std::uint32_t a = m.tri[3 * t + i], b = m.tri[3 * t + cdt::detail::next3(i)],
+                            c = m.tri[3 * t + cdt::detail::prev3(i)], d = m.tri[e];
         if (cdt::detail::incircle(m.xy[a].x, m.xy[a].y, m.xy[b].x, m.xy[b].y, m.xy[c].x, m.xy[c].y, m.xy[d].x,
                                   m.xy[d].y) <= 0)
           continue;

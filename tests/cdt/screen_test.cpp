@@ -40,7 +40,7 @@ std::set<Edge> mesh_edges(const Mesh& mesh) {
   for (std::uint32_t t = 0; t < mesh.num_slots(); ++t) {
     if (!mesh.alive(t)) continue;
     for (std::uint32_t i = 0; i < 3; ++i)
-      edges.insert(undirected(mesh.v(t, (i + 1) % 3), mesh.v(t, (i + 2) % 3)));
+      edges.insert(undirected(mesh.tri[3 * t + (i + 1) % 3], mesh.tri[3 * t + (i + 2) % 3]));
   }
   return edges;
 }
@@ -414,7 +414,7 @@ TEST(ScreenWalk, PartsOfACorridorMakeTheWholeWalk) {
     const auto record = [&](Calls& c) {
       return std::tuple{[&c](std::uint32_t v) { c.vertices.insert(v); },
                         [&c](std::uint32_t e) { c.crossed.insert(e); },
-                        [&c, m](std::uint32_t e) { c.along.insert(std::min(e, m.link(e))); }};
+                        [&c, m](std::uint32_t e) { c.along.insert(std::min(e, m.adj[e])); }};
     };
     {
       auto [on_vertex, crossed, along] = record(whole);

@@ -194,7 +194,7 @@ FansCopy copy_fans(const Mesh& mesh, std::uint32_t first_fake) {
   FansCopy c;
   std::map<std::uint32_t, std::uint32_t> local; // mesh slot -> local slot
   for (std::uint32_t t = 0; t < mesh.num_slots(); ++t) {
-    const std::uint32_t* v = mesh.slots[t].v;
+    const std::uint32_t* v = &mesh.tri[3 * t];
     if (v[0] == kNoId || std::max({v[0], v[1], v[2]}) < first_fake) continue;
     local[t] = static_cast<std::uint32_t>(c.slot.size());
     c.slot.push_back(t);
@@ -202,14 +202,14 @@ FansCopy copy_fans(const Mesh& mesh, std::uint32_t first_fake) {
   c.num_fans = static_cast<std::uint32_t>(c.slot.size());
   for (std::uint32_t r = 0; r < c.num_fans; ++r) {
     for (std::uint32_t i = 0; i < 3; ++i) {
-      const std::uint32_t e = mesh.link(c.slot[r], i);
+      const std::uint32_t e = mesh.adj[3 * c.slot[r] + i];
       if (e != kNoId && local.emplace(e / 3, static_cast<std::uint32_t>(c.slot.size())).second)
         c.slot.push_back(e / 3);
     }
   }
   std::map<std::uint32_t, std::uint32_t> vlocal;
   for (const std::uint32_t t : c.slot)
-    for (std::uint32_t j = 0; j < 3; ++j) vlocal[mesh.v(t, j)] = 0;
+    for (std::uint32_t j = 0; j < 3; ++j) vlocal[mesh.tri[3 * t + j]] = 0;
   for (auto& [v, l] : vlocal) {
     l = static_cast<std::uint32_t>(c.vertex.size());
     c.vertex.push_back(v);
@@ -217,17 +217,18 @@ FansCopy copy_fans(const Mesh& mesh, std::uint32_t first_fake) {
   c.first_fake =
       static_cast<std::uint32_t>(std::ranges::lower_bound(c.vertex, first_fake) - c.vertex.begin());
   const auto slots = c.slot.size() + 1;
-  c.fans.slots.assign(slots, cdt::detail::kFreeSlot);
+  c.fans.tri.assign(3 * slots, kNoId);
+  c.fans.adj.assign(3 * slots, kNoId);
   c.fans.seg.assign(3 * slots, kNoId);
   for (std::size_t q = 0; q < c.slot.size(); ++q)
-    for (std::uint32_t j = 0; j < 3; ++j) c.fans.v(q, j) = vlocal[mesh.v(c.slot[q], j)];
+    for (std::uint32_t j = 0; j < 3; ++j) c.fans.tri[3 * q + j] = vlocal[mesh.tri[3 * c.slot[q] + j]];
   for (std::uint32_t k = 0; k < 3 * c.num_fans; ++k) {
-    const std::uint32_t e = mesh.link(c.slot[k / 3], k % 3);
+    const std::uint32_t e = mesh.adj[3 * c.slot[k / 3] + k % 3];
     c.fans.seg[k] = mesh.seg[3 * c.slot[k / 3] + k % 3];
     if (e == kNoId) continue;
     const std::uint32_t u = local.at(e / 3);
-    c.fans.link(k) = 3 * u + e % 3;
-    if (u >= c.num_fans) c.fans.link(u, e % 3) = k;
+    c.fans.adj[k] = 3 * u + e % 3;
+    if (u >= c.num_fans) c.fans.adj[3 * u + e % 3] = k;
   }
   for (const std::uint32_t v : c.vertex) {
     c.fans.xy.push_back(mesh.xy[v]);
@@ -244,16 +245,16 @@ void write_back(Mesh& mesh, const FansCopy& c) {
   using cdt::detail::kNoId;
   const auto edge = [&](std::uint32_t le) { return le == kNoId ? kNoId : 3 * c.slot.at(le / 3) + le % 3; };
   for (std::uint32_t k = 0; k < 3 * c.num_fans; ++k) {
-    const std::uint32_t e = mesh.link(c.slot[k / 3], k % 3);
+    const std::uint32_t e = mesh.adj[3 * c.slot[k / 3] + k % 3];
     if (e == kNoId) continue;
     const auto it = std::ranges::find(c.slot, e / 3);
     const auto u = static_cast<std::uint32_t>(it - c.slot.begin());
-    if (u >= c.num_fans) mesh.link(e) = edge(c.fans.link(u, e % 3));
+    if (u >= c.num_fans) mesh.adj[e] = edge(c.fans.adj[3 * u + e % 3]);
   }
   for (std::uint32_t k = 0; k < 3 * c.num_fans; ++k) {
     const std::uint32_t t = c.slot[k / 3], i = k % 3;
-    mesh.v(t, i) = c.fans.opposite(k) == kNoId ? kNoId : c.vertex.at(c.fans.opposite(k));
-    mesh.link(t, i) = edge(c.fans.link(k));
+    mesh.tri[3 * t + i] = c.fans.tri[k] == kNoId ? kNoId : c.vertex.at(c.fans.tri[k]);
+    mesh.adj[3 * t + i] = edge(c.fans.adj[k]);
     mesh.seg[3 * t + i] = c.fans.seg[k];
   }
   for (std::uint32_t v = 0; v < c.first_fake; ++v) {
@@ -293,7 +294,8 @@ TEST(FakeBoundary, RemovalFromACopyOfTheFansMatchesTheWholeMesh) {
     write_back(patched, copy);
     patched.xy.resize(f.num_sites);
     patched.vert_tri.resize(f.num_sites);
-    EXPECT_EQ(patched.slots, whole.slots) << c.name;
+    EXPECT_EQ(patched.tri, whole.tri) << c.name;
+    EXPECT_EQ(patched.adj, whole.adj) << c.name;
     EXPECT_EQ(patched.seg, whole.seg) << c.name;
     EXPECT_EQ(patched.vert_tri, whole.vert_tri) << c.name;
   }
@@ -358,7 +360,8 @@ TEST(ShiftInsert, OneAndFourThreadsGiveTheSameValidMesh) {
     ASSERT_EQ(r4.error, "") << "delaunay " << delaunay;
     EXPECT_GT(r1.shift.bad, delaunay ? 1000u : 10000u);
     EXPECT_EQ(r1.shift.bad, r4.shift.bad);
-    EXPECT_EQ(f1.mesh.slots, f4.mesh.slots);
+    EXPECT_EQ(f1.mesh.tri, f4.mesh.tri);
+    EXPECT_EQ(f1.mesh.adj, f4.mesh.adj);
     EXPECT_EQ(f1.mesh.vert_tri, f4.mesh.vert_tri);
   }
 }
@@ -398,8 +401,9 @@ TEST(InsertInParts, SameDelaunayTriangulationAsTheRoundsForAnyThreadCount) {
     EXPECT_TRUE(trixel_test::is_locally_delaunay(one.mesh));
     // In general position the Delaunay triangulation is unique.
     EXPECT_EQ(trixel_test::triangle_set(one.mesh), trixel_test::triangle_set(rounds.mesh));
-    EXPECT_EQ(one.mesh.slots, two.mesh.slots);
-    EXPECT_EQ(one.mesh.slots, four.mesh.slots);
+    EXPECT_EQ(one.mesh.tri, two.mesh.tri);
+    EXPECT_EQ(one.mesh.tri, four.mesh.tri);
+    EXPECT_EQ(one.mesh.adj, four.mesh.adj);
     EXPECT_EQ(one.mesh.vert_tri, four.mesh.vert_tri);
     EXPECT_EQ(r1.insert.flips, r4.insert.flips);
     EXPECT_EQ(r1.last_flips, r4.last_flips);
@@ -591,26 +595,26 @@ TEST(ShiftCheckMesh, RejectsBrokenMeshes) {
   ASSERT_EQ(check_mesh(good.mesh), "");
   std::uint32_t interior = cdt::detail::kNoId; // a triangle with no boundary edge
   for (std::uint32_t t = 0; t < good.mesh.num_slots() && interior == cdt::detail::kNoId; ++t)
-    if (good.mesh.link(t, 0) != cdt::detail::kNoId && good.mesh.link(t, 1) != cdt::detail::kNoId &&
-        good.mesh.link(t, 2) != cdt::detail::kNoId)
+    if (good.mesh.adj[3 * t] != cdt::detail::kNoId && good.mesh.adj[3 * t + 1] != cdt::detail::kNoId &&
+        good.mesh.adj[3 * t + 2] != cdt::detail::kNoId)
       interior = t;
   ASSERT_NE(interior, cdt::detail::kNoId);
   const std::uint32_t t = interior;
   {
     Mesh m = good.mesh; // clockwise triangle
-    std::swap(m.v(t, 1), m.v(t, 2));
+    std::swap(m.tri[3 * t + 1], m.tri[3 * t + 2]);
     EXPECT_NE(check_mesh(m), "");
   }
   {
     Mesh m = good.mesh; // one-sided link
-    m.link(m.link(t, 0)) = cdt::detail::kNoId;
+    m.adj[m.adj[3 * t]] = cdt::detail::kNoId;
     EXPECT_NE(check_mesh(m), "");
   }
   {
     Mesh m = good.mesh; // a hole in the middle
     for (std::uint32_t i = 0; i < 3; ++i) {
-      m.link(m.link(t, i)) = cdt::detail::kNoId;
-      m.v(t, i) = m.link(t, i) = cdt::detail::kNoId;
+      m.adj[m.adj[3 * t + i]] = cdt::detail::kNoId;
+      m.tri[3 * t + i] = m.adj[3 * t + i] = cdt::detail::kNoId;
     }
     for (std::uint32_t v = 0; v < m.num_vertices(); ++v)
       if (m.vert_tri[v] == t) m.vert_tri[v] = cdt::detail::kNoId;
@@ -618,8 +622,8 @@ TEST(ShiftCheckMesh, RejectsBrokenMeshes) {
   }
   {
     Mesh m = good.mesh; // vert_tri not incident
-    const std::uint32_t v = m.v(t, 0);
-    m.vert_tri[v] = m.link(t, 0) / 3;
+    const std::uint32_t v = m.tri[3 * t];
+    m.vert_tri[v] = m.adj[3 * t] / 3;
     EXPECT_NE(check_mesh(m), "");
   }
   {

@@ -95,7 +95,7 @@ inline void lawson_flip(cdt::detail::Mesh& mesh) {
     const std::uint32_t e = stack.back();
     stack.pop_back();
     const std::uint32_t t = edge_tri(e), i = edge_index(e);
-    const std::uint32_t f = m.link(e);
+    const std::uint32_t f = m.adj[e];
     if (!m.alive(t) || f == kNoId) continue;
     const std::uint32_t a = m.v(t, i), b = m.v(t, next3(i)), c = m.v(t, prev3(i));
     const std::uint32_t u = edge_tri(f), d = m.v(u, edge_index(f));
@@ -227,18 +227,19 @@ inline std::string check_mesh(const cdt::detail::Mesh& mesh, bool convex_hull = 
     x.push_back(p.x);
     y.push_back(p.y);
   }
-  if (mesh.seg.size() != 3 * mesh.slots.size() || mesh.vert_tri.size() != nv) return "array sizes disagree";
+  if (mesh.tri.size() != mesh.adj.size() || mesh.tri.size() != mesh.seg.size() || mesh.vert_tri.size() != nv)
+    return "array sizes disagree";
   std::vector<std::uint32_t> incident(nv, 0);
   std::uint64_t faces = 0, boundary = 0;
   long double area = 0;
   std::map<std::uint32_t, std::uint32_t> boundary_next; // directed boundary edges, from -> to
   for (std::uint32_t t = 0; t < slots; ++t) {
-    if (mesh.v(t, 0) == kNoId) {
-      if (mesh.v(t, 1) != kNoId || mesh.v(t, 2) != kNoId) return "half-freed slot";
+    if (mesh.tri[3 * t] == kNoId) {
+      if (mesh.tri[3 * t + 1] != kNoId || mesh.tri[3 * t + 2] != kNoId) return "half-freed slot";
       continue;
     }
     ++faces;
-    const std::uint32_t a = mesh.v(t, 0), b = mesh.v(t, 1), c = mesh.v(t, 2);
+    const std::uint32_t a = mesh.tri[3 * t], b = mesh.tri[3 * t + 1], c = mesh.tri[3 * t + 2];
     if (a >= nv || b >= nv || c >= nv || a == b || b == c || a == c) {
       err << "triangle " << t << " has bad vertices";
       return err.str();
@@ -253,8 +254,8 @@ inline std::string check_mesh(const cdt::detail::Mesh& mesh, bool convex_hull = 
     ++incident[b];
     ++incident[c];
     for (std::uint32_t i = 0; i < 3; ++i) {
-      const std::uint32_t from = mesh.v(t, next3(i)), to = mesh.v(t, prev3(i));
-      const std::uint32_t e = mesh.link(t, i);
+      const std::uint32_t from = mesh.tri[3 * t + next3(i)], to = mesh.tri[3 * t + prev3(i)];
+      const std::uint32_t e = mesh.adj[3 * t + i];
       if (e == kNoId) {
         ++boundary;
         if (!boundary_next.emplace(from, to).second) {
@@ -264,11 +265,11 @@ inline std::string check_mesh(const cdt::detail::Mesh& mesh, bool convex_hull = 
         continue;
       }
       const std::uint32_t u = edge_tri(e), j = edge_index(e);
-      if (u >= slots || mesh.v(u, 0) == kNoId || mesh.link(e) != edge_id(t, i)) {
+      if (u >= slots || mesh.tri[3 * u] == kNoId || mesh.adj[e] != edge_id(t, i)) {
         err << "link of triangle " << t << " edge " << i << " is not symmetric";
         return err.str();
       }
-      if (mesh.v(u, next3(j)) != to || mesh.v(u, prev3(j)) != from) {
+      if (mesh.tri[3 * u + next3(j)] != to || mesh.tri[3 * u + prev3(j)] != from) {
         err << "triangle " << t << " edge " << i << " and its neighbour disagree on the endpoints";
         return err.str();
       }
@@ -286,24 +287,24 @@ inline std::string check_mesh(const cdt::detail::Mesh& mesh, bool convex_hull = 
       continue;
     }
     used.push_back(v);
-    if (vt >= slots || mesh.v(vt, 0) == kNoId ||
-        (mesh.v(vt, 0) != v && mesh.v(vt, 1) != v && mesh.v(vt, 2) != v)) {
+    if (vt >= slots || mesh.tri[3 * vt] == kNoId ||
+        (mesh.tri[3 * vt] != v && mesh.tri[3 * vt + 1] != v && mesh.tri[3 * vt + 2] != v)) {
       err << "vert_tri of vertex " << v << " is not an incident live triangle";
       return err.str();
     }
     // The fan walked from vert_tri through the links must reach every incident triangle (no pinched vertex).
     std::uint32_t t = vt, count = 0;
     for (std::uint32_t guard = 0; guard <= incident[v]; ++guard) { // rotate clockwise to the fan's start
-      const std::uint32_t k = mesh.v(t, 0) == v ? 0 : mesh.v(t, 1) == v ? 1 : 2;
-      const std::uint32_t e = mesh.link(t, prev3(k));
+      const std::uint32_t k = mesh.tri[3 * t] == v ? 0 : mesh.tri[3 * t + 1] == v ? 1 : 2;
+      const std::uint32_t e = mesh.adj[3 * t + prev3(k)];
       if (e == kNoId || edge_tri(e) == vt) break;
       t = edge_tri(e);
     }
     const std::uint32_t start = t;
     do {
       ++count;
-      const std::uint32_t k = mesh.v(t, 0) == v ? 0 : mesh.v(t, 1) == v ? 1 : 2;
-      const std::uint32_t e = mesh.link(t, next3(k));
+      const std::uint32_t k = mesh.tri[3 * t] == v ? 0 : mesh.tri[3 * t + 1] == v ? 1 : 2;
+      const std::uint32_t e = mesh.adj[3 * t + next3(k)];
       t = e == kNoId ? kNoId : edge_tri(e);
     } while (t != kNoId && t != start && count <= incident[v]);
     if (count != incident[v]) {

@@ -47,7 +47,8 @@ protected:
 void expect_same_mesh(const Mesh& device, const Mesh& host, const std::string& what) {
   EXPECT_EQ(device.xy, host.xy) << what;
   ASSERT_EQ(device.num_slots(), host.num_slots()) << what;
-  EXPECT_EQ(device.slots, host.slots) << what;
+  EXPECT_EQ(device.tri, host.tri) << what;
+  EXPECT_EQ(device.adj, host.adj) << what;
   EXPECT_EQ(device.seg, host.seg) << what;
   EXPECT_EQ(device.vert_tri, host.vert_tri) << what;
 }
@@ -216,9 +217,9 @@ TEST_F(MeshGpu, FlipMatchesTheCpuExecutor) {
     Mesh start = trixel_test::sweep_triangulate(x, y);
     // Some edges are constraints: neither executor may flip them.
     for (std::size_t e = 0; e < start.seg.size(); e += 7) {
-      if (start.link(e) == kNoId) continue;
+      if (start.adj[e] == kNoId) continue;
       start.seg[e] = static_cast<std::uint32_t>(e);
-      start.seg[start.link(e)] = static_cast<std::uint32_t>(e);
+      start.seg[start.adj[e]] = static_cast<std::uint32_t>(e);
     }
     Mesh host = start;
     CpuExecutor executor(4);
@@ -562,13 +563,13 @@ TEST_F(MeshGpu, ConstraintsBesideTheHostKeepOrUndo) {
 std::vector<std::array<std::uint32_t, 6>> triangle_set(const Mesh& mesh) {
   std::vector<std::array<std::uint32_t, 6>> out;
   for (std::uint32_t t = 0; t < mesh.num_slots(); ++t) {
-    if (mesh.v(t, 0) == kNoId) continue;
+    if (mesh.tri[3 * t] == kNoId) continue;
     std::uint32_t r = 0;
     for (std::uint32_t i = 1; i < 3; ++i)
-      if (mesh.v(t, i) < mesh.v(t, r)) r = i;
+      if (mesh.tri[3 * t + i] < mesh.tri[3 * t + r]) r = i;
     std::array<std::uint32_t, 6> row{};
     for (std::uint32_t i = 0; i < 3; ++i) {
-      row[i] = mesh.v(t, (r + i) % 3);
+      row[i] = mesh.tri[3 * t + (r + i) % 3];
       row[3 + i] = mesh.seg[3 * t + (r + i) % 3];
     }
     out.push_back(row);

@@ -136,7 +136,7 @@ ConstraintStats insert_constraints(Mesh& mesh, std::span<const ConstraintPiece2>
         if (st[k] != ConstraintStatus::present) return;
         const std::uint32_t id = piece[pend[k]].id;
         atomic_min(m.seg + present[k], id);
-        const std::uint32_t twin = m.link(present[k]);
+        const std::uint32_t twin = m.adj[present[k]];
         if (twin != kNoId) atomic_min(m.seg + twin, id);
       });
       const std::vector<std::uint32_t> left =
@@ -270,7 +270,7 @@ Reach crossed_edges(const MeshView& m, std::uint32_t a, std::uint32_t b, Owns&& 
       first = t;
       break;
     }
-    const std::uint32_t e = m.link(edge_id(t, clockwise ? prev3(k) : next3(k)));
+    const std::uint32_t e = m.adj[edge_id(t, clockwise ? prev3(k) : next3(k))];
     if (e == kNoId) {
       if (clockwise) {
         status = ConstraintStatus::leaves_mesh;
@@ -284,10 +284,6 @@ Reach crossed_edges(const MeshView& m, std::uint32_t a, std::uint32_t b, Owns&& 
     if (t == start) return Reach::done;
   }
   const std::uint32_t k = m.index_of(first, a);
-  if (k == 3) { // a fan that does not hold its own vertex: a broken mesh
-    status = ConstraintStatus::corrupt_mesh;
-    return Reach::done;
-  }
   std::uint32_t r = m.v(first, next3(k)), l = m.v(first, prev3(k));
   std::uint32_t at = edge_id(first, k);
   for (std::uint32_t steps = 0; steps <= m.num_slots; ++steps) {
@@ -296,7 +292,7 @@ Reach crossed_edges(const MeshView& m, std::uint32_t a, std::uint32_t b, Owns&& 
       return Reach::done;
     }
     crossed.emplace_back(r, l);
-    const std::uint32_t e = m.link(at);
+    const std::uint32_t e = m.adj[at];
     if (e == kNoId) {
       status = ConstraintStatus::leaves_mesh;
       return Reach::done;
@@ -343,9 +339,9 @@ Reach insert_piece(const MeshView& m, const ConstraintPiece2& p, std::uint32_t k
     const auto [u, v] = queue.front();
     std::uint32_t e = kNoId;
     if (find_edge(m, u, v, owns, e) == Reach::outside) return Reach::outside;
-    if (e == kNoId || m.link(e) == kNoId || m.seg[e] != kNoId) fail(ConstraintStatus::corrupt_mesh, k, p);
+    if (e == kNoId || m.adj[e] == kNoId || m.seg[e] != kNoId) fail(ConstraintStatus::corrupt_mesh, k, p);
     const std::uint32_t t = edge_tri(e), i = edge_index(e);
-    const std::uint32_t f = m.link(e);
+    const std::uint32_t f = m.adj[e];
     const std::uint32_t partner = edge_tri(f), j = edge_index(f);
     if (!owns(partner)) return Reach::outside;
     const std::uint32_t w = m.v(t, i), z = m.v(partner, j);
@@ -356,8 +352,8 @@ Reach insert_piece(const MeshView& m, const ConstraintPiece2& p, std::uint32_t k
       queue.emplace_back(u, v);
       continue;
     }
-    if (!inside(m.link(t, next3(i))) || !inside(m.link(t, prev3(i))) || !inside(m.link(partner, next3(j))) ||
-        !inside(m.link(partner, prev3(j)))) {
+    if (!inside(m.adj[3 * t + next3(i)]) || !inside(m.adj[3 * t + prev3(i)]) ||
+        !inside(m.adj[3 * partner + next3(j)]) || !inside(m.adj[3 * partner + prev3(j)])) {
       return Reach::outside;
     }
     flip_edge_in_part(m, t, i);
@@ -370,9 +366,9 @@ Reach insert_piece(const MeshView& m, const ConstraintPiece2& p, std::uint32_t k
   std::uint32_t e = kNoId;
   if (find_edge(m, p.a, p.b, owns, e) == Reach::outside) return Reach::outside;
   if (e == kNoId) fail(ConstraintStatus::corrupt_mesh, k, p);
-  if (!inside(m.link(e))) return Reach::outside;
+  if (!inside(m.adj[e])) return Reach::outside;
   m.seg[e] = std::min(m.seg[e], p.id);
-  if (m.link(e) != kNoId) m.seg[m.link(e)] = std::min(m.seg[m.link(e)], p.id);
+  if (m.adj[e] != kNoId) m.seg[m.adj[e]] = std::min(m.seg[m.adj[e]], p.id);
   return Reach::done;
 }
 
@@ -403,7 +399,7 @@ ConstraintStats insert_constraints_one_by_one(Mesh& mesh, std::span<const Constr
   executor.for_each(np, [&](std::size_t k) {
     if (status[k] != ConstraintStatus::present) return;
     atomic_min(m.seg + present[k], pieces[k].id);
-    const std::uint32_t twin = m.link(present[k]);
+    const std::uint32_t twin = m.adj[present[k]];
     if (twin != kNoId) atomic_min(m.seg + twin, pieces[k].id);
   });
   const std::vector<std::uint32_t> pending =

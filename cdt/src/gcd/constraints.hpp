@@ -252,7 +252,7 @@ CDT_HD inline ConstraintStatus propose_constraint_flip(const MeshView& m, const 
   if (links.exit == 3) return ConstraintStatus::ok; // A holds b: the pair (B, A) is B's to propose
   const std::uint32_t exit_edge = edge_id(A, links.exit);
   if (m.seg[exit_edge] != kNoId) return ConstraintStatus::crosses_constraint;
-  const std::uint32_t ce = m.link(exit_edge);
+  const std::uint32_t ce = m.adj[exit_edge];
   if (ce == kNoId) return ConstraintStatus::leaves_mesh;
   const std::uint32_t C = edge_tri(ce);
   if (cmark[C] != piece) return ConstraintStatus::ok;
@@ -265,7 +265,7 @@ CDT_HD inline ConstraintStatus propose_constraint_flip(const MeshView& m, const 
     return ConstraintStatus::ok;
   }
   if (ac != PairConfig::double_intersection || links.entry == 3) return ConstraintStatus::ok;
-  const std::uint32_t be = m.link(edge_id(A, links.entry));
+  const std::uint32_t be = m.adj[edge_id(A, links.entry)];
   if (be == kNoId) return ConstraintStatus::leaves_mesh;
   const std::uint32_t B = edge_tri(be);
   if (cmark[B] != piece) return ConstraintStatus::ok;
@@ -312,7 +312,7 @@ CDT_HD inline void record_constraint_proposal(const MeshView& m, const Constrain
   r.next_tri[k] = kNoId;
   if (proposal.flip_case == FlipCase::none) return;
   const std::uint32_t A = r.act[k];
-  const std::uint32_t C = edge_tri(m.link(proposal.edge));
+  const std::uint32_t C = edge_tri(m.adj[proposal.edge]);
   const std::uint32_t label = constraint_flip_label(proposal.flip_case, A);
   r.next_tri[k] = C;
   r.label[k] = label;
@@ -452,7 +452,7 @@ CDT_HD Reach find_edge(const MeshView& m, std::uint32_t u, std::uint32_t v, Owns
       edge = edge_id(t, next3(k));
       return Reach::done;
     }
-    const std::uint32_t e = m.link(edge_id(t, clockwise ? prev3(k) : next3(k)));
+    const std::uint32_t e = m.adj[edge_id(t, clockwise ? prev3(k) : next3(k))];
     if (e == kNoId) {
       if (clockwise) return Reach::done;
       clockwise = true;
@@ -484,7 +484,7 @@ CDT_HD ConstraintStatus walk_piece_on(const MeshView& m, std::uint32_t a, std::u
                                       bool& met_stop) {
   for (std::uint32_t steps = 0; steps <= m.num_slots; ++steps) {
     if (m.seg[crossed] != kNoId) return ConstraintStatus::crosses_constraint;
-    const std::uint32_t e = m.link(crossed);
+    const std::uint32_t e = m.adj[crossed];
     if (e == kNoId) return ConstraintStatus::leaves_mesh;
     const std::uint32_t n = edge_tri(e);
     if (n == stop) {
@@ -545,7 +545,7 @@ CDT_HD ConstraintStatus walk_piece(const MeshView& m, std::uint32_t a, std::uint
       break;
     }
     // Counter-clockwise the next triangle is across the edge (q, a), clockwise across (a, p).
-    const std::uint32_t e = m.link(edge_id(t, clockwise ? prev3(k) : next3(k)));
+    const std::uint32_t e = m.adj[edge_id(t, clockwise ? prev3(k) : next3(k))];
     if (e == kNoId) {
       if (clockwise) return ConstraintStatus::leaves_mesh;
       clockwise = true;

@@ -282,12 +282,12 @@ Mesh dualize(std::span<const std::uint32_t> colour, std::uint32_t m, std::span<c
       }
     });
     executor.sort_pairs_by_key(key, order, std::bit_width(n));
-    Slot* slots = mesh.slots.data();
+    std::uint32_t* tri = mesh.tri.data();
     executor.for_each(num_dual, [&](std::size_t k) {
       const Tri& t = all[order[k]];
-      slots[k].v[0] = t.a;
-      slots[k].v[1] = t.b;
-      slots[k].v[2] = t.c;
+      tri[3 * k] = t.a;
+      tri[3 * k + 1] = t.b;
+      tri[3 * k + 2] = t.c;
     });
   }
   try {
@@ -301,7 +301,8 @@ Mesh dualize(std::span<const std::uint32_t> colour, std::uint32_t m, std::span<c
 void reserve_mesh_slots(Mesh& mesh, std::uint32_t n) {
   const std::size_t room = 3 * (2 * static_cast<std::size_t>(n) +
                                 4 * static_cast<std::size_t>(std::sqrt(static_cast<double>(n))) + 64);
-  mesh.slots.reserve(room / 3);
+  mesh.tri.reserve(room);
+  mesh.adj.reserve(room);
   mesh.seg.reserve(room);
 }
 
@@ -440,7 +441,7 @@ Mesh complete_dual(Mesh mesh, std::span<const std::uint8_t> kept, const Box& bou
   const MeshView m = mesh.view();
   const std::vector<std::uint32_t> open_ids =
       executor.compact(3 * static_cast<std::size_t>(num_dual), [&](std::size_t e) {
-        return m.alive(static_cast<std::uint32_t>(e / 3)) && m.link(e) == kNoId;
+        return m.alive(static_cast<std::uint32_t>(e / 3)) && m.adj[e] == kNoId;
       });
   std::vector<OpenEdge> open(open_ids.size());
   for (std::size_t k = 0; k < open.size(); ++k) {
@@ -459,9 +460,8 @@ Mesh complete_dual(Mesh mesh, std::span<const std::uint8_t> kept, const Box& bou
 
   mesh.xy.insert(mesh.xy.end(), plan->fake.begin(), plan->fake.end());
   for (const Tri& t : plan->triangles) mesh.add_triangle(t.a, t.b, t.c);
-  for (std::size_t k = 0; k < plan->adj.size(); ++k)
-    mesh.link(3 * num_dual + static_cast<std::uint32_t>(k)) = plan->adj[k];
-  for (const auto& [e, to] : plan->links) mesh.link(e) = to;
+  std::copy(plan->adj.begin(), plan->adj.end(), mesh.adj.begin() + 3 * static_cast<std::ptrdiff_t>(num_dual));
+  for (const auto& [e, to] : plan->links) mesh.adj[e] = to;
   mesh.vert_tri.resize(n);
   mesh.vert_tri.insert(mesh.vert_tri.end(), plan->fake_vert_tri.begin(), plan->fake_vert_tri.end());
   check_missing_sites_left_out(kept, mesh.vert_tri, executor);

@@ -31,7 +31,7 @@ void FlipBatch::apply(Mesh& mesh, std::span<const std::uint32_t> edges, CpuExecu
   // The pairs are disjoint, so each slot's partner entry has one writer.
   executor.for_each(n, [&](std::size_t k) {
     const std::uint32_t t = edge_tri(edge[k]);
-    const std::uint32_t u = edge_tri(m.link(edge[k]));
+    const std::uint32_t u = edge_tri(m.adj[edge[k]]);
     partner[t] = u;
     partner[u] = t;
     last[2 * k] = t;
@@ -236,7 +236,7 @@ FlipStats flip_to_delaunay_in_parts(Mesh& mesh, CpuExecutor& executor, const std
     for (std::uint32_t t = lo; t < hi; ++t) {
       if (!checked(t)) continue;
       for (std::uint32_t i = 0; i < 3; ++i) {
-        const std::uint32_t e = m.link(t, i);
+        const std::uint32_t e = m.adj[3 * t + i];
         if (e == kNoId) continue;
         const std::uint32_t u = edge_tri(e);
         if (u >= lo && u < hi && u < t && checked(u)) continue;

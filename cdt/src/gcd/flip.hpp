@@ -65,7 +65,7 @@ CDT_HD_INLINE int orient_vertices(const MeshView& m, std::uint32_t a, std::uint3
 /// True when flipping edge i of t (t = (a, b, c), neighbour (c, b, d)) gives two counter-clockwise
 /// triangles (a, b, d) and (d, c, a), i.e. the quadrilateral a b d c is strictly convex.
 CDT_HD_INLINE bool flip_is_convex(const MeshView& m, std::uint32_t t, std::uint32_t i) {
-  const std::uint32_t e = m.link(t, i);
+  const std::uint32_t e = m.adj[3 * t + i];
   const std::uint32_t a = m.v(t, i), b = m.v(t, next3(i)), c = m.v(t, prev3(i));
   const std::uint32_t d = m.v(edge_tri(e), edge_index(e));
   return orient_vertices(m, a, b, d) > 0 && orient_vertices(m, d, c, a) > 0;
@@ -93,7 +93,7 @@ CDT_HD_INLINE int orient_test(const MeshView& m, std::uint32_t a, std::uint32_t 
 /// fewer registers, and leaves the rare undecided edges to a second one with them.
 template <bool kExact>
 CDT_HD_INLINE int edge_flip_test(const MeshView& m, std::uint32_t t, std::uint32_t i) {
-  const std::uint32_t e = m.link(t, i);
+  const std::uint32_t e = m.adj[3 * t + i];
   if (e == kNoId || (m.seg != nullptr && m.seg[3 * t + i] != kNoId)) return 0;
   const std::uint32_t a = m.v(t, 0), b = m.v(t, 1), c = m.v(t, 2);
   const std::uint32_t d = m.v(edge_tri(e), edge_index(e));
@@ -136,7 +136,7 @@ CDT_HD inline std::uint32_t delaunay_flip_candidate(const MeshView& m, const std
   const bool fresh = partner[t] != kNoId;
   for (std::uint32_t i = 0; i < 3; ++i) {
     if (fresh && i == 1) continue;
-    const std::uint32_t e = m.link(t, i);
+    const std::uint32_t e = m.adj[3 * t + i];
     if (e == kNoId) continue;
     const std::uint32_t u = edge_tri(e);
     if (u < t && active[u]) continue;
@@ -158,7 +158,7 @@ CDT_HD inline std::uint32_t delaunay_flip_candidate(const MeshView& m, const std
 CDT_HD inline std::uint32_t fake_fan_candidate(const MeshView& m, const std::uint8_t* active, std::uint32_t t,
                                                std::uint32_t first_fake) {
   for (std::uint32_t i = 0; i < 3; ++i) {
-    const std::uint32_t e = m.link(t, i);
+    const std::uint32_t e = m.adj[3 * t + i];
     if (e == kNoId || (m.seg != nullptr && m.seg[3 * t + i] != kNoId)) continue;
     const std::uint32_t u = edge_tri(e);
     if (u < t && active[u]) continue;
@@ -190,7 +190,7 @@ CDT_HD inline void record_flip_proposal(const MeshView& m, const FlipRound& r, s
   r.nbr[k] = kNoId;
   if (e == kNoId) return;
   const std::uint32_t t = r.list[k];
-  const std::uint32_t u = edge_tri(m.link(e));
+  const std::uint32_t u = edge_tri(m.adj[e]);
   r.nbr[k] = u;
   claim_min(r.marks + t, t);
   claim_min(r.marks + u, t);
@@ -231,8 +231,8 @@ CDT_HD_INLINE bool flip_proposal_waits(const FlipRound& r, const std::uint32_t* 
 /// because nobody writes vert_tri during this step.
 CDT_HD inline std::uint8_t flip_pair_contents(const MeshView& m, std::uint32_t e) {
   const std::uint32_t t = edge_tri(e), i = edge_index(e);
-  const std::uint32_t u = edge_tri(m.link(e));
-  const std::uint32_t b = m.v(t, next3(i)), c = m.v(t, prev3(i));
+  const std::uint32_t u = edge_tri(m.adj[e]);
+  const std::uint32_t b = m.tri[3 * t + next3(i)], c = m.tri[3 * t + prev3(i)];
   const std::uint8_t fix =
       static_cast<std::uint8_t>((m.vert_tri[b] == u ? 1u : 0u) | (m.vert_tri[c] == t ? 2u : 0u));
   rewrite_flipped_pair(m, t, i);
@@ -261,11 +261,11 @@ CDT_HD inline bool relink_flipped_pair(const MeshView& m, const std::uint32_t* p
   bool ok = true;
   for (const std::uint32_t x : pair) {
     for (std::uint32_t k = 0; k < 3; k += 2) {
-      const std::uint32_t e = m.link(x, k);
+      const std::uint32_t e = m.adj[3 * x + k];
       if (e == kNoId) continue;
       const std::uint32_t n = edge_tri(e);
       if (partner[n] == kNoId) {
-        m.link(e) = edge_id(x, k);
+        m.adj[e] = edge_id(x, k);
         continue;
       }
       const std::uint32_t from = m.v(x, next3(k)), to = m.v(x, prev3(k));
@@ -275,7 +275,7 @@ CDT_HD inline bool relink_flipped_pair(const MeshView& m, const std::uint32_t* p
         ok = false;
         continue;
       }
-      m.link(x, k) = found;
+      m.adj[3 * x + k] = found;
     }
   }
   if (vertex_fix & 1u) m.vert_tri[m.v(t, 1)] = t;

@@ -55,7 +55,7 @@ InsertStats insert_missing_points(Mesh& mesh, std::span<const MissingPoint> miss
   // A start for points whose hint will never be in the mesh: any vertex of a live triangle (they all stay).
   std::uint32_t fallback = kNoId;
   for (std::uint32_t t = 0; t < m.num_slots && fallback == kNoId; ++t)
-    if (m.alive(t)) fallback = m.v(t, 0);
+    if (m.alive(t)) fallback = m.tri[3 * t];
   if (fallback == kNoId) throw Error("internal error: inserting missing points into an empty mesh");
 
   std::vector<std::uint32_t> start(num), loc_t(num), loc_e(num), loc_u(num), loc_j(num), new0(num), new1(num);
@@ -148,10 +148,10 @@ PartWalk walk_in_part(const MeshView& m, Owns&& owns, std::uint32_t& t, double p
     std::uint32_t next = kNoId;
     for (std::uint32_t r = 0; r < 3 && next == kNoId; ++r) {
       const std::uint32_t k = (step + r) % 3;
-      const std::uint32_t a = m.v(t, next3(k)), b = m.v(t, prev3(k));
+      const std::uint32_t a = m.tri[3 * t + next3(k)], b = m.tri[3 * t + prev3(k)];
       const int o = orient2d(m.xy[a].x, m.xy[a].y, m.xy[b].x, m.xy[b].y, px, py);
       if (o < 0) {
-        next = m.link(t, k);
+        next = m.adj[3 * t + k];
         if (next == kNoId) return PartWalk::failed;
       } else if (o == 0) {
         ++zeros;
@@ -169,8 +169,8 @@ PartWalk walk_in_part(const MeshView& m, Owns&& owns, std::uint32_t& t, double p
 
 /// Points the neighbour across encoded edge ne (just moved into a new slot) back at it.
 inline void relink_outer(const MeshView& m, std::uint32_t ne) {
-  const std::uint32_t old = m.link(ne);
-  if (old != kNoId) m.link(old) = ne;
+  const std::uint32_t old = m.adj[ne];
+  if (old != kNoId) m.adj[old] = ne;
 }
 
 } // namespace
@@ -269,9 +269,9 @@ InsertStats insert_missing_points_in_parts(Mesh& mesh, std::span<const MissingPo
       const std::uint32_t s0 = slots_before + 2 * k, s1 = s0 + 1;
       if (where == PartWalk::inside) {
         // t = (a, b, c) -> (v, b, c), s0 = (a, v, c), s1 = (a, b, v); s0 and s1 take t's edges 1 and 2.
-        const std::uint32_t n1 = m.link(t, 1), n2 = m.link(t, 2);
+        const std::uint32_t n1 = m.adj[3 * t + 1], n2 = m.adj[3 * t + 2];
         if ((n1 != kNoId && !owns(edge_tri(n1))) || (n2 != kNoId && !owns(edge_tri(n2)))) continue;
-        const std::uint32_t a = m.v(t, 0);
+        const std::uint32_t a = m.tri[3 * t];
         split_triangle(m, v, t, s0, s1, 0);
         relink_outer(m, edge_id(s0, 1));
         relink_outer(m, edge_id(s1, 2));
@@ -280,12 +280,12 @@ InsertStats insert_missing_points_in_parts(Mesh& mesh, std::span<const MissingPo
       } else if (where == PartWalk::on_edge) {
         // Edge i of t = (a, b, c) is edge j of u = (d, c, b): t -> (a, b, v), s0 = (a, v, c),
         // u -> (d, c, v), s1 = (d, v, b); s0 takes t's edge i1, s1 takes u's edge j1.
-        const std::uint32_t i = edge, f = m.link(t, i);
+        const std::uint32_t i = edge, f = m.adj[3 * t + i];
         if (f == kNoId || !owns(edge_tri(f))) continue;
         const std::uint32_t u = edge_tri(f), j = edge_index(f);
-        const std::uint32_t n_t = m.link(t, next3(i)), n_u = m.link(u, next3(j));
+        const std::uint32_t n_t = m.adj[3 * t + next3(i)], n_u = m.adj[3 * u + next3(j)];
         if ((n_t != kNoId && !owns(edge_tri(n_t))) || (n_u != kNoId && !owns(edge_tri(n_u)))) continue;
-        const std::uint32_t b = m.v(t, next3(i)), c = m.v(t, prev3(i));
+        const std::uint32_t b = m.tri[3 * t + next3(i)], c = m.tri[3 * t + prev3(i)];
         split_edge(m, v, t, i, u, j, s0, s1, 0);
         relink_outer(m, edge_id(s0, next3(i)));
         relink_outer(m, edge_id(s1, next3(j)));
@@ -378,7 +378,7 @@ void remove_fake_boundary(Mesh& mesh, std::uint32_t first_fake, CpuExecutor& exe
     executor.for_each(m.num_slots, [&](std::size_t t) {
       if (!m.alive(static_cast<std::uint32_t>(t))) return;
       for (std::uint32_t i = 0; i < 3; ++i)
-        if (m.v(t, i) >= first_fake) flag[t] = 1;
+        if (m.tri[3 * t + i] >= first_fake) flag[t] = 1;
     });
   }
   delete_fake_vertices(mesh, first_fake, executor);
@@ -401,7 +401,7 @@ void remove_fake_boundary(Mesh& mesh, std::uint32_t first_fake, CpuExecutor& exe
     std::vector<std::uint32_t> key(alive.size());
     executor.for_each(alive.size(), [&](std::size_t r) {
       const std::uint32_t t = alive[r];
-      key[r] = std::min({m.v(t, 0), m.v(t, 1), m.v(t, 2)});
+      key[r] = std::min({m.tri[3 * t], m.tri[3 * t + 1], m.tri[3 * t + 2]});
     });
     live = alive;
     executor.sort_pairs_by_key(key, live, std::bit_width(nv));
@@ -410,17 +410,15 @@ void remove_fake_boundary(Mesh& mesh, std::uint32_t first_fake, CpuExecutor& exe
   // arrays are written whole before they are copied back into the mesh's own storage.
   UnzeroedVector<std::uint32_t> new_id(m.num_slots);
   executor.for_each(live.size(), [&](std::size_t r) { new_id[live[r]] = static_cast<std::uint32_t>(r); });
-  UnzeroedVector<Slot> slots(live.size());
-  UnzeroedVector<std::uint32_t> seg(3 * live.size());
+  UnzeroedVector<std::uint32_t> tri(3 * live.size()), adj(3 * live.size()), seg(3 * live.size());
   executor.for_each(live.size(), [&](std::size_t r) {
     const std::uint32_t t = live[r];
-    Slot s = m.slots[t];
     for (std::uint32_t i = 0; i < 3; ++i) {
-      const std::uint32_t e = s.link[i];
-      s.link[i] = e == kNoId ? kNoId : edge_id(new_id[edge_tri(e)], edge_index(e));
+      const std::uint32_t e = m.adj[3 * t + i];
+      tri[3 * r + i] = m.tri[3 * t + i];
+      adj[3 * r + i] = e == kNoId ? kNoId : edge_id(new_id[edge_tri(e)], edge_index(e));
       seg[3 * r + i] = m.seg[3 * t + i];
     }
-    slots[r] = s;
   });
   executor.for_each(first_fake, [&](std::size_t v) {
     const std::uint32_t vt = m.vert_tri[v];
@@ -431,11 +429,13 @@ void remove_fake_boundary(Mesh& mesh, std::uint32_t first_fake, CpuExecutor& exe
     executor.for_each(live.size(), [&](std::size_t r) { moved[r] = (*changed)[live[r]]; });
     changed->swap(moved);
   }
-  mesh.slots.resize(slots.size());
+  mesh.tri.resize(tri.size());
+  mesh.adj.resize(adj.size());
   mesh.seg.resize(seg.size());
-  executor.for_each(slots.size(), [&](std::size_t r) {
-    mesh.slots[r] = slots[r];
-    for (std::uint32_t i = 0; i < 3; ++i) mesh.seg[3 * r + i] = seg[3 * r + i];
+  executor.for_each(tri.size(), [&](std::size_t k) {
+    mesh.tri[k] = tri[k];
+    mesh.adj[k] = adj[k];
+    mesh.seg[k] = seg[k];
   });
   mesh.xy.resize(first_fake);
   mesh.vert_tri.resize(first_fake);

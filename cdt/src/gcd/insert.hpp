@@ -187,7 +187,7 @@ CDT_HD inline PointLocation locate_point(MeshView m, std::uint32_t origin, doubl
     // Cross edges: the current edge goes from a (right of origin->p) to b (left) in its triangle.
     while (next_origin == kNoId) {
       if (++steps > max_steps) return fail;
-      const std::uint32_t e = m.link(e_cross);
+      const std::uint32_t e = m.adj[e_cross];
       if (e == kNoId) return fail;
       const std::uint32_t u = edge_tri(e), j = edge_index(e);
       const std::uint32_t c = m.v(u, j); // u = (c, b, a) from index j on
@@ -239,7 +239,7 @@ CDT_HD inline MissingPointPlace place_missing_point(MeshView m, std::uint32_t or
   out.tri = loc.tri;
   out.edge = loc.edge;
   if (loc.edge != 3) {
-    const std::uint32_t e = m.link(loc.tri, loc.edge);
+    const std::uint32_t e = m.adj[3 * loc.tri + loc.edge];
     if (e == kNoId) {
       out.status = WorkStatus::boundary_edge;
       return out;
@@ -255,12 +255,12 @@ CDT_HD inline MissingPointPlace place_missing_point(MeshView m, std::uint32_t or
 /// arithmetic (split_forward); the outer links are left pointing at the old neighbours for that repair.
 CDT_HD inline void split_triangle(MeshView m, std::uint32_t p, std::uint32_t t, std::uint32_t s0,
                                   std::uint32_t s1, std::uint8_t own) {
-  const std::uint32_t a = m.v(t, 0), b = m.v(t, 1), c = m.v(t, 2);
-  const std::uint32_t o1 = m.link(t, 1), o2 = m.link(t, 2);
+  const std::uint32_t a = m.tri[3 * t], b = m.tri[3 * t + 1], c = m.tri[3 * t + 2];
+  const std::uint32_t o1 = m.adj[3 * t + 1], o2 = m.adj[3 * t + 2];
   const std::uint32_t g1 = m.seg[3 * t + 1], g2 = m.seg[3 * t + 2];
-  m.v(t, 0) = p;
-  m.link(t, 1) = edge_id(s0, 0);
-  m.link(t, 2) = edge_id(s1, 0);
+  m.tri[3 * t] = p;
+  m.adj[3 * t + 1] = edge_id(s0, 0);
+  m.adj[3 * t + 2] = edge_id(s1, 0);
   m.seg[3 * t + 1] = kNoId;
   m.seg[3 * t + 2] = kNoId;
   const std::uint32_t v0[3] = {a, p, c}, l0[3] = {edge_id(t, 1), o1, edge_id(s1, 1)},
@@ -268,11 +268,11 @@ CDT_HD inline void split_triangle(MeshView m, std::uint32_t p, std::uint32_t t, 
   const std::uint32_t v1[3] = {a, b, p}, l1[3] = {edge_id(t, 2), edge_id(s0, 2), o2},
                       h1[3] = {kNoId, kNoId, g2};
   for (std::uint32_t i = 0; i < 3; ++i) {
-    m.v(s0, i) = v0[i];
-    m.link(s0, i) = l0[i];
+    m.tri[3 * s0 + i] = v0[i];
+    m.adj[3 * s0 + i] = l0[i];
     m.seg[3 * s0 + i] = g0[i];
-    m.v(s1, i) = v1[i];
-    m.link(s1, i) = l1[i];
+    m.tri[3 * s1 + i] = v1[i];
+    m.adj[3 * s1 + i] = l1[i];
     m.seg[3 * s1 + i] = h1[i];
   }
   m.vert_tri[p] = t;
@@ -287,35 +287,36 @@ CDT_HD inline void split_triangle(MeshView m, std::uint32_t p, std::uint32_t t, 
 CDT_HD inline void split_edge(MeshView m, std::uint32_t p, std::uint32_t t, std::uint32_t i, std::uint32_t u,
                               std::uint32_t j, std::uint32_t s0, std::uint32_t s1, std::uint8_t own) {
   const std::uint32_t i1 = next3(i), i2 = prev3(i), j1 = next3(j), j2 = prev3(j);
-  const std::uint32_t a = m.v(t, i), b = m.v(t, i1), c = m.v(t, i2), d = m.v(u, j);
-  const std::uint32_t t_ca = m.link(t, i1), u_bd = m.link(u, j1);
+  const std::uint32_t a = m.tri[3 * t + i], b = m.tri[3 * t + i1], c = m.tri[3 * t + i2],
+                      d = m.tri[3 * u + j];
+  const std::uint32_t t_ca = m.adj[3 * t + i1], u_bd = m.adj[3 * u + j1];
   const std::uint32_t g_bc = m.seg[3 * t + i], g_ca = m.seg[3 * t + i1], g_bd = m.seg[3 * u + j1];
   // s0 and s1 first: they copy from t and u before those change.
-  m.v(s0, i) = a;
-  m.v(s0, i1) = p;
-  m.v(s0, i2) = c;
-  m.link(s0, i) = edge_id(u, j);
-  m.link(s0, i1) = t_ca;
-  m.link(s0, i2) = edge_id(t, i1);
+  m.tri[3 * s0 + i] = a;
+  m.tri[3 * s0 + i1] = p;
+  m.tri[3 * s0 + i2] = c;
+  m.adj[3 * s0 + i] = edge_id(u, j);
+  m.adj[3 * s0 + i1] = t_ca;
+  m.adj[3 * s0 + i2] = edge_id(t, i1);
   m.seg[3 * s0 + i] = g_bc;
   m.seg[3 * s0 + i1] = g_ca;
   m.seg[3 * s0 + i2] = kNoId;
-  m.v(s1, j) = d;
-  m.v(s1, j1) = p;
-  m.v(s1, j2) = b;
-  m.link(s1, j) = edge_id(t, i);
-  m.link(s1, j1) = u_bd;
-  m.link(s1, j2) = edge_id(u, j1);
+  m.tri[3 * s1 + j] = d;
+  m.tri[3 * s1 + j1] = p;
+  m.tri[3 * s1 + j2] = b;
+  m.adj[3 * s1 + j] = edge_id(t, i);
+  m.adj[3 * s1 + j1] = u_bd;
+  m.adj[3 * s1 + j2] = edge_id(u, j1);
   m.seg[3 * s1 + j] = g_bc;
   m.seg[3 * s1 + j1] = g_bd;
   m.seg[3 * s1 + j2] = kNoId;
-  m.v(t, i2) = p;
-  m.link(t, i) = edge_id(s1, j);
-  m.link(t, i1) = edge_id(s0, i2);
+  m.tri[3 * t + i2] = p;
+  m.adj[3 * t + i] = edge_id(s1, j);
+  m.adj[3 * t + i1] = edge_id(s0, i2);
   m.seg[3 * t + i1] = kNoId;
-  m.v(u, j2) = p;
-  m.link(u, j) = edge_id(s0, i);
-  m.link(u, j1) = edge_id(s1, j2);
+  m.tri[3 * u + j2] = p;
+  m.adj[3 * u + j] = edge_id(s0, i);
+  m.adj[3 * u + j1] = edge_id(s1, j2);
   m.seg[3 * u + j1] = kNoId;
   m.vert_tri[p] = t;
   if (own & kSplitOwnA) m.vert_tri[a] = t;
@@ -435,7 +436,7 @@ CDT_HD_INLINE void settle_insert_claims(const MeshView& m, const InsertClaims& c
   const bool wins = holds_t && (u == kNoId || holds_u);
   c.flags[q] =
       static_cast<std::uint8_t>((holds_t ? kHoldsT : 0) | (holds_u ? kHoldsU : 0) | (wins ? kWins : 0));
-  if (!wins) c.start[q] = m.v(t, 0);
+  if (!wins) c.start[q] = m.tri[3 * t];
 }
 
 /// Whether q inserts its point this round (settle_insert_claims decided it).
@@ -487,8 +488,9 @@ struct InsertRound {
 CDT_HD inline std::uint8_t split_corner_owners(const MeshView& m, const InsertRound& r, std::uint32_t q) {
   const std::uint32_t t = r.loc_t[q], u = r.loc_u[q], e = r.loc_e[q];
   const std::uint32_t first = e == 3 ? 0 : e;
-  const std::uint32_t corners[4] = {m.v(t, first), m.v(t, next3(first)), m.v(t, prev3(first)),
-                                    u == kNoId ? kNoId : m.v(u, r.loc_j[q])};
+  const std::uint32_t corners[4] = {m.tri[3 * t + first], m.tri[3 * t + next3(first)],
+                                    m.tri[3 * t + prev3(first)],
+                                    u == kNoId ? kNoId : m.tri[3 * u + r.loc_j[q]]};
   std::uint8_t bits = 0;
   for (std::uint32_t c = 0; c < 4; ++c) {
     if (corners[c] == kNoId) continue;
@@ -517,15 +519,14 @@ CDT_HD inline void link_split_outer_edges(const MeshView& m, const InsertRound& 
   }
   for (std::uint32_t k = 0; k < count; ++k) {
     const std::uint32_t ne = outer[k];
-    const std::uint32_t old = m.link(ne);
+    const std::uint32_t old = m.adj[ne];
     if (old == kNoId) continue;
     const std::uint32_t x = edge_tri(old);
     const std::uint32_t w = claim_holder(r.mark[x]);
     if (w != kNoId && (r.flags[w] & kWins) != 0) {
-      m.link(ne) =
-          split_forward(x, edge_index(old), r.loc_t[w], r.loc_e[w], r.loc_j[w], r.new0[w], r.new1[w]);
+      m.adj[ne] = split_forward(x, edge_index(old), r.loc_t[w], r.loc_e[w], r.loc_j[w], r.new0[w], r.new1[w]);
     } else {
-      m.link(old) = ne;
+      m.adj[old] = ne;
     }
   }
 }

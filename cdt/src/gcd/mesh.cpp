@@ -11,14 +11,16 @@ namespace cdt::detail {
 
 std::uint32_t Mesh::add_triangle(std::uint32_t a, std::uint32_t b, std::uint32_t c) {
   const std::uint32_t t = num_slots();
-  slots.push_back(Slot{{a, b, c}, {kNoId, kNoId, kNoId}, {kNoId, kNoId}});
+  tri.insert(tri.end(), {a, b, c});
+  adj.insert(adj.end(), {kNoId, kNoId, kNoId});
   seg.insert(seg.end(), {kNoId, kNoId, kNoId});
   return t;
 }
 
 std::uint32_t Mesh::grow_slots(std::uint32_t n) {
   const std::uint32_t first = num_slots();
-  slots.resize(slots.size() + n, kFreeSlot);
+  tri.resize(tri.size() + 3 * static_cast<std::size_t>(n), kNoId);
+  adj.resize(adj.size() + 3 * static_cast<std::size_t>(n), kNoId);
   seg.resize(seg.size() + 3 * static_cast<std::size_t>(n), kNoId);
   return first;
 }
@@ -59,13 +61,12 @@ void link_triangles(Mesh& mesh, CpuExecutor& executor) {
       out[at] = (hi << 32) | edge_id(t, i);
     }
   });
-  executor.for_each(slots, [&](std::size_t t) {
-    for (std::uint32_t i = 0; i < 3; ++i) m.link(static_cast<std::uint32_t>(t), i) = kNoId;
-  });
+  std::uint32_t* adj = mesh.adj.data();
+  executor.for_each(mesh.adj.size(), [adj](std::size_t e) { adj[e] = kNoId; });
   // The lowest vertex with a bad edge, so that the error does not depend on the thread count.
   std::uint32_t first_bad = kNoId;
   UnzeroedVector<std::uint8_t> bad(nv);
-  executor.for_each(nv, [&](std::size_t v) {
+  executor.for_each(nv, [&, adj](std::size_t v) {
     bad[v] = 0;
     std::uint64_t* first = bucket.data() + start[v];
     std::uint64_t* last = bucket.data() + start[v + 1];
@@ -91,8 +92,8 @@ void link_triangles(Mesh& mesh, CpuExecutor& executor) {
         if (m.v(edge_tri(e0), next3(edge_index(e0))) == m.v(edge_tri(e1), next3(edge_index(e1)))) {
           bad[v] = 2;
         } else {
-          m.link(e0) = e1;
-          m.link(e1) = e0;
+          adj[e0] = e1;
+          adj[e1] = e0;
         }
       }
       k = end;

@@ -32,8 +32,8 @@ inline void move_vert_tri(const MeshView& m, std::uint32_t v, std::uint32_t from
 /// flip_edge for a flip whose two slots and four outer neighbours belong to the calling thread's part,
 /// with vert_tri moved as the header says.
 inline void flip_edge_in_part(const MeshView& m, std::uint32_t t, std::uint32_t i) {
-  const std::uint32_t u = edge_tri(m.link(t, i));
-  const std::uint32_t b = m.v(t, next3(i)), c = m.v(t, prev3(i));
+  const std::uint32_t u = edge_tri(m.adj[3 * t + i]);
+  const std::uint32_t b = m.tri[3 * t + next3(i)], c = m.tri[3 * t + prev3(i)];
   flip_edge_links(m, t, i);
   // t = (a, b, d) and u = (d, c, a) now: b left u, c left t.
   move_vert_tri(m, b, u, t);
@@ -53,7 +53,7 @@ std::uint64_t drain_in_part(const MeshView& m, std::vector<std::uint32_t>& todo,
     const std::uint32_t e = todo.back();
     todo.pop_back();
     const std::uint32_t t = edge_tri(e), i = edge_index(e);
-    const std::uint32_t f = m.link(e);
+    const std::uint32_t f = m.adj[e];
     if (f == kNoId || m.seg[e] != kNoId) continue;
     if (!inside(f)) {
       defer(t);
@@ -61,8 +61,8 @@ std::uint64_t drain_in_part(const MeshView& m, std::vector<std::uint32_t>& todo,
     }
     if (!edge_wants_flip(m, t, i)) continue;
     const std::uint32_t u = edge_tri(f), j = edge_index(f);
-    if (!inside(m.link(t, next3(i))) || !inside(m.link(t, prev3(i))) || !inside(m.link(u, next3(j))) ||
-        !inside(m.link(u, prev3(j)))) {
+    if (!inside(m.adj[3 * t + next3(i)]) || !inside(m.adj[3 * t + prev3(i)]) ||
+        !inside(m.adj[3 * u + next3(j)]) || !inside(m.adj[3 * u + prev3(j)])) {
       defer(t);
       continue;
     }

@@ -120,7 +120,7 @@ CDT_HD bool walk_corridor(const MeshView& m, std::uint32_t a, std::uint32_t b, O
           wedge = t;
           break;
         }
-        const std::uint32_t e = m.link(edge_id(t, clockwise ? prev3(k) : next3(k)));
+        const std::uint32_t e = m.adj[edge_id(t, clockwise ? prev3(k) : next3(k))];
         if (e == kNoId) {
           if (clockwise) return false;
           clockwise = true;
@@ -136,7 +136,6 @@ CDT_HD bool walk_corridor(const MeshView& m, std::uint32_t a, std::uint32_t b, O
         continue;
       }
       const std::uint32_t k = m.index_of(wedge, cur);
-      if (k == 3) return false; // a fan that does not hold its own vertex: a broken mesh
       r = m.v(wedge, next3(k));
       l = m.v(wedge, prev3(k));
       edge = edge_id(wedge, k);
@@ -145,7 +144,7 @@ CDT_HD bool walk_corridor(const MeshView& m, std::uint32_t a, std::uint32_t b, O
     for (std::uint32_t steps = 0;; ++steps) {
       if (steps > m.num_slots) return false;
       crossed(edge);
-      const std::uint32_t e = m.link(edge);
+      const std::uint32_t e = m.adj[edge];
       if (e == kNoId) return false;
       const std::uint32_t n = edge_tri(e);
       if (part != nullptr && n == part->stop) {
@@ -181,7 +180,7 @@ CDT_HD_INLINE bool screen_edge(const MeshView& m, const ConstraintPiece2& p, std
   const std::uint32_t edge = find_mesh_edge(m, p.a, p.b);
   if (edge == kNoId) return false;
   piece_on[edge] = k;
-  if (m.link(edge) != kNoId) piece_on[m.link(edge)] = k;
+  if (m.adj[edge] != kNoId) piece_on[m.adj[edge]] = k;
   return true;
 }
 
@@ -215,7 +214,7 @@ CDT_HD bool walk_corridor_triangles(const MeshView& m, std::uint32_t a, std::uin
                                     Crossed&& crossed, Claim&& claim, CorridorPart* part = nullptr) {
   const auto both_sides = [&](std::uint32_t e) {
     claim(edge_tri(e));
-    if (m.link(e) != kNoId) claim(edge_tri(m.link(e)));
+    if (m.adj[e] != kNoId) claim(edge_tri(m.adj[e]));
   };
   return walk_corridor(
       m, a, b, on_vertex,
@@ -264,7 +263,7 @@ CDT_HD bool screen_corridor(const MeshView& m, const ConstraintPiece2& p, std::u
         flag(suspect[k]);
         flag(changes);
         screen_mark_triangle(m, edge_tri(e), piece_on, suspect, site, flag);
-        if (m.link(e) != kNoId) screen_mark_triangle(m, edge_tri(m.link(e)), piece_on, suspect, site, flag);
+        if (m.adj[e] != kNoId) screen_mark_triangle(m, edge_tri(m.adj[e]), piece_on, suspect, site, flag);
       },
       [&](std::uint32_t t) { screen_claim(t, k, first, second, crowded, suspect, flag, swap); }, part);
 }

@@ -44,10 +44,10 @@ std::vector<std::uint32_t> sites_in_slot_order(MeshView m, std::uint32_t num_sit
                                                std::uint8_t wanted, CpuExecutor& executor) {
   std::vector<std::uint32_t> corners =
       executor.compact(3 * static_cast<std::size_t>(m.num_slots), [&](std::size_t k) {
-        const std::uint32_t v = m.opposite(k);
+        const std::uint32_t v = m.tri[k];
         return v < num_sites && state[v] == wanted && m.vert_tri[v] == k / 3;
       });
-  executor.for_each(corners.size(), [&](std::size_t i) { corners[i] = m.opposite(corners[i]); });
+  executor.for_each(corners.size(), [&](std::size_t i) { corners[i] = m.tri[corners[i]]; });
   return corners;
 }
 

@@ -111,13 +111,13 @@ CDT_HD_INLINE std::uint32_t vertex_priority(std::uint32_t v) {
 /// The triangle after t counter-clockwise around its vertex at index k (across the edge from that vertex to
 /// vertex k + 2), or kNoId on the mesh boundary.
 CDT_HD_INLINE std::uint32_t fan_ccw(MeshView m, std::uint32_t t, std::uint32_t k) {
-  const std::uint32_t e = m.link(t, next3(k));
+  const std::uint32_t e = m.adj[3 * t + next3(k)];
   return e == kNoId ? kNoId : edge_tri(e);
 }
 
 /// The triangle before t clockwise around its vertex at index k, or kNoId on the mesh boundary.
 CDT_HD_INLINE std::uint32_t fan_cw(MeshView m, std::uint32_t t, std::uint32_t k) {
-  const std::uint32_t e = m.link(t, prev3(k));
+  const std::uint32_t e = m.adj[3 * t + prev3(k)];
   return e == kNoId ? kNoId : edge_tri(e);
 }
 
@@ -202,7 +202,7 @@ CDT_HD bool walk_neighbours(MeshView m, std::uint32_t v, Visit&& visit) {
   return visit_fan(m, v, closed, [&](std::uint32_t t, std::uint32_t k) {
     more = visit(m.v(t, next3(k)));
     // The far vertex of the counter-clockwise end of an open fan is a neighbour no triangle starts with.
-    if (more && m.link(t, next3(k)) == kNoId) more = visit(m.v(t, prev3(k)));
+    if (more && m.adj[3 * t + next3(k)] == kNoId) more = visit(m.v(t, prev3(k)));
     return more;
   });
 }
@@ -302,7 +302,7 @@ CDT_HD inline void collect_ring(MeshView m, std::uint32_t v, HoleView h, std::ui
   walk_fan(m, v, closed, [&](std::uint32_t t, std::uint32_t k) {
     h.vertex[pos] = m.v(t, next3(k));
     h.slot[pos] = t;
-    h.outer[pos] = m.link(t, k);
+    h.outer[pos] = m.adj[3 * t + k];
     h.seg[pos] = m.seg[3 * t + k];
     h.new_edge[pos] = kNoId;
     slot_pos[t] = pos;
@@ -337,10 +337,10 @@ CDT_HD_INLINE void attach_hole_edge(MeshView m, HoleView h, std::uint32_t ref, s
     const std::uint32_t pos = ref & ~kBoundaryRef;
     h.new_edge[pos] = e;
     m.seg[e] = h.seg[pos];
-    m.link(e) = kNoId;
+    m.adj[e] = kNoId;
   } else {
-    m.link(e) = ref;
-    m.link(ref) = e;
+    m.adj[e] = ref;
+    m.adj[ref] = e;
     m.seg[e] = kNoId;
   }
 }
@@ -349,12 +349,12 @@ CDT_HD_INLINE void attach_hole_edge(MeshView m, HoleView h, std::uint32_t ref, s
 /// 1 (c, a) becomes the ring edge after pa. Takes vert_tri of the owned corners.
 CDT_HD inline void emit_hole_triangle(MeshView m, HoleView h, std::uint32_t s, std::uint32_t pa,
                                       std::uint32_t pb, std::uint32_t pc) {
-  m.v(s, 0) = h.vertex[pa];
-  m.v(s, 1) = h.vertex[pb];
-  m.v(s, 2) = h.vertex[pc];
+  m.tri[3 * s + 0] = h.vertex[pa];
+  m.tri[3 * s + 1] = h.vertex[pb];
+  m.tri[3 * s + 2] = h.vertex[pc];
   attach_hole_edge(m, h, h.ref[pb], s, 0);
   attach_hole_edge(m, h, h.ref[pa], s, 2);
-  m.link(s, 1) = kNoId;
+  m.adj[3 * s + 1] = kNoId;
   m.seg[3 * s + 1] = kNoId;
   h.ref[pa] = edge_id(s, 1);
   const std::uint32_t corners[3] = {pa, pb, pc};
@@ -368,8 +368,8 @@ CDT_HD inline void emit_hole_triangle(MeshView m, HoleView h, std::uint32_t s, s
 
 CDT_HD_INLINE void release_slot(MeshView m, std::uint32_t s) {
   for (std::uint32_t i = 0; i < 3; ++i) {
-    m.v(s, i) = kNoId;
-    m.link(s, i) = kNoId;
+    m.tri[3 * s + i] = kNoId;
+    m.adj[3 * s + i] = kNoId;
     m.seg[3 * s + i] = kNoId;
   }
 }
@@ -501,8 +501,8 @@ CDT_HD inline void relink_hole(MeshView m, HoleView h, std::uint32_t base, std::
   for (std::uint32_t i = base; i < base + edges; ++i) {
     const std::uint32_t out = h.outer[i];
     const std::uint32_t target = out == kNoId ? kNoId : forward_hole_edge(h, slot_pos, out);
-    if (h.new_edge[i] != kNoId) m.link(h.new_edge[i]) = target;
-    if (out != kNoId && slot_pos[edge_tri(out)] == kNoId) m.link(out) = h.new_edge[i];
+    if (h.new_edge[i] != kNoId) m.adj[h.new_edge[i]] = target;
+    if (out != kNoId && slot_pos[edge_tri(out)] == kNoId) m.adj[out] = h.new_edge[i];
   }
   if (closed) return;
   for (std::uint32_t i = base; i < base + count; ++i) {
