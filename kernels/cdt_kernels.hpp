@@ -71,6 +71,14 @@ void* take_result_block(std::size_t bytes) noexcept;
 /// at the bus's speed, with no staging.
 bool in_result_block(const void* p, std::size_t bytes) noexcept;
 
+/// The outputs started early (DeviceMesh::start_early_output) in this process so far: their rows sent
+/// while the constraints ran, and of those the rows sent again at the end because they had changed.
+struct EarlyOutputRows {
+  std::uint64_t sent = 0;
+  std::uint64_t again = 0;
+};
+EarlyOutputRows early_output_rows() noexcept;
+
 /// Marks p's block free again when p is one (true; a block whose pinning stop_gpu undid is freed);
 /// false when p is no block of the result memory.
 bool give_back_result_block(void* p) noexcept;
@@ -381,6 +389,19 @@ public:
   /// spread over `parallel` (as are the other large copies).
   ::cdt::detail::ScreenedPieces screen(std::span<const ::cdt::detail::ConstraintPiece2> pieces,
                                        const HostParallelFor& parallel = {});
+
+  /// Starts output() early, while the constraints run beside the host: the rows of the slots that
+  /// the last screen() found away from every corridor (no piece crosses them or a neighbour) are made
+  /// now, numbered first, and copied straight into `triangles` and `neighbors` (their room, not their
+  /// size) while the device inserts the constraints; output() then makes and sends the other rows, and
+  /// of the early ones only those that changed after all (the last flips reach past the corridors now
+  /// and then; a split adds vertices). vertex_of as output()'s, of which the entries the device does
+  /// not hold already are uploaded. Only into pinned result memory (keep_pinned_results) with room for
+  /// every slot, for meshes whose output is made in parts; returns whether it started. The arrays must
+  /// keep their memory until output(), which must be given them; a slot that dies meanwhile (none
+  /// does after the fake boundary is gone) makes output() send every row again.
+  bool start_early_output(std::span<const std::uint32_t> vertex_of, TriangleArray& triangles,
+                          TriangleArray& neighbors);
 
   /// cdt::detail::insert_constraints (Step 2, Algorithms 4 and 5), with the same hang guard. Keeps on
   /// the device which slots its flips rewrote, for flip_after_constraints().

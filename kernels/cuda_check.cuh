@@ -91,6 +91,16 @@ void* try_take_staging_block() noexcept;
 /// Gives a block of take_staging_block or try_take_staging_block back to the pool.
 void return_staging_block(void* block) noexcept;
 
+/// Results of at most this many bytes come back written by a kernel into pinned memory (a reply
+/// block) rather than by a copy: the copy engine may be busy with a large transfer queued before them
+/// (the output started early), which a copy would wait for.
+inline constexpr std::size_t kReplyBytes = 256;
+/// A pinned host block of kReplyBytes from the process's pool of them (emptied by release_device), which
+/// kernels write directly (unified addressing). Throws DeviceError.
+void* take_reply_block();
+/// Gives a block of take_reply_block back to the pool.
+void return_reply_block(void* block) noexcept;
+
 /// A free staging block held for one call (try_take_staging_block), or none when `wanted` is false or
 /// every block is in use: nothing is pinned on the way, which would stall the other threads' device
 /// work.

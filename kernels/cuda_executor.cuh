@@ -369,6 +369,9 @@ private:
   /// Four blocks of 16 MiB (64 MiB pinned per executor that copies more than a block): 10^7 triangles'
   /// output (720 MB) comes down in 27 ms instead of 37-48 with two blocks of 8 MiB.
   static constexpr int kStagingBlocks = 4;
+  /// A pinned block of kReplyBytes that kernels write small results into (copy_to_host), taken on
+  /// first use and given back to its pool when the executor goes.
+  void* h_reply_ = nullptr;
   void* h_staging_[kStagingBlocks] = {}; ///< pinned host memory, kStagingBytes each; back to the pool
                                          ///< when the executor goes
   cudaEvent_t staged_[kStagingBlocks] = {};

@@ -418,6 +418,17 @@ StagingBlocks& staging_blocks() {
   static auto* blocks = new StagingBlocks; // never destroyed: executors may outlive static destructors
   return *blocks;
 }
+
+/// Reply blocks no executor holds (take_reply_block), kept like the staging blocks.
+StagingBlocks& reply_blocks() {
+  static auto* blocks = new StagingBlocks;
+  return *blocks;
+}
+
+/// Copies `bytes` bytes from device memory to pinned host memory, written by the kernel itself.
+__global__ void reply_kernel(const unsigned char* from, unsigned char* to, std::size_t bytes) {
+  for (std::size_t i = threadIdx.x; i < bytes; i += blockDim.x) to[i] = from[i];
+}
 } // namespace
 
 void fill_host_bytes(void* to, unsigned char byte, std::size_t len, const HostParallelFor* parallel) {
@@ -439,6 +450,31 @@ void* take_staging_block() {
   void* block = nullptr;
   CDT_CUDA_CHECK(cudaMallocHost(&block, kStagingBytes));
   return block;
+}
+
+void* take_reply_block() {
+  StagingBlocks& blocks = reply_blocks();
+  {
+    const std::lock_guard<std::mutex> lock(blocks.mutex);
+    if (!blocks.free.empty()) {
+      void* block = blocks.free.back();
+      blocks.free.pop_back();
+      return block;
+    }
+  }
+  void* block = nullptr;
+  CDT_CUDA_CHECK(cudaMallocHost(&block, kReplyBytes));
+  return block;
+}
+
+void return_reply_block(void* block) noexcept {
+  StagingBlocks& blocks = reply_blocks();
+  const std::lock_guard<std::mutex> lock(blocks.mutex);
+  try {
+    blocks.free.push_back(block);
+  } catch (...) {
+    cudaFreeHost(block);
+  }
 }
 
 void* try_take_staging_block() noexcept {
@@ -641,6 +677,7 @@ CudaExecutor::~CudaExecutor() {
   // Buffers are freed by their own destructors, in stream order; errors here were reported by the call
   // that caused them. The stream is the thread's own and stays.
   cudaStreamSynchronize(stream_);
+  if (h_reply_ != nullptr) return_reply_block(h_reply_);
   for (int k = 0; k < kStagingBlocks; ++k) {
     if (h_staging_[k] != nullptr) return_staging_block(h_staging_[k]);
     if (staged_[k] != nullptr) cudaEventDestroy(staged_[k]);
@@ -690,6 +727,18 @@ void CudaExecutor::copy_to_host(void* h_dst, const void* d_src, std::size_t byte
   // staged, on the H200 machine's hosts); with host threads to spread the staging over, copies of
   // kHelpedDownloadBytes or more go through the pinned blocks, in steps of a quarter of the copy or
   // less (whole parts, at most a block) so that the bus and the host's copies overlap.
+  if (bytes == 0) return synchronize();
+  if (bytes <= kReplyBytes) {
+    // A count or a flag, which the host waits for: written by a kernel, it does not queue behind the
+    // copies of other streams (the output's rows sent while the constraints run).
+    if (h_reply_ == nullptr) h_reply_ = take_reply_block();
+    reply_kernel<<<1, 64, 0, stream_>>>(static_cast<const unsigned char*>(d_src),
+                                        static_cast<unsigned char*>(h_reply_), bytes);
+    check_launch("reply_kernel", __FILE__, __LINE__);
+    synchronize();
+    std::memcpy(h_dst, h_reply_, bytes);
+    return;
+  }
   const bool helped = parallel != nullptr && *parallel && bytes >= kHelpedDownloadBytes;
   // Into the pinned result memory (keep_pinned_results) the device writes at the bus's speed itself.
   if ((bytes <= kStagingBytes && !helped) ||
@@ -870,6 +919,12 @@ void release_device() noexcept {
   detail::unpin_result_blocks();
   {
     detail::StagingBlocks& blocks = detail::staging_blocks();
+    const std::lock_guard<std::mutex> lock(blocks.mutex);
+    for (void* block : blocks.free) cudaFreeHost(block);
+    blocks.free.clear();
+  }
+  {
+    detail::StagingBlocks& blocks = detail::reply_blocks();
     const std::lock_guard<std::mutex> lock(blocks.mutex);
     for (void* block : blocks.free) cudaFreeHost(block);
     blocks.free.clear();

@@ -7,6 +7,7 @@
 #include <cstdint>
 #include <exception>
 #include <future>
+#include <memory>
 #include <span>
 #include <string>
 
@@ -122,6 +123,43 @@ struct ConstraintsBeside {
   }
 };
 
+/// The output's arrays are made and copied in parts of about this many bytes each when the device writes
+/// them into pinned memory.
+constexpr std::size_t kOutputPartBytes = std::size_t{16} << 20;
+
+/// Where a slot lies against the screened corridors (DeviceMesh::State::corridor_slots): the
+/// constraints' flips rewrite the triangles in a corridor, and the links of those next to one.
+enum : std::uint8_t { kAwayFromCorridors = 0, kNextToCorridor = 1, kInCorridor = 2 };
+
+/// The output's rows that the constraints leave alone, made and on their way into the result while
+/// the constraints run (DeviceMesh::start_early_output); output() makes the rest. The output's rows
+/// then come in three groups, each in slot order: the slots away from the corridors (both arrays sent
+/// early), those next to a corridor (their corners sent early), and the others (the corridors' and
+/// any made later).
+struct EarlyOutput {
+  std::uint32_t slots = 0;       ///< the mesh's slots when it started, every one alive
+  std::uint32_t away = 0;        ///< rows [0, away): corners and neighbours sent
+  std::uint32_t with_corners = 0; ///< rows [0, with_corners): corners sent
+  const void* host_triangles = nullptr;
+  const void* host_neighbors = nullptr;
+  DeviceBuffer<std::uint8_t> where;   ///< per slot, kAwayFromCorridors, kNextToCorridor or kInCorridor
+  /// per slot, how many slots before it are away from the corridors (low word) and next to one (high)
+  DeviceBuffer<unsigned long long> rank;
+  DeviceBuffer<std::uint32_t> corners, neighbours; ///< the rows as sent
+  std::unique_ptr<PartCopies> copies; ///< declared last: waited for before the buffers it reads go
+};
+
+/// The output row of slot t < EarlyOutput::slots.
+__device__ __forceinline__ std::uint32_t early_row(const std::uint8_t* where, const unsigned long long* rank,
+                                                   std::uint32_t away, std::uint32_t with_corners,
+                                                   std::uint32_t t) {
+  const auto before_away = static_cast<std::uint32_t>(rank[t]);
+  const auto before_next = static_cast<std::uint32_t>(rank[t] >> 32);
+  if (where[t] == kAwayFromCorridors) return before_away;
+  if (where[t] == kNextToCorridor) return away + before_next;
+  return with_corners + (t - before_away - before_next);
+}
+
 } // namespace detail
 
 struct DeviceMesh::State {
@@ -146,6 +184,11 @@ struct DeviceMesh::State {
   /// segment_of_edge's words filled with kNoId by prefill_segments (null when not), for that many rows.
   const std::uint32_t* prefilled_segments = nullptr;
   std::uint32_t prefilled_rows = 0;
+  /// Per slot, where the last screen() found it against the corridors (kInCorridor...; empty when it
+  /// did not look: small meshes), for start_early_output().
+  detail::DeviceBuffer<std::uint8_t> corridor_slots;
+  /// The output's rows started early (start_early_output; else null).
+  std::unique_ptr<detail::EarlyOutput> early;
   /// The constraints started beside the host (start_constraints; else null). Declared last: it is
   /// stopped and joined before the buffers it uses go.
   std::unique_ptr<detail::ConstraintsBeside> beside;

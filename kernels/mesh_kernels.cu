@@ -9,8 +9,10 @@
 
 #include <algorithm>
 #include <array>
+#include <atomic>
 #include <cstddef>
 #include <cstdint>
+#include <memory>
 #include <optional>
 #include <string>
 #include <utility>
@@ -1534,9 +1536,7 @@ void DeviceMesh::take_vertex_ids(DeviceSites& sites) {
   state_->vertex_ids = std::move(sites.state().site_vertex);
 }
 
-/// The output's arrays are made and copied in parts of about this many bytes each when the device writes
-/// them into pinned memory.
-constexpr std::size_t kOutputPartBytes = std::size_t{16} << 20;
+using detail::kOutputPartBytes;
 
 namespace {
 
@@ -1608,6 +1608,120 @@ private:
 
 } // namespace
 
+namespace {
+
+/// start_early_output's copies go in parts of this many bytes: a download of more than kReplyBytes
+/// that the constraints queue meanwhile waits for at most the part on the bus (about 40 microseconds).
+constexpr std::size_t kEarlyPartBytes = std::size_t{2} << 20;
+
+std::atomic<std::uint64_t> g_early_rows_sent{0}, g_early_rows_again{0};
+
+} // namespace
+
+EarlyOutputRows early_output_rows() noexcept {
+  return EarlyOutputRows{g_early_rows_sent.load(), g_early_rows_again.load()};
+}
+
+bool DeviceMesh::start_early_output(std::span<const std::uint32_t> vertex_of, TriangleArray& triangles,
+                                    TriangleArray& neighbors) {
+  State& s = *state_;
+  s.early.reset();
+  const std::uint32_t slots = s.num_slots;
+  const std::size_t bytes = 3 * sizeof(std::uint32_t) * static_cast<std::size_t>(slots);
+  if (s.corridor_slots.size() != slots || bytes < kOutputPartBytes ||
+      triangles.capacity() < slots || neighbors.capacity() < slots)
+    return false;
+  auto* host_c = reinterpret_cast<std::uint32_t*>(triangles.data());
+  auto* host_nb = reinterpret_cast<std::uint32_t*>(neighbors.data());
+  if (!in_result_block(host_c, bytes) || !in_result_block(host_nb, bytes)) return false;
+  try {
+    // The groups and ranks, and the rows of at most every slot, beside the constraints' own buffers.
+    detail::require_device_memory(9 * static_cast<std::size_t>(slots) + 2 * bytes + (std::size_t{64} << 20), 0,
+                                  "the output started early");
+  } catch (const DeviceError&) {
+    return false;
+  }
+  detail::CudaExecutor& executor = s.executor;
+  ::cdt::detail::StepTrace trace("device early output");
+  auto out = std::make_unique<detail::EarlyOutput>();
+  out->slots = slots;
+  out->host_triangles = host_c;
+  out->host_neighbors = host_nb;
+  out->where = std::move(s.corridor_slots);
+  out->rank.resize(static_cast<std::size_t>(slots) + 1);
+  const ::cdt::detail::MeshView m = s.view();
+  std::uint8_t* where = out->where.data();
+  unsigned long long* rank = out->rank.data();
+  executor.for_each(
+      slots,
+      [=] __device__(std::size_t t) {
+        // A dead slot (none after the fake boundary's compaction) goes last, and output() then finds
+        // fewer live slots than these rows number and sends every row again.
+        if (!m.alive(static_cast<std::uint32_t>(t))) where[t] = detail::kInCorridor;
+        rank[t] = where[t] == detail::kAwayFromCorridors ? 1ull
+                  : where[t] == detail::kNextToCorridor  ? 1ull << 32
+                                                         : 0ull;
+      },
+      "early_groups");
+  const unsigned long long total = executor.exclusive_scan(rank, slots);
+  const auto away = static_cast<std::uint32_t>(total);
+  const std::uint32_t with_corners = away + static_cast<std::uint32_t>(total >> 32);
+  if (with_corners < slots / 8) return false; // little to gain: the output as usual
+  out->away = away;
+  out->with_corners = with_corners;
+  out->corners.resize(3 * static_cast<std::size_t>(with_corners));
+  out->neighbours.resize(3 * static_cast<std::size_t>(away));
+  std::uint32_t* c = out->corners.data();
+  std::uint32_t* nb = out->neighbours.data();
+  // The vertices' ids: the ones the device holds (take_vertex_ids), the others from vertex_of.
+  const std::uint32_t* v_of = s.vertex_ids.data();
+  auto known = static_cast<std::uint32_t>(std::min(s.vertex_ids.size(), vertex_of.size()));
+  detail::DeviceBuffer<std::uint32_t> ids;
+  if (known < vertex_of.size()) {
+    ids.resize(vertex_of.size());
+    if (known > 0)
+      CDT_CUDA_CHECK(cudaMemcpyAsync(ids.data(), s.vertex_ids.data(), known * sizeof(std::uint32_t),
+                                     cudaMemcpyDeviceToDevice, executor.stream()));
+    executor.upload(ids.data() + known, vertex_of.data() + known, vertex_of.size() - known);
+    v_of = ids.data();
+    known = static_cast<std::uint32_t>(vertex_of.size());
+  }
+  executor.for_each(
+      slots,
+      [=] __device__(std::size_t slot) {
+        const auto t = static_cast<std::uint32_t>(slot);
+        if (where[t] == detail::kInCorridor) return;
+        const std::size_t k = detail::early_row(where, rank, away, with_corners, t);
+        for (std::uint32_t i = 0; i < 3; ++i) {
+          // A vertex without an id here (none so far) makes a row that output() sends again.
+          const std::uint32_t v = m.tri[3 * t + i];
+          c[3 * k + i] = v < known ? v_of[v] : kNoId;
+        }
+        if (where[t] != detail::kAwayFromCorridors) return;
+        for (std::uint32_t i = 0; i < 3; ++i) {
+          const std::uint32_t e = m.adj[3 * t + i];
+          nb[3 * k + i] = e == kNoId ? kNoId : detail::early_row(where, rank, away, with_corners, edge_tri(e));
+        }
+      },
+      "early_rows");
+  out->copies = std::make_unique<detail::PartCopies>(executor.stream());
+  out->copies->after_queued_work();
+  const std::size_t part_words = std::max<std::size_t>(3, kEarlyPartBytes / sizeof(std::uint32_t) / 3 * 3);
+  const std::size_t corner_words = 3 * static_cast<std::size_t>(with_corners);
+  const std::size_t neighbour_words = 3 * static_cast<std::size_t>(away);
+  for (std::size_t from = 0; from < corner_words; from += part_words) {
+    out->copies->copy(host_c + from, c + from, std::min(part_words, corner_words - from) * sizeof(std::uint32_t));
+    if (from < neighbour_words)
+      out->copies->copy(host_nb + from, nb + from,
+                        std::min(part_words, neighbour_words - from) * sizeof(std::uint32_t));
+  }
+  trace.count("rows away from the corridors", away);
+  trace.count("rows next to them", with_corners - away);
+  trace.mark("queued");
+  s.early = std::move(out);
+  return true;
+}
+
 void DeviceMesh::output(std::span<const std::uint32_t> vertex_of,
                         std::span<const std::uint32_t> segment_of_piece, TriangleArray& triangles,
                         TriangleArray& neighbors, TriangleArray& segment_of_edge,
@@ -1618,17 +1732,47 @@ void DeviceMesh::output(std::span<const std::uint32_t> vertex_of,
   detail::CudaExecutor& executor = s.executor;
   ::cdt::detail::StepTrace trace("device output");
   const ::cdt::detail::MeshView m = s.view();
+  // The rows started early, if any: their copies write into the arrays until waited for.
+  const std::unique_ptr<detail::EarlyOutput> early = std::move(s.early);
   detail::DeviceBuffer<std::uint32_t> live(static_cast<std::size_t>(s.num_slots) + 1);
   const std::uint32_t count = executor.compact(
       s.num_slots, [m] __device__(std::size_t t) { return m.alive(static_cast<std::uint32_t>(t)); },
       live.data());
+  const std::size_t words = 3 * static_cast<std::size_t>(count);
+  const std::size_t bytes = words * sizeof(std::uint32_t);
+  // The early rows stand when every slot is alive (their numbering counts them all) and the arrays
+  // keep their memory.
+  const bool use_early = early != nullptr && count == s.num_slots && early->slots <= count &&
+                         triangles.capacity() >= count && neighbors.capacity() >= count &&
+                         static_cast<const void*>(triangles.data()) == early->host_triangles &&
+                         static_cast<const void*>(neighbors.data()) == early->host_neighbors &&
+                         in_result_block(early->host_triangles, bytes) &&
+                         in_result_block(early->host_neighbors, bytes);
+  if (early != nullptr && !use_early) early->copies->wait();
   detail::DeviceBuffer<std::uint32_t> index_of_slot(static_cast<std::size_t>(s.num_slots) + 1);
   std::uint32_t* index = index_of_slot.data();
   const std::uint32_t* order = live.data();
-  executor.fill_bytes(index, 0xFF, s.num_slots);
-  executor.for_each(
-      count, [=] __device__(std::size_t k) { index[order[k]] = static_cast<std::uint32_t>(k); },
-      "index_of_slot");
+  if (use_early) {
+    // Every slot is alive: the groups of the early rows (EarlyOutput), each in slot order.
+    std::uint32_t* ord = live.data();
+    const std::uint8_t* where = early->where.data();
+    const unsigned long long* rank = early->rank.data();
+    const std::uint32_t away = early->away, with_corners = early->with_corners, first_new = early->slots;
+    executor.for_each(
+        count,
+        [=] __device__(std::size_t slot) {
+          const auto t = static_cast<std::uint32_t>(slot);
+          const std::uint32_t k = t < first_new ? detail::early_row(where, rank, away, with_corners, t) : t;
+          index[t] = k;
+          ord[k] = t;
+        },
+        "index_of_slot");
+  } else {
+    executor.fill_bytes(index, 0xFF, s.num_slots);
+    executor.for_each(
+        count, [=] __device__(std::size_t k) { index[order[k]] = static_cast<std::uint32_t>(k); },
+        "index_of_slot");
+  }
   detail::DeviceBuffer<std::uint32_t> d_vertex_of(vertex_of.size() + 1);
   detail::DeviceBuffer<std::uint32_t> d_segment_of_piece(segment_of_piece.size() + 1);
   const std::size_t known = std::min(s.vertex_ids.size(), vertex_of.size());
@@ -1637,7 +1781,6 @@ void DeviceMesh::output(std::span<const std::uint32_t> vertex_of,
                                    cudaMemcpyDeviceToDevice, executor.stream()));
   executor.upload(d_vertex_of.data() + known, vertex_of.data() + known, vertex_of.size() - known, &parallel);
   executor.upload(d_segment_of_piece.data(), segment_of_piece.data(), segment_of_piece.size(), &parallel);
-  const std::size_t words = 3 * static_cast<std::size_t>(count);
   detail::DeviceBuffer<std::uint32_t> corners(words + 1);
   detail::DeviceBuffer<std::uint32_t> neighbours(words + 1);
   detail::DeviceBuffer<std::uint32_t> segments(words + 1);
@@ -1662,11 +1805,11 @@ void DeviceMesh::output(std::span<const std::uint32_t> vertex_of,
                                               reinterpret_cast<std::uint32_t*>(neighbors.data()),
                                               reinterpret_cast<std::uint32_t*>(segment_of_edge.data())};
   const std::array<const std::uint32_t*, 3> device = {c, nb, sg};
-  const std::size_t bytes = words * sizeof(std::uint32_t);
   const bool pinned = bytes >= kOutputPartBytes && in_result_block(host[0], bytes) &&
                       in_result_block(host[1], bytes) && in_result_block(host[2], bytes);
   trace.mark("host arrays sized");
   if (!pinned) {
+    if (use_early) early->copies->wait();
     make(0, count);
     for (std::size_t a = 0; a < 3; ++a) executor.download(host[a], device[a], words, &parallel);
     trace.mark("made and downloaded");
@@ -1689,20 +1832,95 @@ void DeviceMesh::output(std::span<const std::uint32_t> vertex_of,
   detail::PartCopies copies(executor.stream());
   const std::uint32_t part =
       static_cast<std::uint32_t>(std::max<std::size_t>(1, kOutputPartBytes / (3 * sizeof(std::uint32_t))));
-  for (std::uint32_t from = 0, to = 0; from < count; from = to) {
+  // With rows started early, the bus carries the rest first: the corners from with_corners on, the
+  // neighbours from away on (and the segments of every row).
+  const std::uint32_t away = use_early ? early->away : 0, with_corners = use_early ? early->with_corners : 0;
+  const auto send = [&](std::size_t a, std::uint32_t from, std::uint32_t to) {
+    if (from < to)
+      copies.copy(host[a] + 3 * static_cast<std::size_t>(from), device[a] + 3 * static_cast<std::size_t>(from),
+                  3 * static_cast<std::size_t>(to - from) * sizeof(std::uint32_t));
+  };
+  for (std::uint32_t from = away, to = 0; from < count; from = to) {
     to = from + std::min(part, count - from);
     make(from, to);
     copies.after_queued_work();
-    for (std::size_t a = 0; a < (sparse ? 2 : 3); ++a)
-      copies.copy(host[a] + 3 * static_cast<std::size_t>(from),
-                  device[a] + 3 * static_cast<std::size_t>(from),
-                  3 * static_cast<std::size_t>(to - from) * sizeof(std::uint32_t));
+    send(0, std::max(from, with_corners), to);
+    send(1, from, to);
+    if (!sparse) send(2, from, to);
   }
+  // The early rows made again, to be compared with what was sent.
+  for (std::uint32_t from = 0, to = 0; from < away; from = to) {
+    to = from + std::min(part, away - from);
+    make(from, to);
+    if (!sparse) {
+      copies.after_queued_work();
+      send(2, from, to);
+    }
+  }
+  // The host writes the segments while the bus carries the rows (the count below, which the device
+  // writes into host memory, waits for the bus).
   if (pairs) {
     if (s.prefilled_segments != host[2] || s.prefilled_rows != count)
       detail::fill_host_bytes(host[2], 0xFF, bytes, &parallel);
     pairs->scatter(host[2], parallel);
     trace.mark("segments written on the host");
+  }
+  if (use_early) {
+    // The early rows that changed after all are sent again as records (row, corners, neighbours), or,
+    // should there be many, all of them.
+    const std::uint32_t* ec = early->corners.data();
+    const std::uint32_t* enb = early->neighbours.data();
+    detail::DeviceBuffer<std::uint32_t> d_changed(static_cast<std::size_t>(with_corners) + 1);
+    const std::uint32_t changed = executor.compact(
+        with_corners,
+        [=] __device__(std::size_t k) {
+          bool same = true;
+          for (std::uint32_t i = 0; i < 3; ++i)
+            same = same && c[3 * k + i] == ec[3 * k + i] && (k >= away || nb[3 * k + i] == enb[3 * k + i]);
+          return !same;
+        },
+        d_changed.data());
+    trace.count("early rows changed", changed);
+    g_early_rows_sent += with_corners;
+    g_early_rows_again += changed > with_corners / 32 ? with_corners : changed;
+    if (changed > with_corners / 32) {
+      early->copies->wait();
+      copies.after_queued_work();
+      for (std::uint32_t from = 0, to = 0; from < with_corners; from = to) {
+        to = from + std::min(part, with_corners - from);
+        send(0, from, to);
+        send(1, from, std::min(to, away));
+      }
+    } else if (changed > 0) {
+      detail::DeviceBuffer<std::uint32_t> d_records(7 * static_cast<std::size_t>(changed));
+      std::uint32_t* rec = d_records.data();
+      const std::uint32_t* which = d_changed.data();
+      executor.for_each(
+          changed,
+          [=] __device__(std::size_t j) {
+            const std::uint32_t k = which[j];
+            rec[7 * j] = k;
+            for (std::uint32_t i = 0; i < 3; ++i) {
+              rec[7 * j + 1 + i] = c[3 * std::size_t{k} + i];
+              rec[7 * j + 4 + i] = nb[3 * std::size_t{k} + i];
+            }
+          },
+          "early_rows_again");
+      std::vector<std::uint32_t> records(7 * static_cast<std::size_t>(changed));
+      executor.download(records.data(), rec, records.size());
+      early->copies->wait();
+      for (std::size_t j = 0; j < changed; ++j) {
+        const std::size_t k = records[7 * j];
+        for (std::size_t i = 0; i < 3; ++i) {
+          host[0][3 * k + i] = records[7 * j + 1 + i];
+          // From `away` on the neighbours are on their way already.
+          if (k < away) host[1][3 * k + i] = records[7 * j + 4 + i];
+        }
+      }
+    } else {
+      early->copies->wait();
+    }
+    trace.mark("early rows checked");
   }
   s.prefilled_segments = nullptr; // the array is the output's now
   copies.wait();

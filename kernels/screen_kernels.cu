@@ -177,9 +177,27 @@ ScreenedPieces DeviceMesh::screen(std::span<const ConstraintPiece2> host_pieces,
   mark("shared triangles");
   std::uint32_t words[2] = {0, 0};
   executor.download(words, failed, 2);
+  s.corridor_slots = {};
   if (words[0] != 0) {
     out.complete = false;
     return out;
+  }
+  // Where the constraints may change the slots' rows (start_early_output): a piece's flips rewrite only
+  // the triangles its corridor crosses, and the links of the triangles next to those.
+  if (3 * sizeof(std::uint32_t) * static_cast<std::size_t>(s.num_slots) >= detail::kOutputPartBytes) {
+    s.corridor_slots.resize(s.num_slots);
+    std::uint8_t* corridor = s.corridor_slots.data();
+    executor.for_each(
+        s.num_slots,
+        [=] __device__(std::size_t t) {
+          std::uint8_t where = first[t] != kNoId ? detail::kInCorridor : detail::kAwayFromCorridors;
+          for (std::uint32_t i = 0; i < 3 && where == detail::kAwayFromCorridors; ++i) {
+            const std::uint32_t e = m.adj[3 * t + i];
+            if (e != kNoId && first[::cdt::detail::edge_tri(e)] != kNoId) where = detail::kNextToCorridor;
+          }
+          corridor[t] = where;
+        },
+        "corridor_slots");
   }
   executor.for_each(
       np,

@@ -89,8 +89,9 @@ if want tests; then
     else
       # The default (fits one call with the benchmarks): mid-size PSLGs with segments through the whole
       # GPU backend (100K points + 10K segments; crossing segments, split on the host), the constraints
-      # beside the host's split (with every piece, and without the suspects), and the screen.
-      memchecked=--gtest_filter=TriangulateGpu.SegmentsMatchTheCpuBackend:TriangulateGpu.CrossingSegmentsMatchTheCpuBackend:MeshGpu.ConstraintsBesideTheHostKeepOrUndo:MeshGpu.ConstraintsBesideTheSplitWithoutTheSuspects:MeshGpu.ScreenMatchesTheCpuExecutor
+      # beside the host's split (with every piece, and without the suspects), the screen, and the output
+      # started while the constraints run (800K points: the smallest mesh that starts it).
+      memchecked=--gtest_filter=TriangulateGpu.SegmentsMatchTheCpuBackend:TriangulateGpu.CrossingSegmentsMatchTheCpuBackend:MeshGpu.ConstraintsBesideTheHostKeepOrUndo:MeshGpu.ConstraintsBesideTheSplitWithoutTheSuspects:MeshGpu.ScreenMatchesTheCpuExecutor:MeshGpu.OutputStartedEarlyIsTheOutputMadeAtTheEnd
       racechecked=$memchecked
     fi
     # TRIXEL_CUDA_SYNC=1: each launch checked where it ran, and released device blocks freed at once

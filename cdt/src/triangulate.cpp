@@ -852,7 +852,12 @@ Triangulation triangulate_on(std::span<const Point> points, std::span<const Segm
       beside_split.start(*device_mesh, pieces, std::max(1u, options.inner_iterations), parallel);
       trace.mark("constraints started");
     }
-    if (on_gpu) screen = device_mesh->screen(pieces, parallel);
+    if (on_gpu) {
+      screen = device_mesh->screen(pieces, parallel);
+      // While the constraints run, the bus carries the output's rows they cannot change.
+      if (beside_split.running() && device_mesh->start_early_output(site_vertex, result.triangles, result.neighbors))
+        trace.mark("output started");
+    }
 #endif
     if (!on_gpu) screen = screen_pieces(mesh.view(), pieces, executor);
     trace.mark("screened");

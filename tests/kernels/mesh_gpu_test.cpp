@@ -8,6 +8,7 @@
 #include <algorithm>
 #include <array>
 #include <chrono>
+#include <cmath>
 #include <cstdint>
 #include <optional>
 #include <set>
@@ -17,6 +18,7 @@
 #include <utility>
 #include <vector>
 
+#include "cdt/cdt.hpp"
 #include "cdt/errors.hpp"
 #include "cdt_kernels.hpp"
 #include "executor/cpu_executor.hpp"
@@ -29,6 +31,7 @@
 #include "gcd/screen.hpp"
 #include "gcd/shift.hpp"
 #include "gcd/voronoi.hpp"
+#include "memory.hpp"
 #include "mesh_test_util.hpp"
 #include "pslg.hpp"
 #include "pslg_generators.hpp"
@@ -556,6 +559,116 @@ TEST_F(MeshGpu, ConstraintsBesideTheHostKeepOrUndo) {
     cdt::gpu::DeviceMesh dropped(start);
     ASSERT_TRUE(dropped.start_constraints(pieces, 8));
   }
+}
+
+/// An output's rows (DeviceMesh::output) in an order of their own: each from its lowest corner, with per
+/// edge the far corner of the neighbour across it (kNoId on the hull) and its segment, sorted; the same
+/// for two outputs of one triangulation whatever their rows' order.
+std::vector<std::array<std::uint32_t, 9>> output_rows(const cdt::TriangleArray& triangles,
+                                                      const cdt::TriangleArray& neighbors,
+                                                      const cdt::TriangleArray& segments) {
+  std::vector<std::array<std::uint32_t, 9>> out;
+  for (std::size_t t = 0; t < triangles.size(); ++t) {
+    const auto& c = triangles[t];
+    const std::size_t r = std::min_element(c.begin(), c.end()) - c.begin();
+    std::array<std::uint32_t, 9> row{};
+    for (std::size_t j = 0; j < 3; ++j) {
+      const std::size_t i = (r + j) % 3;
+      row[j] = c[i];
+      const std::uint32_t n = neighbors[t][i];
+      row[3 + j] = kNoId;
+      if (n != kNoId)
+        for (const std::uint32_t v : triangles[n])
+          if (v != c[(i + 1) % 3] && v != c[(i + 2) % 3]) row[3 + j] = v;
+      row[6 + j] = segments[t][i];
+    }
+    out.push_back(row);
+  }
+  std::sort(out.begin(), out.end());
+  return out;
+}
+
+// The output started early (start_early_output, into pinned result memory): the rows away from the
+// screened corridors go while the constraints run, the rest at output(). Screened with every piece,
+// nothing is sent twice; screened with a few pieces left out, the rows their constraints changed are
+// sent again as records; with half left out, so many that every early row is sent again. Each output
+// is the one made without starting early.
+TEST_F(MeshGpu, OutputStartedEarlyIsTheOutputMadeAtTheEnd) {
+  CpuExecutor executor(8);
+  const trixel_gen::Pslg pslg =
+      trixel_gen::synthetic_pslg(800000, 40000, trixel_gen::Distribution::uniform, 38);
+  const Mesh start = sweep_mesh(pslg, true, executor);
+  ASSERT_GE(3 * sizeof(std::uint32_t) * start.num_slots(), cdt::detail::kPinnedArrayBytes);
+  std::vector<ConstraintPiece2> pieces;
+  for (std::size_t k = 0; k < pslg.segments.size(); ++k)
+    pieces.push_back({pslg.segments[k].a, pslg.segments[k].b, static_cast<std::uint32_t>(k)});
+  std::vector<std::uint32_t> vertex_of(start.num_vertices()), segment_of_piece(pieces.size());
+  for (std::size_t v = 0; v < vertex_of.size(); ++v) vertex_of[v] = static_cast<std::uint32_t>(v);
+  for (std::size_t k = 0; k < pieces.size(); ++k) segment_of_piece[k] = static_cast<std::uint32_t>(k);
+
+  cdt::Triangulation plain;
+  {
+    cdt::gpu::DeviceMesh device(start);
+    device.insert_constraints(pieces, 8);
+    device.flip_after_constraints();
+    device.output(vertex_of, segment_of_piece, plain.triangles, plain.neighbors, plain.segment_of_edge);
+  }
+  const auto expected = output_rows(plain.triangles, plain.neighbors, plain.segment_of_edge);
+
+  // The pieces longest first: the eight left out cross many triangles.
+  std::vector<ConstraintPiece2> longest = pieces;
+  const auto length = [&](const ConstraintPiece2& p) {
+    const Vec2 a = start.xy[p.a], b = start.xy[p.b];
+    return std::hypot(a.x - b.x, a.y - b.y);
+  };
+  std::sort(longest.begin(), longest.end(),
+            [&](const ConstraintPiece2& p, const ConstraintPiece2& q) { return length(p) > length(q); });
+  std::vector<ConstraintPiece2> every_other;
+  for (std::size_t k = 0; k < pieces.size(); k += 2) every_other.push_back(pieces[k]);
+  ASSERT_TRUE(cdt::keep_pinned_results(std::size_t{512} << 20));
+  struct Case {
+    std::span<const ConstraintPiece2> screened; ///< the pieces the screen sees
+    const char* name;
+  };
+  for (const Case c : {Case{pieces, "every piece screened"},
+                       Case{std::span<const ConstraintPiece2>(longest).subspan(8), "8 left out"},
+                       Case{every_other, "half left out"}}) {
+    cdt::Triangulation t;
+    {
+      const cdt::detail::PinnedResultScope scope;
+      t.triangles.reserve(start.num_slots());
+      t.neighbors.reserve(start.num_slots());
+      t.segment_of_edge.reserve(start.num_slots());
+    }
+    cdt::gpu::DeviceMesh device(start);
+    const bool every = c.screened.size() == pieces.size();
+    if (every) { // as triangulate() does
+      ASSERT_TRUE(device.start_constraints(pieces, 8)) << c.name;
+    }
+    ASSERT_TRUE(device.screen(c.screened).complete) << c.name;
+    const cdt::gpu::EarlyOutputRows before = cdt::gpu::early_output_rows();
+    ASSERT_TRUE(device.start_early_output(vertex_of, t.triangles, t.neighbors)) << c.name;
+    if (every) {
+      ASSERT_TRUE(device.finish_constraints(true).has_value()) << c.name;
+    } else {
+      device.insert_constraints(pieces, 8);
+    }
+    device.flip_after_constraints();
+    device.output(vertex_of, segment_of_piece, t.triangles, t.neighbors, t.segment_of_edge);
+    const cdt::gpu::EarlyOutputRows after = cdt::gpu::early_output_rows();
+    const std::uint64_t sent = after.sent - before.sent, again = after.again - before.again;
+    EXPECT_GT(sent, t.triangles.size() / 2) << c.name;
+    if (every) {
+      EXPECT_LT(again, sent / 100) << c.name;
+    } else if (c.screened.size() + 8 == pieces.size()) {
+      EXPECT_GT(again, 0u) << c.name;
+      EXPECT_LE(again, sent / 32) << c.name; // as records
+    } else {
+      EXPECT_EQ(again, sent) << c.name; // every early row
+    }
+    EXPECT_TRUE(output_rows(t.triangles, t.neighbors, t.segment_of_edge) == expected) << c.name;
+  }
+  ASSERT_TRUE(cdt::keep_pinned_results(0));
 }
 
 /// A mesh's live triangles with their constraint ids, each from its lowest vertex, sorted: the same for

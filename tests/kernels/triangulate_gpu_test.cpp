@@ -224,6 +224,43 @@ TEST_F(TriangulateGpu, PinnedSegmentsKeepNothingOfTheLastResult) {
   ASSERT_TRUE(cdt::keep_pinned_results(0));
 }
 
+// While the constraints run beside the split, the rows of the output that no corridor reaches are made
+// and sent into the pinned result memory (DeviceMesh::start_early_output), numbered first; the others
+// follow at the end, and early rows that changed after all (crossers: vertices added at the end, and
+// flips past the corridors) are sent again (MeshGpu.OutputStartedEarlyIsTheOutputMadeAtTheEnd makes
+// sure of both ways). Either way the result is the one made without it.
+TEST_F(TriangulateGpu, OutputStartedEarlyMatchesTheOutputWithout) {
+  const trixel_gen::Pslg plain = trixel_gen::synthetic_pslg(800000, 80000, Distribution::uniform, 93);
+  trixel_gen::Pslg crossed = plain;
+  trixel_gen::Random rng(94);
+  trixel_gen::add_random_segments(crossed, 10, rng);
+  cdt::Options gpu;
+  gpu.backend = cdt::Backend::gpu;
+  const auto canonical = [](cdt::Triangulation t) {
+    cdt::canonicalize(t);
+    return t;
+  };
+  for (const trixel_gen::Pslg* in : {&plain, static_cast<const trixel_gen::Pslg*>(&crossed)}) {
+    const std::string what = in == &plain ? "synthetic" : "synthetic with crossers";
+    ASSERT_TRUE(cdt::keep_pinned_results(0));
+    const cdt::gpu::EarlyOutputRows before = cdt::gpu::early_output_rows();
+    const cdt::Triangulation expected = canonical(cdt::triangulate(in->points, in->segments, gpu));
+    EXPECT_EQ(cdt::gpu::early_output_rows().sent, before.sent) << what << ": not pinned, not early";
+    ASSERT_TRUE(cdt::keep_pinned_results(std::size_t{256} << 20));
+    const cdt::Triangulation t = cdt::triangulate(in->points, in->segments, gpu);
+    const cdt::gpu::EarlyOutputRows after = cdt::gpu::early_output_rows();
+    // Most rows lie away from the corridors of 80000 short and long segments among 1.6M triangles.
+    EXPECT_GT(after.sent - before.sent, t.triangles.size() / 4) << what;
+    const cdt::Triangulation got = canonical(t);
+    EXPECT_TRUE(got.vertices == expected.vertices && got.triangles == expected.triangles &&
+                got.neighbors == expected.neighbors && got.segment_of_edge == expected.segment_of_edge)
+        << what;
+    const cdt::VerifyReport report = cdt::verify(t, in->points, in->segments);
+    EXPECT_TRUE(report.ok()) << what << ": " << (report.problems.empty() ? "" : report.problems.front());
+  }
+  ASSERT_TRUE(cdt::keep_pinned_results(0));
+}
+
 // Vertices added at crossings give a result more than 2n triangles (a lattice with random segments: one
 // added vertex in 250 points); the room the output sets aside for them keeps it in the pinned result
 // memory, which the device writes directly, instead of arrays grown outside it.
