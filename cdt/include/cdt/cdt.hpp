@@ -231,7 +231,9 @@ bool retain_freed_memory(std::size_t huge_page_bytes = 0) noexcept;
 /// pays from the second large triangulation on: arrays of 16 MiB or more (results of about 700K points
 /// or more) come from blocks pinned when first needed and return to them when freed, for the next
 /// result of the same size or up to twice smaller. Blocks that no longer fit are unpinned to make room.
-/// For programs that triangulate large inputs one after another; the cdt command, one input per
+/// Into such arrays the device also starts the output early, while it inserts the segments: the rows
+/// they cannot change go first (the triangles' order in the result then differs from the one without
+/// pinned memory; the triangulation is the same). For programs that triangulate large inputs one after another; the cdt command, one input per
 /// process, does not call it. Freeing a Triangulation from the kept memory, after stop_gpu() too, is
 /// like freeing any other. 0 gives the free blocks back and keeps none from then on. Makes no CUDA call
 /// unless it unpins blocks kept before (a process may fork after its first call). Returns false, and
