@@ -92,8 +92,9 @@ void* try_take_staging_block() noexcept;
 void return_staging_block(void* block) noexcept;
 
 /// Results of at most this many bytes come back written by a kernel into pinned memory (a reply
-/// block) rather than by a copy: the copy engine may be busy with a large transfer queued before them
-/// (the output started early), which a copy would wait for.
+/// block) rather than by a copy: a copy would queue on the copy engine behind the large transfers of
+/// other streams (the output started early); the kernel's writes only share the bus with them. Their
+/// source must be memory the device reads (device, pinned or managed memory).
 inline constexpr std::size_t kReplyBytes = 256;
 /// A pinned host block of kReplyBytes from the process's pool of them (emptied by release_device), which
 /// kernels write directly (unified addressing). Throws DeviceError.

@@ -275,7 +275,8 @@ public:
   }
 
   /// Device to host copy of n elements; waits for it and for all work queued before it. Large copies
-  /// spread their host side (out of the pinned staging blocks) over `parallel` when it is given.
+  /// spread their host side (out of the pinned staging blocks) over `parallel` when it is given; small
+  /// ones (kReplyBytes) are written by a kernel, so d_src must be memory the device reads.
   template <class T>
   void download(T* h_dst, const T* d_src, std::size_t n, const HostParallelFor* parallel = nullptr) {
     // A count or a flag is part of the step that made it.

@@ -137,12 +137,12 @@ enum : std::uint8_t { kAwayFromCorridors = 0, kNextToCorridor = 1, kInCorridor =
 /// early), those next to a corridor (their corners sent early), and the others (the corridors' and
 /// any made later).
 struct EarlyOutput {
-  std::uint32_t slots = 0;       ///< the mesh's slots when it started, every one alive
-  std::uint32_t away = 0;        ///< rows [0, away): corners and neighbours sent
+  std::uint32_t slots = 0;        ///< the mesh's slots when it started, every one alive
+  std::uint32_t away = 0;         ///< rows [0, away): corners and neighbours sent
   std::uint32_t with_corners = 0; ///< rows [0, with_corners): corners sent
   const void* host_triangles = nullptr;
   const void* host_neighbors = nullptr;
-  DeviceBuffer<std::uint8_t> where;   ///< per slot, kAwayFromCorridors, kNextToCorridor or kInCorridor
+  DeviceBuffer<std::uint8_t> where; ///< per slot, kAwayFromCorridors, kNextToCorridor or kInCorridor
   /// per slot, how many slots before it are away from the corridors (low word) and next to one (high)
   DeviceBuffer<unsigned long long> rank;
   DeviceBuffer<std::uint32_t> corners, neighbours; ///< the rows as sent

@@ -1622,25 +1622,24 @@ EarlyOutputRows early_output_rows() noexcept {
   return EarlyOutputRows{g_early_rows_sent.load(), g_early_rows_again.load()};
 }
 
-bool DeviceMesh::start_early_output(std::span<const std::uint32_t> vertex_of, TriangleArray& triangles,
-                                    TriangleArray& neighbors) {
-  State& s = *state_;
-  s.early.reset();
+namespace {
+
+/// DeviceMesh::start_early_output's work; DeviceError when the device's memory runs short meanwhile.
+bool start_early(DeviceMesh::State& s, std::span<const std::uint32_t> vertex_of, TriangleArray& triangles,
+                 TriangleArray& neighbors) {
   const std::uint32_t slots = s.num_slots;
   const std::size_t bytes = 3 * sizeof(std::uint32_t) * static_cast<std::size_t>(slots);
-  if (s.corridor_slots.size() != slots || bytes < kOutputPartBytes ||
-      triangles.capacity() < slots || neighbors.capacity() < slots)
+  if (s.corridor_slots.size() != slots || bytes < kOutputPartBytes || triangles.capacity() < slots ||
+      neighbors.capacity() < slots)
     return false;
   auto* host_c = reinterpret_cast<std::uint32_t*>(triangles.data());
   auto* host_nb = reinterpret_cast<std::uint32_t*>(neighbors.data());
   if (!in_result_block(host_c, bytes) || !in_result_block(host_nb, bytes)) return false;
-  try {
-    // The groups and ranks, and the rows of at most every slot, beside the constraints' own buffers.
-    detail::require_device_memory(9 * static_cast<std::size_t>(slots) + 2 * bytes + (std::size_t{64} << 20), 0,
-                                  "the output started early");
-  } catch (const DeviceError&) {
-    return false;
-  }
+  // The groups and ranks, and the rows of at most every slot, with room for the constraints' buffers
+  // (about 64 bytes a slot), which they may not have taken yet.
+  detail::require_device_memory((9 + 64) * static_cast<std::size_t>(slots) + 2 * bytes +
+                                    (std::size_t{64} << 20),
+                                0, "the output started early");
   detail::CudaExecutor& executor = s.executor;
   ::cdt::detail::StepTrace trace("device early output");
   auto out = std::make_unique<detail::EarlyOutput>();
@@ -1700,7 +1699,8 @@ bool DeviceMesh::start_early_output(std::span<const std::uint32_t> vertex_of, Tr
         if (where[t] != detail::kAwayFromCorridors) return;
         for (std::uint32_t i = 0; i < 3; ++i) {
           const std::uint32_t e = m.adj[3 * t + i];
-          nb[3 * k + i] = e == kNoId ? kNoId : detail::early_row(where, rank, away, with_corners, edge_tri(e));
+          nb[3 * k + i] =
+              e == kNoId ? kNoId : detail::early_row(where, rank, away, with_corners, edge_tri(e));
         }
       },
       "early_rows");
@@ -1710,7 +1710,8 @@ bool DeviceMesh::start_early_output(std::span<const std::uint32_t> vertex_of, Tr
   const std::size_t corner_words = 3 * static_cast<std::size_t>(with_corners);
   const std::size_t neighbour_words = 3 * static_cast<std::size_t>(away);
   for (std::size_t from = 0; from < corner_words; from += part_words) {
-    out->copies->copy(host_c + from, c + from, std::min(part_words, corner_words - from) * sizeof(std::uint32_t));
+    out->copies->copy(host_c + from, c + from,
+                      std::min(part_words, corner_words - from) * sizeof(std::uint32_t));
     if (from < neighbour_words)
       out->copies->copy(host_nb + from, nb + from,
                         std::min(part_words, neighbour_words - from) * sizeof(std::uint32_t));
@@ -1720,6 +1721,23 @@ bool DeviceMesh::start_early_output(std::span<const std::uint32_t> vertex_of, Tr
   trace.mark("queued");
   s.early = std::move(out);
   return true;
+}
+
+} // namespace
+
+bool DeviceMesh::start_early_output(std::span<const std::uint32_t> vertex_of, TriangleArray& triangles,
+                                    TriangleArray& neighbors) {
+  State& s = *state_;
+  s.early.reset();
+  try {
+    return start_early(s, vertex_of, triangles, neighbors);
+  } catch (const DeviceError&) {
+    // Short of device memory (the constraints beside it allocate too): the output as usual. Copies
+    // already queued were waited for by their owner's destructor.
+    s.early.reset();
+    s.corridor_slots = {};
+    return false;
+  }
 }
 
 void DeviceMesh::output(std::span<const std::uint32_t> vertex_of,
@@ -1742,12 +1760,11 @@ void DeviceMesh::output(std::span<const std::uint32_t> vertex_of,
   const std::size_t bytes = words * sizeof(std::uint32_t);
   // The early rows stand when every slot is alive (their numbering counts them all) and the arrays
   // keep their memory.
-  const bool use_early = early != nullptr && count == s.num_slots && early->slots <= count &&
-                         triangles.capacity() >= count && neighbors.capacity() >= count &&
-                         static_cast<const void*>(triangles.data()) == early->host_triangles &&
-                         static_cast<const void*>(neighbors.data()) == early->host_neighbors &&
-                         in_result_block(early->host_triangles, bytes) &&
-                         in_result_block(early->host_neighbors, bytes);
+  const bool use_early =
+      early != nullptr && count == s.num_slots && early->slots <= count && triangles.capacity() >= count &&
+      neighbors.capacity() >= count && static_cast<const void*>(triangles.data()) == early->host_triangles &&
+      static_cast<const void*>(neighbors.data()) == early->host_neighbors &&
+      in_result_block(early->host_triangles, bytes) && in_result_block(early->host_neighbors, bytes);
   if (early != nullptr && !use_early) early->copies->wait();
   detail::DeviceBuffer<std::uint32_t> index_of_slot(static_cast<std::size_t>(s.num_slots) + 1);
   std::uint32_t* index = index_of_slot.data();
@@ -1767,6 +1784,8 @@ void DeviceMesh::output(std::span<const std::uint32_t> vertex_of,
           ord[k] = t;
         },
         "index_of_slot");
+    early->where = {}; // freed in stream order, after the kernel
+    early->rank = {};
   } else {
     executor.fill_bytes(index, 0xFF, s.num_slots);
     executor.for_each(
@@ -1798,6 +1817,8 @@ void DeviceMesh::output(std::span<const std::uint32_t> vertex_of,
         },
         "output_triangles");
   };
+  // Within their room the arrays keep their memory, and their allocator writes nothing into what they
+  // gain (DefaultInitAllocator): the early rows stay.
   triangles.resize(count);
   neighbors.resize(count);
   segment_of_edge.resize(count);
@@ -1837,7 +1858,8 @@ void DeviceMesh::output(std::span<const std::uint32_t> vertex_of,
   const std::uint32_t away = use_early ? early->away : 0, with_corners = use_early ? early->with_corners : 0;
   const auto send = [&](std::size_t a, std::uint32_t from, std::uint32_t to) {
     if (from < to)
-      copies.copy(host[a] + 3 * static_cast<std::size_t>(from), device[a] + 3 * static_cast<std::size_t>(from),
+      copies.copy(host[a] + 3 * static_cast<std::size_t>(from),
+                  device[a] + 3 * static_cast<std::size_t>(from),
                   3 * static_cast<std::size_t>(to - from) * sizeof(std::uint32_t));
   };
   for (std::uint32_t from = away, to = 0; from < count; from = to) {
@@ -1857,8 +1879,8 @@ void DeviceMesh::output(std::span<const std::uint32_t> vertex_of,
       send(2, from, to);
     }
   }
-  // The host writes the segments while the bus carries the rows (the count below, which the device
-  // writes into host memory, waits for the bus).
+  // The host writes the segments while the bus carries the rows (the count below crosses the bus too,
+  // behind them).
   if (pairs) {
     if (s.prefilled_segments != host[2] || s.prefilled_rows != count)
       detail::fill_host_bytes(host[2], 0xFF, bytes, &parallel);
@@ -1920,6 +1942,8 @@ void DeviceMesh::output(std::span<const std::uint32_t> vertex_of,
     } else {
       early->copies->wait();
     }
+    early->corners = {}; // their copies are done
+    early->neighbours = {};
     trace.mark("early rows checked");
   }
   s.prefilled_segments = nullptr; // the array is the output's now

@@ -91,6 +91,7 @@ ScreenedPieces DeviceMesh::screen(std::span<const ConstraintPiece2> host_pieces,
   using detail::DeviceBuffer;
   ScreenedPieces out;
   State& s = *state_;
+  s.corridor_slots = {}; // an earlier screen's are stale
   ::cdt::detail::check_constraint_counts(s.num_slots, host_pieces.size());
   const std::size_t np = host_pieces.size();
   if (np == 0) return out;
@@ -177,7 +178,6 @@ ScreenedPieces DeviceMesh::screen(std::span<const ConstraintPiece2> host_pieces,
   mark("shared triangles");
   std::uint32_t words[2] = {0, 0};
   executor.download(words, failed, 2);
-  s.corridor_slots = {};
   if (words[0] != 0) {
     out.complete = false;
     return out;

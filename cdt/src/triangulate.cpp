@@ -815,7 +815,7 @@ Triangulation triangulate_on(std::span<const Point> points, std::span<const Segm
   // memory given back first.
   const auto start_again = [&](std::optional<PreparedPslg> split_pslg) {
 #if defined(TRIXEL_HAVE_CUDA)
-    device_mesh.reset();
+    device_mesh.reset(); // first: it waits for the output's rows it may be copying into the arrays below
     device_diagram.reset();
     device_sites.reset();
 #endif
@@ -855,7 +855,8 @@ Triangulation triangulate_on(std::span<const Point> points, std::span<const Segm
     if (on_gpu) {
       screen = device_mesh->screen(pieces, parallel);
       // While the constraints run, the bus carries the output's rows they cannot change.
-      if (beside_split.running() && device_mesh->start_early_output(site_vertex, result.triangles, result.neighbors))
+      if (beside_split.running() &&
+          device_mesh->start_early_output(site_vertex, result.triangles, result.neighbors))
         trace.mark("output started");
     }
 #endif

@@ -590,7 +590,7 @@ std::vector<std::array<std::uint32_t, 9>> output_rows(const cdt::TriangleArray& 
 
 // The output started early (start_early_output, into pinned result memory): the rows away from the
 // screened corridors go while the constraints run, the rest at output(). Screened with every piece,
-// nothing is sent twice; screened with a few pieces left out, the rows their constraints changed are
+// almost nothing is sent twice; screened with a few pieces left out, the rows their constraints changed are
 // sent again as records; with half left out, so many that every early row is sent again. Each output
 // is the one made without starting early.
 TEST_F(MeshGpu, OutputStartedEarlyIsTheOutputMadeAtTheEnd) {

@@ -233,12 +233,12 @@ bool retain_freed_memory(std::size_t huge_page_bytes = 0) noexcept;
 /// result of the same size or up to twice smaller. Blocks that no longer fit are unpinned to make room.
 /// Into such arrays the device also starts the output early, while it inserts the segments: the rows
 /// they cannot change go first (the triangles' order in the result then differs from the one without
-/// pinned memory; the triangulation is the same). For programs that triangulate large inputs one after another; the cdt command, one input per
-/// process, does not call it. Freeing a Triangulation from the kept memory, after stop_gpu() too, is
-/// like freeing any other. 0 gives the free blocks back and keeps none from then on. Makes no CUDA call
-/// unless it unpins blocks kept before (a process may fork after its first call). Returns false, and
-/// does nothing, where the library was built without CUDA. Programs built against a copy of this
-/// header from before this function must be rebuilt (the arrays' allocator gives the blocks back).
+/// pinned memory; the triangulation is the same). For programs that triangulate large inputs one after
+/// another; the cdt command, one input per process, does not call it. Freeing a Triangulation from the kept
+/// memory, after stop_gpu() too, is like freeing any other. 0 gives the free blocks back and keeps none from
+/// then on. Makes no CUDA call unless it unpins blocks kept before (a process may fork after its first call).
+/// Returns false, and does nothing, where the library was built without CUDA. Programs built against a copy
+/// of this header from before this function must be rebuilt (the arrays' allocator gives the blocks back).
 bool keep_pinned_results(std::size_t max_bytes) noexcept;
 
 /// Computes the constrained Delaunay triangulation of the points and segments.
