@@ -406,12 +406,43 @@ void stream_fill(unsigned char* to, unsigned char byte, std::size_t len) {
 #endif
 }
 
-/// Pinned staging blocks no executor holds. Pinning host memory costs milliseconds a call, and a
-/// triangulation's executors each stage copies: the blocks are kept for the process's lifetime (the
-/// driver frees them at exit) and handed from one executor to the next.
+/// Pinned blocks of one size that no executor holds (staging blocks, reply blocks). Pinning host memory
+/// costs milliseconds a call, and a triangulation's executors each use such blocks: they are kept for
+/// the process's lifetime (the driver frees them at exit, release_device before) and handed from one
+/// executor to the next.
 struct StagingBlocks {
   std::mutex mutex;
   std::vector<void*> free;
+
+  /// A free block, or none (null).
+  void* try_take() noexcept {
+    const std::lock_guard<std::mutex> lock(mutex);
+    if (free.empty()) return nullptr;
+    void* block = free.back();
+    free.pop_back();
+    return block;
+  }
+  /// A free block, or one of `bytes` pinned now. Throws DeviceError.
+  void* take(std::size_t bytes) {
+    if (void* block = try_take()) return block;
+    void* block = nullptr;
+    CDT_CUDA_CHECK(cudaMallocHost(&block, bytes));
+    return block;
+  }
+  void give_back(void* block) noexcept {
+    const std::lock_guard<std::mutex> lock(mutex);
+    try {
+      free.push_back(block);
+    } catch (...) {
+      cudaFreeHost(block);
+    }
+  }
+  /// Unpins and frees the free blocks.
+  void free_all() noexcept {
+    const std::lock_guard<std::mutex> lock(mutex);
+    for (void* block : free) cudaFreeHost(block);
+    free.clear();
+  }
 };
 
 StagingBlocks& staging_blocks() {
@@ -437,64 +468,15 @@ void fill_host_bytes(void* to, unsigned char byte, std::size_t len, const HostPa
   });
 }
 
-void* take_staging_block() {
-  StagingBlocks& blocks = staging_blocks();
-  {
-    const std::lock_guard<std::mutex> lock(blocks.mutex);
-    if (!blocks.free.empty()) {
-      void* block = blocks.free.back();
-      blocks.free.pop_back();
-      return block;
-    }
-  }
-  void* block = nullptr;
-  CDT_CUDA_CHECK(cudaMallocHost(&block, kStagingBytes));
-  return block;
-}
+void* take_staging_block() { return staging_blocks().take(kStagingBytes); }
 
-void* take_reply_block() {
-  StagingBlocks& blocks = reply_blocks();
-  {
-    const std::lock_guard<std::mutex> lock(blocks.mutex);
-    if (!blocks.free.empty()) {
-      void* block = blocks.free.back();
-      blocks.free.pop_back();
-      return block;
-    }
-  }
-  void* block = nullptr;
-  CDT_CUDA_CHECK(cudaMallocHost(&block, kReplyBytes));
-  return block;
-}
+void* take_reply_block() { return reply_blocks().take(kReplyBytes); }
 
-void return_reply_block(void* block) noexcept {
-  StagingBlocks& blocks = reply_blocks();
-  const std::lock_guard<std::mutex> lock(blocks.mutex);
-  try {
-    blocks.free.push_back(block);
-  } catch (...) {
-    cudaFreeHost(block);
-  }
-}
+void return_reply_block(void* block) noexcept { reply_blocks().give_back(block); }
 
-void* try_take_staging_block() noexcept {
-  StagingBlocks& blocks = staging_blocks();
-  const std::lock_guard<std::mutex> lock(blocks.mutex);
-  if (blocks.free.empty()) return nullptr;
-  void* block = blocks.free.back();
-  blocks.free.pop_back();
-  return block;
-}
+void* try_take_staging_block() noexcept { return staging_blocks().try_take(); }
 
-void return_staging_block(void* block) noexcept {
-  StagingBlocks& blocks = staging_blocks();
-  const std::lock_guard<std::mutex> lock(blocks.mutex);
-  try {
-    blocks.free.push_back(block);
-  } catch (...) {
-    cudaFreeHost(block);
-  }
-}
+void return_staging_block(void* block) noexcept { staging_blocks().give_back(block); }
 
 namespace {
 /// A block of the pinned result memory (keep_pinned_results).
@@ -917,18 +899,8 @@ void reserve_memory(std::size_t staging_blocks, std::size_t device_bytes) {
 
 void release_device() noexcept {
   detail::unpin_result_blocks();
-  {
-    detail::StagingBlocks& blocks = detail::staging_blocks();
-    const std::lock_guard<std::mutex> lock(blocks.mutex);
-    for (void* block : blocks.free) cudaFreeHost(block);
-    blocks.free.clear();
-  }
-  {
-    detail::StagingBlocks& blocks = detail::reply_blocks();
-    const std::lock_guard<std::mutex> lock(blocks.mutex);
-    for (void* block : blocks.free) cudaFreeHost(block);
-    blocks.free.clear();
-  }
+  detail::staging_blocks().free_all();
+  detail::reply_blocks().free_all();
   {
     detail::BufferPools& all = detail::buffer_pools();
     const std::lock_guard lock(all.mutex);

@@ -1624,6 +1624,21 @@ EarlyOutputRows early_output_rows() noexcept {
 
 namespace {
 
+/// vertex_of (output()'s) on the device: the entries the device holds already (take_vertex_ids) and,
+/// when it lacks some, all of them in `room`, the rest uploaded.
+const std::uint32_t* device_vertex_of(DeviceMesh::State& s, std::span<const std::uint32_t> vertex_of,
+                                      detail::DeviceBuffer<std::uint32_t>& room,
+                                      const HostParallelFor* parallel = nullptr) {
+  const std::size_t known = std::min(s.vertex_ids.size(), vertex_of.size());
+  if (known == vertex_of.size()) return s.vertex_ids.data();
+  room.resize(vertex_of.size());
+  if (known > 0)
+    CDT_CUDA_CHECK(cudaMemcpyAsync(room.data(), s.vertex_ids.data(), known * sizeof(std::uint32_t),
+                                   cudaMemcpyDeviceToDevice, s.executor.stream()));
+  s.executor.upload(room.data() + known, vertex_of.data() + known, vertex_of.size() - known, parallel);
+  return room.data();
+}
+
 /// DeviceMesh::start_early_output's work; DeviceError when the device's memory runs short meanwhile.
 bool start_early(DeviceMesh::State& s, std::span<const std::uint32_t> vertex_of, TriangleArray& triangles,
                  TriangleArray& neighbors) {
@@ -1672,19 +1687,9 @@ bool start_early(DeviceMesh::State& s, std::span<const std::uint32_t> vertex_of,
   out->neighbours.resize(3 * static_cast<std::size_t>(away));
   std::uint32_t* c = out->corners.data();
   std::uint32_t* nb = out->neighbours.data();
-  // The vertices' ids: the ones the device holds (take_vertex_ids), the others from vertex_of.
-  const std::uint32_t* v_of = s.vertex_ids.data();
-  auto known = static_cast<std::uint32_t>(std::min(s.vertex_ids.size(), vertex_of.size()));
   detail::DeviceBuffer<std::uint32_t> ids;
-  if (known < vertex_of.size()) {
-    ids.resize(vertex_of.size());
-    if (known > 0)
-      CDT_CUDA_CHECK(cudaMemcpyAsync(ids.data(), s.vertex_ids.data(), known * sizeof(std::uint32_t),
-                                     cudaMemcpyDeviceToDevice, executor.stream()));
-    executor.upload(ids.data() + known, vertex_of.data() + known, vertex_of.size() - known);
-    v_of = ids.data();
-    known = static_cast<std::uint32_t>(vertex_of.size());
-  }
+  const std::uint32_t* v_of = device_vertex_of(s, vertex_of, ids);
+  const auto known = static_cast<std::uint32_t>(vertex_of.size());
   executor.for_each(
       slots,
       [=] __device__(std::size_t slot) {
@@ -1792,13 +1797,9 @@ void DeviceMesh::output(std::span<const std::uint32_t> vertex_of,
         count, [=] __device__(std::size_t k) { index[order[k]] = static_cast<std::uint32_t>(k); },
         "index_of_slot");
   }
-  detail::DeviceBuffer<std::uint32_t> d_vertex_of(vertex_of.size() + 1);
+  detail::DeviceBuffer<std::uint32_t> d_vertex_of;
   detail::DeviceBuffer<std::uint32_t> d_segment_of_piece(segment_of_piece.size() + 1);
-  const std::size_t known = std::min(s.vertex_ids.size(), vertex_of.size());
-  if (known > 0)
-    CDT_CUDA_CHECK(cudaMemcpyAsync(d_vertex_of.data(), s.vertex_ids.data(), known * sizeof(std::uint32_t),
-                                   cudaMemcpyDeviceToDevice, executor.stream()));
-  executor.upload(d_vertex_of.data() + known, vertex_of.data() + known, vertex_of.size() - known, &parallel);
+  const std::uint32_t* v_of = device_vertex_of(s, vertex_of, d_vertex_of, &parallel);
   executor.upload(d_segment_of_piece.data(), segment_of_piece.data(), segment_of_piece.size(), &parallel);
   detail::DeviceBuffer<std::uint32_t> corners(words + 1);
   detail::DeviceBuffer<std::uint32_t> neighbours(words + 1);
@@ -1806,7 +1807,6 @@ void DeviceMesh::output(std::span<const std::uint32_t> vertex_of,
   std::uint32_t* c = corners.data();
   std::uint32_t* nb = neighbours.data();
   std::uint32_t* sg = segments.data();
-  const std::uint32_t* v_of = d_vertex_of.data();
   const std::uint32_t* s_of = d_segment_of_piece.data();
   const auto make = [&](std::uint32_t from, std::uint32_t to) {
     executor.for_each(
