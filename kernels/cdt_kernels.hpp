@@ -135,7 +135,9 @@ public:
   /// device: the InvalidInputError of the host's checks for the same point or segment (zero-length
   /// segments are errors unless `policy` is resolve; their number goes to zero_length_segments). With
   /// identity_unwritten given and no two points coinciding, duplicate_of and sites (the identity) are
-  /// sized but not written, and *identity_unwritten is set (cdt::detail::InputMerge).
+  /// sized but not written, and *identity_unwritten is set (cdt::detail::InputMerge). Large arrays
+  /// come down on a thread of their own, started by prepare(): call finish_downloads() before reading
+  /// them.
   DeviceSites(std::span<const Point> points, std::span<const Segment> segments, CrossingSegments policy,
               IndexArray& duplicate_of, IndexArray& sites, ::cdt::detail::PieceArray& pieces,
               std::size_t& zero_length_segments, const HostParallelFor& parallel = {},
@@ -150,9 +152,10 @@ public:
                MissingTo missing_to = MissingTo::host);
   /// The missing points prepare() left on the device and no mesh has taken yet (0 when none).
   std::size_t missing_on_device() const;
-  /// prepare() fills site_vertex and site_of_vertex on a thread of its own, after it returns: waits for
-  /// them (throws DeviceError should their copy have failed). Call before reading them; the
-  /// destructor waits too.
+  /// prepare() fills site_vertex and site_of_vertex on a thread of its own, after it returns, and the
+  /// merge's duplicate_of, sites and pieces with them: waits for them all (starting the merge's copies
+  /// if prepare() has not; throws DeviceError should a copy have failed). Call before reading them;
+  /// the destructor waits for copies started.
   void finish_downloads();
   /// The largest absolute coordinate of the sites (after prepare): what the split's snap tolerance
   /// is made from (cdt::detail::split_pieces), known here without a pass over the vertices.

@@ -62,6 +62,10 @@ struct DeviceSites::State {
   detail::DeviceBuffer<::cdt::detail::MissingPoint> missing;
   /// Per vertex its site, kept on the device until its late copy to the host is done.
   detail::DeviceBuffer<std::uint32_t> site_of_vertex;
+  /// The merge's representatives per point and pieces (a, b, segment triples), and site_list above,
+  /// kept on the device while merge_late: until their late copies to the host are done.
+  detail::DeviceBuffer<std::uint32_t> duplicate_of, pieces;
+  bool merge_late = false;
   /// The copies of site_vertex and site_of_vertex to the host (see DeviceSites::prepare). Declared
   /// last: they are waited for before the buffers above go.
   detail::LateDownloads late;

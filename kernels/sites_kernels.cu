@@ -123,17 +123,19 @@ std::size_t pieces_device_bytes(std::size_t m) { return 41 * m + (std::size_t{1}
 /// The host's initial_segments (cdt/src/pslg.cpp) on the device, from the m segments' ends (a, b pairs,
 /// every index below nv) and the representatives `dup` of the nv points: the segments between distinct
 /// representatives, as (lower, higher) pairs ordered by (a, b) and then by segment id (a stable radix
-/// sort of the segments in id order), each pair once with its lowest id.
-void pieces_between_representatives(CudaExecutor& executor, const std::uint32_t* ends, std::size_t m,
-                                    const std::uint32_t* dup, std::size_t nv,
-                                    ::cdt::detail::PieceArray& pieces, const HostParallelFor& parallel) {
+/// sort of the segments in id order), each pair once with its lowest id. The pieces stay on the device
+/// (as a, b, segment triples), `pieces` sized for them: the caller copies them down.
+DeviceBuffer<std::uint32_t> pieces_between_representatives(CudaExecutor& executor, const std::uint32_t* ends,
+                                                           std::size_t m, const std::uint32_t* dup,
+                                                           std::size_t nv,
+                                                           ::cdt::detail::PieceArray& pieces) {
   pieces.clear();
-  if (m == 0) return;
+  if (m == 0) return {};
   require_device_memory(pieces_device_bytes(m), 0, "the pieces of " + std::to_string(m) + " segments");
   DeviceBuffer<std::uint32_t> d_kept(m);
   const std::uint32_t num_kept = executor.compact(
       m, [=] __device__(std::size_t k) { return dup[ends[2 * k]] != dup[ends[2 * k + 1]]; }, d_kept.data());
-  if (num_kept == 0) return;
+  if (num_kept == 0) return {};
   // Keys a * 2^bits + b, bits enough for any vertex id: 2 * bits <= 64.
   const int bits = nv <= 1 ? 1 : std::bit_width(nv - 1);
   DeviceBuffer<std::uint64_t> d_key(num_kept);
@@ -172,8 +174,7 @@ void pieces_between_representatives(CudaExecutor& executor, const std::uint32_t*
   // Room for what the split adds, as the host's merge leaves (cdt::detail::piece_room).
   pieces.reserve(num_pieces + num_pieces / 256 + 1024);
   pieces.resize(num_pieces);
-  executor.download(reinterpret_cast<std::uint32_t*>(pieces.data()), out,
-                    3 * static_cast<std::size_t>(num_pieces), &parallel);
+  return d_pieces;
 }
 
 /// Writes 0, 1, ..., n - 1 to out, in parts on the host threads of `parallel` when it is given.
@@ -261,8 +262,8 @@ std::size_t merge_input_on_device(DeviceSites::State& s, std::span<const Point> 
                         "merging the duplicates of " + std::to_string(nv) + " points");
   trace.mark("checked");
 
-  DeviceBuffer<std::uint32_t> d_duplicate_of(nv);
-  std::uint32_t* dup = d_duplicate_of.data();
+  s.duplicate_of.resize(nv);
+  std::uint32_t* dup = s.duplicate_of.data();
   {
     // A table of at least twice as many slots as points: probe sequences stay short.
     const int table_bits = std::min(32, static_cast<int>(std::bit_width(2 * nv - 1)));
@@ -295,7 +296,7 @@ std::size_t merge_input_on_device(DeviceSites::State& s, std::span<const Point> 
   }
   trace.mark("merged");
 
-  pieces_between_representatives(executor, ends, m, dup, nv, pieces, parallel);
+  s.pieces = pieces_between_representatives(executor, ends, m, dup, nv, pieces);
   d_ends = {};
   trace.mark("pieces");
 
@@ -317,10 +318,29 @@ std::size_t merge_input_on_device(DeviceSites::State& s, std::span<const Point> 
       write_identity(sites.data(), n, parallel);
     }
     s.site_list = {};
-  } else {
-    executor.download(duplicate_of.data(), dup, nv, &parallel);
-    executor.download(sites.data(), s.site_list.data(), n, &parallel);
   }
+  // The maps and the pieces are first read on the host after shifting (the pieces in mesh ids, the
+  // split, the output): large ones come down on a thread of their own, started with the vertex maps'
+  // at the end of prepare() (the coastlines: 36 MB, 1.9 ms of the bus before the sites' steps), small
+  // ones at once.
+  const std::size_t map_bytes = n == nv ? 0 : 4 * (nv + static_cast<std::size_t>(n));
+  if (map_bytes + 4 * s.pieces.size() >= kLateDownloadBytes) {
+    s.late.add(reinterpret_cast<std::uint32_t*>(pieces.data()), s.pieces.data(), s.pieces.size());
+    if (n != nv) {
+      s.late.add(duplicate_of.data(), dup, nv);
+      s.late.add(sites.data(), s.site_list.data(), n);
+    }
+    s.merge_late = true;
+  } else {
+    executor.download(reinterpret_cast<std::uint32_t*>(pieces.data()), s.pieces.data(), s.pieces.size(),
+                      &parallel);
+    if (n != nv) {
+      executor.download(duplicate_of.data(), dup, nv, &parallel);
+      executor.download(sites.data(), s.site_list.data(), n, &parallel);
+    }
+    s.pieces = {};
+  }
+  if (!s.merge_late || n == nv) s.duplicate_of = {};
   trace.mark("downloaded");
   return checked[2];
 }
@@ -477,13 +497,13 @@ void prepare_sites(DeviceSites::State& s, std::uint32_t m, GridMapping& mapping,
   if (4 * (static_cast<std::size_t>(n) + nv) >= kLateDownloadBytes) {
     s.late.add(site_vertex.data(), vertex_of, n);
     s.late.add(site_of_vertex.data(), site_of, nv);
-    s.late.start();
   } else {
     executor.download(site_vertex.data(), vertex_of, n, &parallel);
     executor.download(site_of_vertex.data(), site_of, nv, &parallel);
   }
+  s.late.start(); // with the merge's copies, if it left any
   s.vertex_xy = {};
-  s.site_list = {};
+  if (!s.merge_late) s.site_list = {}; // else the source of a late copy, freed once it is done
   trace.mark("downloaded");
 }
 
@@ -529,8 +549,16 @@ std::size_t DeviceSites::missing_on_device() const { return state_->missing.size
 double DeviceSites::magnitude() const { return state_->magnitude; }
 
 void DeviceSites::finish_downloads() {
-  state_->late.wait();
-  state_->site_of_vertex = {};
+  State& s = *state_;
+  s.late.start(); // the merge's copies, when prepare() has not started them
+  s.late.wait();
+  s.site_of_vertex = {};
+  if (s.merge_late) {
+    s.merge_late = false;
+    s.duplicate_of = {};
+    s.pieces = {};
+    if (s.vertex_xy.size() == 0) s.site_list = {}; // prepared: the list is read no more
+  }
 }
 
 DeviceSites::~DeviceSites() = default;

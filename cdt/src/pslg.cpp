@@ -214,6 +214,19 @@ void check_dimension(std::span<const Point> points, std::size_t count, Represent
                               " distinct points are collinear: there is no triangle");
 }
 
+/// check_dimension of the `count` distinct points among `points`, without their list: the first point
+/// and the first one unlike it stand for the first two sites, and every point is on the line through
+/// them exactly when every distinct one is.
+void check_dimension_of_points(std::span<const Point> points, std::size_t count) {
+  if (count >= 3) {
+    std::size_t second = 1;
+    while (points[second] == points[0]) ++second; // count >= 2: a point unlike the first exists
+    for (const Point& p : points)
+      if (orient(points[0], points[second], p) != 0) return;
+  }
+  check_dimension(points, count, [](std::size_t k) { return k; }); // throws the same errors
+}
+
 // --- working segments --------------------------------------------------------------------------------
 
 /// A segment during preparation: input segments first, then the pieces bent at crossing points.
@@ -1351,8 +1364,9 @@ PreparedPslg merge_input(std::span<const Point> points, std::span<const Segment>
     out.sites =
         executor.compact<IndexArray>(points.size(), [&](std::size_t i) { return out.duplicate_of[i] == i; });
   }
-  if (out.identity_maps_unwritten) {
-    check_dimension(points, points.size(), [](std::size_t k) { return k; });
+  if (merge) {
+    // The merge may still be filling the maps: the points themselves are looked at.
+    check_dimension_of_points(points, out.sites.size());
   } else {
     check_dimension(points, out.sites.size(), [&](std::size_t k) { return out.sites[k]; });
   }

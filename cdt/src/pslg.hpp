@@ -120,7 +120,9 @@ CDT_HD_INLINE bool point_is_valid(double x, double y) {
 /// -0 equal to +0), sites (the points that are their own representative, increasing) and pieces
 /// (merge_input's), as the host would. Returns the number of zero-length segments. When no two points
 /// coincide it may size duplicate_of and sites without writing them (both are the identity) and set
-/// identity_unwritten (see PreparedPslg::identity_maps_unwritten).
+/// identity_unwritten (see PreparedPslg::identity_maps_unwritten). It may also return with the three
+/// arrays sized and their elements still on their way (the device's copies, waited for by its owner
+/// before they are read): merge_input reads only their sizes.
 using InputMerge = std::function<std::size_t(IndexArray& duplicate_of, IndexArray& sites, PieceArray& pieces,
                                              bool& identity_unwritten)>;
 

@@ -370,6 +370,28 @@ private:
 };
 #endif
 
+#if defined(TRIXEL_HAVE_CUDA)
+/// Waits, when it goes, for the device's copies into the PSLG's maps and pieces (the merge's, started
+/// by DeviceSites::prepare and waited for by finish_downloads after shifting): declared after the PSLG,
+/// so that an exception leaving before that wait does not free the arrays under the copies.
+class MergeDownloads {
+public:
+  explicit MergeDownloads(std::optional<gpu::DeviceSites>& sites) : sites_(sites) {}
+  MergeDownloads(const MergeDownloads&) = delete;
+  MergeDownloads& operator=(const MergeDownloads&) = delete;
+  ~MergeDownloads() {
+    try {
+      if (sites_) sites_->finish_downloads();
+    } catch (...) {
+      // The exception on its way out says what went wrong; a failed copy adds nothing to it.
+    }
+  }
+
+private:
+  std::optional<gpu::DeviceSites>& sites_;
+};
+#endif
+
 /// The input points copied into the PSLG's vertex array, which merge_input leaves to its caller when the
 /// device merged the input: on a thread of its own, while the device works (160 MB at 10^7 points,
 /// which took the host's threads 4 ms at the end of the preparation), for large inputs; at once for
@@ -513,6 +535,9 @@ Triangulation triangulate_on(std::span<const Point> points, std::span<const Segm
                           ? prepare_pslg(points, segments, options.crossings, executor)
                           : merge_input(points, segments, options.crossings, executor, merge);
   // Declared after pslg, so that an exception waits for the copies before the arrays go.
+#if defined(TRIXEL_HAVE_CUDA)
+  const MergeDownloads merge_downloads(device_sites);
+#endif
   PointCopy point_copy;
   if (!split_before && split == Split::screened && merge) point_copy.start(points, pslg.vertices);
   IdentityMaps identity_maps;

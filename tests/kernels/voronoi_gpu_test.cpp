@@ -554,6 +554,7 @@ TEST_F(GpuVoronoi, DuplicatesMergeAsOnTheHost) {
     std::string name;
     std::vector<cdt::Point> points;
     std::vector<cdt::Segment> segments = {};
+    bool merge_read_after_prepare = false; // else right after the merge
   };
   std::vector<Case> cases;
   {
@@ -564,6 +565,15 @@ TEST_F(GpuVoronoi, DuplicatesMergeAsOnTheHost) {
   {
     Case c{"small lattice, many copies", {}};
     for (int i = 0; i < 200000; ++i) c.points.push_back({double(rng.below(300)), double(rng.below(300))});
+    cases.push_back(c);
+  }
+  {
+    // Maps and pieces of more than 4 MB: copied to the host on a thread of their own.
+    Case c{"large lattice, many copies", {}};
+    for (int i = 0; i < 1000000; ++i) c.points.push_back({double(rng.below(1500)), double(rng.below(1500))});
+    cases.push_back(c);
+    c.name += ", read after prepare()";
+    c.merge_read_after_prepare = true;
     cases.push_back(c);
   }
   {
@@ -610,16 +620,24 @@ TEST_F(GpuVoronoi, DuplicatesMergeAsOnTheHost) {
     std::size_t zero_length_segments = 0;
     cdt::gpu::DeviceSites device(c.points, c.segments, cdt::CrossingSegments::resolve, duplicate_of, sites,
                                  pieces, zero_length_segments);
-    EXPECT_EQ(zero_length_segments, host.zero_length_segments) << c.name;
-    EXPECT_GT(zero_length_segments, 0u) << c.name;
-    EXPECT_EQ(duplicate_of, host.duplicate_of) << c.name;
-    EXPECT_EQ(sites, host.sites) << c.name;
-    ASSERT_EQ(pieces.size(), host.pieces.size()) << c.name;
-    for (std::size_t k = 0; k < pieces.size(); ++k) {
-      EXPECT_EQ(pieces[k].a, host.pieces[k].a) << c.name << " piece " << k;
-      EXPECT_EQ(pieces[k].b, host.pieces[k].b) << c.name << " piece " << k;
-      EXPECT_EQ(pieces[k].segment, host.pieces[k].segment) << c.name << " piece " << k;
-      if (HasFailure()) return;
+    // Large maps and pieces come down on a thread of their own, started by prepare() or by
+    // finish_downloads().
+    const auto check_merge = [&] {
+      EXPECT_EQ(zero_length_segments, host.zero_length_segments) << c.name;
+      EXPECT_GT(zero_length_segments, 0u) << c.name;
+      EXPECT_EQ(duplicate_of, host.duplicate_of) << c.name;
+      EXPECT_EQ(sites, host.sites) << c.name;
+      ASSERT_EQ(pieces.size(), host.pieces.size()) << c.name;
+      for (std::size_t k = 0; k < pieces.size(); ++k) {
+        EXPECT_EQ(pieces[k].a, host.pieces[k].a) << c.name << " piece " << k;
+        EXPECT_EQ(pieces[k].b, host.pieces[k].b) << c.name << " piece " << k;
+        EXPECT_EQ(pieces[k].segment, host.pieces[k].segment) << c.name << " piece " << k;
+        if (HasFailure()) return;
+      }
+    };
+    if (!c.merge_read_after_prepare) {
+      device.finish_downloads();
+      check_merge();
     }
     pieces_seen += pieces.size();
     if (HasFailure()) return;
@@ -635,6 +653,8 @@ TEST_F(GpuVoronoi, DuplicatesMergeAsOnTheHost) {
                                    one_site_of_vertex, one_kept, one_missing);
     device.finish_downloads();
     one_step.finish_downloads();
+    if (c.merge_read_after_prepare) check_merge();
+    if (HasFailure()) return;
     EXPECT_EQ(mapping.scale, one_mapping.scale) << c.name;
     EXPECT_EQ(site_vertex, one_site_vertex) << c.name;
     EXPECT_EQ(site_of_vertex, one_site_of_vertex) << c.name;
