@@ -36,7 +36,8 @@ using ::cdt::detail::MissingPoint;
 namespace detail {
 namespace {
 
-/// Vertex maps of at least this many bytes come down on a thread of their own (prepare_sites).
+/// The merge's maps and pieces, and the vertex maps, of at least this many bytes come down on a thread
+/// of their own (merge_input_on_device, prepare_sites).
 constexpr std::size_t kLateDownloadBytes = std::size_t{4} << 20;
 
 constexpr unsigned kBoxThreads = 256;
