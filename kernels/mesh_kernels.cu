@@ -36,7 +36,11 @@ using ::cdt::detail::edge_index;
 using ::cdt::detail::edge_tri;
 using ::cdt::detail::HoleView;
 using ::cdt::detail::InsertStats;
+using ::cdt::detail::kLeaving;
+using ::cdt::detail::kLeavingLater;
+using ::cdt::detail::kLeavingNow;
 using ::cdt::detail::kNoId;
+using ::cdt::detail::kStays;
 using ::cdt::detail::MeshView;
 using ::cdt::detail::MissingArray;
 using ::cdt::detail::MissingPoint;
@@ -234,6 +238,28 @@ __global__ void __launch_bounds__(kBlockRoundThreads)
     });
     __syncthreads();
     if (failed(DeleteStep::independence)) break;
+    // The second pick (cdt::detail::may_delete_among_rest), as delete_vertices marks it.
+    block_for_each(n, [&](std::uint32_t i) {
+      if (a.now[i] != 0) a.leaving[list[i]] = kLeavingNow;
+    });
+    __syncthreads();
+    block_for_each(n, [&](std::uint32_t i) {
+      if (a.now[i] != 0) return;
+      bool next = false;
+      const WorkStatus status = ::cdt::detail::next_to_leaving_now(m, list[i], a.leaving, next);
+      if (status != WorkStatus::ok) record(status);
+      if (next) a.leaving[list[i]] = kLeavingLater;
+    });
+    __syncthreads();
+    block_for_each(n, [&](std::uint32_t i) {
+      if (a.leaving[list[i]] != kLeaving) return;
+      bool go = false;
+      const WorkStatus status = ::cdt::detail::may_delete_among_rest(m, list[i], a.leaving, go);
+      if (status != WorkStatus::ok) record(status);
+      if (go) a.now[i] = 1;
+    });
+    __syncthreads();
+    if (failed(DeleteStep::independence)) break;
     const std::uint32_t num_active = block_compact(
         n, [&](std::uint32_t i) { return a.now[i] != 0; }, a.picked, storage);
     if (num_active == 0) {
@@ -254,7 +280,8 @@ __global__ void __launch_bounds__(kBlockRoundThreads)
     __syncthreads();
     if (failed(DeleteStep::fan_sizes)) break;
     const std::uint32_t total = block_exclusive_scan(a.count, a.offset, num_active, storage);
-    if (total > a.ring_capacity) { // nothing changed yet: the launches redo this round
+    if (total > a.ring_capacity) { // only the marks changed: the launches redo this round
+      block_for_each(n, [&](std::uint32_t i) { a.leaving[list[i]] = kLeaving; });
       room = 1;
       break;
     }
@@ -287,7 +314,7 @@ __global__ void __launch_bounds__(kBlockRoundThreads)
     __syncthreads();
     block_for_each(num_active, [&](std::uint32_t i) {
       const std::uint32_t v = a.active[i];
-      a.leaving[v] = 0;
+      a.leaving[v] = kStays;
       if (a.true_x == nullptr) return;
       m.xy[v] = {a.true_x[v], a.true_y[v]};
       a.out[written + i] = MissingPoint{v, a.hint[i]};
@@ -295,7 +322,10 @@ __global__ void __launch_bounds__(kBlockRoundThreads)
     if (a.true_x != nullptr) written += num_active;
     const std::uint32_t num_rest = block_compact(
         n, [&](std::uint32_t i) { return a.now[i] == 0; }, a.picked, storage);
-    block_for_each(num_rest, [&](std::uint32_t i) { rest[i] = list[a.picked[i]]; });
+    block_for_each(num_rest, [&](std::uint32_t i) {
+      rest[i] = list[a.picked[i]];
+      a.leaving[rest[i]] = kLeaving;
+    });
     __syncthreads();
     std::uint32_t* const swap = list;
     list = rest;
@@ -398,6 +428,33 @@ std::uint64_t delete_vertices(DeviceMesh::State& s, DeviceBuffer<std::uint32_t>&
           now[i] = go ? 1 : 0;
         },
         "may_delete_now");
+    // The second pick (cdt::detail::may_delete_among_rest), as the host's delete_vertices marks it.
+    executor.for_each(
+        n,
+        [=] __device__(std::size_t i) {
+          if (now[i] != 0) leaving[list[i]] = kLeavingNow;
+        },
+        "first_pick");
+    executor.for_each(
+        n,
+        [=] __device__(std::size_t i) {
+          if (now[i] != 0) return;
+          bool next = false;
+          const WorkStatus status = ::cdt::detail::next_to_leaving_now(m, list[i], leaving, next);
+          if (status != WorkStatus::ok) failure.record(status);
+          if (next) leaving[list[i]] = kLeavingLater;
+        },
+        "next_to_first_pick");
+    executor.for_each(
+        n,
+        [=] __device__(std::size_t i) {
+          if (leaving[list[i]] != kLeaving) return;
+          bool go = false;
+          const WorkStatus status = ::cdt::detail::may_delete_among_rest(m, list[i], leaving, go);
+          if (status != WorkStatus::ok) failure.record(status);
+          if (go) now[i] = 1;
+        },
+        "second_pick");
     s.check(failure, "deleting vertices (Algorithm 2, independence)");
     const std::uint32_t num_active = executor.compact(
         n, [=] __device__(std::size_t i) { return now[i] != 0; }, picked.data());
@@ -412,7 +469,7 @@ std::uint64_t delete_vertices(DeviceMesh::State& s, DeviceBuffer<std::uint32_t>&
     std::uint32_t* hint = hints.data();
     delete_vertex_round(s, act, num_active, leaving, hint, ws);
     executor.for_each(
-        num_active, [=] __device__(std::size_t i) { leaving[act[i]] = 0; }, "clear_leaving");
+        num_active, [=] __device__(std::size_t i) { leaving[act[i]] = kStays; }, "clear_leaving");
     if (stars != nullptr) {
       const double* tx = stars->true_x;
       const double* ty = stars->true_y;
@@ -431,7 +488,12 @@ std::uint64_t delete_vertices(DeviceMesh::State& s, DeviceBuffer<std::uint32_t>&
         n, [=] __device__(std::size_t i) { return now[i] == 0; }, picked.data());
     std::uint32_t* r = rest.data();
     executor.for_each(
-        num_rest, [=] __device__(std::size_t i) { r[i] = list[pick[i]]; }, "gather_rest");
+        num_rest,
+        [=] __device__(std::size_t i) {
+          r[i] = list[pick[i]];
+          leaving[r[i]] = kLeaving;
+        },
+        "gather_rest");
     std::swap(pending, rest);
     if (traced) executor.synchronize();
     trace.count("launched round's list", n);
@@ -732,7 +794,8 @@ ShiftStats shift(DeviceMesh::State& s, std::uint32_t num_sites, const double* tx
   std::uint8_t* leaving = d_leaving.data();
   executor.fill_bytes(leaving, 0, m.num_vertices);
   executor.for_each(
-      num_sites, [=] __device__(std::size_t v) { leaving[v] = state[v] == kBad ? 1 : 0; }, "leaving");
+      num_sites, [=] __device__(std::size_t v) { leaving[v] = state[v] == kBad ? kLeaving : kStays; },
+      "leaving");
   DeviceBuffer<std::uint32_t> d_bad(num_sites);
   const std::uint32_t num_bad = sites_in_slot_order(s, num_sites, state, kBad, d_bad.data());
   stats.bad = num_bad;

@@ -10,6 +10,7 @@
 #include <map>
 #include <random>
 #include <set>
+#include <span>
 #include <utility>
 #include <vector>
 
@@ -587,6 +588,87 @@ TEST(ShiftDelete, NonConvexStarWithCollinearRingIsRetriangulated) {
   ASSERT_EQ(shift_test::check_mesh(m, false), "");
   delete_centre(m);
   EXPECT_EQ(shift_test::check_mesh(m, false), "");
+}
+
+/// The mesh's edges as vertex pairs (smaller first).
+std::set<std::pair<std::uint32_t, std::uint32_t>> edges_of(const Mesh& m) {
+  std::set<std::pair<std::uint32_t, std::uint32_t>> e;
+  for (std::uint32_t t = 0; t < m.num_slots(); ++t) {
+    if (!m.alive(t)) continue;
+    for (std::uint32_t k = 0; k < 3; ++k) {
+      const std::uint32_t a = m.tri[3 * t + k], b = m.tri[3 * t + (k + 1) % 3];
+      e.emplace(std::min(a, b), std::max(a, b));
+    }
+  }
+  return e;
+}
+
+// Algorithm 2's rounds, checked against their rule written on the edge set of the mesh before each round:
+// the first pick is every leaving vertex with no lower-priority leaving neighbour; the second adds every
+// leaving vertex next to none of the first pick whose lower-priority leaving neighbours all are. Each
+// round's set is then independent, every leaving vertex goes, and the mesh stays valid.
+TEST(ShiftDelete, RoundsTakeBothPicksOfIndependentVertices) {
+  for (unsigned seed : {1u, 2u, 3u}) {
+    Fixture f = fixture(uniform(4000, 64.0, seed), {.cell = 0.5, .fakes = 8, .delaunay = true});
+    const Mesh& m = f.mesh;
+    std::mt19937 rng(seed);
+    std::vector<std::uint8_t> leaving(m.num_vertices(), cdt::detail::kStays);
+    std::vector<std::uint32_t> pending;
+    for (std::uint32_t v = 0; v < f.num_sites; ++v)
+      if (m.vert_tri[v] != cdt::detail::kNoId && rng() % 3 != 0) {
+        leaving[v] = cdt::detail::kLeaving;
+        pending.push_back(v);
+      }
+    ASSERT_GT(pending.size(), 1000u);
+    std::set<std::uint32_t> left(pending.begin(), pending.end());
+    auto edges = edges_of(m);
+    std::size_t second_picks = 0;
+    std::uint64_t rounds_seen = 0;
+    const auto after_round = [&](std::span<const std::uint32_t> active, std::span<const std::uint32_t>) {
+      ++rounds_seen;
+      std::map<std::uint32_t, std::vector<std::uint32_t>> next; // leaving neighbours, before the round
+      for (auto [a, b] : edges)
+        if (left.count(a) != 0 && left.count(b) != 0) {
+          next[a].push_back(b);
+          next[b].push_back(a);
+        }
+      const auto lower = [](std::uint32_t w, std::uint32_t v) {
+        return cdt::detail::vertex_priority(w) < cdt::detail::vertex_priority(v);
+      };
+      std::set<std::uint32_t> first, later, expected;
+      for (std::uint32_t v : left)
+        if (std::none_of(next[v].begin(), next[v].end(), [&](std::uint32_t w) { return lower(w, v); }))
+          first.insert(v);
+      for (std::uint32_t v : left)
+        if (first.count(v) == 0 &&
+            std::any_of(next[v].begin(), next[v].end(), [&](std::uint32_t w) { return first.count(w) != 0; }))
+          later.insert(v);
+      expected = first;
+      for (std::uint32_t v : left)
+        if (first.count(v) == 0 && later.count(v) == 0 &&
+            std::all_of(next[v].begin(), next[v].end(),
+                        [&](std::uint32_t w) { return !lower(w, v) || later.count(w) != 0; })) {
+          expected.insert(v);
+          ++second_picks;
+        }
+      EXPECT_EQ(std::set<std::uint32_t>(active.begin(), active.end()), expected) << "round " << rounds_seen;
+      for (std::uint32_t v : active) {
+        for (std::uint32_t w : next[v]) EXPECT_EQ(expected.count(w), 0u) << v << " and " << w << " adjacent";
+        EXPECT_EQ(leaving[v], cdt::detail::kStays);
+        left.erase(v);
+      }
+      for (std::uint32_t v : left) EXPECT_EQ(leaving[v], cdt::detail::kLeaving);
+      EXPECT_EQ(check_mesh(m), "") << "round " << rounds_seen;
+      edges = edges_of(m);
+    };
+    CpuExecutor ex(4);
+    const std::uint64_t rounds =
+        cdt::detail::delete_vertices(f.mesh, pending, cdt::detail::HoleShape::star, leaving, after_round, ex);
+    EXPECT_EQ(rounds, rounds_seen);
+    EXPECT_TRUE(left.empty());
+    EXPECT_GT(second_picks, 0u) << "seed " << seed;
+    for (std::uint32_t v : pending) EXPECT_EQ(m.vert_tri[v], cdt::detail::kNoId);
+  }
 }
 
 // Every other test trusts check_mesh, so it must reject each kind of damage it claims to detect.

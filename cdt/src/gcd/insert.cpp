@@ -358,7 +358,7 @@ void delete_fake_vertices(Mesh& mesh, std::uint32_t first_fake, CpuExecutor& exe
   const MeshView m = mesh.view();
   std::vector<std::uint8_t> leaving(nv, 0);
   executor.for_each(nv - first_fake, [&](std::size_t i) {
-    leaving[first_fake + i] = m.vert_tri[first_fake + i] != kNoId ? 1 : 0;
+    leaving[first_fake + i] = m.vert_tri[first_fake + i] != kNoId ? kLeaving : kStays;
   });
   std::vector<std::uint32_t> fakes =
       executor.compact(nv - first_fake, [&](std::size_t i) { return leaving[first_fake + i] != 0; });

@@ -89,6 +89,26 @@ std::uint64_t delete_vertices(
       now[i] = go ? 1 : 0;
     });
     failure.check("deleting vertices (Algorithm 2, independence)");
+    // The second pick (may_delete_among_rest): the first pick marked, the rest next to it marked, then
+    // the rest's local minima join the round.
+    executor.for_each(pending.size(), [&](std::size_t i) {
+      if (now[i] != 0) leaving[pending[i]] = kLeavingNow;
+    });
+    executor.for_each(pending.size(), [&](std::size_t i) {
+      if (now[i] != 0) return;
+      bool next = false;
+      const WorkStatus s = next_to_leaving_now(m, pending[i], leaving.data(), next);
+      if (s != WorkStatus::ok) failure.record(s);
+      if (next) leaving[pending[i]] = kLeavingLater;
+    });
+    executor.for_each(pending.size(), [&](std::size_t i) {
+      if (leaving[pending[i]] != kLeaving) return;
+      bool go = false;
+      const WorkStatus s = may_delete_among_rest(m, pending[i], leaving.data(), go, ranked_as);
+      if (s != WorkStatus::ok) failure.record(s);
+      if (go) now[i] = 1;
+    });
+    failure.check("deleting vertices (Algorithm 2, independence)");
     std::vector<std::uint32_t> active =
         executor.compact(pending.size(), [&](std::size_t i) { return now[i] != 0; });
     // The lowest-priority pending vertex has no lower leaving neighbour, so a round never comes up empty.
@@ -98,11 +118,14 @@ std::uint64_t delete_vertices(
     hints.resize(active.size());
     delete_vertex_round(mesh, active, shape, leaving.data(), hints.data(), ws, executor);
     // Cleared only now: the round read `leaving` of its ring vertices to choose hints.
-    executor.for_each(active.size(), [&](std::size_t i) { leaving[active[i]] = 0; });
-    after_round(active, hints);
+    executor.for_each(active.size(), [&](std::size_t i) { leaving[active[i]] = kStays; });
     std::vector<std::uint32_t> rest =
         executor.compact(pending.size(), [&](std::size_t i) { return now[i] == 0; });
-    for (auto& r : rest) r = pending[r];
+    executor.for_each(rest.size(), [&](std::size_t i) {
+      rest[i] = pending[rest[i]];
+      leaving[rest[i]] = kLeaving;
+    });
+    after_round(active, hints);
     pending.swap(rest);
   }
   return rounds;
@@ -249,7 +272,7 @@ ShiftStats shift_to_true_positions(Mesh& mesh, std::uint32_t num_sites, std::spa
 
   // Algorithm 2: delete the bad cases in rounds of pairwise non-adjacent vertices.
   std::vector<std::uint8_t> leaving(m.num_vertices, 0);
-  executor.for_each(num_sites, [&](std::size_t v) { leaving[v] = state[v] == kBad ? 1 : 0; });
+  executor.for_each(num_sites, [&](std::size_t v) { leaving[v] = state[v] == kBad ? kLeaving : kStays; });
   std::vector<std::uint32_t> bad = sites_in_slot_order(m, num_sites, state.data(), kBad, executor);
   stats.bad = bad.size();
   stats.shifted =

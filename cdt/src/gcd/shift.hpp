@@ -248,17 +248,54 @@ CDT_HD inline WorkStatus shift_is_good(MeshView m, std::uint32_t v, double tx, d
   return WorkStatus::ok;
 }
 
+/// States of Algorithm 2's vertices (the `leaving` arrays): every state but kStays is leaving. Between
+/// rounds a vertex still to delete is kLeaving; within a round the first pick is marked kLeavingNow, and
+/// the rest next to it kLeavingLater, before the second pick (see may_delete_among_rest).
+enum LeavingState : std::uint8_t { kStays = 0, kLeaving = 1, kLeavingNow = 2, kLeavingLater = 3 };
+
+/// The rank of vertex w in the independent-set rounds: its priority, or that of ranked_as[w] (a
+/// copied-out part of a mesh deletes in the order of the whole).
+CDT_HD_INLINE std::uint32_t ranked_priority(std::uint32_t w, const std::uint32_t* ranked_as) {
+  return vertex_priority(ranked_as != nullptr ? ranked_as[w] : w);
+}
+
 /// Algorithm 2 line 3: whether leaving vertex v may go this round, i.e. no leaving neighbour has a lower
 /// priority (so the vertices deleted together are pairwise non-adjacent and their fans disjoint). With
-/// `ranked_as`, vertex w is ranked as vertex ranked_as[w] (a copied-out part of a mesh deletes in the
-/// order of the whole).
+/// `ranked_as`, vertex w is ranked as vertex ranked_as[w].
 CDT_HD inline WorkStatus may_delete_now(MeshView m, std::uint32_t v, const std::uint8_t* leaving, bool& now,
                                         const std::uint32_t* ranked_as = nullptr) {
   now = true;
-  auto priority = [&](std::uint32_t w) { return vertex_priority(ranked_as != nullptr ? ranked_as[w] : w); };
-  const std::uint32_t pv = priority(v);
+  const std::uint32_t pv = ranked_priority(v, ranked_as);
   const bool ok = walk_neighbours(m, v, [&](std::uint32_t w) {
-    if (leaving[w] != 0 && priority(w) < pv) now = false;
+    if (leaving[w] != kStays && ranked_priority(w, ranked_as) < pv) now = false;
+    return now;
+  });
+  return ok ? WorkStatus::ok : WorkStatus::broken_fan;
+}
+
+/// Whether a neighbour of v is in the round's first pick (leaving[w] == kLeavingNow).
+CDT_HD inline WorkStatus next_to_leaving_now(MeshView m, std::uint32_t v, const std::uint8_t* leaving,
+                                             bool& next) {
+  next = false;
+  const bool ok = walk_neighbours(m, v, [&](std::uint32_t w) {
+    if (leaving[w] == kLeavingNow) next = true;
+    return !next;
+  });
+  return ok ? WorkStatus::ok : WorkStatus::broken_fan;
+}
+
+/// The round's second pick. A vertex of the first pick (a local minimum of the priorities among the
+/// leaving vertices) often keeps a neighbour out whose other neighbours could go; Algorithm 2's
+/// independent set then grows by a vertex v with leaving[v] == kLeaving (not in the first pick, not next
+/// to it) when no neighbour that is still kLeaving has a lower priority. Such vertices are pairwise
+/// non-adjacent and next to no vertex of the first pick, so the round's set stays independent, and the
+/// rounds halve on meshes with high-degree clusters of bad cases.
+CDT_HD inline WorkStatus may_delete_among_rest(MeshView m, std::uint32_t v, const std::uint8_t* leaving,
+                                               bool& now, const std::uint32_t* ranked_as = nullptr) {
+  now = true;
+  const std::uint32_t pv = ranked_priority(v, ranked_as);
+  const bool ok = walk_neighbours(m, v, [&](std::uint32_t w) {
+    if (leaving[w] == kLeaving && ranked_priority(w, ranked_as) < pv) now = false;
     return now;
   });
   return ok ? WorkStatus::ok : WorkStatus::broken_fan;
@@ -550,9 +587,10 @@ void delete_vertex_round(Mesh& mesh, std::span<const std::uint32_t> active, Hole
                          const std::uint8_t* leaving, std::uint32_t* hint, HoleWorkspace& workspace,
                          CpuExecutor& executor);
 
-/// Algorithm 2's outer loop: deletes every vertex with leaving[v] != 0 (listed in `pending`) in rounds of
-/// pairwise non-adjacent vertices, clearing leaving[v] as it goes, and calls after_round(active, hints) after
-/// each round (hints only for star holes). Vertices are ranked as may_delete_now ranks them with
+/// Algorithm 2's outer loop: deletes every vertex with leaving[v] == kLeaving (listed in `pending`) in
+/// rounds of pairwise non-adjacent vertices (each round's first pick and second pick, see
+/// may_delete_among_rest), setting leaving[v] = kStays as it goes, and calls after_round(active, hints)
+/// after each round (hints only for star holes). Vertices are ranked as may_delete_now ranks them with
 /// `ranked_as`. Returns the number of rounds.
 std::uint64_t delete_vertices(
     Mesh& mesh, std::vector<std::uint32_t> pending, HoleShape shape, std::vector<std::uint8_t>& leaving,
