@@ -671,6 +671,29 @@ TEST(ShiftDelete, RoundsTakeBothPicksOfIndependentVertices) {
   }
 }
 
+// A growth past the slots' capacity leaves room for an eighth more, so that the next small one (the
+// vertices the split adds after Phase 4) moves nothing; new slots are free.
+TEST(MeshSlots, GrowthPastTheCapacityLeavesRoom) {
+  Mesh m = star_mesh(0, 0, {{1, 0}, {0, 1}, {-1, 0}, {0, -1}});
+  const std::uint32_t before = m.num_slots();
+  const std::size_t big = 8 * (m.tri.capacity() / 3 + 1000);
+  const std::uint32_t first = m.grow_slots(static_cast<std::uint32_t>(big));
+  EXPECT_EQ(first, before);
+  ASSERT_EQ(m.num_slots(), before + big);
+  EXPECT_GE(m.tri.capacity(), 3 * (m.num_slots() + m.num_slots() / 8));
+  EXPECT_GE(m.adj.capacity(), m.tri.capacity());
+  EXPECT_GE(m.seg.capacity(), m.tri.capacity());
+  const std::uint32_t* tri = m.tri.data();
+  const std::uint32_t* adj = m.adj.data();
+  const std::uint32_t* seg = m.seg.data();
+  m.grow_slots(m.num_slots() / 8);
+  EXPECT_EQ(m.tri.data(), tri);
+  EXPECT_EQ(m.adj.data(), adj);
+  EXPECT_EQ(m.seg.data(), seg);
+  for (std::uint32_t t = before; t < m.num_slots(); ++t) EXPECT_FALSE(m.alive(t));
+  EXPECT_EQ(check_mesh(m, false), "");
+}
+
 // Every other test trusts check_mesh, so it must reject each kind of damage it claims to detect.
 TEST(ShiftCheckMesh, RejectsBrokenMeshes) {
   const Fixture good = fixture(uniform(200, 16.0, 9), {.cell = 1.0, .fakes = 5, .delaunay = true});

@@ -299,7 +299,7 @@ Mesh dualize(std::span<const std::uint32_t> colour, std::uint32_t m, std::span<c
 }
 
 void reserve_mesh_slots(Mesh& mesh, std::uint32_t n) {
-  const std::size_t room = 3 * (2 * static_cast<std::size_t>(n) +
+  const std::size_t room = 3 * (2 * static_cast<std::size_t>(n) + n / 8 +
                                 4 * static_cast<std::size_t>(std::sqrt(static_cast<double>(n))) + 64);
   mesh.tri.reserve(room);
   mesh.adj.reserve(room);

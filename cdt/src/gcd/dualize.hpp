@@ -83,8 +83,11 @@ void corner_culprits(const std::uint32_t q[4], const double* x, const double* y,
                      std::vector<std::uint32_t>& out);
 
 /// Room for the triangulation of n sites with the fake boundary (2 n + k - 2 triangles for k fake
-/// vertices, at most about sqrt(n) of them), so that hull completion and Phase 4 append slots without
-/// reallocating. Pages past the used part are never touched, so this costs address space only.
+/// vertices, at most about sqrt(n) of them) and an eighth more, so that hull completion and Phase 4
+/// append slots without reallocating: the slots Algorithm 2 frees stay in the array, and the CPU
+/// executor's Phase 4 appends two slots per missing point after them (1-2% over 2 n on uniform
+/// points and the coastlines). Pages past the used part are never touched, so this costs address space
+/// only.
 void reserve_mesh_slots(Mesh& mesh, std::uint32_t n);
 
 /// A boundary edge of a linked mesh: its encoded id and its ends, counter-clockwise around the mesh.
