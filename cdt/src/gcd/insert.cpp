@@ -361,7 +361,7 @@ void delete_fake_vertices(Mesh& mesh, std::uint32_t first_fake, CpuExecutor& exe
     leaving[first_fake + i] = m.vert_tri[first_fake + i] != kNoId ? kLeaving : kStays;
   });
   std::vector<std::uint32_t> fakes =
-      executor.compact(nv - first_fake, [&](std::size_t i) { return leaving[first_fake + i] != 0; });
+      executor.compact(nv - first_fake, [&](std::size_t i) { return leaving[first_fake + i] != kStays; });
   for (auto& f : fakes) f += first_fake;
   delete_vertices(
       mesh, std::move(fakes), HoleShape::open_fan, leaving,

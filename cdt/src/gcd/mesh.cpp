@@ -21,8 +21,9 @@ std::uint32_t Mesh::grow_slots(std::uint32_t n) {
   const std::uint32_t first = num_slots();
   const std::size_t words = tri.size() + 3 * static_cast<std::size_t>(n);
   if (words > tri.capacity()) {
-    // A reallocation copies every slot on one thread (10^7 slots: a quarter of a second); with room for
-    // an eighth more, the next small growth (the vertices the split adds) copies nothing.
+    // A reallocation copies every slot on one thread (8 million slots: a third of a second on a 2-core
+    // machine); with room for an eighth more, the next small growth (the vertices the split adds)
+    // copies nothing.
     const std::size_t room = words + words / 8;
     tri.reserve(room);
     adj.reserve(room);
