@@ -461,6 +461,11 @@ public:
   /// uploads only the entries the host appended after them (10^7 sites: 40 MB not sent again).
   void take_vertex_ids(DeviceSites& sites);
 
+  /// Takes over the merge's pieces in mesh ids that `sites` made on the device (none when the merge was
+  /// the host's), for start_constraints, which then uploads nothing: they must be the pieces the host
+  /// gives it, made from the same PSLG (cdt::triangulate's mesh_pieces before any split).
+  void take_pieces(DeviceSites& sites);
+
   /// Copies the mesh back into `mesh` (every array replaced).
   void download(::cdt::detail::Mesh& mesh) const;
 

@@ -245,6 +245,28 @@ void check_device_pieces(CudaExecutor& executor, const ConstraintPiece2* pieces,
   if (first != kNoId) ::cdt::detail::throw_invalid_piece(first, host_pieces[first]);
 }
 
+void check_same_pieces(CudaExecutor& executor, const ConstraintPiece2* pieces,
+                       std::span<const ConstraintPiece2> host_pieces) {
+  if (host_pieces.empty()) return;
+  DeviceBuffer<ConstraintPiece2> d_host(host_pieces.size());
+  executor.upload(d_host.data(), host_pieces.data(), host_pieces.size());
+  DeviceBuffer<std::uint32_t> d_first(1);
+  std::uint32_t* first = d_first.data();
+  executor.fill_bytes(first, 0xFF, 1);
+  const ConstraintPiece2* host = d_host.data();
+  executor.for_each(
+      host_pieces.size(),
+      [=] __device__(std::size_t k) {
+        if (pieces[k].a != host[k].a || pieces[k].b != host[k].b || pieces[k].id != host[k].id)
+          atomicMin(first, static_cast<std::uint32_t>(k));
+      },
+      "same_pieces");
+  std::uint32_t at = kNoId;
+  executor.download(&at, first, 1);
+  if (at != kNoId)
+    throw Error("internal error: the device's piece " + std::to_string(at) + " differs from the host's");
+}
+
 /// insert_constraints on the mesh `m` (on the device) by `executor`; `checked_pieces`, when given, are
 /// host_pieces on the device, already checked (else they are uploaded and checked here). A run given
 /// `stop` returns at its next step once it is set, the mesh part way.
@@ -258,6 +280,13 @@ ConstraintStats insert_constraints(CudaExecutor& executor, const MeshView& m,
   const std::uint32_t slots = m.num_slots;
   ::cdt::detail::check_constraint_counts(slots, host_pieces.size());
   if (host_pieces.empty() || (only != nullptr && num_only == 0)) return stats;
+  // Traced, the set-up's steps, each outer iteration's walk and inner iterations are waited for and
+  // timed.
+  ::cdt::detail::StepTrace trace("device constraints");
+  const auto mark = [&](const char* step) {
+    if (::cdt::detail::trace_enabled()) executor.synchronize();
+    trace.mark(step);
+  };
   const std::uint64_t max_inner_iterations = ::cdt::detail::constraint_iteration_bound(m.num_vertices);
   const unsigned inner_limit = inner_iterations == 0 ? 1u : inner_iterations;
   const auto num_pieces = static_cast<std::uint32_t>(host_pieces.size());
@@ -268,6 +297,7 @@ ConstraintStats insert_constraints(CudaExecutor& executor, const MeshView& m,
     d_pieces.resize(num_pieces);
     executor.upload(d_pieces.data(), host_pieces.data(), num_pieces, &parallel);
     check_device_pieces(executor, d_pieces.data(), host_pieces, m.num_vertices);
+    mark("pieces uploaded");
   }
   const ConstraintPiece2* piece = checked_pieces != nullptr ? checked_pieces : d_pieces.data();
   DeviceBuffer<std::uint32_t> d_cmark(slots), d_claim(slots);
@@ -307,19 +337,14 @@ ConstraintStats insert_constraints(CudaExecutor& executor, const MeshView& m,
   // pending piece whether its first part met the second's start; per part its status and crossings;
   // per long piece whether it is walked whole again.
   DeviceBuffer<std::uint32_t> d_hint_cells;
+  mark("buffers");
   const WalkHints hints = make_walk_hints(executor, m, d_hint_cells);
   WalkParts walk_parts;
   DeviceBuffer<std::uint32_t> d_part_cross, d_again;
   DeviceBuffer<std::uint8_t> d_met, d_redo;
   DeviceBuffer<ConstraintStatus> d_part_status;
 
-  // Traced, each outer iteration's walk and inner iterations are waited for and timed.
-  ::cdt::detail::StepTrace trace("device constraints");
-  const auto mark = [&](const char* step) {
-    if (::cdt::detail::trace_enabled()) executor.synchronize();
-    trace.mark(step);
-  };
-  mark("set up");
+  mark("walk hints");
 
   for (;;) {
     if (stopped()) return stats;
@@ -756,10 +781,23 @@ bool DeviceMesh::start_constraints(std::span<const ConstraintPiece2> pieces, uns
   try {
     beside = std::make_unique<detail::ConstraintsBeside>();
     beside->host_pieces = pieces;
-    beside->pieces.resize(np);
-    s.executor.upload(beside->pieces.data(), pieces.data(), np, &parallel);
+    ::cdt::detail::StepTrace trace("device constraints beside");
+    if (s.ready_pieces.size() == np) {
+      // Made on the device from the same PSLG (take_pieces); with the debug switch compared with the
+      // host's.
+      beside->pieces = std::move(s.ready_pieces);
+      if (detail::debug_sync()) detail::check_same_pieces(s.executor, beside->pieces.data(), pieces);
+    } else {
+      beside->pieces.resize(np);
+      s.executor.upload(beside->pieces.data(), pieces.data(), np, &parallel);
+    }
+    s.ready_pieces = {};
+    if (::cdt::detail::trace_enabled()) s.executor.synchronize();
+    trace.mark("pieces uploaded");
     detail::check_device_pieces(s.executor, beside->pieces.data(), pieces, s.num_vertices);
+    trace.mark("pieces checked");
     launch_beside(s, *beside, inner_iterations, nullptr, 0);
+    trace.mark("started");
   } catch (const DeviceError&) {
     return false;
   } catch (const std::system_error&) {

@@ -94,6 +94,11 @@ void check_device_pieces(CudaExecutor& executor, const ::cdt::detail::Constraint
                          std::span<const ::cdt::detail::ConstraintPiece2> host_pieces,
                          std::uint32_t num_vertices);
 
+/// Throws Error unless the pieces at `pieces` on the device are host_pieces (a debug check of pieces
+/// made on the device).
+void check_same_pieces(CudaExecutor& executor, const ::cdt::detail::ConstraintPiece2* pieces,
+                       std::span<const ::cdt::detail::ConstraintPiece2> host_pieces);
+
 /// Device memory of a mesh of `slots` triangles over nv vertices, in bytes.
 std::size_t mesh_device_bytes(std::size_t slots, std::size_t nv);
 
@@ -181,6 +186,9 @@ struct DeviceMesh::State {
   detail::DeviceBuffer<::cdt::detail::MissingPoint> missing_first;
   /// The first entries of output()'s vertex_of, already on the device (take_vertex_ids; else empty).
   detail::DeviceBuffer<std::uint32_t> vertex_ids;
+  /// The constraints' pieces in mesh ids, already on the device (take_pieces; else empty): taken by
+  /// start_constraints when they are as many as the host's.
+  detail::DeviceBuffer<::cdt::detail::ConstraintPiece2> ready_pieces;
   /// segment_of_edge's words filled with kNoId by prefill_segments (null when not), for that many rows.
   const std::uint32_t* prefilled_segments = nullptr;
   std::uint32_t prefilled_rows = 0;

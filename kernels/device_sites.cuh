@@ -8,6 +8,7 @@
 #include "cdt_kernels.hpp"
 #include "cuda_check.cuh"
 #include "cuda_executor.cuh"
+#include "gcd/constraints.hpp"
 #include "gcd/mesh.hpp"
 
 namespace cdt::gpu {
@@ -63,9 +64,15 @@ struct DeviceSites::State {
   /// Per vertex its site, kept on the device until its late copy to the host is done.
   detail::DeviceBuffer<std::uint32_t> site_of_vertex;
   /// The merge's representatives per point and pieces (a, b, segment triples), and site_list above,
-  /// kept on the device while merge_late: until their late copies to the host are done.
+  /// kept on the device while merge_late: until their late copies to the host are done (the pieces,
+  /// from kMeshPiecesFrom of them, until prepare() has made mesh_pieces).
   detail::DeviceBuffer<std::uint32_t> duplicate_of, pieces;
   bool merge_late = false;
+  /// The merge's pieces in mesh ids (site of a, site of b, piece index), as the host makes them for
+  /// the constraints from the pieces and site_of_vertex that come down: made by prepare() while both
+  /// are on the device, until DeviceMesh::take_pieces takes them (empty when the merge was the host's
+  /// or made fewer than 2^16 pieces, which the constraints insert after the split).
+  detail::DeviceBuffer<::cdt::detail::ConstraintPiece2> mesh_pieces;
   /// The copies of site_vertex and site_of_vertex to the host (see DeviceSites::prepare). Declared
   /// last: they are waited for before the buffers above go.
   detail::LateDownloads late;

@@ -968,6 +968,14 @@ InsertStats insert(DeviceMesh::State& s, std::span<const MissingPoint> missing,
   const auto num = static_cast<std::uint32_t>(num_points);
   CudaExecutor& executor = s.executor;
   const std::uint32_t nv = s.num_vertices;
+  // Traced: the set-up's steps, the rounds of Algorithm 3 alone (the phase's count adds the fake fans'
+  // flips), each launched round and each run of the team's rounds (every step waited for).
+  ::cdt::detail::StepTrace trace("device missing points");
+  const bool traced = ::cdt::detail::trace_enabled();
+  const auto step = [&](const char* name) {
+    if (traced) executor.synchronize();
+    trace.mark(name);
+  };
 
   // Every insertion takes exactly two slots, so the mesh grows once up front and no round reallocates.
   DeviceBuffer<std::uint32_t> d_free(s.num_slots + 2 * static_cast<std::size_t>(num));
@@ -983,6 +991,7 @@ InsertStats insert(DeviceMesh::State& s, std::span<const MissingPoint> missing,
       s.grow_slots(static_cast<std::uint32_t>(need - free_now));
     }
   }
+  step("slots grown");
   const MeshView m = s.view();
   s.made_by_insert.resize(m.num_slots);
   std::uint8_t* made = s.made_by_insert.data();
@@ -1045,6 +1054,7 @@ InsertStats insert(DeviceMesh::State& s, std::span<const MissingPoint> missing,
   if (words[1] == kNoId) throw Error("internal error: inserting missing points into an empty mesh");
   std::uint32_t fallback = kNoId;
   executor.download(&fallback, m.tri + 3 * static_cast<std::size_t>(words[1]), 1);
+  step("points checked");
 
   DeviceBuffer<std::uint32_t> d_start(num), d_loc_t(num), d_loc_e(num), d_loc_u(num), d_loc_j(num),
       d_new0(num), d_new1(num), d_mark(m.num_slots), d_remaining(num), d_rest(num), d_winners(num),
@@ -1077,12 +1087,7 @@ InsertStats insert(DeviceMesh::State& s, std::span<const MissingPoint> missing,
 
   DeviceBuffer<InsertRoundsEnd> d_end(1);
   InsertTeamRounds team_rounds;
-  // Traced: the rounds of Algorithm 3 alone (the phase's count adds the fake fans' flips), each launched
-  // round and each run of the team's rounds (every step waited for).
-  ::cdt::detail::StepTrace trace("device missing points");
-  const bool traced = ::cdt::detail::trace_enabled();
-  if (traced) executor.synchronize();
-  trace.mark("set up");
+  step("set up");
   while (n > 0) {
     if (team_rounds.takes(n)) {
       const InsertRounds args{m,
@@ -1597,6 +1602,10 @@ void DeviceMesh::take_missing(DeviceSites& sites) {
 
 void DeviceMesh::take_vertex_ids(DeviceSites& sites) {
   state_->vertex_ids = std::move(sites.state().site_vertex);
+}
+
+void DeviceMesh::take_pieces(DeviceSites& sites) {
+  state_->ready_pieces = std::move(sites.state().mesh_pieces);
 }
 
 using detail::kOutputPartBytes;

@@ -39,6 +39,9 @@ namespace {
 /// The merge's maps and pieces, and the vertex maps, of at least this many bytes come down on a thread
 /// of their own (merge_input_on_device, prepare_sites).
 constexpr std::size_t kLateDownloadBytes = std::size_t{4} << 20;
+/// From this many pieces prepare() makes their mesh ids on the device (DeviceSites::State::mesh_pieces):
+/// as many as cdt::triangulate needs to insert the constraints beside its split.
+constexpr std::size_t kMeshPiecesFrom = std::size_t{1} << 16;
 
 constexpr unsigned kBoxThreads = 256;
 constexpr unsigned kBoxBlocks = 256;
@@ -63,6 +66,19 @@ __global__ void box_kernel(std::size_t n, const double* x, const double* y, std:
   if (threadIdx.x == 0) out[blockIdx.x] = part[0];
 }
 
+/// The box of the kBoxBlocks parts of box_kernel, into parts[0] (one block of kBoxThreads threads).
+__global__ void box_parts_kernel(Extent* parts) {
+  static_assert(kBoxBlocks == kBoxThreads);
+  __shared__ Extent part[kBoxThreads];
+  part[threadIdx.x] = parts[threadIdx.x];
+  __syncthreads();
+  for (unsigned half = kBoxThreads / 2; half > 0; half /= 2) {
+    if (threadIdx.x < half) part[threadIdx.x].add(part[threadIdx.x + half]);
+    __syncthreads();
+  }
+  if (threadIdx.x == 0) parts[0] = part[0];
+}
+
 } // namespace
 
 namespace {
@@ -72,10 +88,14 @@ Extent box_of_strided(CudaExecutor& executor, std::size_t n, const double* x, co
   DeviceBuffer<Extent> d_parts(kBoxBlocks);
   box_kernel<<<kBoxBlocks, kBoxThreads, 0, executor.stream()>>>(n, x, y, step, x2, y2, d_parts.data());
   CDT_CUDA_CHECK_LAUNCH("site_box");
-  std::vector<Extent> parts(kBoxBlocks);
-  executor.download(parts.data(), d_parts.data(), kBoxBlocks);
-  Extent all = parts[0];
-  for (const Extent& p : parts) all.add(p);
+  // Merged on the device: one box comes back as a reply (kReplyBytes), which does not queue on the copy
+  // engine behind other streams' copies (the constraints' walk hints beside the output started early
+  // waited 1.2 ms for the parts' copy on the coastlines).
+  box_parts_kernel<<<1, kBoxThreads, 0, executor.stream()>>>(d_parts.data());
+  CDT_CUDA_CHECK_LAUNCH("site_box_parts");
+  static_assert(sizeof(Extent) <= kReplyBytes);
+  Extent all{};
+  executor.download(&all, d_parts.data(), 1);
   return all;
 }
 
@@ -339,7 +359,8 @@ std::size_t merge_input_on_device(DeviceSites::State& s, std::span<const Point> 
       executor.download(duplicate_of.data(), dup, nv, &parallel);
       executor.download(sites.data(), s.site_list.data(), n, &parallel);
     }
-    s.pieces = {};
+    // Kept for their mesh ids (prepare) when the constraints will run beside the host's split.
+    if (s.pieces.size() / 3 < kMeshPiecesFrom) s.pieces = {};
   }
   if (!s.merge_late || n == nv) s.duplicate_of = {};
   trace.mark("downloaded");
@@ -501,6 +522,26 @@ void prepare_sites(DeviceSites::State& s, std::uint32_t m, GridMapping& mapping,
   } else {
     executor.download(site_vertex.data(), vertex_of, n, &parallel);
     executor.download(site_of_vertex.data(), site_of, nv, &parallel);
+  }
+  // The pieces in mesh ids for the constraints, while the merge's pieces and the sites of the vertices
+  // are both here: the host's copy of them (21 MB for the coastlines) need not go up again. Without the
+  // memory for them the constraints upload the host's.
+  if (s.pieces.size() > 0) {
+    const std::size_t np = s.pieces.size() / 3;
+    try {
+      s.mesh_pieces.resize(np);
+      ::cdt::detail::ConstraintPiece2* out = s.mesh_pieces.data();
+      const std::uint32_t* triples = s.pieces.data();
+      executor.for_each(
+          np,
+          [=] __device__(std::size_t k) {
+            out[k] = {site_of[triples[3 * k]], site_of[triples[3 * k + 1]], static_cast<std::uint32_t>(k)};
+          },
+          "mesh_pieces");
+    } catch (const DeviceError&) {
+      s.mesh_pieces = {};
+    }
+    if (!s.merge_late) s.pieces = {}; // on the host already
   }
   s.late.start(); // with the merge's copies, if it left any
   s.vertex_xy = {};

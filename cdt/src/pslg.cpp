@@ -29,6 +29,10 @@
 #include <unordered_map>
 #include <utility>
 
+#if defined(__linux__)
+#include <sys/mman.h>
+#endif
+
 #include "cdt/detail/predicates.hpp"
 #include "cdt/detail/trace.hpp"
 #include "cdt/errors.hpp"
@@ -1410,10 +1414,29 @@ void split_pieces(PreparedPslg& pslg, CrossingSegments policy, CpuExecutor& exec
                         snap_tolerance_of(box), policy, executor);
 }
 
+PieceArray touched_piece_room(std::size_t n) {
+  PieceArray room;
+  room.reserve(piece_room(n) + n / 128); // piece_room of the pieces after a split that adds a few
+  auto* bytes = reinterpret_cast<unsigned char*>(room.data());
+  const std::size_t size = room.capacity() * sizeof(ConstraintPiece);
+  constexpr std::size_t kPage = 4096;
+#if defined(__linux__) && defined(MADV_POPULATE_WRITE)
+  // The kernel maps the whole pages inside the block in one call (Linux 5.14 on), much faster than a
+  // fault a page where faults are dear (a virtual machine's); the pages at the ends are touched below.
+  const auto first = (reinterpret_cast<std::uintptr_t>(bytes) + kPage - 1) / kPage * kPage;
+  const auto end = (reinterpret_cast<std::uintptr_t>(bytes) + size) / kPage * kPage;
+  if (end > first) madvise(reinterpret_cast<void*>(first), end - first, MADV_POPULATE_WRITE);
+#endif
+  auto* touch = reinterpret_cast<volatile unsigned char*>(bytes);
+  for (std::size_t at = 0; at < size; at += kPage) touch[at] = 0;
+  if (size > 0) touch[size - 1] = 0;
+  return room;
+}
+
 bool split_pieces(PreparedPslg& pslg, std::span<const std::uint32_t> suspect_pieces,
                   std::span<const std::uint32_t> suspect_sites, CrossingSegments policy,
                   CpuExecutor& executor, double sites_magnitude, std::vector<std::uint32_t>* new_pieces,
-                  PieceMoves* moves) {
+                  PieceMoves* moves, PieceArray* room) {
   if (new_pieces != nullptr) new_pieces->clear();
   if (moves != nullptr) *moves = {};
   if (suspect_pieces.empty()) return false;
@@ -1541,7 +1564,10 @@ bool split_pieces(PreparedPslg& pslg, std::span<const std::uint32_t> suspect_pie
     for (std::size_t done = 0; done < r.count; done += kChunk)
       chunks.push_back({r.from + done, r.to + done, std::min(kChunk, r.count - done)});
   PieceArray merged;
-  merged.reserve(std::max(pslg.pieces.capacity(), piece_room(to)));
+  if (room != nullptr && room->capacity() >= piece_room(to))
+    merged.swap(*room);
+  else
+    merged.reserve(std::max(pslg.pieces.capacity(), piece_room(to)));
   merged.resize(to);
   executor.for_each_part(chunks.size(), [&](std::size_t k) {
     const Run& c = chunks[k];
@@ -1559,6 +1585,10 @@ bool split_pieces(PreparedPslg& pslg, std::span<const std::uint32_t> suspect_pie
     for (std::size_t i = 0; i < suspects.size(); ++i)
       if (stays[i] != 0) moves->from_suspects.push_back(moved_piece(moves->runs, suspects[i]));
     std::sort(moves->from_suspects.begin(), moves->from_suspects.end());
+  }
+  if (room != nullptr) {
+    room->clear();
+    room->swap(pslg.pieces); // the caller frees the old array when it suits it
   }
   pslg.pieces = std::move(merged);
   trace.mark("pieces merged");

@@ -141,10 +141,14 @@ bool segments_connected(const PreparedPslg& out, const std::vector<Segment>& seg
   return true;
 }
 
-std::vector<std::pair<std::uint32_t, std::uint32_t>> piece_pairs(const PreparedPslg& out) {
+std::vector<std::pair<std::uint32_t, std::uint32_t>> piece_pairs_of(const cdt::detail::PieceArray& pieces) {
   std::vector<std::pair<std::uint32_t, std::uint32_t>> pairs;
-  for (const ConstraintPiece& p : out.pieces) pairs.emplace_back(p.a, p.b);
+  for (const ConstraintPiece& p : pieces) pairs.emplace_back(p.a, p.b);
   return pairs;
+}
+
+std::vector<std::pair<std::uint32_t, std::uint32_t>> piece_pairs(const PreparedPslg& out) {
+  return piece_pairs_of(out.pieces);
 }
 
 std::vector<std::uint32_t> piece_labels(const PreparedPslg& out) {
@@ -199,11 +203,20 @@ SuspectSplit expect_suspects_split_as_all(const std::vector<Point>& points,
   EXPECT_LT(suspects.size(), some.pieces.size());
   const std::vector<std::uint32_t> sites(some.sites.begin(), some.sites.end());
   const auto before = piece_pairs(some);
+  // The same split into touched room: the same pieces, and the room then holds the old array.
+  PreparedPslg roomy = some;
+  cdt::detail::PieceArray room = cdt::detail::touched_piece_room(2 * roomy.pieces.size());
+  const cdt::detail::ConstraintPiece* room_memory = room.data();
+  EXPECT_TRUE(cdt::detail::split_pieces(roomy, suspects, sites, CrossingSegments::resolve, executor, -1.0,
+                                        nullptr, nullptr, &room));
+  EXPECT_EQ(roomy.pieces.data(), room_memory);
+  EXPECT_EQ(piece_pairs_of(room), before);
   std::vector<std::uint32_t> new_pieces{7}; // replaced
   cdt::detail::PieceMoves moves;
   moves.from_suspects = {3}; // replaced
   EXPECT_TRUE(cdt::detail::split_pieces(some, suspects, sites, CrossingSegments::resolve, executor, -1.0,
                                         &new_pieces, &moves));
+  EXPECT_EQ(piece_pairs(roomy), piece_pairs(some));
   EXPECT_EQ(some.vertices.size(), all.vertices.size());
   // The moves: every piece that was no suspect went to a place of its own holding the same piece, and
   // the pieces made from the suspects fill exactly the other places.
