@@ -29,10 +29,6 @@
 #include <unordered_map>
 #include <utility>
 
-#if defined(__linux__)
-#include <sys/mman.h>
-#endif
-
 #include "cdt/detail/predicates.hpp"
 #include "cdt/detail/trace.hpp"
 #include "cdt/errors.hpp"
@@ -1420,13 +1416,10 @@ PieceArray touched_piece_room(std::size_t n) {
   auto* bytes = reinterpret_cast<unsigned char*>(room.data());
   const std::size_t size = room.capacity() * sizeof(ConstraintPiece);
   constexpr std::size_t kPage = 4096;
-#if defined(__linux__) && defined(MADV_POPULATE_WRITE)
-  // The kernel maps the whole pages inside the block in one call (Linux 5.14 on), much faster than a
-  // fault a page where faults are dear (a virtual machine's); the pages at the ends are touched below.
-  const auto first = (reinterpret_cast<std::uintptr_t>(bytes) + kPage - 1) / kPage * kPage;
-  const auto end = (reinterpret_cast<std::uintptr_t>(bytes) + size) / kPage * kPage;
-  if (end > first) madvise(reinterpret_cast<void*>(first), end - first, MADV_POPULATE_WRITE);
-#endif
+  // One write a page, not madvise(MADV_POPULATE_WRITE): the kernel call maps the block faster, but it
+  // holds the process's memory-map lock while it does and so stalls the main thread's own mapping of
+  // fresh memory (the coastlines' shift waited 2-3 ms for it on the H200 machine); the loop's faults
+  // take that lock one page at a time.
   auto* touch = reinterpret_cast<volatile unsigned char*>(bytes);
   for (std::size_t at = 0; at < size; at += kPage) touch[at] = 0;
   if (size > 0) touch[size - 1] = 0;
