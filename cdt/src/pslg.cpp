@@ -21,6 +21,7 @@
 #include <charconv>
 #include <cmath>
 #include <cstddef>
+#include <cstring>
 #include <functional>
 #include <limits>
 #include <numeric>
@@ -1410,26 +1411,58 @@ void split_pieces(PreparedPslg& pslg, CrossingSegments policy, CpuExecutor& exec
                         snap_tolerance_of(box), policy, executor);
 }
 
-PieceArray touched_piece_room(std::size_t n) {
-  PieceArray room;
-  room.reserve(piece_room(n) + n / 128); // piece_room of the pieces after a split that adds a few
-  auto* bytes = reinterpret_cast<unsigned char*>(room.data());
-  const std::size_t size = room.capacity() * sizeof(ConstraintPiece);
-  constexpr std::size_t kPage = 4096;
-  // One write a page, not madvise(MADV_POPULATE_WRITE): the kernel call maps the block faster, but it
-  // holds the process's memory-map lock while it does and so stalls the main thread's own mapping of
-  // fresh memory (the coastlines' shift waited 2-3 ms for it on the H200 machine); the loop's faults
-  // take that lock one page at a time.
-  auto* touch = reinterpret_cast<volatile unsigned char*>(bytes);
-  for (std::size_t at = 0; at < size; at += kPage) touch[at] = 0;
-  if (size > 0) touch[size - 1] = 0;
-  return room;
+namespace {
+
+/// Pieces [from, from + count) of an array going to [to, to + count).
+struct Run {
+  std::size_t from, to, count;
+};
+
+/// Moves the chunks of `pieces` (runs whose sources are disjoint, as are their destinations, none
+/// moving farther than `reach`) within the array, in parallel, and leaves it with `size` pieces (at
+/// most its capacity). A chunk's destination can overlap another chunk's source only within `reach`
+/// of that source's ends (it lies within reach of its own source, which is disjoint from the other),
+/// so each chunk first sets aside its first and last `reach` pieces, and after a barrier moves the rest
+/// itself (memmove order: nothing else writes there) and writes the set-aside ones. (A new array
+/// instead: 21 MB of fresh pages for the coastlines' pieces, or memory touched beforehand.)
+void move_in_place(PieceArray& pieces, const std::vector<Run>& chunks, std::size_t reach, std::size_t size,
+                   CpuExecutor& executor) {
+  std::vector<std::size_t> aside_at(chunks.size() + 1, 0);
+  for (std::size_t k = 0; k < chunks.size(); ++k)
+    aside_at[k + 1] = aside_at[k] + std::min(chunks[k].count, 2 * reach);
+  std::vector<ConstraintPiece> aside(aside_at.back());
+  // The ends of each chunk: its first `head` pieces and its last `tail`, all of it when short.
+  const auto ends = [&](const Run& c) {
+    const std::size_t head = std::min(c.count, reach);
+    return std::pair{head, std::min(c.count - head, reach)};
+  };
+  executor.for_each_part(chunks.size(), [&](std::size_t k) {
+    const Run& c = chunks[k];
+    const auto [head, tail] = ends(c);
+    const ConstraintPiece* from = pieces.data() + c.from;
+    std::copy_n(from, head, aside.begin() + static_cast<std::ptrdiff_t>(aside_at[k]));
+    std::copy_n(from + c.count - tail, tail, aside.begin() + static_cast<std::ptrdiff_t>(aside_at[k] + head));
+  });
+  if (size > pieces.size()) pieces.resize(size); // within the capacity: nothing moves, nothing is written
+  executor.for_each_part(chunks.size(), [&](std::size_t k) {
+    const Run& c = chunks[k];
+    const auto [head, tail] = ends(c);
+    ConstraintPiece* data = pieces.data();
+    const std::size_t middle = c.count - head - tail;
+    if (middle > 0) std::memmove(data + c.to + head, data + c.from + head, middle * sizeof(ConstraintPiece));
+    std::copy_n(aside.begin() + static_cast<std::ptrdiff_t>(aside_at[k]), head, data + c.to);
+    std::copy_n(aside.begin() + static_cast<std::ptrdiff_t>(aside_at[k] + head), tail,
+                data + c.to + c.count - tail);
+  });
+  pieces.resize(size);
 }
+
+} // namespace
 
 bool split_pieces(PreparedPslg& pslg, std::span<const std::uint32_t> suspect_pieces,
                   std::span<const std::uint32_t> suspect_sites, CrossingSegments policy,
                   CpuExecutor& executor, double sites_magnitude, std::vector<std::uint32_t>* new_pieces,
-                  PieceMoves* moves, PieceArray* room) {
+                  PieceMoves* moves) {
   if (new_pieces != nullptr) new_pieces->clear();
   if (moves != nullptr) *moves = {};
   if (suspect_pieces.empty()) return false;
@@ -1524,9 +1557,6 @@ bool split_pieces(PreparedPslg& pslg, std::span<const std::uint32_t> suspect_pie
   }
   // Walking the leaving suspects and the places in order: runs of kept pieces (source, destination,
   // length) and the inserted pieces' destinations.
-  struct Run {
-    std::size_t from, to, count;
-  };
   std::vector<Run> runs;
   std::vector<std::size_t> inserted_at(inserted.size());
   std::size_t from = 0, to = 0, s = 0, j = 0;
@@ -1547,27 +1577,34 @@ bool split_pieces(PreparedPslg& pslg, std::span<const std::uint32_t> suspect_pie
     }
   }
   copy_until(pslg.pieces.size());
-  // Into a new array, the runs cut into chunks copied in parallel (moving them in place has to go run
-  // by run, in an order that reads every piece before it is overwritten: one thread for the whole
-  // array, 3.6 ms for the coastlines' 1.8 million pieces on the H200 machine's host). The new array
-  // keeps the old one's room for added pieces.
+  // The runs move in place, cut into chunks moved in parallel, when the array's room holds the new
+  // count and the runs move by little against a chunk (the coastlines' split: 1.8 million pieces, the
+  // farthest run 130 places); else they are copied into a new array, which keeps the old one's room.
+  std::size_t reach = 0; // the farthest any run moves
+  for (const Run& r : runs) reach = std::max(reach, r.to > r.from ? r.to - r.from : r.from - r.to);
   constexpr std::size_t kChunk = std::size_t{1} << 14;
+  const bool in_place = to <= pslg.pieces.capacity() && reach * 8 <= kChunk;
   std::vector<Run> chunks;
-  for (const Run& r : runs)
+  for (const Run& r : runs) {
+    if (in_place && r.from == r.to) continue; // there already, and nothing else is written there
     for (std::size_t done = 0; done < r.count; done += kChunk)
       chunks.push_back({r.from + done, r.to + done, std::min(kChunk, r.count - done)});
-  PieceArray merged;
-  if (room != nullptr && room->capacity() >= piece_room(to))
-    merged.swap(*room);
-  else
+  }
+  if (in_place) {
+    move_in_place(pslg.pieces, chunks, reach, to, executor);
+    for (std::size_t k = 0; k < inserted.size(); ++k) pslg.pieces[inserted_at[k]] = inserted[k];
+  } else {
+    PieceArray merged;
     merged.reserve(std::max(pslg.pieces.capacity(), piece_room(to)));
-  merged.resize(to);
-  executor.for_each_part(chunks.size(), [&](std::size_t k) {
-    const Run& c = chunks[k];
-    std::copy_n(pslg.pieces.begin() + static_cast<std::ptrdiff_t>(c.from), c.count,
-                merged.begin() + static_cast<std::ptrdiff_t>(c.to));
-  });
-  for (std::size_t k = 0; k < inserted.size(); ++k) merged[inserted_at[k]] = inserted[k];
+    merged.resize(to);
+    executor.for_each_part(chunks.size(), [&](std::size_t k) {
+      const Run& c = chunks[k];
+      std::copy_n(pslg.pieces.begin() + static_cast<std::ptrdiff_t>(c.from), c.count,
+                  merged.begin() + static_cast<std::ptrdiff_t>(c.to));
+    });
+    for (std::size_t k = 0; k < inserted.size(); ++k) merged[inserted_at[k]] = inserted[k];
+    pslg.pieces = std::move(merged);
+  }
   if (new_pieces != nullptr)
     for (const std::size_t at : inserted_at) new_pieces->push_back(static_cast<std::uint32_t>(at));
   if (moves != nullptr) {
@@ -1579,11 +1616,6 @@ bool split_pieces(PreparedPslg& pslg, std::span<const std::uint32_t> suspect_pie
       if (stays[i] != 0) moves->from_suspects.push_back(moved_piece(moves->runs, suspects[i]));
     std::sort(moves->from_suspects.begin(), moves->from_suspects.end());
   }
-  if (room != nullptr) {
-    room->clear();
-    room->swap(pslg.pieces); // the caller frees the old array when it suits it
-  }
-  pslg.pieces = std::move(merged);
   trace.mark("pieces merged");
   return true;
 }

@@ -178,19 +178,12 @@ void split_pieces(PreparedPslg& pslg, CrossingSegments policy, CpuExecutor& exec
 /// their segment ids may be lower) and no vertex was added. new_pieces, when given, is set to the
 /// indices of the pieces that came, increasing (every piece at an added vertex is among them).
 /// moves, when given and pieces came or went, says where every old piece that stayed went and which
-/// pieces came from the suspects (PieceMoves). room, when given, is an array whose memory the moved
-/// pieces may take when its capacity holds them (memory touched already, so that the copy does not
-/// fault its pages in: PieceRoom); it then holds the old array.
+/// pieces came from the suspects (PieceMoves). The pieces move within pslg.pieces when its capacity
+/// holds them and few came or went (else into a new array with the same room).
 bool split_pieces(PreparedPslg& pslg, std::span<const std::uint32_t> suspect_pieces,
                   std::span<const std::uint32_t> suspect_sites, CrossingSegments policy,
                   CpuExecutor& executor, double sites_magnitude = -1.0,
-                  std::vector<std::uint32_t>* new_pieces = nullptr, PieceMoves* moves = nullptr,
-                  PieceArray* room = nullptr);
-
-/// An empty piece array with room for a little more than piece_room(n) pieces, its pages touched (one
-/// write a page), for split_pieces's room: made on a thread beside the device, it spares the split's
-/// copy the page faults of fresh memory (the coastlines' 21 MB).
-PieceArray touched_piece_room(std::size_t n);
+                  std::vector<std::uint32_t>* new_pieces = nullptr, PieceMoves* moves = nullptr);
 
 /// The new index of old piece `old` after a split that moved the pieces by runs[0, num_runs) (by
 /// increasing from), or kNone when it left. The same on the host and the device (renumbered constraints).

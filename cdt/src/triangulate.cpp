@@ -166,12 +166,11 @@ void mesh_pieces(const detail::PreparedPslg& pslg, const IndexArray& site_of_ver
 /// the sites where known (negative: split_pieces computes it). Returns whether the pieces may have
 /// changed places (false: the same pieces in the same places, their segment ids perhaps lowered), and
 /// in new_pieces the indices of the pieces that came when known (the suspects' split), else nothing;
-/// in moves, when the suspects' split moved the pieces, where they went (split_pieces); room as
-/// split_pieces's.
+/// in moves, when the suspects' split moved the pieces, where they went (split_pieces).
 bool split_screened(detail::PreparedPslg& pslg, const detail::ScreenedPieces& screen,
                     const IndexArray& site_vertex, CrossingSegments policy, detail::CpuExecutor& executor,
                     double sites_magnitude, std::optional<std::vector<std::uint32_t>>& new_pieces,
-                    detail::PieceMoves& moves, detail::PieceArray* room) {
+                    detail::PieceMoves& moves) {
   using namespace detail;
   new_pieces.reset();
   if (!screen.complete) {
@@ -182,8 +181,7 @@ bool split_screened(detail::PreparedPslg& pslg, const detail::ScreenedPieces& sc
   if (screen.pieces.empty()) return false;
   std::vector<std::uint32_t> sites(screen.sites.size());
   executor.for_each(sites.size(), [&](std::size_t k) { sites[k] = site_vertex[screen.sites[k]]; });
-  return split_pieces(pslg, screen.pieces, sites, policy, executor, sites_magnitude, &*new_pieces, &moves,
-                      room);
+  return split_pieces(pslg, screen.pieces, sites, policy, executor, sites_magnitude, &*new_pieces, &moves);
 }
 
 /// The vertices the PSLG gained from first_added on, numbered after the mesh's vertices (as many as
@@ -565,13 +563,6 @@ Triangulation triangulate_on(std::span<const Point> points, std::span<const Segm
   PointCopy point_copy;
   if (!split_before && split == Split::screened && merge) point_copy.start(points, pslg.vertices);
   IdentityMaps identity_maps;
-  // The pieces of a split after the screen (GPU backend, 2^16 pieces or more: constraints beside it)
-  // go into memory touched while the device works: fresh pages cost the coastlines' split 1-2 ms of
-  // page faults.
-  PieceArray split_room;
-  SideTask room_task;
-  if (on_gpu && !split_before && split == Split::screened && pslg.pieces.size() >= (std::size_t{1} << 16))
-    room_task.start([&split_room, count = pslg.pieces.size()] { split_room = touched_piece_room(count); });
   trace.mark("prepare");
   timer.end("prepare");
   stats.zero_length_segments = pslg.zero_length_segments;
@@ -930,11 +921,9 @@ Triangulation triangulate_on(std::span<const Point> points, std::span<const Segm
 #endif
     std::optional<std::vector<std::uint32_t>> new_pieces;
     PieceMoves moves;
-    room_task.wait();
     pieces_stale = split_screened(pslg, screen, site_vertex, options.crossings, executor, sites_magnitude,
-                                  new_pieces, moves, &split_room);
+                                  new_pieces, moves);
     trace.mark("split");
-    if (split_room.capacity() > 0) room_task.start([&] { PieceArray().swap(split_room); }); // freed beside
     InsertStats placed;
     const std::size_t added = pslg.vertices.size() - first_added;
 #if defined(TRIXEL_HAVE_CUDA)

@@ -175,6 +175,7 @@ const std::vector<Point> kTriangle{{0, 0}, {1, 0}, {0, 1}};
 struct SuspectSplit {
   std::size_t cut = 0;               ///< pieces the whole split cuts
   std::size_t longest_whole_run = 0; ///< the longest run of pieces it keeps, between cut ones
+  bool in_place = false;             ///< the split with room moved the pieces within their array
 };
 
 /// Splits every piece of the PSLG, and separately only the suspects (each piece the whole split cuts,
@@ -203,20 +204,21 @@ SuspectSplit expect_suspects_split_as_all(const std::vector<Point>& points,
   EXPECT_LT(suspects.size(), some.pieces.size());
   const std::vector<std::uint32_t> sites(some.sites.begin(), some.sites.end());
   const auto before = piece_pairs(some);
-  // The same split into touched room: the same pieces, and the room then holds the old array.
+  // The same split with room in the array (as the preparation leaves it): the pieces move within it
+  // when few came or went, else into a new array; the same pieces and labels either way. Without room
+  // (a copy's capacity is its size, unless more went than came) they go into a new array.
   PreparedPslg roomy = some;
-  cdt::detail::PieceArray room = cdt::detail::touched_piece_room(2 * roomy.pieces.size());
-  const cdt::detail::ConstraintPiece* room_memory = room.data();
-  EXPECT_TRUE(cdt::detail::split_pieces(roomy, suspects, sites, CrossingSegments::resolve, executor, -1.0,
-                                        nullptr, nullptr, &room));
-  EXPECT_EQ(roomy.pieces.data(), room_memory);
-  EXPECT_EQ(piece_pairs_of(room), before);
+  roomy.pieces.reserve(cdt::detail::piece_room(roomy.pieces.size()));
+  const cdt::detail::ConstraintPiece* roomy_memory = roomy.pieces.data();
+  EXPECT_TRUE(cdt::detail::split_pieces(roomy, suspects, sites, CrossingSegments::resolve, executor));
+  seen.in_place = roomy.pieces.data() == roomy_memory;
   std::vector<std::uint32_t> new_pieces{7}; // replaced
   cdt::detail::PieceMoves moves;
   moves.from_suspects = {3}; // replaced
   EXPECT_TRUE(cdt::detail::split_pieces(some, suspects, sites, CrossingSegments::resolve, executor, -1.0,
                                         &new_pieces, &moves));
   EXPECT_EQ(piece_pairs(roomy), piece_pairs(some));
+  EXPECT_EQ(piece_labels(roomy), piece_labels(some));
   EXPECT_EQ(some.vertices.size(), all.vertices.size());
   // The moves: every piece that was no suspect went to a place of its own holding the same piece, and
   // the pieces made from the suspects fill exactly the other places.
@@ -474,43 +476,50 @@ TEST(PslgSplit, SuspectsThatComeBackKeepTheirPlaces) {
       if (b != k) segments.push_back({k, b});
     }
     SCOPED_TRACE("seed " + std::to_string(seed));
-    EXPECT_GT(expect_suspects_split_as_all(points, segments, rng, 3).cut, 5u);
+    const SuspectSplit seen = expect_suspects_split_as_all(points, segments, rng, 3);
+    EXPECT_GT(seen.cut, 5u);
+    EXPECT_TRUE(seen.in_place);
   }
 }
 
 // The pieces between the suspects move within the list in long runs (longer than the parallel moves'
 // chunks) and both ways: a long segment at the start of the id range, over a chain of pieces that split
-// it, leaves without a new piece (the run after it moves left), and crossings near the end add pieces
-// (the runs after them move right). Points in x order, so that ids follow the places.
+// it, leaves without a new piece (the run after it moves left), and crossings add pieces (the runs
+// after them move right): across the last hundredth of the pieces, or across the first, so that the long
+// run moves right. Points in x order, so that ids follow the places.
 TEST(PslgSplit, SuspectsAmongLongRunsMoveBothWays) {
-  trixel_gen::Random rng(31);
-  constexpr std::uint32_t kShort = 40000;
-  std::vector<Point> points;
-  std::vector<Segment> segments;
-  // The chain 0-1-2-3-4 on the line y = -10 and the long segment 0-4 over it.
-  for (std::uint32_t k = 0; k < 5; ++k) points.push_back({double(k), -10.0});
-  for (std::uint32_t k = 0; k < 4; ++k) segments.push_back({k, k + 1});
-  segments.push_back({0, 4});
-  // Short steep segments left to right, apart in x (none crosses another).
-  for (std::uint32_t k = 0; k < kShort; ++k) {
-    const double x = 1000.0 * k / kShort;
-    const double y = rng.unit() * 100;
-    const auto a = static_cast<std::uint32_t>(points.size());
-    points.push_back({x, y});
-    points.push_back({x + 0.005, y + 10});
-    segments.push_back({a, a + 1});
+  for (const double crossed_from : {990.0, 0.0}) {
+    SCOPED_TRACE("crossings from x = " + std::to_string(crossed_from));
+    trixel_gen::Random rng(31);
+    constexpr std::uint32_t kShort = 40000;
+    std::vector<Point> points;
+    std::vector<Segment> segments;
+    // The chain 0-1-2-3-4 on the line y = -10 and the long segment 0-4 over it.
+    for (std::uint32_t k = 0; k < 5; ++k) points.push_back({double(k), -10.0});
+    for (std::uint32_t k = 0; k < 4; ++k) segments.push_back({k, k + 1});
+    segments.push_back({0, 4});
+    // Short steep segments left to right, apart in x (none crosses another).
+    for (std::uint32_t k = 0; k < kShort; ++k) {
+      const double x = 1000.0 * k / kShort;
+      const double y = rng.unit() * 100;
+      const auto a = static_cast<std::uint32_t>(points.size());
+      points.push_back({x, y});
+      points.push_back({x + 0.005, y + 10});
+      segments.push_back({a, a + 1});
+    }
+    // Two flat segments across a hundredth of them.
+    for (const double y : {30.0, 70.0}) {
+      const auto a = static_cast<std::uint32_t>(points.size());
+      points.push_back({crossed_from + 0.001, y});
+      points.push_back({crossed_from + 10.5, y + 0.3});
+      segments.push_back({a, a + 1});
+    }
+    const SuspectSplit seen = expect_suspects_split_as_all(points, segments, rng, 10);
+    EXPECT_GT(seen.cut, 5u);
+    // A run of kept pieces longer than a chunk of the parallel moves (2^14 pieces), moved in place.
+    EXPECT_GT(seen.longest_whole_run, std::size_t{1} << 15);
+    EXPECT_TRUE(seen.in_place);
   }
-  // Two flat segments across the last hundredth of them.
-  for (const double y : {30.0, 70.0}) {
-    const auto a = static_cast<std::uint32_t>(points.size());
-    points.push_back({990.001, y});
-    points.push_back({1000.5, y + 0.3});
-    segments.push_back({a, a + 1});
-  }
-  const SuspectSplit seen = expect_suspects_split_as_all(points, segments, rng, 10);
-  EXPECT_GT(seen.cut, 5u);
-  // A run of kept pieces longer than a chunk of the parallel moves (2^14 pieces).
-  EXPECT_GT(seen.longest_whole_run, std::size_t{1} << 15);
 }
 
 // Suspects of a list split already all come back as they were: split_pieces says nothing changed and
