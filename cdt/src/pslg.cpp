@@ -1579,7 +1579,7 @@ bool split_pieces(PreparedPslg& pslg, std::span<const std::uint32_t> suspect_pie
   copy_until(pslg.pieces.size());
   // The runs move in place, cut into chunks moved in parallel, when the array's room holds the new
   // count and the runs move by little against a chunk (the coastlines' split: 1.8 million pieces, the
-  // farthest run 130 places); else they are copied into a new array, which keeps the old one's room.
+  // farthest run 96 places); else they are copied into a new array, which keeps the old one's room.
   std::size_t reach = 0; // the farthest any run moves
   for (const Run& r : runs) reach = std::max(reach, r.to > r.from ? r.to - r.from : r.from - r.to);
   constexpr std::size_t kChunk = std::size_t{1} << 14;
