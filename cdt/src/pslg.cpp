@@ -1592,7 +1592,6 @@ bool split_pieces(PreparedPslg& pslg, std::span<const std::uint32_t> suspect_pie
   }
   if (in_place) {
     move_in_place(pslg.pieces, chunks, reach, to, executor);
-    for (std::size_t k = 0; k < inserted.size(); ++k) pslg.pieces[inserted_at[k]] = inserted[k];
   } else {
     PieceArray merged;
     merged.reserve(std::max(pslg.pieces.capacity(), piece_room(to)));
@@ -1602,9 +1601,9 @@ bool split_pieces(PreparedPslg& pslg, std::span<const std::uint32_t> suspect_pie
       std::copy_n(pslg.pieces.begin() + static_cast<std::ptrdiff_t>(c.from), c.count,
                   merged.begin() + static_cast<std::ptrdiff_t>(c.to));
     });
-    for (std::size_t k = 0; k < inserted.size(); ++k) merged[inserted_at[k]] = inserted[k];
     pslg.pieces = std::move(merged);
   }
+  for (std::size_t k = 0; k < inserted.size(); ++k) pslg.pieces[inserted_at[k]] = inserted[k];
   if (new_pieces != nullptr)
     for (const std::size_t at : inserted_at) new_pieces->push_back(static_cast<std::uint32_t>(at));
   if (moves != nullptr) {
