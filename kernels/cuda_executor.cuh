@@ -51,6 +51,16 @@ __global__ void __launch_bounds__(256, 4) for_each_kernel_64(std::size_t n, F f)
     f(i);
 }
 
+/// for_each_kernel over [0, count()), count() read on the device as the kernel starts: for a list
+/// whose length an earlier step left in device memory, with no wait for the host to learn it.
+template <class Count, class F>
+__global__ void for_each_counted_kernel(Count count, F f) {
+  const std::size_t n = count();
+  const std::size_t stride = static_cast<std::size_t>(gridDim.x) * blockDim.x;
+  for (std::size_t i = blockIdx.x * static_cast<std::size_t>(blockDim.x) + threadIdx.x; i < n; i += stride)
+    f(i);
+}
+
 /// keep(i) for the indices of a counting iterator: CUB sees a functor whose result type is declared,
 /// never the lambda's own (which host code may not ask an extended device lambda for).
 template <class Pred>
@@ -183,6 +193,20 @@ public:
     launch_for_each(for_each_kernel_64<F>, n, f, name);
   }
 
+  /// for_each over [0, count()), where count() is a device functor reading a length that queued work
+  /// leaves in device memory; `bound`, at least that length, sizes the grid. Nothing waits.
+  template <class Count, class F>
+  void for_each_counted(std::size_t bound, Count count, F f, const char* name = "for_each_counted_kernel") {
+    if (bound == 0) return;
+    constexpr unsigned kBlock = 256;
+    const std::size_t blocks = (bound + kBlock - 1) / kBlock;
+    const auto grid = static_cast<unsigned>(blocks < max_blocks_ ? blocks : max_blocks_);
+    timed(name, [&] {
+      for_each_counted_kernel<<<grid, kBlock, 0, stream_>>>(count, f);
+      check_launch(name, __FILE__, __LINE__);
+    });
+  }
+
   /// The same as for_each: the CPU executor runs a few large parts differently from many small
   /// elements, the device does not.
   template <class F>
@@ -224,6 +248,22 @@ public:
       download(&count, d_count, 1);
     });
     return count;
+  }
+
+  /// compact() leaving the count in device memory (*d_count) instead of waiting for it: for the
+  /// for_each_counted steps after it. d_count must not be the executor's scalar().
+  template <class Pred>
+  void compact_to(std::size_t n, Pred keep, std::uint32_t* d_out, std::uint32_t* d_count) {
+    if (n == 0) return fill_bytes(d_count, 0, 1);
+    if (n > std::numeric_limits<std::uint32_t>::max()) throw Error("compact: more than 2^32 - 1 items");
+    const thrust::counting_iterator<std::uint32_t> first(0);
+    const IndexPredicate<Pred> pred{keep};
+    timed("compact", [&] {
+      std::size_t bytes = 0;
+      CDT_CUDA_CHECK(cub::DeviceSelect::If(nullptr, bytes, first, d_out, d_count, n, pred, stream_));
+      CDT_CUDA_CHECK(cub::DeviceSelect::If(temp(bytes), bytes, first, d_out, d_count, n, pred, stream_));
+      check_launch("cub::DeviceSelect::If", __FILE__, __LINE__);
+    });
   }
 
   /// Sorts d_keys[0, n) ascending (radix sort on bits [0, end_bit)); unsigned integer keys.

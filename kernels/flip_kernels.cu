@@ -6,6 +6,7 @@
 // rounds, on short lists, run in one thread block, the middle ones in one cooperative grid (FlipLoop,
 // run by TeamRounds), the same steps.
 
+#include <algorithm>
 #include <chrono>
 #include <cstddef>
 #include <cstdint>
@@ -89,6 +90,46 @@ void apply_flips(CudaExecutor& executor, DeviceFlipBatch& batch, const MeshView&
     throw Error("internal error: flipped pair at edge " + std::to_string(edge) +
                 " lost a neighbour link (the triangulation was not valid)");
   }
+}
+
+/// apply_flips for a batch whose size, num_winners(), the device knows and the host does not yet: the
+/// lowest batch index whose pair lost a link goes to *failed (set to kNoId beforehand), and nothing
+/// waits. `bound` is at least the batch's size.
+template <class Count>
+void apply_flips_counted(CudaExecutor& executor, DeviceFlipBatch& batch, const MeshView& m,
+                         const std::uint32_t* edges, std::uint32_t bound, Count num_winners,
+                         std::uint32_t* failed) {
+  std::uint32_t* partner = batch.partner.data();
+  std::uint32_t* last = batch.last.data();
+  std::uint8_t* fix = batch.fix.data();
+  {
+    const std::uint32_t* old = last;
+    executor.for_each(
+        batch.num_last, [=] __device__(std::size_t k) { partner[old[k]] = kNoId; }, "partner_reset");
+  }
+  // The pairs are disjoint, so each slot's partner entry has one writer.
+  executor.for_each_counted(
+      bound, num_winners,
+      [=] __device__(std::size_t k) {
+        const std::uint32_t t = edge_tri(edges[k]);
+        const std::uint32_t u = edge_tri(m.adj[edges[k]]);
+        partner[t] = u;
+        partner[u] = t;
+        last[2 * k] = t;
+        last[2 * k + 1] = u;
+      },
+      "partner_set");
+  executor.for_each_counted(
+      bound, num_winners,
+      [=] __device__(std::size_t k) { fix[k] = ::cdt::detail::flip_pair_contents(m, edges[k]); },
+      "flip_contents");
+  executor.for_each_counted(
+      bound, num_winners,
+      [=] __device__(std::size_t k) {
+        if (!::cdt::detail::relink_flipped_pair(m, partner, edge_tri(edges[k]), fix[k]))
+          atomicMin(failed, static_cast<std::uint32_t>(k));
+      },
+      "flip_relink");
 }
 
 /// Lists of at most this many triangles are flipped by one block (FlipLoop): its rounds take 10-30
@@ -211,6 +252,18 @@ __device__ void FlipLoop::operator()(const Team& team, const FlipRounds& a, std:
 
 using FlipTeamRounds = TeamRounds<FlipLoop, FlipRounds, FlipRoundsEnd, kFlipBlockLimit, kFlipGridLimit>;
 
+/// A launched flipping round's words on the device: the counts its steps size themselves by, and
+/// what the host reads at its end, once.
+struct FlipRoundWords {
+  std::uint32_t winners;
+  std::uint32_t waiting;
+  std::uint32_t failed;     ///< the lowest winner whose pair lost a link, or kNoId
+  std::uint32_t error;      ///< 0, kLostLink or kNoPair
+  std::uint32_t error_edge; ///< with kLostLink: the flipped pair's edge
+  /// The next list's length (kNoId after an error) in the low half, the round's flips in the high.
+  unsigned long long reply;
+};
+
 /// The flips on a mesh on the device: flip_to_delaunay's rounds, the first over the live slots t with
 /// only[t] != 0 when only is given. With first_fake given, the fake fans' flips instead
 /// (fake_fan_candidate), the first round over the live slots with a fake corner.
@@ -261,6 +314,45 @@ FlipResult flip_mesh(DeviceMesh::State& s, const std::uint8_t* only, std::uint32
   std::uint32_t* winner_edges = d_winner_edges.data();
   std::uint32_t* waiting = d_waiting.data();
 
+  // A round's proposals, the fake fans' or the Delaunay flips'.
+  const auto propose = [&](const FlipRound& r) {
+    const std::uint32_t* l = r.list;
+    const std::uint32_t count = n;
+    if (first_fake != kNoId) {
+      executor.for_each(
+          count,
+          [=] __device__(std::size_t k) {
+            ::cdt::detail::record_flip_proposal(
+                m, r, k, ::cdt::detail::fake_fan_candidate(m, active_flag, l[k], first_fake), ClaimMin{});
+          },
+          "flip_propose_fans");
+      return;
+    }
+    // The predicates' filters alone first (a kernel of few registers: 44 against 84 with the exact
+    // fallbacks, for sm_90), then the exact tests for the proposers they left undecided, flagged in
+    // `own` until the claims are read.
+    executor.for_each(
+        count,
+        [=] __device__(std::size_t k) {
+          bool undecided = false;
+          ::cdt::detail::record_flip_proposal(
+              m, r, k,
+              ::cdt::detail::delaunay_flip_candidate<false>(m, active_flag, partner, l[k], &undecided),
+              ClaimMin{});
+          own[k] = undecided ? 1 : 0;
+        },
+        "flip_propose");
+    executor.for_each(
+        count,
+        [=] __device__(std::size_t k) {
+          if (own[k] != 0)
+            ::cdt::detail::record_flip_proposal(
+                m, r, k, ::cdt::detail::delaunay_flip_candidate(m, active_flag, partner, l[k]), ClaimMin{});
+        },
+        "flip_propose_exact");
+  };
+  DeviceBuffer<FlipRoundWords> d_words(1);
+
   DeviceBuffer<FlipRoundsEnd> d_end(1);
   FlipTeamRounds team_rounds;
   // Traced, each round (or each run of rounds in a block or a grid) is waited for and timed.
@@ -296,83 +388,83 @@ FlipResult flip_mesh(DeviceMesh::State& s, const std::uint8_t* only, std::uint32
     ++result.rounds;
     const std::uint32_t* l = list;
     const FlipRound r{l, cand, nbr, marks, own};
-    if (first_fake != kNoId) {
-      executor.for_each(
-          n,
-          [=] __device__(std::size_t k) {
-            ::cdt::detail::record_flip_proposal(
-                m, r, k, ::cdt::detail::fake_fan_candidate(m, active_flag, l[k], first_fake), ClaimMin{});
-          },
-          "flip_propose_fans");
-    } else {
-      // The predicates' filters alone first (a kernel of few registers: 44 against 84 with the exact
-      // fallbacks, for sm_90), then the exact tests for the proposers they left undecided, flagged in
-      // `own` until the claims are read.
-      executor.for_each(
-          n,
-          [=] __device__(std::size_t k) {
-            bool undecided = false;
-            ::cdt::detail::record_flip_proposal(
-                m, r, k,
-                ::cdt::detail::delaunay_flip_candidate<false>(m, active_flag, partner, l[k], &undecided),
-                ClaimMin{});
-            own[k] = undecided ? 1 : 0;
-          },
-          "flip_propose");
-      executor.for_each(
-          n,
-          [=] __device__(std::size_t k) {
-            if (own[k] != 0)
-              ::cdt::detail::record_flip_proposal(
-                  m, r, k, ::cdt::detail::delaunay_flip_candidate(m, active_flag, partner, l[k]), ClaimMin{});
-          },
-          "flip_propose_exact");
-    }
+    // The round's steps size themselves by the counts its compactions leave on the device, and the
+    // host waits once, for the next list's length and the round's flips (and errors) together.
+    FlipRoundWords* words = d_words.data();
+    executor.fill_bytes(&words->failed, 0xFF, 1);
+    propose(r);
     executor.for_each(
         n, [=] __device__(std::size_t k) { ::cdt::detail::flip_claims_held(r, k); }, "flip_claims");
-    const std::uint32_t num_winners = executor.compact(
-        n, [=] __device__(std::size_t k) { return ::cdt::detail::flip_proposal_won(r, k); }, winners);
-    if (num_winners == 0) {
-      // The lowest proposer always holds both of its claims, so no winner means no proposal.
-      if (executor.compact(
-              n, [=] __device__(std::size_t k) { return cand[k] != kNoId; }, waiting) != 0)
-        throw Error("internal error: a flipping round claimed no pair");
-      break;
-    }
-    executor.for_each(
-        num_winners, [=] __device__(std::size_t k) { winner_edges[k] = cand[winners[k]]; }, "winner_edges");
-
-    apply_flips(executor, batch, m, winner_edges, num_winners);
-    result.flips += num_winners;
-
+    executor.compact_to(
+        n, [=] __device__(std::size_t k) { return ::cdt::detail::flip_proposal_won(r, k); }, winners,
+        &words->winners);
+    const auto num_winners = [=] __device__() -> std::size_t { return words->winners; };
+    const auto num_waiting = [=] __device__() -> std::size_t { return words->waiting; };
+    executor.for_each_counted(
+        n, num_winners, [=] __device__(std::size_t k) { winner_edges[k] = cand[winners[k]]; },
+        "winner_edges");
+    apply_flips_counted(executor, batch, m, winner_edges, n, num_winners, &words->failed);
     executor.for_each(
         n, [=] __device__(std::size_t k) { ::cdt::detail::clear_flip_claims(r, k); }, "clear_claims");
-
     // Next round: proposers that could not flip yet, plus both new triangles of every flip.
-    const std::uint32_t num_waiting = executor.compact(
+    executor.compact_to(
         n, [=] __device__(std::size_t k) { return ::cdt::detail::flip_proposal_waits(r, partner, k); },
-        waiting);
-    executor.for_each(
-        num_waiting, [=] __device__(std::size_t k) { next[k] = l[waiting[k]]; }, "next_waiting");
-    executor.for_each(
-        num_winners,
+        waiting, &words->waiting);
+    executor.for_each_counted(
+        n, num_waiting, [=] __device__(std::size_t k) { next[k] = l[waiting[k]]; }, "next_waiting");
+    executor.for_each_counted(
+        n, num_winners,
         [=] __device__(std::size_t k) {
+          const std::uint32_t at = words->waiting + 2 * static_cast<std::uint32_t>(k);
           const std::uint32_t t = l[winners[k]];
-          next[num_waiting + 2 * k] = t;
-          next[num_waiting + 2 * k + 1] = partner[t];
+          next[at] = t;
+          next[at + 1] = partner[t];
         },
         "next_flipped");
     executor.for_each(
         n, [=] __device__(std::size_t k) { active_flag[l[k]] = 0; }, "deactivate");
-    const std::uint32_t num_next = num_waiting + 2 * num_winners;
     {
       const std::uint32_t* nx = next;
-      executor.for_each(
-          num_next, [=] __device__(std::size_t k) { active_flag[nx[k]] = 1; }, "activate");
+      executor.for_each_counted(
+          std::min<std::size_t>(2 * std::size_t{n}, slots),
+          [=] __device__() -> std::size_t { return words->waiting + 2 * std::size_t{words->winners}; },
+          [=] __device__(std::size_t k) { active_flag[nx[k]] = 1; }, "activate");
     }
+    executor.for_each(
+        1,
+        [=] __device__(std::size_t) {
+          const std::uint32_t flips = words->winners;
+          std::uint32_t num_next = words->waiting + 2 * flips;
+          words->error = 0;
+          if (words->failed != kNoId) {
+            words->error = kLostLink;
+            words->error_edge = winner_edges[words->failed];
+            num_next = kNoId;
+          } else if (flips == 0 && words->waiting != 0) {
+            // The lowest proposer always holds both of its claims, so no winner means no proposal.
+            words->error = kNoPair;
+            num_next = kNoId;
+          }
+          words->reply = num_next | static_cast<unsigned long long>(flips) << 32;
+        },
+        "flip_round_end");
+    unsigned long long reply = 0;
+    executor.download(&reply, &words->reply, 1);
+    const auto num_next = static_cast<std::uint32_t>(reply);
+    const auto flips = static_cast<std::uint32_t>(reply >> 32);
+    if (num_next == kNoId) {
+      FlipRoundWords failure{};
+      executor.download(&failure, words, 1);
+      if (failure.error == kLostLink)
+        throw Error("internal error: flipped pair at edge " + std::to_string(failure.error_edge) +
+                    " lost a neighbour link (the triangulation was not valid)");
+      throw Error("internal error: a flipping round claimed no pair");
+    }
+    batch.num_last = 2 * flips;
+    result.flips += flips;
     std::swap(list, next);
     n = num_next;
-    trace.count("flipped", num_winners);
+    trace.count("flipped", flips);
     mark("round");
   }
   flipped.record(executor.stream());

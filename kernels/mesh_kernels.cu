@@ -954,6 +954,17 @@ __device__ void InsertLoop::operator()(const Team& team, const InsertRounds& a, 
 using InsertTeamRounds =
     TeamRounds<InsertLoop, InsertRounds, InsertRoundsEnd, kInsertBlockLimit, kInsertGridLimit>;
 
+/// A launched insertion round's words on the device: the counts its steps size themselves by, and
+/// what the host reads at its end, once.
+struct InsertRoundWords {
+  std::uint32_t winners;
+  std::uint32_t rest;
+  InsertStep step;
+  std::uint32_t status; ///< with InsertStep::location: a WorkStatus
+  /// The next list's length (kNoId after an error) in the low half, the round's insertions in the high.
+  unsigned long long reply;
+};
+
 InsertStats insert(DeviceMesh::State& s, std::span<const MissingPoint> missing,
                    const HostParallelFor& parallel) {
   s.require_alone("insert");
@@ -1086,6 +1097,7 @@ InsertStats insert(DeviceMesh::State& s, std::span<const MissingPoint> missing,
   std::size_t cursor = 0;
 
   DeviceBuffer<InsertRoundsEnd> d_end(1);
+  DeviceBuffer<InsertRoundWords> d_round_words(1);
   InsertTeamRounds team_rounds;
   step("set up");
   while (n > 0) {
@@ -1141,6 +1153,9 @@ InsertStats insert(DeviceMesh::State& s, std::span<const MissingPoint> missing,
     }
     ++stats.rounds;
     const std::uint32_t* remaining = d_remaining.data();
+    // The same steps, sized by the counts the compactions leave on the device; the host waits once,
+    // for the next list's length and the round's insertions (and errors) together.
+    InsertRoundWords* round_words = d_round_words.data();
     // Lines 2-5: locate and mark the containers.
     const FailureWord failure = s.failure();
     executor.for_each(
@@ -1150,8 +1165,6 @@ InsertStats insert(DeviceMesh::State& s, std::span<const MissingPoint> missing,
                                           [&](WorkStatus status) { failure.record(status); });
         },
         "locate_missing");
-    s.check(failure, "inserting missing points (Algorithm 3, point location)");
-
     // Lines 6-13: winners, and a start for the losers next round.
     executor.for_each(
         n, [=] __device__(std::size_t r) { ::cdt::detail::settle_insert_claims(m, claims, remaining[r]); },
@@ -1160,26 +1173,39 @@ InsertStats insert(DeviceMesh::State& s, std::span<const MissingPoint> missing,
         n, [=] __device__(std::size_t r) { ::cdt::detail::restart_at_winner(claims, remaining[r]); },
         "insert_restarts");
     std::uint32_t* picked = d_picked.data();
-    const std::uint32_t num_winners = executor.compact(
-        n, [=] __device__(std::size_t r) { return ::cdt::detail::insert_claim_won(claims, remaining[r]); },
-        picked);
-    // The smallest located key holds every mark it made, so a round without winners means none was
-    // located.
-    if (num_winners == 0)
-      throw Error(std::string("internal error: inserting missing points (Algorithm 3; hints may form a "
-                              "cycle): ") +
-                  ::cdt::detail::work_status_message(WorkStatus::stuck));
-    std::uint32_t* winners = d_winners.data();
-    executor.for_each(
-        num_winners, [=] __device__(std::size_t r) { winners[r] = remaining[picked[r]]; }, "gather_winners");
-    if (cursor + 2 * static_cast<std::size_t>(num_winners) > num_free)
-      throw Error("internal error: out of free triangle slots");
-
-    const ::cdt::detail::InsertRound round{loc_t, loc_e, loc_u, loc_j, new0, new1, mark, flags};
-    // Lines 14-16: slots by rank, and who rewrites each corner's vert_tri.
+    // After a failed location nothing wins, and nothing is split.
+    executor.compact_to(
+        n,
+        [=] __device__(std::size_t r) {
+          return *failure.word == 0 && ::cdt::detail::insert_claim_won(claims, remaining[r]);
+        },
+        picked, &round_words->winners);
     const std::size_t base = cursor;
     executor.for_each(
-        num_winners,
+        1,
+        [=] __device__(std::size_t) {
+          round_words->status = *failure.word;
+          round_words->step = InsertStep::none;
+          if (round_words->status != 0)
+            round_words->step = InsertStep::location;
+          else if (round_words->winners == 0)
+            // The smallest located key holds every mark it made, so a round without winners means
+            // none was located.
+            round_words->step = InsertStep::stuck;
+          else if (base + 2 * static_cast<std::size_t>(round_words->winners) > num_free)
+            round_words->step = InsertStep::slots;
+          if (round_words->step != InsertStep::none) round_words->winners = 0;
+        },
+        "insert_round_check");
+    const auto num_winners = [=] __device__() -> std::size_t { return round_words->winners; };
+    std::uint32_t* winners = d_winners.data();
+    executor.for_each_counted(
+        n, num_winners, [=] __device__(std::size_t r) { winners[r] = remaining[picked[r]]; },
+        "gather_winners");
+    const ::cdt::detail::InsertRound round{loc_t, loc_e, loc_u, loc_j, new0, new1, mark, flags};
+    // Lines 14-16: slots by rank, and who rewrites each corner's vert_tri.
+    executor.for_each_counted(
+        n, num_winners,
         [=] __device__(std::size_t r) {
           const std::uint32_t q = winners[r];
           new0[q] = free_slots[base + 2 * r];
@@ -1188,8 +1214,8 @@ InsertStats insert(DeviceMesh::State& s, std::span<const MissingPoint> missing,
         },
         "insert_slots");
     // Lines 17-19: split the containers.
-    executor.for_each(
-        num_winners,
+    executor.for_each_counted(
+        n, num_winners,
         [=] __device__(std::size_t r) {
           const std::uint32_t q = winners[r];
           const std::uint32_t v = points[q].vertex;
@@ -1203,25 +1229,49 @@ InsertStats insert(DeviceMesh::State& s, std::span<const MissingPoint> missing,
         },
         "insert_split");
     // Lines 20-22: outer links.
-    executor.for_each(
-        num_winners,
+    executor.for_each_counted(
+        n, num_winners,
         [=] __device__(std::size_t r) { ::cdt::detail::link_split_outer_edges(m, round, winners[r]); },
         "insert_links");
     executor.for_each(
         n, [=] __device__(std::size_t r) { ::cdt::detail::clear_insert_claims(claims, remaining[r]); },
         "insert_clear_marks");
-    cursor += 2 * static_cast<std::size_t>(num_winners);
-    stats.inserted += num_winners;
-    const std::uint32_t num_rest = executor.compact(
+    executor.compact_to(
         n, [=] __device__(std::size_t r) { return !::cdt::detail::insert_claim_won(claims, remaining[r]); },
-        picked);
+        picked, &round_words->rest);
     std::uint32_t* rest = d_rest.data();
+    executor.for_each_counted(
+        n, [=] __device__() -> std::size_t { return round_words->rest; },
+        [=] __device__(std::size_t r) { rest[r] = remaining[picked[r]]; }, "gather_rest");
     executor.for_each(
-        num_rest, [=] __device__(std::size_t r) { rest[r] = remaining[picked[r]]; }, "gather_rest");
+        1,
+        [=] __device__(std::size_t) {
+          const std::uint32_t next = round_words->step == InsertStep::none ? round_words->rest : kNoId;
+          round_words->reply = next | static_cast<unsigned long long>(round_words->winners) << 32;
+        },
+        "insert_round_end");
+    unsigned long long reply = 0;
+    executor.download(&reply, &round_words->reply, 1);
+    const auto num_rest = static_cast<std::uint32_t>(reply);
+    const auto num_inserted = static_cast<std::uint32_t>(reply >> 32);
+    if (num_rest == kNoId) {
+      InsertRoundWords failed{};
+      executor.download(&failed, round_words, 1);
+      if (failed.step == InsertStep::location)
+        throw Error(std::string("internal error: inserting missing points (Algorithm 3, point location): ") +
+                    ::cdt::detail::work_status_message(static_cast<WorkStatus>(failed.status)));
+      if (failed.step == InsertStep::stuck)
+        throw Error(std::string("internal error: inserting missing points (Algorithm 3; hints may form a "
+                                "cycle): ") +
+                    ::cdt::detail::work_status_message(WorkStatus::stuck));
+      throw Error("internal error: out of free triangle slots");
+    }
+    cursor += 2 * static_cast<std::size_t>(num_inserted);
+    stats.inserted += num_inserted;
     std::swap(d_remaining, d_rest);
     if (traced) executor.synchronize();
     trace.count("launched round's list", n);
-    trace.count("launched round's insertions", num_winners);
+    trace.count("launched round's insertions", num_inserted);
     trace.mark("launched round");
     n = num_rest;
   }

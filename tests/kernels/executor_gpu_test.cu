@@ -75,6 +75,33 @@ std::vector<std::uint32_t> compact_multiples_of(CudaExecutor& ex, const std::vec
   return to_host(ex, d_out, count);
 }
 
+/// The i in [0, n) with in[i] % k == 0, compacted with the count left on the device, then gathered and
+/// doubled by for_each_counted steps reading that count (the grid sized by n, the count's bound); each
+/// counted step also writes a sentinel past the count, which must stay untouched.
+std::vector<std::uint32_t> counted_multiples_of(CudaExecutor& ex, const std::vector<std::uint32_t>& h,
+                                                std::uint32_t k) {
+  DeviceBuffer<std::uint32_t> d_in = to_device(ex, h);
+  DeviceBuffer<std::uint32_t> d_picked(h.size()), d_out(h.size() + 1), d_count(1);
+  const std::uint32_t* in = d_in.data();
+  std::uint32_t* picked = d_picked.data();
+  std::uint32_t* out = d_out.data();
+  const std::uint32_t* count = d_count.data();
+  ex.fill_bytes(out, 0xFF, h.size() + 1);
+  ex.compact_to(
+      h.size(), [=] __device__(std::size_t i) { return in[i] % k == 0; }, picked, d_count.data());
+  const auto counted = [=] __device__() -> std::size_t { return *count; };
+  ex.for_each_counted(
+      h.size(), counted, [=] __device__(std::size_t j) { out[j] = in[picked[j]]; }, "gather");
+  ex.for_each_counted(
+      h.size(), counted, [=] __device__(std::size_t j) { out[j] = 2 * out[j]; }, "double");
+  std::uint32_t n = 0;
+  ex.download(&n, count, 1);
+  std::vector<std::uint32_t> got = to_host(ex, d_out, n + 1);
+  EXPECT_EQ(got.back(), 0xFFFFFFFFu) << "a counted step wrote past its count";
+  got.pop_back();
+  return got;
+}
+
 /// Two ordered compactions by a team, back to back: the i in [0, n) with in[i] % k == 0 to out, then
 /// the j of those whose out[j] is even to out + n; the counts to count[0, 2).
 template <class Team>
@@ -190,6 +217,19 @@ TEST_F(GpuExecutor, CompactKeepsSelectedIndicesInOrder) {
       for (std::size_t i = 0; i < n; ++i)
         if (h[i] % k == 0) expected.push_back(static_cast<std::uint32_t>(i));
       EXPECT_EQ(compact_multiples_of(ex, h, k), expected) << "n " << n << " k " << k;
+    }
+  }
+}
+
+TEST_F(GpuExecutor, CountedStepsReadTheCountTheDeviceLeft) {
+  CudaExecutor ex;
+  for (const std::size_t n : {std::size_t{1}, std::size_t{5000}, std::size_t{3'000'001}}) {
+    const auto h = random_values<std::uint32_t>(n, 41 + n, 1000);
+    for (const std::uint32_t k : {1u, 3u, 1001u}) { // all, a third, none
+      std::vector<std::uint32_t> expected;
+      for (std::size_t i = 0; i < n; ++i)
+        if (h[i] % k == 0) expected.push_back(2 * h[i]);
+      EXPECT_EQ(counted_multiples_of(ex, h, k), expected) << "n " << n << " k " << k;
     }
   }
 }
