@@ -26,6 +26,8 @@
 #include <limits>
 #include <numeric>
 #include <string>
+#include <system_error>
+#include <thread>
 #include <tuple>
 #include <unordered_map>
 #include <utility>
@@ -1419,33 +1421,35 @@ struct Run {
 };
 
 /// Moves the chunks of `pieces` (runs whose sources are disjoint, as are their destinations, none
-/// moving farther than `reach`) within the array, in parallel, and leaves it with `size` pieces (at
-/// most its capacity). A chunk's destination can overlap another chunk's source only within `reach`
-/// of that source's ends (it lies within reach of its own source, which is disjoint from the other),
-/// so each chunk first sets aside its first and last `reach` pieces, and after a barrier moves the rest
-/// itself (memmove order: nothing else writes there) and writes the set-aside ones. (A new array
-/// instead: 21 MB of fresh pages for the coastlines' pieces, or memory touched beforehand.)
-void move_in_place(PieceArray& pieces, const std::vector<Run>& chunks, std::size_t reach, std::size_t size,
-                   CpuExecutor& executor) {
+/// moving farther than `reach`) within the array, the chunks spread over for_parts(n, f) (f(k) for every
+/// k in [0, n), in parallel), and leaves it with `size` pieces (at most its capacity). A chunk's
+/// destination can overlap another chunk's source only within `reach` of that source's ends (it lies
+/// within reach of its own source, which is disjoint from the other), so each chunk first sets aside
+/// its first and last `reach` pieces, and after a barrier moves the rest itself (memmove order:
+/// nothing else writes there) and writes the set-aside ones. (A new array instead: 21 MB of fresh
+/// pages for the coastlines' pieces, or memory touched beforehand.)
+template <class ForParts>
+void move_in_place(PieceArray& pieces, const std::vector<PieceRun>& chunks, std::size_t reach,
+                   std::size_t size, ForParts&& for_parts) {
   std::vector<std::size_t> aside_at(chunks.size() + 1, 0);
   for (std::size_t k = 0; k < chunks.size(); ++k)
-    aside_at[k + 1] = aside_at[k] + std::min(chunks[k].count, 2 * reach);
+    aside_at[k + 1] = aside_at[k] + std::min<std::size_t>(chunks[k].count, 2 * reach);
   std::vector<ConstraintPiece> aside(aside_at.back());
   // The ends of each chunk: its first `head` pieces and its last `tail`, all of it when short.
-  const auto ends = [&](const Run& c) {
-    const std::size_t head = std::min(c.count, reach);
+  const auto ends = [&](const PieceRun& c) {
+    const std::size_t head = std::min<std::size_t>(c.count, reach);
     return std::pair{head, std::min(c.count - head, reach)};
   };
-  executor.for_each_part(chunks.size(), [&](std::size_t k) {
-    const Run& c = chunks[k];
+  for_parts(chunks.size(), [&](std::size_t k) {
+    const PieceRun& c = chunks[k];
     const auto [head, tail] = ends(c);
     const ConstraintPiece* from = pieces.data() + c.from;
     std::copy_n(from, head, aside.begin() + static_cast<std::ptrdiff_t>(aside_at[k]));
     std::copy_n(from + c.count - tail, tail, aside.begin() + static_cast<std::ptrdiff_t>(aside_at[k] + head));
   });
   if (size > pieces.size()) pieces.resize(size); // within the capacity: nothing moves, nothing is written
-  executor.for_each_part(chunks.size(), [&](std::size_t k) {
-    const Run& c = chunks[k];
+  for_parts(chunks.size(), [&](std::size_t k) {
+    const PieceRun& c = chunks[k];
     const auto [head, tail] = ends(c);
     ConstraintPiece* data = pieces.data();
     const std::size_t middle = c.count - head - tail;
@@ -1457,14 +1461,34 @@ void move_in_place(PieceArray& pieces, const std::vector<Run>& chunks, std::size
   pieces.resize(size);
 }
 
+/// PieceMove's work, its chunks spread over for_parts as in move_in_place.
+template <class ForParts>
+void move_pieces(PieceArray& pieces, const PieceMove& move, ForParts&& for_parts) {
+  if (move.in_place) {
+    move_in_place(pieces, move.chunks, move.reach, move.size, for_parts);
+  } else {
+    PieceArray merged;
+    merged.reserve(std::max(pieces.capacity(), piece_room(move.size)));
+    merged.resize(move.size);
+    for_parts(move.chunks.size(), [&](std::size_t k) {
+      const PieceRun& c = move.chunks[k];
+      std::copy_n(pieces.begin() + static_cast<std::ptrdiff_t>(c.from), c.count,
+                  merged.begin() + static_cast<std::ptrdiff_t>(c.to));
+    });
+    pieces = std::move(merged);
+  }
+  for (std::size_t k = 0; k < move.inserted.size(); ++k) pieces[move.inserted_at[k]] = move.inserted[k];
+}
+
 } // namespace
 
 bool split_pieces(PreparedPslg& pslg, std::span<const std::uint32_t> suspect_pieces,
                   std::span<const std::uint32_t> suspect_sites, CrossingSegments policy,
                   CpuExecutor& executor, double sites_magnitude, std::vector<std::uint32_t>* new_pieces,
-                  PieceMoves* moves) {
+                  PieceMoves* moves, PieceMove* later) {
   if (new_pieces != nullptr) new_pieces->clear();
   if (moves != nullptr) *moves = {};
+  if (later != nullptr) *later = {};
   if (suspect_pieces.empty()) return false;
   StepTrace trace("split");
   trace.count("suspect pieces", suspect_pieces.size());
@@ -1580,43 +1604,74 @@ bool split_pieces(PreparedPslg& pslg, std::span<const std::uint32_t> suspect_pie
   // The runs move in place, cut into chunks moved in parallel, when the array's room holds the new
   // count and the runs move by little against a chunk (the coastlines' split: 1.8 million pieces, the
   // farthest run 96 places); else they are copied into a new array, which keeps the old one's room.
-  std::size_t reach = 0; // the farthest any run moves
-  for (const Run& r : runs) reach = std::max(reach, r.to > r.from ? r.to - r.from : r.from - r.to);
+  PieceMove move;
+  for (const Run& r : runs) move.reach = std::max(move.reach, r.to > r.from ? r.to - r.from : r.from - r.to);
   constexpr std::size_t kChunk = std::size_t{1} << 14;
-  const bool in_place = to <= pslg.pieces.capacity() && reach * 8 <= kChunk;
-  std::vector<Run> chunks;
+  move.size = to;
+  move.in_place = to <= pslg.pieces.capacity() && move.reach * 8 <= kChunk;
   for (const Run& r : runs) {
-    if (in_place && r.from == r.to) continue; // there already, and nothing else is written there
+    if (move.in_place && r.from == r.to) continue; // there already, and nothing else is written there
     for (std::size_t done = 0; done < r.count; done += kChunk)
-      chunks.push_back({r.from + done, r.to + done, std::min(kChunk, r.count - done)});
+      move.chunks.push_back({static_cast<std::uint32_t>(r.from + done),
+                             static_cast<std::uint32_t>(r.to + done),
+                             static_cast<std::uint32_t>(std::min(kChunk, r.count - done))});
   }
-  if (in_place) {
-    move_in_place(pslg.pieces, chunks, reach, to, executor);
-  } else {
-    PieceArray merged;
-    merged.reserve(std::max(pslg.pieces.capacity(), piece_room(to)));
-    merged.resize(to);
-    executor.for_each_part(chunks.size(), [&](std::size_t k) {
-      const Run& c = chunks[k];
-      std::copy_n(pslg.pieces.begin() + static_cast<std::ptrdiff_t>(c.from), c.count,
-                  merged.begin() + static_cast<std::ptrdiff_t>(c.to));
-    });
-    pslg.pieces = std::move(merged);
-  }
-  for (std::size_t k = 0; k < inserted.size(); ++k) pslg.pieces[inserted_at[k]] = inserted[k];
+  move.inserted.assign(inserted.begin(), inserted.end());
+  move.inserted_at.reserve(inserted_at.size());
+  for (const std::size_t at : inserted_at) move.inserted_at.push_back(static_cast<std::uint32_t>(at));
   if (new_pieces != nullptr)
-    for (const std::size_t at : inserted_at) new_pieces->push_back(static_cast<std::uint32_t>(at));
+    new_pieces->insert(new_pieces->end(), move.inserted_at.begin(), move.inserted_at.end());
   if (moves != nullptr) {
     for (const Run& r : runs)
       moves->runs.push_back({static_cast<std::uint32_t>(r.from), static_cast<std::uint32_t>(r.to),
                              static_cast<std::uint32_t>(r.count)});
-    for (const std::size_t at : inserted_at) moves->from_suspects.push_back(static_cast<std::uint32_t>(at));
+    // The pieces from the suspects with their new places, read before anything moves.
+    std::vector<std::pair<std::uint32_t, ConstraintPiece>> from_suspects;
+    for (std::size_t k = 0; k < inserted.size(); ++k)
+      from_suspects.push_back({move.inserted_at[k], inserted[k]});
     for (std::size_t i = 0; i < suspects.size(); ++i)
-      if (stays[i] != 0) moves->from_suspects.push_back(moved_piece(moves->runs, suspects[i]));
-    std::sort(moves->from_suspects.begin(), moves->from_suspects.end());
+      if (stays[i] != 0)
+        from_suspects.push_back({moved_piece(moves->runs, suspects[i]), pslg.pieces[suspects[i]]});
+    std::sort(from_suspects.begin(), from_suspects.end(),
+              [](const auto& p, const auto& q) { return p.first < q.first; });
+    for (const auto& [at, piece] : from_suspects) {
+      moves->from_suspects.push_back(at);
+      moves->suspect_pieces.push_back(piece);
+    }
+    moves->came = move.inserted;
   }
+  if (later != nullptr) {
+    *later = std::move(move);
+    later->pending = true;
+    trace.mark("pieces' move planned");
+    return true;
+  }
+  move_pieces(pslg.pieces, move, [&](std::size_t n, auto&& f) { executor.for_each_part(n, f); });
   trace.mark("pieces merged");
   return true;
+}
+
+void apply_piece_move(PieceArray& pieces, PieceMove& move, unsigned threads) {
+  if (!move.pending) return;
+  // f(k) for k in [0, n), handed out one at a time to this thread and up to threads - 1 helpers.
+  const auto for_parts = [threads](std::size_t n, auto&& f) {
+    std::atomic<std::size_t> next{0};
+    const auto work = [&] {
+      for (std::size_t k = next.fetch_add(1); k < n; k = next.fetch_add(1)) f(k);
+    };
+    std::vector<std::thread> helpers;
+    for (unsigned t = 1; t < threads && t < n; ++t) {
+      try {
+        helpers.emplace_back(work);
+      } catch (const std::system_error&) {
+        break; // no thread to be had: the others do its share
+      }
+    }
+    work();
+    for (std::thread& helper : helpers) helper.join();
+  };
+  move_pieces(pieces, move, for_parts);
+  move.pending = false;
 }
 
 } // namespace cdt::detail

@@ -10,6 +10,7 @@
 // largest coordinate, and a vertex new in a repair round also splits segments passing that close to
 // it (snap rounding in miniature). Input points are only ever reused when hit exactly.
 
+#include <cstddef>
 #include <cstdint>
 #include <cstring>
 #include <functional>
@@ -48,6 +49,23 @@ struct PieceRun {
 struct PieceMoves {
   std::vector<PieceRun> runs;
   std::vector<std::uint32_t> from_suspects;
+  /// The pieces at from_suspects, in that order, and the pieces that came (at new_pieces), in that
+  /// order: what the array holds there once moved, known before it is (PieceMove).
+  std::vector<ConstraintPiece> suspect_pieces, came;
+};
+
+/// The last step of a suspects' split that changed the pieces: the kept pieces' runs (cut into chunks,
+/// none moving farther than `reach`), moved within the array when `in_place` (else copied into a new
+/// one), and the pieces that came written at their places. split_pieces does it, or leaves it to the
+/// caller (apply_piece_move), who may then do it while other work goes on.
+struct PieceMove {
+  std::vector<PieceRun> chunks;
+  std::size_t reach = 0;
+  std::size_t size = 0; ///< the pieces after the move
+  bool in_place = false;
+  std::vector<ConstraintPiece> inserted;
+  std::vector<std::uint32_t> inserted_at;
+  bool pending = false; ///< left to the caller, and not done yet
 };
 
 /// The cleaned input of the triangulator.
@@ -180,10 +198,18 @@ void split_pieces(PreparedPslg& pslg, CrossingSegments policy, CpuExecutor& exec
 /// moves, when given and pieces came or went, says where every old piece that stayed went and which
 /// pieces came from the suspects (PieceMoves). The pieces move within pslg.pieces when its capacity
 /// holds them and few came or went (else into a new array with the same room).
+/// With `later`, a split that changes the pieces leaves their move to the caller (pslg.pieces is then
+/// the old array, its segment ids updated, until apply_piece_move); new_pieces and moves already name
+/// the places after the move.
 bool split_pieces(PreparedPslg& pslg, std::span<const std::uint32_t> suspect_pieces,
                   std::span<const std::uint32_t> suspect_sites, CrossingSegments policy,
                   CpuExecutor& executor, double sites_magnitude = -1.0,
-                  std::vector<std::uint32_t>* new_pieces = nullptr, PieceMoves* moves = nullptr);
+                  std::vector<std::uint32_t>* new_pieces = nullptr, PieceMoves* moves = nullptr,
+                  PieceMove* later = nullptr);
+
+/// Does a move split_pieces left (nothing when none is pending) on `threads` threads of its own (this
+/// one among them), so that it can run beside a caller that holds the executor's pool.
+void apply_piece_move(PieceArray& pieces, PieceMove& move, unsigned threads);
 
 /// The new index of old piece `old` after a split that moved the pieces by runs[0, num_runs) (by
 /// increasing from), or kNone when it left. The same on the host and the device (renumbered constraints).

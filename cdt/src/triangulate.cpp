@@ -166,11 +166,12 @@ void mesh_pieces(const detail::PreparedPslg& pslg, const IndexArray& site_of_ver
 /// the sites where known (negative: split_pieces computes it). Returns whether the pieces may have
 /// changed places (false: the same pieces in the same places, their segment ids perhaps lowered), and
 /// in new_pieces the indices of the pieces that came when known (the suspects' split), else nothing;
-/// in moves, when the suspects' split moved the pieces, where they went (split_pieces).
+/// in moves, when the suspects' split moved the pieces, where they went (split_pieces); with `later`,
+/// the suspects' split leaves the pieces' move to the caller (split_pieces).
 bool split_screened(detail::PreparedPslg& pslg, const detail::ScreenedPieces& screen,
                     const IndexArray& site_vertex, CrossingSegments policy, detail::CpuExecutor& executor,
                     double sites_magnitude, std::optional<std::vector<std::uint32_t>>& new_pieces,
-                    detail::PieceMoves& moves) {
+                    detail::PieceMoves& moves, detail::PieceMove* later = nullptr) {
   using namespace detail;
   new_pieces.reset();
   if (!screen.complete) {
@@ -181,17 +182,19 @@ bool split_screened(detail::PreparedPslg& pslg, const detail::ScreenedPieces& sc
   if (screen.pieces.empty()) return false;
   std::vector<std::uint32_t> sites(screen.sites.size());
   executor.for_each(sites.size(), [&](std::size_t k) { sites[k] = site_vertex[screen.sites[k]]; });
-  return split_pieces(pslg, screen.pieces, sites, policy, executor, sites_magnitude, &*new_pieces, &moves);
+  return split_pieces(pslg, screen.pieces, sites, policy, executor, sites_magnitude, &*new_pieces, &moves,
+                      later);
 }
 
 /// The vertices the PSLG gained from first_added on, numbered after the mesh's vertices (as many as
 /// site_vertex holds) and appended to the vertex maps, as missing points: each starts its walk from a
 /// vertex it is joined to by a piece (through other added vertices, inserted before it, if need be).
-/// new_pieces, when given, holds every piece at an added vertex (split_screened's); else all are read.
+/// came, when given, holds every piece at an added vertex (the pieces that came in the suspects' split,
+/// PieceMoves::came); else all of pslg.pieces are read.
 detail::MissingArray added_vertices(const detail::PreparedPslg& pslg, std::size_t first_added,
                                     IndexArray& site_vertex, IndexArray& site_of_vertex,
                                     detail::CpuExecutor& executor,
-                                    const std::optional<std::vector<std::uint32_t>>& new_pieces) {
+                                    const std::vector<detail::ConstraintPiece>* came) {
   using namespace detail;
   StepTrace trace("added vertices");
   const std::size_t added = pslg.vertices.size() - first_added;
@@ -206,20 +209,21 @@ detail::MissingArray added_vertices(const detail::PreparedPslg& pslg, std::size_
     fresh[k] = {first + static_cast<std::uint32_t>(k), kNoId};
   }
   trace.mark("listed");
-  const auto at_added = [&](std::size_t k) {
-    return pslg.pieces[k].a >= first_added || pslg.pieces[k].b >= first_added;
-  };
-  std::vector<std::uint32_t> links;
-  if (new_pieces) {
-    std::copy_if(new_pieces->begin(), new_pieces->end(), std::back_inserter(links), at_added);
+  const auto at_added = [&](const ConstraintPiece& p) { return p.a >= first_added || p.b >= first_added; };
+  std::vector<ConstraintPiece> links;
+  if (came != nullptr) {
+    std::copy_if(came->begin(), came->end(), std::back_inserter(links), at_added);
   } else {
-    links = executor.compact(pslg.pieces.size(), at_added);
+    const std::vector<std::uint32_t> at =
+        executor.compact(pslg.pieces.size(), [&](std::size_t k) { return at_added(pslg.pieces[k]); });
+    links.resize(at.size());
+    for (std::size_t k = 0; k < at.size(); ++k) links[k] = pslg.pieces[at[k]];
   }
   trace.mark("pieces at them");
   for (bool changed = true; changed;) {
     changed = false;
-    for (const std::uint32_t k : links) {
-      const std::uint32_t a = site_of_vertex[pslg.pieces[k].a], b = site_of_vertex[pslg.pieces[k].b];
+    for (const ConstraintPiece& piece : links) {
+      const std::uint32_t a = site_of_vertex[piece.a], b = site_of_vertex[piece.b];
       const auto hint = [&](std::uint32_t v, std::uint32_t from) {
         if (v < first || fresh[v - first].hint != kNoId) return;
         if (from >= first && fresh[from - first].hint == kNoId) return;
@@ -835,6 +839,13 @@ Triangulation triangulate_on(std::span<const Point> points, std::span<const Segm
   UnzeroedVector<ConstraintPiece2> pieces; // written in parallel by mesh_pieces, not zeroed first
   IndexArray segment_of_piece;             // for the output, not zeroed first
   SideTask beside_device;                  // after what its tasks use: an exception waits for it first
+  // A suspects' split whose constraints were inserted beside it leaves the pieces' move (0.9 ms of
+  // the coastlines' host with every thread) to a thread of its own, with the output's segment of each
+  // piece after it, while the device inserts the added vertices and the suspects' pieces: until
+  // beside_move is waited for, nothing else reads pslg.pieces.
+  PieceMove piece_move;
+  SideTask beside_move; // after what its task uses
+  bool pieces_moving = false;
 #if defined(TRIXEL_HAVE_CUDA)
   ConstraintsBesideSplit beside_split; // after the pieces it reads
 #endif
@@ -885,6 +896,7 @@ Triangulation triangulate_on(std::span<const Point> points, std::span<const Segm
   // of the pieces that came from the suspects, inserted after the added vertices.
   std::optional<ConstraintStats> before_suspects;
   std::vector<std::uint32_t> suspects_after;
+  std::vector<ConstraintPiece> suspect_pieces_after; // the pieces at suspects_after, when they moved
   if (screen_first) {
     screened = true;
     const std::size_t first_added = pslg.vertices.size();
@@ -921,8 +933,12 @@ Triangulation triangulate_on(std::span<const Point> points, std::span<const Segm
 #endif
     std::optional<std::vector<std::uint32_t>> new_pieces;
     PieceMoves moves;
+    PieceMove* later = nullptr;
+#if defined(TRIXEL_HAVE_CUDA)
+    if (beside_split.running() && beside_split.without_suspects()) later = &piece_move;
+#endif
     pieces_stale = split_screened(pslg, screen, site_vertex, options.crossings, executor, sites_magnitude,
-                                  new_pieces, moves);
+                                  new_pieces, moves, later);
     trace.mark("split");
     InsertStats placed;
     const std::size_t added = pslg.vertices.size() - first_added;
@@ -933,6 +949,7 @@ Triangulation triangulate_on(std::span<const Point> points, std::span<const Segm
         // Its ids are the old pieces' indices.
         if (pieces_stale) device_mesh->renumber_constraints(moves.runs);
         suspects_after = pieces_stale ? std::move(moves.from_suspects) : std::move(screen.pieces);
+        if (pieces_stale) suspect_pieces_after = std::move(moves.suspect_pieces);
       }
       trace.mark(before_suspects ? "constraints beside the split kept"
                                  : "constraints beside the split failed");
@@ -941,13 +958,26 @@ Triangulation triangulate_on(std::span<const Point> points, std::span<const Segm
       trace.mark("constraints beside the split undone");
     }
 #endif
+    // Every other reader of the pieces (here on, or the run started again) wants them moved: done now
+    // unless the suspects' pieces go in after the others, beside the move.
+    if (!before_suspects || added > kRestartAbovePerSite * n) apply_piece_move(pslg.pieces, piece_move, 4);
     if (added > kRestartAbovePerSite * n) {
       end_phase("split", 0, 0, added);
       return start_again(std::move(pslg));
     }
+    if (piece_move.pending) {
+      segment_of_piece.resize(piece_move.size);
+      beside_move.start(
+          [&] {
+            apply_piece_move(pslg.pieces, piece_move, 4);
+            segments_of_pieces(pslg.pieces, segment_of_piece);
+          },
+          on_its_own());
+      pieces_moving = true;
+    }
     if (added > 0) {
-      const MissingArray fresh =
-          added_vertices(pslg, first_added, site_vertex, site_of_vertex, executor, new_pieces);
+      const MissingArray fresh = added_vertices(pslg, first_added, site_vertex, site_of_vertex, executor,
+                                                new_pieces ? &moves.came : nullptr);
       trace.mark("added vertices listed");
       // The new pieces in mesh ids while the device inserts the vertices (not needed when only the
       // suspects' are inserted after them).
@@ -971,6 +1001,7 @@ Triangulation triangulate_on(std::span<const Point> points, std::span<const Segm
         // A crossing vertex rounded out of the sites' hull (the exact crossing is inside it, but may be
         // within rounding of its boundary) cannot be inserted: split first, where it is a site.
         beside_device.wait();
+        beside_move.wait();
         return start_again(std::nullopt);
       }
       beside_device.wait();
@@ -985,8 +1016,10 @@ Triangulation triangulate_on(std::span<const Point> points, std::span<const Segm
   trace.mark("pieces");
   // The output's segment of each piece, while the device inserts the constraints (on threads of their
   // own: the constraints use the host's threads for their copies).
-  segment_of_piece.resize(pslg.pieces.size());
-  beside_device.start([&] { segments_of_pieces(pslg.pieces, segment_of_piece); }, on_its_own());
+  if (!pieces_moving) {
+    segment_of_piece.resize(pslg.pieces.size());
+    beside_device.start([&] { segments_of_pieces(pslg.pieces, segment_of_piece); }, on_its_own());
+  }
   ConstraintStats cons;
   // The slots the constraints' flips rewrote: after Phase 5, only their edges can fail the incircle test.
   std::vector<std::uint8_t> flipped;
@@ -998,7 +1031,8 @@ Triangulation triangulate_on(std::span<const Point> points, std::span<const Segm
       // The suspects' pieces, into the mesh that holds the others.
       std::vector<ConstraintPiece2> rest(suspects_after.size());
       for (std::size_t k = 0; k < rest.size(); ++k) {
-        const ConstraintPiece& p = pslg.pieces[suspects_after[k]];
+        const ConstraintPiece& p =
+            suspect_pieces_after.empty() ? pslg.pieces[suspects_after[k]] : suspect_pieces_after[k];
         rest[k] = {site_of_vertex[p.a], site_of_vertex[p.b], suspects_after[k]};
       }
       const ConstraintStats after =
@@ -1032,6 +1066,7 @@ Triangulation triangulate_on(std::span<const Point> points, std::span<const Segm
     // whole input is split first instead.
     if (!screened) throw;
     beside_device.wait();
+    beside_move.wait();
     return start_again(std::nullopt);
   }
   trace.mark("constraints");
@@ -1051,6 +1086,7 @@ Triangulation triangulate_on(std::span<const Point> points, std::span<const Segm
   result.duplicate_of = std::move(pslg.duplicate_of);
   static_assert(kNone == kNoId);
   beside_device.wait();
+  beside_move.wait();
 #if defined(TRIXEL_HAVE_CUDA)
   if (device_mesh) {
     // Made on the device and copied straight into the result; the mesh itself stays there.

@@ -209,6 +209,8 @@ SuspectSplit expect_suspects_split_as_all(const std::vector<Point>& points,
   // (a copy's capacity is its size, unless more went than came) they go into a new array.
   PreparedPslg roomy = some;
   roomy.pieces.reserve(cdt::detail::piece_room(roomy.pieces.size()));
+  // The same split with the move left for later, then done on three threads of its own.
+  PreparedPslg later = roomy;
   const cdt::detail::ConstraintPiece* roomy_memory = roomy.pieces.data();
   EXPECT_TRUE(cdt::detail::split_pieces(roomy, suspects, sites, CrossingSegments::resolve, executor));
   seen.in_place = roomy.pieces.data() == roomy_memory;
@@ -219,6 +221,33 @@ SuspectSplit expect_suspects_split_as_all(const std::vector<Point>& points,
                                         &new_pieces, &moves));
   EXPECT_EQ(piece_pairs(roomy), piece_pairs(some));
   EXPECT_EQ(piece_labels(roomy), piece_labels(some));
+  {
+    const auto later_before = piece_pairs(later);
+    std::vector<std::uint32_t> later_new;
+    cdt::detail::PieceMoves later_moves;
+    cdt::detail::PieceMove move;
+    EXPECT_TRUE(cdt::detail::split_pieces(later, suspects, sites, CrossingSegments::resolve, executor, -1.0,
+                                          &later_new, &later_moves, &move));
+    EXPECT_TRUE(move.pending);
+    EXPECT_EQ(piece_pairs(later), later_before) << "the pieces moved before apply_piece_move";
+    EXPECT_EQ(later_new, new_pieces);
+    EXPECT_EQ(later_moves.from_suspects, moves.from_suspects);
+    // What the moved array will hold at those places, known before the move.
+    const auto same_piece = [](const cdt::detail::ConstraintPiece& p, const cdt::detail::ConstraintPiece& q) {
+      return p.a == q.a && p.b == q.b && p.segment == q.segment;
+    };
+    EXPECT_EQ(later_moves.suspect_pieces.size(), moves.from_suspects.size());
+    for (std::size_t k = 0; k < later_moves.suspect_pieces.size() && k < moves.from_suspects.size(); ++k)
+      EXPECT_TRUE(same_piece(later_moves.suspect_pieces[k], some.pieces[moves.from_suspects[k]])) << k;
+    EXPECT_EQ(later_moves.came.size(), new_pieces.size());
+    for (std::size_t k = 0; k < later_moves.came.size() && k < new_pieces.size(); ++k)
+      EXPECT_TRUE(same_piece(later_moves.came[k], some.pieces[new_pieces[k]])) << k;
+    cdt::detail::apply_piece_move(later.pieces, move, 3);
+    EXPECT_FALSE(move.pending);
+    EXPECT_EQ(piece_pairs(later), piece_pairs(roomy));
+    EXPECT_EQ(piece_labels(later), piece_labels(roomy));
+    EXPECT_EQ(later.vertices.size(), roomy.vertices.size());
+  }
   EXPECT_EQ(some.vertices.size(), all.vertices.size());
   // The moves: every piece that was no suspect went to a place of its own holding the same piece, and
   // the pieces made from the suspects fill exactly the other places.
