@@ -198,11 +198,8 @@ public:
   template <class Count, class F>
   void for_each_counted(std::size_t bound, Count count, F f, const char* name = "for_each_counted_kernel") {
     if (bound == 0) return;
-    constexpr unsigned kBlock = 256;
-    const std::size_t blocks = (bound + kBlock - 1) / kBlock;
-    const auto grid = static_cast<unsigned>(blocks < max_blocks_ ? blocks : max_blocks_);
     timed(name, [&] {
-      for_each_counted_kernel<<<grid, kBlock, 0, stream_>>>(count, f);
+      for_each_counted_kernel<<<grid_for(bound), kBlock, 0, stream_>>>(count, f);
       check_launch(name, __FILE__, __LINE__);
     });
   }
@@ -362,13 +359,18 @@ private:
   template <class F>
   void launch_for_each(void (*kernel)(std::size_t, F), std::size_t n, F f, const char* name) {
     if (n == 0) return;
-    constexpr unsigned kBlock = 256;
-    const std::size_t blocks = (n + kBlock - 1) / kBlock;
-    const auto grid = static_cast<unsigned>(blocks < max_blocks_ ? blocks : max_blocks_);
     timed(name, [&] {
-      kernel<<<grid, kBlock, 0, stream_>>>(n, f);
+      kernel<<<grid_for(n), kBlock, 0, stream_>>>(n, f);
       check_launch(name, __FILE__, __LINE__);
     });
+  }
+
+  /// Threads of a block of the for-each kernels, and the blocks of a grid-stride launch over n
+  /// elements (one element a thread, at most max_blocks_ blocks).
+  static constexpr unsigned kBlock = 256;
+  unsigned grid_for(std::size_t n) const {
+    const std::size_t blocks = (n + kBlock - 1) / kBlock;
+    return static_cast<unsigned>(blocks < max_blocks_ ? blocks : max_blocks_);
   }
 
   static constexpr std::size_t round_up(std::size_t bytes) { return (bytes + 255) / 256 * 256; }

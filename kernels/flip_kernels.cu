@@ -47,51 +47,6 @@ DeviceFlipBatch::DeviceFlipBatch(CudaExecutor& executor, std::uint32_t slots)
   executor.fill_bytes(partner.data(), 0xFF, slots);
 }
 
-void apply_flips(CudaExecutor& executor, DeviceFlipBatch& batch, const MeshView& m,
-                 const std::uint32_t* edges, std::uint32_t n) {
-  std::uint32_t* partner = batch.partner.data();
-  std::uint32_t* last = batch.last.data();
-  std::uint8_t* fix = batch.fix.data();
-  std::uint32_t* failed = batch.failed.data();
-  {
-    const std::uint32_t* old = last;
-    executor.for_each(
-        batch.num_last, [=] __device__(std::size_t k) { partner[old[k]] = kNoId; }, "partner_reset");
-  }
-  // The pairs are disjoint, so each slot's partner entry has one writer.
-  executor.for_each(
-      n,
-      [=] __device__(std::size_t k) {
-        const std::uint32_t t = edge_tri(edges[k]);
-        const std::uint32_t u = edge_tri(m.adj[edges[k]]);
-        partner[t] = u;
-        partner[u] = t;
-        last[2 * k] = t;
-        last[2 * k + 1] = u;
-      },
-      "partner_set");
-  batch.num_last = 2 * n;
-  executor.for_each(
-      n, [=] __device__(std::size_t k) { fix[k] = ::cdt::detail::flip_pair_contents(m, edges[k]); },
-      "flip_contents");
-  executor.fill_bytes(failed, 0xFF, 1);
-  executor.for_each(
-      n,
-      [=] __device__(std::size_t k) {
-        if (!::cdt::detail::relink_flipped_pair(m, partner, edge_tri(edges[k]), fix[k]))
-          atomicMin(failed, static_cast<std::uint32_t>(k));
-      },
-      "flip_relink");
-  std::uint32_t first_failed = kNoId;
-  executor.download(&first_failed, failed, 1);
-  if (first_failed != kNoId) {
-    std::uint32_t edge = kNoId;
-    executor.download(&edge, edges + first_failed, 1);
-    throw Error("internal error: flipped pair at edge " + std::to_string(edge) +
-                " lost a neighbour link (the triangulation was not valid)");
-  }
-}
-
 /// apply_flips for a batch whose size, num_winners(), the device knows and the host does not yet: the
 /// lowest batch index whose pair lost a link goes to *failed (set to kNoId beforehand), and nothing
 /// waits. `bound` is at least the batch's size.
@@ -130,6 +85,23 @@ void apply_flips_counted(CudaExecutor& executor, DeviceFlipBatch& batch, const M
           atomicMin(failed, static_cast<std::uint32_t>(k));
       },
       "flip_relink");
+}
+
+void apply_flips(CudaExecutor& executor, DeviceFlipBatch& batch, const MeshView& m,
+                 const std::uint32_t* edges, std::uint32_t n) {
+  std::uint32_t* failed = batch.failed.data();
+  executor.fill_bytes(failed, 0xFF, 1);
+  apply_flips_counted(
+      executor, batch, m, edges, n, [=] __device__() -> std::size_t { return n; }, failed);
+  batch.num_last = 2 * n;
+  std::uint32_t first_failed = kNoId;
+  executor.download(&first_failed, failed, 1);
+  if (first_failed != kNoId) {
+    std::uint32_t edge = kNoId;
+    executor.download(&edge, edges + first_failed, 1);
+    throw Error("internal error: flipped pair at edge " + std::to_string(edge) +
+                " lost a neighbour link (the triangulation was not valid)");
+  }
 }
 
 /// Lists of at most this many triangles are flipped by one block (FlipLoop): its rounds take 10-30
