@@ -104,6 +104,26 @@ struct ConstraintRoundsEnd {
   std::uint32_t error_piece; ///< and its piece; with lost_link: the flipped pair's edge
 };
 
+/// A marking pass's words on the device: the counts its steps size themselves by, and what the host
+/// reads at its end, once.
+struct OuterWords {
+  unsigned long long crossings; ///< the first pass's piece-triangle crossings
+  std::uint32_t left;           ///< pieces walked and not present
+  std::uint32_t marked;         ///< triangles marked by them
+  std::uint32_t first_error;    ///< the lowest walk that failed, or kNoId
+};
+
+/// A launched inner iteration's words on the device: the counts its steps size themselves by, and what
+/// the host reads at its end, once.
+struct ConstraintIterationWords {
+  std::uint32_t error_at; ///< the lowest element whose proposal failed, or kNoId
+  std::uint32_t failed;   ///< the lowest winner whose pair lost a link, or kNoId
+  std::uint32_t winners;
+  std::uint32_t still; ///< marked triangles left in the list
+  /// The next list's length (kNoId after an error) in the low half, the iteration's flips in the high.
+  unsigned long long reply;
+};
+
 /// insert_constraints' inner iterations (Algorithm 5), the same steps in the same order, by a team
 /// (BlockTeam or GridTeam) while the list has more than `lo` and at most `hi` triangles.
 struct ConstraintLoop {
@@ -325,10 +345,10 @@ ConstraintStats insert_constraints(CudaExecutor& executor, const MeshView& m,
   DeviceBuffer<std::uint32_t> d_active(slots), d_next_active(slots), d_picked(slots);
   DeviceBuffer<std::uint32_t> d_edge(slots), d_next_tri(slots), d_prev_tri(slots), d_label(slots);
   DeviceBuffer<std::uint32_t> d_winner_edges(slots);
+  DeviceBuffer<ConstraintIterationWords> d_words(1);
   DeviceBuffer<std::uint8_t> d_own(slots);
   DeviceBuffer<ConstraintStatus> d_prop_status(slots);
   DeviceBuffer<std::uint32_t> d_error_at(1);
-  DeviceBuffer<unsigned long long> d_sum(1);
   // The inner iterations in a block or a grid, for every outer iteration.
   DeviceBuffer<ConstraintRoundsEnd> d_block_end(1);
   ConstraintTeamRounds team_rounds;
@@ -346,9 +366,11 @@ ConstraintStats insert_constraints(CudaExecutor& executor, const MeshView& m,
 
   mark("walk hints");
 
+  DeviceBuffer<OuterWords> d_outer(1);
   for (;;) {
     if (stopped()) return stats;
     ++stats.outer_iterations;
+    std::uint32_t na = 0;
     trace.count("pieces walked", np);
     // Algorithm 4, line 3: marks from scratch, each piece's walk lowering them to its index.
     executor.fill_bytes(cmark, 0xFF, slots);
@@ -453,15 +475,11 @@ ConstraintStats insert_constraints(CudaExecutor& executor, const MeshView& m,
               "walk_pieces_whole");
         }
       }
-      std::uint32_t first_error = kNoId;
-      executor.download(&first_error, error_at, 1);
-      if (first_error != kNoId) {
-        std::uint32_t index = 0;
-        executor.download(&index, pend + first_error, 1);
-        fail(executor, st, first_error, index, host_pieces);
-      }
+      // The rest of the marking pass is queued before the host waits, once, for its counts and for
+      // the walks' first error (OuterWords); after an error nothing else is used.
+      OuterWords* words = d_outer.data();
       if (stats.outer_iterations == 1) {
-        unsigned long long* sum = d_sum.data();
+        unsigned long long* sum = &words->crossings;
         executor.fill_bytes(sum, 0, 1);
         // One atomic a warp: one a piece, all on one address, took 1.3 ms for the coastlines' 1.8
         // million pieces (H200).
@@ -475,9 +493,6 @@ ConstraintStats insert_constraints(CudaExecutor& executor, const MeshView& m,
               if (active.thread_rank() == 0) atomicAdd(sum, total);
             },
             "sum_crossings");
-        unsigned long long total = 0;
-        executor.download(&total, sum, 1);
-        stats.intersections = total;
       }
       // A separate step from the walks, which read seg. Duplicate pieces share an edge: lowest id wins.
       executor.for_each(
@@ -491,19 +506,32 @@ ConstraintStats insert_constraints(CudaExecutor& executor, const MeshView& m,
           },
           "present_pieces");
       std::uint32_t* left = d_left.data();
-      const std::uint32_t num_left = executor.compact(
-          np, [=] __device__(std::size_t k) { return st[k] == ConstraintStatus::ok; }, left);
+      executor.compact_to(
+          np, [=] __device__(std::size_t k) { return st[k] == ConstraintStatus::ok; }, left, &words->left);
       std::uint32_t* next = d_next_pending.data();
+      executor.for_each_counted(
+          np, [=] __device__() -> std::size_t { return words->left; },
+          [=] __device__(std::size_t k) { next[k] = pend[left[k]]; }, "next_pending");
+      // Algorithm 5's list: the marked triangles (none are left when every piece is present).
+      executor.compact_to(
+          slots, [=] __device__(std::size_t t) { return cmark[t] != kNoId; }, d_active.data(),
+          &words->marked);
       executor.for_each(
-          num_left, [=] __device__(std::size_t k) { next[k] = pend[left[k]]; }, "next_pending");
+          1, [=] __device__(std::size_t) { words->first_error = *error_at; }, "walks_checked");
+      OuterWords counts{};
+      executor.download(&counts, words, 1);
+      if (counts.first_error != kNoId) {
+        std::uint32_t index = 0;
+        executor.download(&index, pend + counts.first_error, 1);
+        fail(executor, st, counts.first_error, index, host_pieces);
+      }
+      if (stats.outer_iterations == 1) stats.intersections = counts.crossings;
       std::swap(d_pending, d_next_pending);
-      np = num_left;
+      np = counts.left;
+      na = counts.marked;
     }
     mark("walked");
     if (np == 0) break;
-
-    std::uint32_t na = executor.compact(
-        slots, [=] __device__(std::size_t t) { return cmark[t] != kNoId; }, d_active.data());
     trace.count("marked triangles", na);
     const std::uint64_t inner_before = stats.inner_iterations;
     std::uint64_t outer_flips = 0;
@@ -565,9 +593,12 @@ ConstraintStats insert_constraints(CudaExecutor& executor, const MeshView& m,
       std::uint8_t* own = d_own.data();
       const ConstraintRound round{
           act, d_edge.data(), d_prev_tri.data(), d_next_tri.data(), d_label.data(), claim, own};
+      // The iteration's steps size themselves by the counts its compactions leave on the device, and
+      // the host waits once, for the next list's length and the flips (and errors) together.
+      ConstraintIterationWords* words = d_words.data();
+      executor.fill_bytes(&words->error_at, 0xFF, 2); // error_at and failed
 
       // Algorithm 5, lines 2-11: cases, then claims by atomic minimum of the label.
-      executor.fill_bytes(error_at, 0xFF, 1);
       // orient2d's filter alone first (a kernel of 64 registers against 85 with the exact fallback, for
       // sm_90: four blocks on a multiprocessor instead of three); the proposals that met an orientation
       // it could not decide are flagged in `own` (until the claims are read) and made again with the
@@ -575,7 +606,7 @@ ConstraintStats insert_constraints(CudaExecutor& executor, const MeshView& m,
       const auto propose = [=] __device__(std::size_t k, const FlipProposal& proposal,
                                           ConstraintStatus found) {
         status[k] = found;
-        if (is_error(found)) atomicMin(error_at, static_cast<std::uint32_t>(k));
+        if (is_error(found)) atomicMin(&words->error_at, static_cast<std::uint32_t>(k));
         ::cdt::detail::record_constraint_proposal(m, round, k, proposal, ClaimMin{});
       };
       executor.for_each_64(
@@ -601,36 +632,31 @@ ConstraintStats insert_constraints(CudaExecutor& executor, const MeshView& m,
             propose(k, proposal, ::cdt::detail::propose_constraint_flip(m, cmark, piece, act[k], proposal));
           },
           "propose_constraint_flips_exact");
-
-      std::uint32_t first_error = kNoId;
-      executor.download(&first_error, error_at, 1);
-      if (first_error != kNoId) {
-        std::uint32_t A = 0, index = 0;
-        executor.download(&A, act + first_error, 1);
-        executor.download(&index, cmark + A, 1);
-        fail(executor, status, first_error, index, host_pieces);
-      }
-      // Algorithm 5, line 13: flip only where every claim held.
+      // Algorithm 5, line 13: flip only where every claim held; after a proposal's error, nowhere (the
+      // host reports it once the iteration's reply is in).
       executor.for_each(
           na, [=] __device__(std::size_t k) { ::cdt::detail::constraint_claims_held(round, k); },
           "constraint_claims");
       std::uint32_t* winners = d_picked.data();
-      const std::uint32_t num_winners = executor.compact(
-          na, [=] __device__(std::size_t k) { return ::cdt::detail::constraint_proposal_won(round, k); },
-          winners);
+      executor.compact_to(
+          na,
+          [=] __device__(std::size_t k) {
+            return words->error_at == kNoId && ::cdt::detail::constraint_proposal_won(round, k);
+          },
+          winners, &words->winners);
       executor.for_each(
           na, [=] __device__(std::size_t k) { ::cdt::detail::clear_constraint_claims(round, k); },
           "clear_constraint_claims");
-      if (num_winners == 0) break; // the lowest label holds all its claims: nothing was flippable
+      const auto num_winners = [=] __device__() -> std::size_t { return words->winners; };
       std::uint32_t* winner_edges = d_winner_edges.data();
-      executor.for_each(
-          num_winners, [=] __device__(std::size_t k) { winner_edges[k] = round.edge[winners[k]]; },
+      executor.for_each_counted(
+          na, num_winners, [=] __device__(std::size_t k) { winner_edges[k] = round.edge[winners[k]]; },
           "constraint_winner_edges");
-      apply_flips(executor, batch, m, winner_edges, num_winners);
+      apply_flips_counted(executor, batch, m, winner_edges, na, num_winners, &words->failed);
       {
         const std::uint32_t* partner = batch.partner.data();
-        executor.for_each(
-            num_winners,
+        executor.for_each_counted(
+            na, num_winners,
             [=] __device__(std::size_t k) {
               const std::uint32_t A = act[winners[k]];
               ::cdt::detail::mark_after_flip(m, cmark, piece, A, partner[A], cmark[A]);
@@ -638,17 +664,46 @@ ConstraintStats insert_constraints(CudaExecutor& executor, const MeshView& m,
             },
             "mark_after_flip");
       }
-      stats.flips += num_winners;
-      outer_flips += num_winners;
-      // The stalled rule of constraints.cpp: marking again beats proposing over stuck triangles.
-      const bool stalled = static_cast<std::uint64_t>(num_winners) * kStalledShare < na;
       // Flips only reuse slots of marked triangles, so the marked set shrinks within the list.
-      std::uint32_t* still = d_picked.data();
-      const std::uint32_t num_still = executor.compact(
-          na, [=] __device__(std::size_t k) { return cmark[act[k]] != kNoId; }, still);
+      std::uint32_t* still = d_picked.data(); // the winners' list is read by then
+      executor.compact_to(
+          na, [=] __device__(std::size_t k) { return cmark[act[k]] != kNoId; }, still, &words->still);
       std::uint32_t* next = d_next_active.data();
+      executor.for_each_counted(
+          na, [=] __device__() -> std::size_t { return words->still; },
+          [=] __device__(std::size_t k) { next[k] = act[still[k]]; }, "next_active");
       executor.for_each(
-          num_still, [=] __device__(std::size_t k) { next[k] = act[still[k]]; }, "next_active");
+          1,
+          [=] __device__(std::size_t) {
+            const bool failed = words->error_at != kNoId || words->failed != kNoId;
+            words->reply = (failed ? kNoId : words->still) | static_cast<unsigned long long>(words->winners)
+                                                                 << 32;
+          },
+          "constraint_iteration_end");
+      unsigned long long reply = 0;
+      executor.download(&reply, &words->reply, 1);
+      const auto num_still = static_cast<std::uint32_t>(reply);
+      const auto num_flips = static_cast<std::uint32_t>(reply >> 32);
+      if (num_still == kNoId) {
+        ConstraintIterationWords failure{};
+        executor.download(&failure, words, 1);
+        if (failure.error_at != kNoId) {
+          std::uint32_t A = 0, index = 0;
+          executor.download(&A, act + failure.error_at, 1);
+          executor.download(&index, cmark + A, 1);
+          fail(executor, status, failure.error_at, index, host_pieces);
+        }
+        std::uint32_t edge = kNoId;
+        executor.download(&edge, winner_edges + failure.failed, 1);
+        throw Error("internal error: flipped pair at edge " + std::to_string(edge) +
+                    " lost a neighbour link (the triangulation was not valid)");
+      }
+      batch.num_last = 2 * num_flips;
+      if (num_flips == 0) break; // the lowest label holds all its claims: nothing was flippable
+      stats.flips += num_flips;
+      outer_flips += num_flips;
+      // The stalled rule of constraints.cpp: marking again beats proposing over stuck triangles.
+      const bool stalled = static_cast<std::uint64_t>(num_flips) * kStalledShare < na;
       std::swap(d_active, d_next_active);
       na = num_still;
       if (stalled) break;

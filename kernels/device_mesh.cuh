@@ -54,6 +54,47 @@ struct DeviceFlipBatch {
 void apply_flips(CudaExecutor& executor, DeviceFlipBatch& batch, const ::cdt::detail::MeshView& m,
                  const std::uint32_t* edges, std::uint32_t n);
 
+/// apply_flips for a batch whose size, num_winners(), the device knows and the host does not yet: the
+/// lowest batch index whose pair lost a link goes to *failed (set to kNoId beforehand), and nothing
+/// waits. `bound` is at least the batch's size.
+template <class Count>
+void apply_flips_counted(CudaExecutor& executor, DeviceFlipBatch& batch, const ::cdt::detail::MeshView& m,
+                         const std::uint32_t* edges, std::uint32_t bound, Count num_winners,
+                         std::uint32_t* failed) {
+  std::uint32_t* partner = batch.partner.data();
+  std::uint32_t* last = batch.last.data();
+  std::uint8_t* fix = batch.fix.data();
+  {
+    const std::uint32_t* old = last;
+    executor.for_each(
+        batch.num_last, [=] __device__(std::size_t k) { partner[old[k]] = ::cdt::detail::kNoId; },
+        "partner_reset");
+  }
+  // The pairs are disjoint, so each slot's partner entry has one writer.
+  executor.for_each_counted(
+      bound, num_winners,
+      [=] __device__(std::size_t k) {
+        const std::uint32_t t = ::cdt::detail::edge_tri(edges[k]);
+        const std::uint32_t u = ::cdt::detail::edge_tri(m.adj[edges[k]]);
+        partner[t] = u;
+        partner[u] = t;
+        last[2 * k] = t;
+        last[2 * k + 1] = u;
+      },
+      "partner_set");
+  executor.for_each_counted(
+      bound, num_winners,
+      [=] __device__(std::size_t k) { fix[k] = ::cdt::detail::flip_pair_contents(m, edges[k]); },
+      "flip_contents");
+  executor.for_each_counted(
+      bound, num_winners,
+      [=] __device__(std::size_t k) {
+        if (!::cdt::detail::relink_flipped_pair(m, partner, ::cdt::detail::edge_tri(edges[k]), fix[k]))
+          atomicMin(failed, static_cast<std::uint32_t>(k));
+      },
+      "flip_relink");
+}
+
 /// apply_flips by a whole team (BlockTeam or GridTeam; every thread calls it, with the same
 /// arguments): flips the pairs across edge_of(k) for k in [0, n) with the batch's partner, last
 /// (num_last of them from the last batch, updated) and fix arrays. Returns to every thread the lowest k

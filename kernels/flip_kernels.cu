@@ -47,46 +47,6 @@ DeviceFlipBatch::DeviceFlipBatch(CudaExecutor& executor, std::uint32_t slots)
   executor.fill_bytes(partner.data(), 0xFF, slots);
 }
 
-/// apply_flips for a batch whose size, num_winners(), the device knows and the host does not yet: the
-/// lowest batch index whose pair lost a link goes to *failed (set to kNoId beforehand), and nothing
-/// waits. `bound` is at least the batch's size.
-template <class Count>
-void apply_flips_counted(CudaExecutor& executor, DeviceFlipBatch& batch, const MeshView& m,
-                         const std::uint32_t* edges, std::uint32_t bound, Count num_winners,
-                         std::uint32_t* failed) {
-  std::uint32_t* partner = batch.partner.data();
-  std::uint32_t* last = batch.last.data();
-  std::uint8_t* fix = batch.fix.data();
-  {
-    const std::uint32_t* old = last;
-    executor.for_each(
-        batch.num_last, [=] __device__(std::size_t k) { partner[old[k]] = kNoId; }, "partner_reset");
-  }
-  // The pairs are disjoint, so each slot's partner entry has one writer.
-  executor.for_each_counted(
-      bound, num_winners,
-      [=] __device__(std::size_t k) {
-        const std::uint32_t t = edge_tri(edges[k]);
-        const std::uint32_t u = edge_tri(m.adj[edges[k]]);
-        partner[t] = u;
-        partner[u] = t;
-        last[2 * k] = t;
-        last[2 * k + 1] = u;
-      },
-      "partner_set");
-  executor.for_each_counted(
-      bound, num_winners,
-      [=] __device__(std::size_t k) { fix[k] = ::cdt::detail::flip_pair_contents(m, edges[k]); },
-      "flip_contents");
-  executor.for_each_counted(
-      bound, num_winners,
-      [=] __device__(std::size_t k) {
-        if (!::cdt::detail::relink_flipped_pair(m, partner, edge_tri(edges[k]), fix[k]))
-          atomicMin(failed, static_cast<std::uint32_t>(k));
-      },
-      "flip_relink");
-}
-
 void apply_flips(CudaExecutor& executor, DeviceFlipBatch& batch, const MeshView& m,
                  const std::uint32_t* edges, std::uint32_t n) {
   std::uint32_t* failed = batch.failed.data();
