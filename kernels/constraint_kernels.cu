@@ -572,7 +572,7 @@ ConstraintStats insert_constraints(CudaExecutor& executor, const MeshView& m,
                       std::to_string(max_inner_iterations) + " inner iterations");
         if (end.stop == ConstraintStop::proposal_error)
           fail(executor, d_prop_status.data(), end.error_at, end.error_piece, host_pieces);
-        if (end.stop == ConstraintStop::lost_link) // as apply_flips reports it
+        if (end.stop == ConstraintStop::lost_link) // as the launched iterations report it
           throw Error("internal error: flipped pair at edge " + std::to_string(end.error_piece) +
                       " lost a neighbour link (the triangulation was not valid)");
         stats.flips += end.flips;

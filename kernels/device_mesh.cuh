@@ -43,20 +43,16 @@ struct DeviceFlipBatch {
   DeviceBuffer<std::uint32_t> partner; ///< per slot
   DeviceBuffer<std::uint32_t> last;    ///< the last batch's slots, whose partner entries are reset next
   DeviceBuffer<std::uint8_t> fix;      ///< per pair: flip_pair_contents' vertex fixes
-  DeviceBuffer<std::uint32_t> failed{1};
   std::uint32_t num_last = 0;
 
   DeviceFlipBatch(CudaExecutor& executor, std::uint32_t slots);
 };
 
-/// FlipBatch::apply: flips the pairs across edges[0, n) (disjoint, each flippable), then relinks
-/// them; throws Error when a link is lost (the mesh was not valid). Waits for the batch.
-void apply_flips(CudaExecutor& executor, DeviceFlipBatch& batch, const ::cdt::detail::MeshView& m,
-                 const std::uint32_t* edges, std::uint32_t n);
-
-/// apply_flips for a batch whose size, num_winners(), the device knows and the host does not yet: the
-/// lowest batch index whose pair lost a link goes to *failed (set to kNoId beforehand), and nothing
-/// waits. `bound` is at least the batch's size.
+/// FlipBatch::apply for a batch whose size, num_winners(), the device knows and the host need not:
+/// flips the pairs across edges[0, num_winners()) (disjoint, each flippable), then relinks them; the
+/// lowest batch index whose pair lost a link (the mesh was not valid) goes to *failed (set to kNoId
+/// beforehand), and nothing waits. `bound` is at least the batch's size; the caller sets
+/// batch.num_last to twice the batch's size once it knows it.
 template <class Count>
 void apply_flips_counted(CudaExecutor& executor, DeviceFlipBatch& batch, const ::cdt::detail::MeshView& m,
                          const std::uint32_t* edges, std::uint32_t bound, Count num_winners,
@@ -95,7 +91,7 @@ void apply_flips_counted(CudaExecutor& executor, DeviceFlipBatch& batch, const :
       "flip_relink");
 }
 
-/// apply_flips by a whole team (BlockTeam or GridTeam; every thread calls it, with the same
+/// apply_flips_counted by a whole team (BlockTeam or GridTeam; every thread calls it, with the same
 /// arguments): flips the pairs across edge_of(k) for k in [0, n) with the batch's partner, last
 /// (num_last of them from the last batch, updated) and fix arrays. Returns to every thread the lowest k
 /// whose pair lost a link, or kNoId (in the team's word). Ends with the team's barrier.

@@ -47,23 +47,6 @@ DeviceFlipBatch::DeviceFlipBatch(CudaExecutor& executor, std::uint32_t slots)
   executor.fill_bytes(partner.data(), 0xFF, slots);
 }
 
-void apply_flips(CudaExecutor& executor, DeviceFlipBatch& batch, const MeshView& m,
-                 const std::uint32_t* edges, std::uint32_t n) {
-  std::uint32_t* failed = batch.failed.data();
-  executor.fill_bytes(failed, 0xFF, 1);
-  apply_flips_counted(
-      executor, batch, m, edges, n, [=] __device__() -> std::size_t { return n; }, failed);
-  batch.num_last = 2 * n;
-  std::uint32_t first_failed = kNoId;
-  executor.download(&first_failed, failed, 1);
-  if (first_failed != kNoId) {
-    std::uint32_t edge = kNoId;
-    executor.download(&edge, edges + first_failed, 1);
-    throw Error("internal error: flipped pair at edge " + std::to_string(edge) +
-                " lost a neighbour link (the triangulation was not valid)");
-  }
-}
-
 /// Lists of at most this many triangles are flipped by one block (FlipLoop): its rounds take 10-30
 /// microseconds, against 100-150 as separate launches (each a few microseconds of the host's time, and
 /// three waits for counts).
