@@ -4,7 +4,8 @@
 // the same steps as the CPU executor's insert_constraints (cdt/src/gcd/constraints.cpp) in the same
 // order with the same ordered compactions, so both insert the pieces by the same flips. Inner iterations
 // on short lists run in one thread block, on middle ones in one cooperative grid (ConstraintLoop, run by
-// TeamRounds), the same steps.
+// TeamRounds), the same steps; on long ones as launches whose counts stay on the device, the host
+// waiting once an iteration (ConstraintIterationWords) and once a marking pass (OuterWords).
 
 #include <cooperative_groups.h>
 #include <cooperative_groups/reduce.h>
