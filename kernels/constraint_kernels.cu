@@ -349,11 +349,12 @@ ConstraintStats insert_constraints(CudaExecutor& executor, const MeshView& m,
   DeviceBuffer<ConstraintIterationWords> d_words(1);
   DeviceBuffer<std::uint8_t> d_own(slots);
   DeviceBuffer<ConstraintStatus> d_prop_status(slots);
-  DeviceBuffer<std::uint32_t> d_error_at(1);
+  // A marking pass's counts and its walks' first error, read by the host once a pass.
+  DeviceBuffer<OuterWords> d_outer(1);
   // The inner iterations in a block or a grid, for every outer iteration.
   DeviceBuffer<ConstraintRoundsEnd> d_block_end(1);
   ConstraintTeamRounds team_rounds;
-  std::uint32_t* error_at = d_error_at.data();
+  std::uint32_t* error_at = &d_outer.data()->first_error;
   // The long pieces' walks in parts (walk_parts.cuh): the grid of hints, the parts' buffers; per
   // pending piece whether its first part met the second's start; per part its status and crossings;
   // per long piece whether it is walked whole again.
@@ -367,7 +368,6 @@ ConstraintStats insert_constraints(CudaExecutor& executor, const MeshView& m,
 
   mark("walk hints");
 
-  DeviceBuffer<OuterWords> d_outer(1);
   for (;;) {
     if (stopped()) return stats;
     ++stats.outer_iterations;
@@ -477,7 +477,8 @@ ConstraintStats insert_constraints(CudaExecutor& executor, const MeshView& m,
         }
       }
       // The rest of the marking pass is queued before the host waits, once, for its counts and for
-      // the walks' first error (OuterWords); after an error nothing else is used.
+      // the walks' first error (OuterWords::first_error, which the walks lowered); after an error
+      // nothing else is used.
       OuterWords* words = d_outer.data();
       if (stats.outer_iterations == 1) {
         unsigned long long* sum = &words->crossings;
@@ -517,8 +518,6 @@ ConstraintStats insert_constraints(CudaExecutor& executor, const MeshView& m,
       executor.compact_to(
           slots, [=] __device__(std::size_t t) { return cmark[t] != kNoId; }, d_active.data(),
           &words->marked);
-      executor.for_each(
-          1, [=] __device__(std::size_t) { words->first_error = *error_at; }, "walks_checked");
       OuterWords counts{};
       executor.download(&counts, words, 1);
       if (counts.first_error != kNoId) {
@@ -677,14 +676,11 @@ ConstraintStats insert_constraints(CudaExecutor& executor, const MeshView& m,
           1,
           [=] __device__(std::size_t) {
             const bool failed = words->error_at != kNoId || words->failed != kNoId;
-            words->reply = (failed ? kNoId : words->still) | static_cast<unsigned long long>(words->winners)
-                                                                 << 32;
+            words->reply = round_reply(failed ? kNoId : words->still, words->winners);
           },
           "constraint_iteration_end");
-      unsigned long long reply = 0;
-      executor.download(&reply, &words->reply, 1);
-      const auto num_still = static_cast<std::uint32_t>(reply);
-      const auto num_flips = static_cast<std::uint32_t>(reply >> 32);
+      const RoundReply reply = wait_for_reply(executor, &words->reply);
+      const std::uint32_t num_still = reply.next, num_flips = reply.count;
       if (num_still == kNoId) {
         ConstraintIterationWords failure{};
         executor.download(&failure, words, 1);

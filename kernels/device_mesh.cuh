@@ -37,6 +37,26 @@ struct ClaimMin {
   __device__ void operator()(std::uint32_t* at, std::uint32_t value) const { atomicMin(at, value); }
 };
 
+/// A launched round's reply word, the one value the host waits for: the next list's length in the low
+/// half (kNoId after an error, whose details the round's other words hold), the round's flips or
+/// insertions in the high half.
+__device__ inline unsigned long long round_reply(std::uint32_t next, std::uint32_t count) {
+  return next | static_cast<unsigned long long>(count) << 32;
+}
+
+/// A reply word, unpacked.
+struct RoundReply {
+  std::uint32_t next;
+  std::uint32_t count;
+};
+
+/// Waits for the round queued before it and reads its reply word.
+inline RoundReply wait_for_reply(CudaExecutor& executor, const unsigned long long* d_reply) {
+  unsigned long long reply = 0;
+  executor.download(&reply, d_reply, 1);
+  return {static_cast<std::uint32_t>(reply), static_cast<std::uint32_t>(reply >> 32)};
+}
+
 /// cdt::detail::FlipBatch on the device: a batch of disjoint flips, and per slot the partner of the
 /// last batch's pairs (kNoId for the slots of no pair).
 struct DeviceFlipBatch {

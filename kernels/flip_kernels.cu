@@ -360,13 +360,11 @@ FlipResult flip_mesh(DeviceMesh::State& s, const std::uint8_t* only, std::uint32
             words->error = kNoPair;
             num_next = kNoId;
           }
-          words->reply = num_next | static_cast<unsigned long long>(flips) << 32;
+          words->reply = round_reply(num_next, flips);
         },
         "flip_round_end");
-    unsigned long long reply = 0;
-    executor.download(&reply, &words->reply, 1);
-    const auto num_next = static_cast<std::uint32_t>(reply);
-    const auto flips = static_cast<std::uint32_t>(reply >> 32);
+    const RoundReply reply = wait_for_reply(executor, &words->reply);
+    const std::uint32_t num_next = reply.next, flips = reply.count;
     if (num_next == kNoId) {
       FlipRoundWords failure{};
       executor.download(&failure, words, 1);

@@ -1247,13 +1247,11 @@ InsertStats insert(DeviceMesh::State& s, std::span<const MissingPoint> missing,
         1,
         [=] __device__(std::size_t) {
           const std::uint32_t next = round_words->step == InsertStep::none ? round_words->rest : kNoId;
-          round_words->reply = next | static_cast<unsigned long long>(round_words->winners) << 32;
+          round_words->reply = round_reply(next, round_words->winners);
         },
         "insert_round_end");
-    unsigned long long reply = 0;
-    executor.download(&reply, &round_words->reply, 1);
-    const auto num_rest = static_cast<std::uint32_t>(reply);
-    const auto num_inserted = static_cast<std::uint32_t>(reply >> 32);
+    const RoundReply reply = wait_for_reply(executor, &round_words->reply);
+    const std::uint32_t num_rest = reply.next, num_inserted = reply.count;
     if (num_rest == kNoId) {
       InsertRoundWords failed{};
       executor.download(&failed, round_words, 1);
