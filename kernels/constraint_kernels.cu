@@ -117,8 +117,9 @@ struct OuterWords {
 /// A launched inner iteration's words on the device: the counts its steps size themselves by, and what
 /// the host reads at its end, once.
 struct ConstraintIterationWords {
-  std::uint32_t error_at; ///< the lowest element whose proposal failed, or kNoId
-  std::uint32_t failed;   ///< the lowest winner whose pair lost a link, or kNoId
+  std::uint32_t undecided; ///< proposals the filter left undecided, listed for the exact tests
+  std::uint32_t error_at;  ///< the lowest element whose proposal failed, or kNoId
+  std::uint32_t failed;    ///< the lowest winner whose pair lost a link, or kNoId
   std::uint32_t winners;
   std::uint32_t still; ///< marked triangles left in the list
   /// The next list's length (kNoId after an error) in the low half, the iteration's flips in the high.
@@ -347,6 +348,7 @@ ConstraintStats insert_constraints(CudaExecutor& executor, const MeshView& m,
   DeviceBuffer<std::uint32_t> d_edge(slots), d_next_tri(slots), d_prev_tri(slots), d_label(slots);
   DeviceBuffer<std::uint32_t> d_winner_edges(slots);
   DeviceBuffer<ConstraintIterationWords> d_words(1);
+  executor.fill_bytes(&d_words.data()->undecided, 0, 1); // then zeroed by each iteration's end
   DeviceBuffer<std::uint8_t> d_own(slots);
   DeviceBuffer<ConstraintStatus> d_prop_status(slots);
   // A marking pass's counts and its walks' first error, read by the host once a pass.
@@ -601,33 +603,37 @@ ConstraintStats insert_constraints(CudaExecutor& executor, const MeshView& m,
       // Algorithm 5, lines 2-11: cases, then claims by atomic minimum of the label.
       // orient2d's filter alone first (a kernel of 64 registers against 85 with the exact fallback, for
       // sm_90: four blocks on a multiprocessor instead of three); the proposals that met an orientation
-      // it could not decide are flagged in `own` (until the claims are read) and made again with the
-      // exact tests.
+      // it could not decide are listed and made again with the exact tests (exact_spread).
       const auto propose = [=] __device__(std::size_t k, const FlipProposal& proposal,
                                           ConstraintStatus found) {
         status[k] = found;
         if (is_error(found)) atomicMin(&words->error_at, static_cast<std::uint32_t>(k));
         ::cdt::detail::record_constraint_proposal(m, round, k, proposal, ClaimMin{});
       };
+      // The undecided go to the next list's buffer, free until the iteration's end.
+      std::uint32_t* undecided = d_next_active.data();
+      std::uint32_t* undecided_count = &words->undecided;
       executor.for_each_64(
           na,
           [=] __device__(std::size_t k) {
             FlipProposal proposal;
-            bool undecided = false;
+            bool open = false;
             const ConstraintStatus found =
-                ::cdt::detail::propose_constraint_flip<false>(m, cmark, piece, act[k], proposal, &undecided);
-            own[k] = undecided ? 1 : 0;
-            if (undecided) {
+                ::cdt::detail::propose_constraint_flip<false>(m, cmark, piece, act[k], proposal, &open);
+            if (open) {
               round.next_tri[k] = kNoId;
+              undecided[atomicAdd(undecided_count, 1u)] = static_cast<std::uint32_t>(k);
               return;
             }
             propose(k, proposal, found);
           },
           "propose_constraint_flips");
-      executor.for_each(
-          na,
-          [=] __device__(std::size_t k) {
-            if (own[k] == 0) return;
+      executor.for_each_counted(
+          na, [=] __device__() -> std::size_t { return exact_threads(*undecided_count, na); },
+          [=] __device__(std::size_t j) {
+            const std::uint32_t spread = exact_spread(*undecided_count, na);
+            if (j % spread != 0) return;
+            const std::uint32_t k = undecided[j / spread];
             FlipProposal proposal;
             propose(k, proposal, ::cdt::detail::propose_constraint_flip(m, cmark, piece, act[k], proposal));
           },
@@ -677,6 +683,7 @@ ConstraintStats insert_constraints(CudaExecutor& executor, const MeshView& m,
           [=] __device__(std::size_t) {
             const bool failed = words->error_at != kNoId || words->failed != kNoId;
             words->reply = round_reply(failed ? kNoId : words->still, words->winners);
+            words->undecided = 0;
           },
           "constraint_iteration_end");
       const RoundReply reply = wait_for_reply(executor, &words->reply);

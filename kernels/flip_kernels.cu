@@ -170,6 +170,7 @@ using FlipTeamRounds = TeamRounds<FlipLoop, FlipRounds, FlipRoundsEnd, kFlipBloc
 /// A launched flipping round's words on the device: the counts its steps size themselves by, and
 /// what the host reads at its end, once.
 struct FlipRoundWords {
+  std::uint32_t undecided; ///< proposers the filters left undecided, listed for the exact tests
   std::uint32_t winners;
   std::uint32_t waiting;
   std::uint32_t failed;     ///< the lowest winner whose pair lost a link, or kNoId
@@ -230,7 +231,7 @@ FlipResult flip_mesh(DeviceMesh::State& s, const std::uint8_t* only, std::uint32
   std::uint32_t* waiting = d_waiting.data();
 
   // A round's proposals, the fake fans' or the Delaunay flips'.
-  const auto propose = [&](const FlipRound& r) {
+  const auto propose = [&](const FlipRound& r, std::uint32_t* undecided_count) {
     const std::uint32_t* l = r.list;
     const std::uint32_t count = n;
     if (first_fake != kNoId) {
@@ -244,29 +245,32 @@ FlipResult flip_mesh(DeviceMesh::State& s, const std::uint8_t* only, std::uint32
       return;
     }
     // The predicates' filters alone first (a kernel of few registers: 44 against 84 with the exact
-    // fallbacks, for sm_90), then the exact tests for the proposers they left undecided, flagged in
-    // `own` until the claims are read.
+    // fallbacks, for sm_90), then the exact tests over the proposers they left undecided, listed in
+    // `waiting` (free until the claims are read; exact_spread).
+    std::uint32_t* undecided = waiting;
     executor.for_each(
         count,
         [=] __device__(std::size_t k) {
-          bool undecided = false;
+          bool open = false;
           ::cdt::detail::record_flip_proposal(
-              m, r, k,
-              ::cdt::detail::delaunay_flip_candidate<false>(m, active_flag, partner, l[k], &undecided),
+              m, r, k, ::cdt::detail::delaunay_flip_candidate<false>(m, active_flag, partner, l[k], &open),
               ClaimMin{});
-          own[k] = undecided ? 1 : 0;
+          if (open) undecided[atomicAdd(undecided_count, 1u)] = static_cast<std::uint32_t>(k);
         },
         "flip_propose");
-    executor.for_each(
-        count,
-        [=] __device__(std::size_t k) {
-          if (own[k] != 0)
-            ::cdt::detail::record_flip_proposal(
-                m, r, k, ::cdt::detail::delaunay_flip_candidate(m, active_flag, partner, l[k]), ClaimMin{});
+    executor.for_each_counted(
+        count, [=] __device__() -> std::size_t { return exact_threads(*undecided_count, count); },
+        [=] __device__(std::size_t j) {
+          const std::uint32_t spread = exact_spread(*undecided_count, count);
+          if (j % spread != 0) return;
+          const std::uint32_t k = undecided[j / spread];
+          ::cdt::detail::record_flip_proposal(
+              m, r, k, ::cdt::detail::delaunay_flip_candidate(m, active_flag, partner, l[k]), ClaimMin{});
         },
         "flip_propose_exact");
   };
   DeviceBuffer<FlipRoundWords> d_words(1);
+  executor.fill_bytes(&d_words.data()->undecided, 0, 1); // then zeroed by each round's end
 
   DeviceBuffer<FlipRoundsEnd> d_end(1);
   FlipTeamRounds team_rounds;
@@ -307,7 +311,7 @@ FlipResult flip_mesh(DeviceMesh::State& s, const std::uint8_t* only, std::uint32
     // host waits once, for the next list's length and the round's flips (and errors) together.
     FlipRoundWords* words = d_words.data();
     executor.fill_bytes(&words->failed, 0xFF, 1);
-    propose(r);
+    propose(r, &words->undecided);
     executor.for_each(
         n, [=] __device__(std::size_t k) { ::cdt::detail::flip_claims_held(r, k); }, "flip_claims");
     executor.compact_to(
@@ -361,6 +365,7 @@ FlipResult flip_mesh(DeviceMesh::State& s, const std::uint8_t* only, std::uint32
             num_next = kNoId;
           }
           words->reply = round_reply(num_next, flips);
+          words->undecided = 0;
         },
         "flip_round_end");
     const RoundReply reply = wait_for_reply(executor, &words->reply);
