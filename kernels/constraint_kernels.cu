@@ -603,7 +603,7 @@ ConstraintStats insert_constraints(CudaExecutor& executor, const MeshView& m,
       // Algorithm 5, lines 2-11: cases, then claims by atomic minimum of the label.
       // orient2d's filter alone first (a kernel of 64 registers against 85 with the exact fallback, for
       // sm_90: four blocks on a multiprocessor instead of three); the proposals that met an orientation
-      // it could not decide are listed and made again with the exact tests (exact_spread).
+      // it could not decide are listed and made again with the exact tests (for_each_undecided).
       const auto propose = [=] __device__(std::size_t k, const FlipProposal& proposal,
                                           ConstraintStatus found) {
         status[k] = found;
@@ -628,12 +628,9 @@ ConstraintStats insert_constraints(CudaExecutor& executor, const MeshView& m,
             propose(k, proposal, found);
           },
           "propose_constraint_flips");
-      executor.for_each_counted(
-          na, [=] __device__() -> std::size_t { return exact_threads(*undecided_count, na); },
-          [=] __device__(std::size_t j) {
-            const std::uint32_t spread = exact_spread(*undecided_count, na);
-            if (j % spread != 0) return;
-            const std::uint32_t k = undecided[j / spread];
+      for_each_undecided(
+          executor, na, undecided, undecided_count,
+          [=] __device__(std::uint32_t k) {
             FlipProposal proposal;
             propose(k, proposal, ::cdt::detail::propose_constraint_flip(m, cmark, piece, act[k], proposal));
           },

@@ -60,19 +60,28 @@ inline RoundReply wait_for_reply(CudaExecutor& executor, const unsigned long lon
 /// A launched round's proposals are made in two kernels: the predicates' filters alone (few registers),
 /// which list the elements they leave undecided, then the exact tests over that list. Undecided tests
 /// are rare on most inputs (none on uniform points, a few per million on the coastlines) and common on
-/// degenerate ones (lattices). The exact kernel runs `exact_spread` threads per listed element, one
-/// working and the others idle, up to a warp each while the round's list length `bound` leaves room:
-/// the exact tests are long chains of dependent steps, and one a warp keeps as many of them in flight
-/// as the whole list's kernel did (packed 32 a warp, the coastlines' took three times as long).
+/// degenerate ones (lattices). The exact kernel runs this many threads per listed element, one working
+/// and the others idle, up to a warp each while the round's list length `bound` leaves room: the exact
+/// tests are long chains of dependent steps, and one a warp keeps as many of them in flight as the
+/// whole list's kernel did (packed 32 a warp, the coastlines' took three times as long).
 __device__ inline std::uint32_t exact_spread(std::uint32_t undecided, std::size_t bound) {
   if (undecided == 0) return 1;
   const std::size_t room = bound / undecided;
   return room >= 32 ? 32u : room < 1 ? 1u : static_cast<std::uint32_t>(room);
 }
 
-/// The exact kernel's threads: exact_spread for each undecided element.
-__device__ inline std::size_t exact_threads(std::uint32_t undecided, std::size_t bound) {
-  return std::size_t{undecided} * exact_spread(undecided, bound);
+/// The exact kernel: f(k) for every element k of list[0, *count), which a filter kernel queued before
+/// it appended to (count <= bound, the round's list length), exact_spread threads each. Nothing waits.
+template <class F>
+void for_each_undecided(CudaExecutor& executor, std::size_t bound, const std::uint32_t* list,
+                        const std::uint32_t* count, F f, const char* name) {
+  executor.for_each_counted(
+      bound, [=] __device__() -> std::size_t { return std::size_t{*count} * exact_spread(*count, bound); },
+      [=] __device__(std::size_t j) {
+        const std::uint32_t spread = exact_spread(*count, bound);
+        if (j % spread == 0) f(list[j / spread]);
+      },
+      name);
 }
 
 /// cdt::detail::FlipBatch on the device: a batch of disjoint flips, and per slot the partner of the

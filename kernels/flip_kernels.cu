@@ -246,7 +246,7 @@ FlipResult flip_mesh(DeviceMesh::State& s, const std::uint8_t* only, std::uint32
     }
     // The predicates' filters alone first (a kernel of few registers: 44 against 84 with the exact
     // fallbacks, for sm_90), then the exact tests over the proposers they left undecided, listed in
-    // `waiting` (free until the claims are read; exact_spread).
+    // `waiting` (free until the claims are read; for_each_undecided).
     std::uint32_t* undecided = waiting;
     executor.for_each(
         count,
@@ -258,12 +258,9 @@ FlipResult flip_mesh(DeviceMesh::State& s, const std::uint8_t* only, std::uint32
           if (open) undecided[atomicAdd(undecided_count, 1u)] = static_cast<std::uint32_t>(k);
         },
         "flip_propose");
-    executor.for_each_counted(
-        count, [=] __device__() -> std::size_t { return exact_threads(*undecided_count, count); },
-        [=] __device__(std::size_t j) {
-          const std::uint32_t spread = exact_spread(*undecided_count, count);
-          if (j % spread != 0) return;
-          const std::uint32_t k = undecided[j / spread];
+    for_each_undecided(
+        executor, count, undecided, undecided_count,
+        [=] __device__(std::uint32_t k) {
           ::cdt::detail::record_flip_proposal(
               m, r, k, ::cdt::detail::delaunay_flip_candidate(m, active_flag, partner, l[k]), ClaimMin{});
         },
