@@ -3,6 +3,7 @@
 #include <CGAL/Exact_predicates_inexact_constructions_kernel.h>
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 
 #include "cdt/detail/predicates.hpp"
@@ -96,6 +97,90 @@ TEST(PredicatesCgal, IncircleExactAgreesWithCgalAcrossMagnitudes) {
     check(p);
   }
   EXPECT_EQ(wrong, 0) << "of " << count;
+}
+
+// The exponent of v's lowest set bit.
+int lowest_bit(double v) {
+  int exponent = 0;
+  double m = std::ldexp(std::frexp(std::fabs(v), &exponent), 53); // an integer below 2^53
+  int e = exponent - 53;
+  while (std::fmod(m, 2.0) == 0.0) m /= 2, ++e;
+  return e;
+}
+
+// The integer paths of orient2d and incircle (coordinates within 2^61 units of the lowest set bit
+// among them) at their limits, against CGAL and against the paths for any doubles: significands of 53
+// bits and of one bit, zeros, signs, exponents from -1074 up, spans of exactly 61 bits and of 62, where
+// the paths must decline. orient2d's expansions are compared where their products neither overflow nor
+// underflow.
+TEST(PredicatesCgal, IntegerPathsAgreeAtTheirLimits) {
+  trixel_test::Rng rng(17);
+  int wrong = 0, taken = 0, orient_taken = 0, declined_wrongly = 0;
+  const double full = 9007199254740991.0; // 2^53 - 1
+  for (int i = 0; i < 40000; ++i) {
+    const int base = static_cast<int>(rng.range(-1074, 900));
+    const int span = static_cast<int>(rng.range(0, 1)) != 0 ? 61 : 62;
+    double p[8];
+    for (double& v : p) {
+      switch (rng.range(0, 4)) {
+      case 0:
+        v = std::ldexp(full, base + span - 53); // the top bit at base + span - 1
+        break;
+      case 1:
+        v = std::ldexp(1.0, base); // the lowest bit
+        break;
+      case 2:
+        v = std::ldexp(static_cast<double>(rng.next() >> 11),
+                       base + static_cast<int>(rng.range(0, span - 53)));
+        break;
+      case 3:
+        v = std::ldexp(1.0, base + static_cast<int>(rng.range(0, span - 1)));
+        break;
+      default:
+        v = 0.0;
+      }
+      if (rng.range(0, 1) != 0) v = -v;
+    }
+    // The span of these eight, as the integer path measures it: |v| < 2^(ilogb(v) + 1).
+    int low = 1 << 20, high = -(1 << 20);
+    for (const double v : p) {
+      if (v == 0.0) continue;
+      low = std::min(low, lowest_bit(v));
+      high = std::max(high, std::ilogb(v) + 1);
+    }
+    int orient = 7;
+    const bool orient_fits = cdt::detail::orient2d_small_sign(p[0], p[1], p[2], p[3], p[4], p[5], orient);
+    int orient_low = 1 << 20, orient_high = -(1 << 20);
+    for (int k = 0; k < 6; ++k) {
+      if (p[k] == 0.0) continue;
+      orient_low = std::min(orient_low, lowest_bit(p[k]));
+      orient_high = std::max(orient_high, std::ilogb(p[k]) + 1);
+    }
+    if (orient_fits != (orient_high - orient_low <= 61)) ++declined_wrongly;
+    if (orient_fits) {
+      ++orient_taken;
+      const int expected = static_cast<int>(CGAL::orientation(P(p[0], p[1]), P(p[2], p[3]), P(p[4], p[5])));
+      if (orient != expected) ++wrong;
+      if (base > -400 && base < 400 &&
+          cdt::detail::orient2d_exact_expansion(p[0], p[1], p[2], p[3], p[4], p[5]) != expected)
+        ++wrong;
+    }
+    int sign = 7;
+    const bool fits =
+        cdt::detail::incircle_detail::small_sign(p[0], p[1], p[2], p[3], p[4], p[5], p[6], p[7], sign);
+    if (fits != (high - low <= 61)) ++declined_wrongly;
+    if (!fits) continue;
+    ++taken;
+    const int expected = static_cast<int>(
+        CGAL::side_of_oriented_circle(P(p[0], p[1]), P(p[2], p[3]), P(p[4], p[5]), P(p[6], p[7])));
+    if (sign != expected ||
+        cdt::detail::incircle_exact_wide(p[0], p[1], p[2], p[3], p[4], p[5], p[6], p[7]) != expected)
+      ++wrong;
+  }
+  EXPECT_EQ(declined_wrongly, 0);
+  EXPECT_GT(taken, 10000);
+  EXPECT_GT(orient_taken, 10000);
+  EXPECT_EQ(wrong, 0) << "of " << taken;
 }
 
 } // namespace

@@ -3,6 +3,7 @@
 // integer coordinates (checked with 128-bit integer arithmetic), points a few ulps off a line, and
 // points a few ulps off a circle. Shared by the host tests and the device tests.
 
+#include <cmath>
 #include <cstdint>
 #include <vector>
 
@@ -120,6 +121,36 @@ inline PredicateCases make_predicate_cases(int scale = 1) {
         add_incircle(v[0] / unit, v[1] / unit, v[2] / unit, v[3] / unit, v[4] / unit, v[5] / unit,
                      v[6] / unit, v[7] / unit, incircle_int(v[0], v[1], v[2], v[3], v[4], v[5], v[6], v[7]));
       }
+    }
+  }
+
+  // 5. Coordinates of very different magnitudes, past the span of incircle's integer path (more than
+  //    2^61 units of the lowest set bit), so that its wide accumulator decides: the circle through
+  //    (R, 0), (0, R) and (-R, 0) with R = 2^r, and d = (e, -R) outside it (e = 2^-k, |d|^2 = R^2 + e^2),
+  //    d = (e, -R + R * 2^-40) inside it (|d|^2 = R^2 - 2^(1 - 40) R^2 + ...), and d = (0, -R) on it
+  //    (a span of one bit: the integer path's). Each quadruple also turned by a quarter (which keeps
+  //    every sign) and with a, b, c cycled.
+  for (int i = 0; i < 150 * scale; ++i) {
+    const double r = std::ldexp(1.0, static_cast<int>(rng.range(30, 60)));
+    const double e = std::ldexp(1.0, -static_cast<int>(rng.range(40, 70))) * (rng.range(0, 1) != 0 ? 1 : -1);
+    const double inner = -r + std::ldexp(r, -40);
+    const double ds[3][2] = {{e, -r}, {0.0, -r}, {e, inner}};
+    const int expected[3] = {-1, 0, 1};
+    for (int k = 0; k < 3; ++k) {
+      double v[8] = {r, 0.0, 0.0, r, -r, 0.0, ds[k][0], ds[k][1]};
+      for (int turn = static_cast<int>(rng.range(0, 3)); turn > 0; --turn)
+        for (int q = 0; q < 4; ++q) {
+          const double x = v[2 * q];
+          v[2 * q] = -v[2 * q + 1];
+          v[2 * q + 1] = x;
+        }
+      const int cycle = static_cast<int>(rng.range(0, 2));
+      const double a[6] = {v[0], v[1], v[2], v[3], v[4], v[5]};
+      for (int q = 0; q < 3; ++q) {
+        v[2 * q] = a[2 * ((q + cycle) % 3)];
+        v[2 * q + 1] = a[2 * ((q + cycle) % 3) + 1];
+      }
+      add_incircle(v[0], v[1], v[2], v[3], v[4], v[5], v[6], v[7], expected[k]);
     }
   }
   return cases;

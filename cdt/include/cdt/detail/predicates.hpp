@@ -2,9 +2,10 @@
 // Exact geometric predicates orient2d and incircle for double coordinates.
 //
 // A floating-point filter with a proven error bound answers almost every call; when it cannot decide,
-// the determinant is evaluated exactly: orient2d's with floating-point expansion arithmetic (sums of
+// the determinant is evaluated exactly: in fixed-size integers when the coordinates span at most 61
+// bits (integer_detail), else orient2d's with floating-point expansion arithmetic (sums of
 // non-overlapping doubles, after Shewchuk, "Adaptive Precision Floating-Point Arithmetic and Fast
-// Robust Geometric Predicates", 1997), incircle's as integer products added in one fixed-point
+// Robust Geometric Predicates", 1997) and incircle's as integer products added in one wide fixed-point
 // accumulator (incircle_detail). The same code runs on the host and on the device.
 //
 // Error-free transformations need every operation rounded exactly once, so fused multiply-add must
@@ -202,14 +203,192 @@ CDT_HD_INLINE Expansion<2> exact_diff(double a, double b) {
   return e;
 }
 
+// --- exact integers --------------------------------------------------------------------------------
+//
+// The exact paths' integers. A double is an integer significand times a power of two (Scaled). The
+// coordinates of the queries that reach an exact path are nearly always close in magnitude: all of them
+// are then integer multiples of one power of two 2^low below 2^(low + 61) (small_integers), and the
+// determinant, scaled by a power of 2^-low, is a polynomial in integers below 2^61 that fixed-size
+// integers in registers hold exactly (orient2d's below 2^125, incircle's below 2^252). The sign is the
+// same. Queries of wider spans take the paths for any doubles: expansions for orient2d, the wide
+// accumulator for incircle.
+
+namespace integer_detail {
+
+/// |v| = m * 2^e with an integer significand m < 2^53 (subnormals included).
+struct Scaled {
+  std::uint64_t m;
+  int e;
+  bool negative;
+};
+
+CDT_HD_INLINE Scaled scaled(double v) {
+#if defined(__CUDA_ARCH__)
+  const auto bits = static_cast<std::uint64_t>(__double_as_longlong(v));
+#else
+  const auto bits = std::bit_cast<std::uint64_t>(v);
+#endif
+  const auto biased = static_cast<int>((bits >> 52) & 0x7FF);
+  const std::uint64_t fraction = bits & ((std::uint64_t{1} << 52) - 1);
+  if (biased == 0) return {fraction, -1074, (bits >> 63) != 0};
+  return {fraction | (std::uint64_t{1} << 52), biased - 1075, (bits >> 63) != 0};
+}
+
+/// hi * 2^64 + lo = a * b.
+CDT_HD_INLINE void multiply_words(std::uint64_t a, std::uint64_t b, std::uint64_t& hi, std::uint64_t& lo) {
+#if defined(__CUDA_ARCH__)
+  lo = a * b;
+  hi = __umul64hi(a, b);
+#else
+  __extension__ typedef unsigned __int128 Word2; // -Wpedantic: the compiler's 128-bit integer
+  const Word2 product = static_cast<Word2>(a) * b;
+  lo = static_cast<std::uint64_t>(product);
+  hi = static_cast<std::uint64_t>(product >> 64);
+#endif
+}
+
+/// sum += v; returns the carry out (0 or 1).
+CDT_HD_INLINE std::uint64_t add_word(std::uint64_t& sum, std::uint64_t v) {
+  sum += v;
+  return sum < v ? 1u : 0u;
+}
+
+/// The integer paths' limit on log2 of the largest coordinate in units of the lowest set bit among them.
+inline constexpr int kSmallSpan = 61;
+
+CDT_HD_INLINE int leading_zeros(std::uint64_t v) {
+#if defined(__CUDA_ARCH__)
+  return __clzll(static_cast<long long>(v));
+#else
+  return std::countl_zero(v);
+#endif
+}
+CDT_HD_INLINE int trailing_zeros(std::uint64_t v) {
+#if defined(__CUDA_ARCH__)
+  return __ffsll(static_cast<long long>(v)) - 1;
+#else
+  return std::countr_zero(v);
+#endif
+}
+
+/// The N coordinates as integers in units of 2^low, the lowest set bit among them, when every one is
+/// finite and below 2^(low + kSmallSpan) in magnitude; false otherwise (zeros fit any unit).
+template <int N>
+CDT_HD_INLINE bool small_integers(const double* v, std::int64_t* out) {
+  int low = 1 << 20, high = -(1 << 20);
+  Scaled s[N];
+#if defined(__CUDA_ARCH__)
+#pragma unroll
+#endif
+  for (int k = 0; k < N; ++k) {
+    s[k] = scaled(v[k]);
+    if (s[k].e == 972) return false; // infinity or NaN: the wider paths' preconditions, not this one's
+    if (s[k].m == 0) continue;
+    const int bottom = s[k].e + trailing_zeros(s[k].m);
+    const int top = s[k].e + 64 - leading_zeros(s[k].m);
+    low = bottom < low ? bottom : low;
+    high = top > high ? top : high;
+  }
+  if (high - low > kSmallSpan) return false;
+#if defined(__CUDA_ARCH__)
+#pragma unroll
+#endif
+  for (int k = 0; k < N; ++k) {
+    // s[k].e >= low - trailing_zeros(m): a right shift drops zeros only.
+    const int shift = s[k].e - low;
+    const std::uint64_t m = s[k].m == 0 ? 0 : shift >= 0 ? s[k].m << shift : s[k].m >> -shift;
+    out[k] = s[k].negative ? -static_cast<std::int64_t>(m) : static_cast<std::int64_t>(m);
+  }
+  return true;
+}
+
+/// A two's-complement integer of 128 bits.
+struct Int128 {
+  std::uint64_t lo;
+  std::uint64_t hi;
+};
+
+CDT_HD_INLINE Int128 multiply_signed(std::int64_t a, std::int64_t b) {
+#if defined(__CUDA_ARCH__)
+  return {static_cast<std::uint64_t>(a) * static_cast<std::uint64_t>(b),
+          static_cast<std::uint64_t>(__mul64hi(a, b))};
+#else
+  __extension__ typedef __int128 Signed2; // -Wpedantic: the compiler's 128-bit integers
+  __extension__ typedef unsigned __int128 Word2;
+  const auto product = static_cast<Word2>(static_cast<Signed2>(a) * b);
+  return {static_cast<std::uint64_t>(product), static_cast<std::uint64_t>(product >> 64)};
+#endif
+}
+
+CDT_HD_INLINE Int128 add128(Int128 a, Int128 b) {
+  const std::uint64_t lo = a.lo + b.lo;
+  return {lo, a.hi + b.hi + (lo < a.lo ? 1u : 0u)};
+}
+CDT_HD_INLINE Int128 subtract128(Int128 a, Int128 b) {
+  return {a.lo - b.lo, a.hi - b.hi - (a.lo < b.lo ? 1u : 0u)};
+}
+CDT_HD_INLINE bool negative128(Int128 a) { return (a.hi >> 63) != 0; }
+CDT_HD_INLINE Int128 negate128(Int128 a) { return subtract128({0, 0}, a); }
+
+/// sum += or -= a * b for a, b below 2^127 in magnitude (the magnitudes multiplied, the signs after),
+/// in a four-word two's-complement sum.
+CDT_HD_INLINE void add_product(std::uint64_t (&sum)[4], Int128 a, Int128 b) {
+  const bool subtract = negative128(a) != negative128(b);
+  if (negative128(a)) a = negate128(a);
+  if (negative128(b)) b = negate128(b);
+  std::uint64_t h00, l00, h01, l01, h10, l10, h11, l11;
+  multiply_words(a.lo, b.lo, h00, l00);
+  multiply_words(a.lo, b.hi, h01, l01);
+  multiply_words(a.hi, b.lo, h10, l10);
+  multiply_words(a.hi, b.hi, h11, l11);
+  std::uint64_t r[4];
+  r[0] = l00;
+  r[1] = h00;
+  const std::uint64_t carry2 = add_word(r[1], l01) + add_word(r[1], l10);
+  r[2] = h01;
+  const std::uint64_t carry3 = add_word(r[2], h10) + add_word(r[2], l11) + add_word(r[2], carry2);
+  r[3] = h11 + carry3;
+  std::uint64_t carry = 0; // a borrow when subtracting
+#if defined(__CUDA_ARCH__)
+#pragma unroll
+#endif
+  for (int k = 0; k < 4; ++k) {
+    if (subtract) {
+      const std::uint64_t before = sum[k];
+      sum[k] = before - r[k] - carry;
+      carry = (before < r[k] || (before == r[k] && carry != 0)) ? 1u : 0u;
+    } else {
+      carry = add_word(sum[k], r[k]) + add_word(sum[k], carry);
+    }
+  }
+}
+
+} // namespace integer_detail
+
 // --- predicates ------------------------------------------------------------------------------------
 
 inline constexpr double kEpsilon = 1.1102230246251565e-16; // 2^-53, half an ulp of 1
 inline constexpr double kOrientBound = (3.0 + 16.0 * kEpsilon) * kEpsilon;
 inline constexpr double kIncircleBound = (10.0 + 96.0 * kEpsilon) * kEpsilon;
 
-/// Exact sign of orient2d by expansion arithmetic: +1 when a, b, c turn counter-clockwise.
-CDT_HD inline int orient2d_exact(double ax, double ay, double bx, double by, double cx, double cy) {
+/// orient2d's exact sign by the integer path (see integer_detail): true and the sign in `sign` when the
+/// coordinates fit it, false otherwise. The differences are below 2^62 in magnitude, the products below
+/// 2^124 and their difference below 2^125.
+CDT_HD_INLINE bool orient2d_small_sign(double ax, double ay, double bx, double by, double cx, double cy,
+                                       int& sign) {
+  using namespace integer_detail;
+  const double coords[6] = {ax, ay, bx, by, cx, cy};
+  std::int64_t v[6];
+  if (!small_integers<6>(coords, v)) return false;
+  const Int128 det =
+      subtract128(multiply_signed(v[0] - v[4], v[3] - v[5]), multiply_signed(v[1] - v[5], v[2] - v[4]));
+  sign = negative128(det) ? -1 : (det.lo | det.hi) != 0 ? 1 : 0;
+  return true;
+}
+
+/// Exact sign of orient2d by expansion arithmetic, for any finite coordinates whose differences do not
+/// overflow: +1 when a, b, c turn counter-clockwise.
+CDT_HD inline int orient2d_exact_expansion(double ax, double ay, double bx, double by, double cx, double cy) {
   const Expansion<2> acx = exact_diff(ax, cx);
   const Expansion<2> acy = exact_diff(ay, cy);
   const Expansion<2> bcx = exact_diff(bx, cx);
@@ -221,6 +400,14 @@ CDT_HD inline int orient2d_exact(double ax, double ay, double bx, double by, dou
   Expansion<16> det;
   expansion_sum(left, negated(right), det);
   return expansion_sign(det);
+}
+
+/// Exact sign of orient2d: +1 when a, b, c turn counter-clockwise. The integer path where the
+/// coordinates fit it, else expansion arithmetic.
+CDT_HD inline int orient2d_exact(double ax, double ay, double bx, double by, double cx, double cy) {
+  int sign;
+  if (orient2d_small_sign(ax, ay, bx, by, cx, cy, sign)) return sign;
+  return orient2d_exact_expansion(ax, ay, bx, by, cx, cy);
 }
 
 /// What a filter returns when its error bound cannot decide the sign.
@@ -265,49 +452,16 @@ CDT_HD inline int orient2d(double ax, double ay, double bx, double by, double cx
 
 namespace incircle_detail {
 
+using integer_detail::add_word;
+using integer_detail::multiply_words;
+using integer_detail::scaled;
+using integer_detail::Scaled;
+
 /// The accumulator's words: a product of four doubles is m * 2^e with m < 2^212 and e in
 /// [4 * -1074, 4 * 971], so its bits lie below 212 + 4 * 971 + 4 * 1074 = 8392 counted from 2^-4296;
 /// 192 of them need 8 bits more and the sign one: 8401 bits, 132 words.
 inline constexpr int kWords = 132;
 inline constexpr int kLowestExponent = 4 * -1074;
-
-/// |v| = m * 2^e with an integer significand m < 2^53 (subnormals included).
-struct Scaled {
-  std::uint64_t m;
-  int e;
-  bool negative;
-};
-
-CDT_HD_INLINE Scaled scaled(double v) {
-#if defined(__CUDA_ARCH__)
-  const auto bits = static_cast<std::uint64_t>(__double_as_longlong(v));
-#else
-  const auto bits = std::bit_cast<std::uint64_t>(v);
-#endif
-  const auto biased = static_cast<int>((bits >> 52) & 0x7FF);
-  const std::uint64_t fraction = bits & ((std::uint64_t{1} << 52) - 1);
-  if (biased == 0) return {fraction, -1074, (bits >> 63) != 0};
-  return {fraction | (std::uint64_t{1} << 52), biased - 1075, (bits >> 63) != 0};
-}
-
-/// hi * 2^64 + lo = a * b.
-CDT_HD_INLINE void multiply_words(std::uint64_t a, std::uint64_t b, std::uint64_t& hi, std::uint64_t& lo) {
-#if defined(__CUDA_ARCH__)
-  lo = a * b;
-  hi = __umul64hi(a, b);
-#else
-  __extension__ typedef unsigned __int128 Word2; // -Wpedantic: the compiler's 128-bit integer
-  const Word2 product = static_cast<Word2>(a) * b;
-  lo = static_cast<std::uint64_t>(product);
-  hi = static_cast<std::uint64_t>(product >> 64);
-#endif
-}
-
-/// sum += v; returns the carry out (0 or 1).
-CDT_HD_INLINE std::uint64_t add_word(std::uint64_t& sum, std::uint64_t v) {
-  sum += v;
-  return sum < v ? 1u : 0u;
-}
 
 /// The exact product of two doubles: (hi * 2^64 + lo) * 2^e, below 2^106 * 2^e.
 struct Product2 {
@@ -378,10 +532,10 @@ CDT_HD inline void accumulate(std::uint64_t* words, const Product2& p, const Pro
 
 } // namespace incircle_detail
 
-/// Exact sign of incircle's determinant (see incircle_detail): exact for all finite coordinates whose
-/// differences do not overflow.
-CDT_HD_NOINLINE int incircle_exact(double ax, double ay, double bx, double by, double cx, double cy,
-                                   double dx, double dy) {
+/// Exact sign of incircle's determinant in the wide accumulator (see incircle_detail): exact for all
+/// finite coordinates whose differences do not overflow.
+CDT_HD_NOINLINE int incircle_exact_wide(double ax, double ay, double bx, double by, double cx, double cy,
+                                        double dx, double dy) {
   using incircle_detail::accumulate;
   using incircle_detail::product2;
   using incircle_detail::Product2;
@@ -425,6 +579,49 @@ CDT_HD_NOINLINE int incircle_exact(double ax, double ay, double bx, double by, d
   for (const std::uint64_t w : words)
     if (w != 0) return 1;
   return 0;
+}
+
+namespace incircle_detail {
+
+/// incircle's exact sign by the integer path (see integer_detail): true and the sign in `sign` when the
+/// coordinates fit it (small_integers), false otherwise. The differences are below 2^62 in magnitude,
+/// the lifts and crosses below 2^125, each lift times cross below 2^250 and their sum below 2^252.
+CDT_HD_INLINE bool small_sign(double ax, double ay, double bx, double by, double cx, double cy, double dx,
+                              double dy, int& sign) {
+  using namespace integer_detail;
+  const double coords[8] = {ax, ay, bx, by, cx, cy, dx, dy};
+  std::int64_t v[8];
+  if (!small_integers<8>(coords, v)) return false;
+  const std::int64_t adx = v[0] - v[6], ady = v[1] - v[7];
+  const std::int64_t bdx = v[2] - v[6], bdy = v[3] - v[7];
+  const std::int64_t cdx = v[4] - v[6], cdy = v[5] - v[7];
+  // det = lift(a) * cross(b, c) + lift(b) * cross(c, a) + lift(c) * cross(a, b), as in the wide path.
+  const Int128 alift = add128(multiply_signed(adx, adx), multiply_signed(ady, ady));
+  const Int128 blift = add128(multiply_signed(bdx, bdx), multiply_signed(bdy, bdy));
+  const Int128 clift = add128(multiply_signed(cdx, cdx), multiply_signed(cdy, cdy));
+  const Int128 bc = subtract128(multiply_signed(bdx, cdy), multiply_signed(cdx, bdy));
+  const Int128 ca = subtract128(multiply_signed(cdx, ady), multiply_signed(adx, cdy));
+  const Int128 ab = subtract128(multiply_signed(adx, bdy), multiply_signed(bdx, ady));
+  std::uint64_t det[4] = {0, 0, 0, 0};
+  add_product(det, alift, bc);
+  add_product(det, blift, ca);
+  add_product(det, clift, ab);
+  if ((det[3] >> 63) != 0)
+    sign = -1;
+  else
+    sign = (det[0] | det[1] | det[2] | det[3]) != 0 ? 1 : 0;
+  return true;
+}
+
+} // namespace incircle_detail
+
+/// Exact sign of incircle's determinant: the integer path where the coordinates fit it, else the wide
+/// accumulator. Exact for all finite coordinates whose differences do not overflow.
+CDT_HD_NOINLINE int incircle_exact(double ax, double ay, double bx, double by, double cx, double cy,
+                                   double dx, double dy) {
+  int sign;
+  if (incircle_detail::small_sign(ax, ay, bx, by, cx, cy, dx, dy, sign)) return sign;
+  return incircle_exact_wide(ax, ay, bx, by, cx, cy, dx, dy);
 }
 
 /// Sign of incircle: +1 when d lies strictly inside the circle through the counter-clockwise triangle
