@@ -2,11 +2,11 @@
 // Exact geometric predicates orient2d and incircle for double coordinates.
 //
 // A floating-point filter with a proven error bound answers almost every call; when it cannot decide,
-// the determinant is evaluated exactly: in fixed-size integers when the coordinates span at most 61
-// bits (integer_detail), else orient2d's with floating-point expansion arithmetic (sums of
+// the determinant is evaluated exactly: orient2d's with floating-point expansion arithmetic (sums of
 // non-overlapping doubles, after Shewchuk, "Adaptive Precision Floating-Point Arithmetic and Fast
-// Robust Geometric Predicates", 1997) and incircle's as integer products added in one wide fixed-point
-// accumulator (incircle_detail). The same code runs on the host and on the device.
+// Robust Geometric Predicates", 1997), incircle's in fixed-size integers when the coordinates span at
+// most 61 bits (integer_detail), else as integer products added in one wide fixed-point accumulator
+// (incircle_detail). The same code runs on the host and on the device.
 //
 // Error-free transformations need every operation rounded exactly once, so fused multiply-add must
 // not be introduced by the compiler: on the device the arithmetic goes through the __d*_rn
@@ -205,13 +205,15 @@ CDT_HD_INLINE Expansion<2> exact_diff(double a, double b) {
 
 // --- exact integers --------------------------------------------------------------------------------
 //
-// The exact paths' integers. A double is an integer significand times a power of two (Scaled). The
-// coordinates of the queries that reach an exact path are nearly always close in magnitude: all of them
-// are then integer multiples of one power of two 2^low below 2^(low + 61) (small_integers), and the
-// determinant, scaled by a power of 2^-low, is a polynomial in integers below 2^61 that fixed-size
-// integers in registers hold exactly (orient2d's below 2^125, incircle's below 2^252). The sign is the
-// same. Queries of wider spans take the paths for any doubles: expansions for orient2d, the wide
-// accumulator for incircle.
+// incircle's exact paths' integers. A double is an integer significand times a power of two (Scaled).
+// The wide accumulator's 192 additions go through 1 KiB of memory; on the device that is local memory,
+// and one exact test on one thread took tens of microseconds, which a round of the flips waited for
+// whenever one of its tests was undecided. The coordinates of the quadruples that reach the exact path
+// are nearly always close in magnitude: all eight are then integer multiples of one power of two 2^low
+// below 2^(low + 61) (small_integers), and the determinant, scaled by 2^(-4 low), is a polynomial in
+// integers below 2^61 that four words in registers hold exactly (incircle_detail::small_sign). The sign
+// is the same; quadruples of wider spans go to the wide accumulator. (orient2d's expansions are short;
+// the same integer path inlined into the walks' kernels made them slower on the device.)
 
 namespace integer_detail {
 
@@ -253,7 +255,7 @@ CDT_HD_INLINE std::uint64_t add_word(std::uint64_t& sum, std::uint64_t v) {
   return sum < v ? 1u : 0u;
 }
 
-/// The integer paths' limit on log2 of the largest coordinate in units of the lowest set bit among them.
+/// The integer path's limit on log2 of the largest coordinate in units of the lowest set bit among them.
 inline constexpr int kSmallSpan = 61;
 
 CDT_HD_INLINE int leading_zeros(std::uint64_t v) {
@@ -371,24 +373,9 @@ inline constexpr double kEpsilon = 1.1102230246251565e-16; // 2^-53, half an ulp
 inline constexpr double kOrientBound = (3.0 + 16.0 * kEpsilon) * kEpsilon;
 inline constexpr double kIncircleBound = (10.0 + 96.0 * kEpsilon) * kEpsilon;
 
-/// orient2d's exact sign by the integer path (see integer_detail): true and the sign in `sign` when the
-/// coordinates fit it, false otherwise. The differences are below 2^62 in magnitude, the products below
-/// 2^124 and their difference below 2^125.
-CDT_HD_INLINE bool orient2d_small_sign(double ax, double ay, double bx, double by, double cx, double cy,
-                                       int& sign) {
-  using namespace integer_detail;
-  const double coords[6] = {ax, ay, bx, by, cx, cy};
-  std::int64_t v[6];
-  if (!small_integers<6>(coords, v)) return false;
-  const Int128 det =
-      subtract128(multiply_signed(v[0] - v[4], v[3] - v[5]), multiply_signed(v[1] - v[5], v[2] - v[4]));
-  sign = negative128(det) ? -1 : (det.lo | det.hi) != 0 ? 1 : 0;
-  return true;
-}
-
 /// Exact sign of orient2d by expansion arithmetic, for any finite coordinates whose differences do not
 /// overflow: +1 when a, b, c turn counter-clockwise.
-CDT_HD inline int orient2d_exact_expansion(double ax, double ay, double bx, double by, double cx, double cy) {
+CDT_HD inline int orient2d_exact(double ax, double ay, double bx, double by, double cx, double cy) {
   const Expansion<2> acx = exact_diff(ax, cx);
   const Expansion<2> acy = exact_diff(ay, cy);
   const Expansion<2> bcx = exact_diff(bx, cx);
@@ -400,14 +387,6 @@ CDT_HD inline int orient2d_exact_expansion(double ax, double ay, double bx, doub
   Expansion<16> det;
   expansion_sum(left, negated(right), det);
   return expansion_sign(det);
-}
-
-/// Exact sign of orient2d: +1 when a, b, c turn counter-clockwise. The integer path where the
-/// coordinates fit it, else expansion arithmetic.
-CDT_HD inline int orient2d_exact(double ax, double ay, double bx, double by, double cx, double cy) {
-  int sign;
-  if (orient2d_small_sign(ax, ay, bx, by, cx, cy, sign)) return sign;
-  return orient2d_exact_expansion(ax, ay, bx, by, cx, cy);
 }
 
 /// What a filter returns when its error bound cannot decide the sign.
