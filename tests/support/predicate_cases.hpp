@@ -127,13 +127,13 @@ inline PredicateCases make_predicate_cases(int scale = 1) {
   // 5. Coordinates of very different magnitudes, past the span of incircle's integer path (more than
   //    2^61 units of the lowest set bit), so that its wide accumulator decides: the circle through
   //    (R, 0), (0, R) and (-R, 0) with R = 2^r, and d = (e, -R) outside it (e = 2^-k, |d|^2 = R^2 + e^2),
-  //    d = (e, -R + R * 2^-40) inside it (|d|^2 = R^2 - 2^(1 - 40) R^2 + ...), and d = (0, -R) on it
-  //    (a span of one bit: the integer path's). Each quadruple also turned by a quarter (which keeps
-  //    every sign) and with a, b, c cycled.
+  //    d = (e, -R + R * 2^-52) inside it (|d|^2 = R^2 - 2^(1 - 52) R^2 + ...; the filter cannot decide
+  //    either), and d = (0, -R) on it (a span of one bit: the integer path's). Each quadruple also turned by
+  //    a quarter (which keeps every sign) and with a, b, c cycled.
   for (int i = 0; i < 150 * scale; ++i) {
     const double r = std::ldexp(1.0, static_cast<int>(rng.range(30, 60)));
     const double e = std::ldexp(1.0, -static_cast<int>(rng.range(40, 70))) * (rng.range(0, 1) != 0 ? 1 : -1);
-    const double inner = -r + std::ldexp(r, -40);
+    const double inner = -r + std::ldexp(r, -52);
     const double ds[3][2] = {{e, -r}, {0.0, -r}, {e, inner}};
     const int expected[3] = {-1, 0, 1};
     for (int k = 0; k < 3; ++k) {
