@@ -255,6 +255,33 @@ CDT_HD_INLINE std::uint64_t add_word(std::uint64_t& sum, std::uint64_t v) {
   return sum < v ? 1u : 0u;
 }
 
+/// r[0, 4) = (a_hi * 2^64 + a_lo) * (b_hi * 2^64 + b_lo), for a product below 2^256.
+CDT_HD_INLINE void multiply_two_words(std::uint64_t a_hi, std::uint64_t a_lo, std::uint64_t b_hi,
+                                      std::uint64_t b_lo, std::uint64_t* r) {
+  std::uint64_t h00, l00, h01, l01, h10, l10, h11, l11;
+  multiply_words(a_lo, b_lo, h00, l00);
+  multiply_words(a_lo, b_hi, h01, l01);
+  multiply_words(a_hi, b_lo, h10, l10);
+  multiply_words(a_hi, b_hi, h11, l11);
+  r[0] = l00;
+  r[1] = h00;
+  const std::uint64_t carry2 = add_word(r[1], l01) + add_word(r[1], l10);
+  r[2] = h01;
+  const std::uint64_t carry3 = add_word(r[2], h10) + add_word(r[2], l11) + add_word(r[2], carry2);
+  r[3] = h11 + carry3;
+}
+
+/// w += v + carry, or w -= v + carry (a borrow) when subtracting; returns the carry or borrow out.
+CDT_HD_INLINE std::uint64_t add_with_carry(std::uint64_t& w, std::uint64_t v, std::uint64_t carry,
+                                           bool subtract) {
+  if (subtract) {
+    const std::uint64_t before = w;
+    w = before - v - carry;
+    return (before < v || (before == v && carry != 0)) ? 1u : 0u;
+  }
+  return add_word(w, v) + add_word(w, carry);
+}
+
 /// The integer path's limit on log2 of the largest coordinate in units of the lowest set bit among them.
 inline constexpr int kSmallSpan = 61;
 
@@ -338,31 +365,13 @@ CDT_HD_INLINE void add_product(std::uint64_t (&sum)[4], Int128 a, Int128 b) {
   const bool subtract = negative128(a) != negative128(b);
   if (negative128(a)) a = negate128(a);
   if (negative128(b)) b = negate128(b);
-  std::uint64_t h00, l00, h01, l01, h10, l10, h11, l11;
-  multiply_words(a.lo, b.lo, h00, l00);
-  multiply_words(a.lo, b.hi, h01, l01);
-  multiply_words(a.hi, b.lo, h10, l10);
-  multiply_words(a.hi, b.hi, h11, l11);
   std::uint64_t r[4];
-  r[0] = l00;
-  r[1] = h00;
-  const std::uint64_t carry2 = add_word(r[1], l01) + add_word(r[1], l10);
-  r[2] = h01;
-  const std::uint64_t carry3 = add_word(r[2], h10) + add_word(r[2], l11) + add_word(r[2], carry2);
-  r[3] = h11 + carry3;
+  multiply_two_words(a.hi, a.lo, b.hi, b.lo, r);
   std::uint64_t carry = 0; // a borrow when subtracting
 #if defined(__CUDA_ARCH__)
 #pragma unroll
 #endif
-  for (int k = 0; k < 4; ++k) {
-    if (subtract) {
-      const std::uint64_t before = sum[k];
-      sum[k] = before - r[k] - carry;
-      carry = (before < r[k] || (before == r[k] && carry != 0)) ? 1u : 0u;
-    } else {
-      carry = add_word(sum[k], r[k]) + add_word(sum[k], carry);
-    }
-  }
+  for (int k = 0; k < 4; ++k) carry = add_with_carry(sum[k], r[k], carry, subtract);
 }
 
 } // namespace integer_detail
@@ -431,7 +440,8 @@ CDT_HD inline int orient2d(double ax, double ay, double bx, double by, double cx
 
 namespace incircle_detail {
 
-using integer_detail::add_word;
+using integer_detail::add_with_carry;
+using integer_detail::multiply_two_words;
 using integer_detail::multiply_words;
 using integer_detail::scaled;
 using integer_detail::Scaled;
@@ -465,18 +475,8 @@ CDT_HD_INLINE Product2 product2(double a, double b, bool negate = false) {
 CDT_HD inline void accumulate(std::uint64_t* words, const Product2& p, const Product2& q) {
   if ((p.hi | p.lo) == 0 || (q.hi | q.lo) == 0) return;
   // 128 x 128 bits; the product is below 2^212, so the top word cannot overflow.
-  std::uint64_t h00, l00, h01, l01, h10, l10, h11, l11;
-  multiply_words(p.lo, q.lo, h00, l00);
-  multiply_words(p.lo, q.hi, h01, l01);
-  multiply_words(p.hi, q.lo, h10, l10);
-  multiply_words(p.hi, q.hi, h11, l11);
   std::uint64_t r[5];
-  r[0] = l00;
-  r[1] = h00;
-  const std::uint64_t carry2 = add_word(r[1], l01) + add_word(r[1], l10);
-  r[2] = h01;
-  const std::uint64_t carry3 = add_word(r[2], h10) + add_word(r[2], l11) + add_word(r[2], carry2);
-  r[3] = h11 + carry3;
+  multiply_two_words(p.hi, p.lo, q.hi, q.lo, r);
   r[4] = 0;
   const int offset = p.e + q.e - kLowestExponent;
   const int first = offset >> 6;
@@ -488,16 +488,7 @@ CDT_HD inline void accumulate(std::uint64_t* words, const Product2& p, const Pro
   const bool subtract = p.negative != q.negative;
   std::uint64_t carry = 0; // a borrow when subtracting
   int k = 0;
-  for (; k < 5; ++k) {
-    std::uint64_t& w = words[first + k];
-    if (subtract) {
-      const std::uint64_t before = w;
-      w = before - r[k] - carry;
-      carry = (before < r[k] || (before == r[k] && carry != 0)) ? 1u : 0u;
-    } else {
-      carry = add_word(w, r[k]) + add_word(w, carry);
-    }
-  }
+  for (; k < 5; ++k) carry = add_with_carry(words[first + k], r[k], carry, subtract);
   for (int i = first + k; carry != 0 && i < kWords; ++i) {
     if (subtract) {
       carry = words[i] == 0 ? 1u : 0u;
