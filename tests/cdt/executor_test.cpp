@@ -97,6 +97,45 @@ TEST(CpuExecutor, AnElementsExceptionReachesTheCallerAndThePoolGoesOn) {
   }
 }
 
+// A step ends when its elements are done, not when every worker has looked in: workers that wake late
+// (more threads than cores, and here a thread spinning beside them) may meet the next step's fields
+// being set. Thousands of back-to-back steps of a few elements to a few thousand, some of them
+// throwing, each visit every index once.
+TEST(CpuExecutor, BackToBackSmallStepsBesideABusyThreadVisitEveryIndexOnce) {
+  // Spins until the test ends, however it ends.
+  struct BusyThread {
+    std::atomic<bool> stop{false};
+    std::thread thread{[this] {
+      while (!stop.load(std::memory_order_relaxed)) {
+      }
+    }};
+    ~BusyThread() {
+      stop.store(true);
+      thread.join();
+    }
+  } busy;
+  struct Thrown {};
+  for (unsigned threads : {2u, 3u, 9u}) {
+    CpuExecutor ex(threads);
+    std::vector<std::atomic<int>> seen(5000);
+    for (std::size_t step = 0; step < 3000; ++step) {
+      const std::size_t n = (step * 2654435761u) % seen.size();
+      for (std::size_t i = 0; i < n; ++i) seen[i].store(0, std::memory_order_relaxed);
+      if (step % 97 == 5 && n > 0) {
+        EXPECT_THROW(ex.for_each_costly(n,
+                                        [&](std::size_t i) {
+                                          if (i == n / 2) throw Thrown{};
+                                        }),
+                     Thrown);
+        continue;
+      }
+      ex.for_each_costly(n, [&](std::size_t i) { seen[i].fetch_add(1, std::memory_order_relaxed); });
+      for (std::size_t i = 0; i < n; ++i)
+        ASSERT_EQ(seen[i].load(std::memory_order_relaxed), 1) << "threads " << threads << " step " << step;
+    }
+  }
+}
+
 TEST(CpuExecutor, ScanCompactAndSortMatchSerialResults) {
   CpuExecutor ex(4);
   std::vector<std::uint32_t> v(200003);

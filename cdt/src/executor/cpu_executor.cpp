@@ -45,30 +45,42 @@ bool spin_until(Ready&& ready) {
 
 void CpuExecutor::run_chunks(std::size_t n, std::size_t chunk,
                              const std::function<void(std::size_t, std::size_t)>& body) {
-  // The workers of the last step are all done (pending_ reached 0), so nobody reads these now.
+  // The last step is closed (generation_ even); a worker still counted in busy_ may be reading its
+  // fields, which it leaves at once (no chunk left). Wait for it before setting this step's.
+  while (busy_.load(std::memory_order_seq_cst) != 0) std::this_thread::yield();
   body_ = &body;
   n_ = n;
   chunk_ = chunk;
   next_.store(0, std::memory_order_relaxed);
-  pending_.store(static_cast<unsigned>(workers_.size()), std::memory_order_relaxed);
-  bool wake;
+  finished_.store(0, std::memory_order_relaxed);
+  // Wake as many sleepers as there are chunks for them (the caller takes one itself).
+  const std::size_t chunks = (n + chunk - 1) / chunk;
+  std::size_t wake = 0;
+  bool wake_all = false;
   {
     // Under the mutex: a worker about to sleep checks generation_ under it, so none misses the step.
     std::lock_guard<std::mutex> lock(mutex_);
-    generation_.fetch_add(1, std::memory_order_release);
-    wake = sleepers_ > 0;
+    generation_.fetch_add(1, std::memory_order_seq_cst); // odd: open
+    wake = std::min<std::size_t>(sleepers_, chunks - 1);
+    wake_all = wake == sleepers_;
   }
-  if (wake) start_.notify_all();
+  if (wake_all) {
+    if (wake > 0) start_.notify_all();
+  } else {
+    for (std::size_t k = 0; k < wake; ++k) start_.notify_one();
+  }
   take_chunks(body, n, chunk);
-  const auto done = [this] { return pending_.load(std::memory_order_acquire) == 0; };
+  const auto done = [this] { return finished_.load(std::memory_order_acquire) == n_; };
   if (!spin_until(done)) {
     std::unique_lock<std::mutex> lock(mutex_);
     caller_sleeping_ = true;
     done_.wait(lock, done);
     caller_sleeping_ = false;
   }
-  body_ = nullptr;
-  // Every thread is out of the step: nobody writes failure_ now.
+  // Closed. body_ is left as it is: a worker that came in just before may still read it (and find no
+  // chunk); the next step sets it once busy_ is 0.
+  generation_.fetch_add(1, std::memory_order_seq_cst);
+  // Every element is done: nobody writes failure_ now.
   if (failure_) std::rethrow_exception(std::exchange(failure_, nullptr));
 }
 
@@ -77,18 +89,28 @@ void CpuExecutor::take_chunks(const std::function<void(std::size_t, std::size_t)
   for (;;) {
     const std::size_t begin = next_.fetch_add(chunk, std::memory_order_relaxed);
     if (begin >= n) return;
+    const std::size_t end = std::min(n, begin + chunk);
+    std::size_t count = end - begin;
     try {
-      body(begin, std::min(n, begin + chunk));
+      body(begin, end);
     } catch (...) {
       {
         std::lock_guard<std::mutex> lock(failure_mutex_);
         if (!failure_) failure_ = std::current_exception();
       }
-      // No more chunks for anyone: the step ends once those begun are done. (A thread that took its
-      // chunk's start before this store still runs that chunk; the value stays at n or above.)
-      next_.store(n, std::memory_order_relaxed);
-      return;
+      // No more chunks for anyone: the step ends once those begun are done. The elements not handed
+      // out yet count as finished here. (A thread that took its chunk's start before this exchange
+      // still runs that chunk; the value stays at n or above.)
+      const std::size_t unclaimed = next_.exchange(n, std::memory_order_relaxed);
+      if (unclaimed < n) count += n - unclaimed;
     }
+    if (finished_.fetch_add(count, std::memory_order_acq_rel) + count == n) {
+      // The last elements: wake the caller should it be asleep (checked under the mutex, where the
+      // caller decides to sleep).
+      std::lock_guard<std::mutex> lock(mutex_);
+      if (caller_sleeping_) done_.notify_one();
+    }
+    if (count != end - begin) return;
   }
 }
 
@@ -145,8 +167,10 @@ void CpuExecutor::sort_pairs_by_key(std::vector<std::uint32_t>& keys, std::vecto
 
 void CpuExecutor::worker_loop(unsigned) {
   std::uint64_t seen = 0;
+  // An open step this worker has not been in yet (or the pool's end).
   const auto ready = [&] {
-    return generation_.load(std::memory_order_acquire) != seen || stop_.load(std::memory_order_acquire);
+    const std::uint64_t g = generation_.load(std::memory_order_acquire);
+    return ((g & 1) != 0 && g != seen) || stop_.load(std::memory_order_acquire);
   };
   for (;;) {
     if (!spin_until(ready)) {
@@ -156,14 +180,17 @@ void CpuExecutor::worker_loop(unsigned) {
       --sleepers_;
     }
     if (stop_.load(std::memory_order_acquire)) return;
-    seen = generation_.load(std::memory_order_acquire);
-    take_chunks(*body_, n_, chunk_);
-    if (pending_.fetch_sub(1, std::memory_order_acq_rel) == 1) {
-      // The last one out wakes the caller should it be asleep (checked under the mutex, where the
-      // caller decides to sleep).
-      std::lock_guard<std::mutex> lock(mutex_);
-      if (caller_sleeping_) done_.notify_one();
+    const std::uint64_t g = generation_.load(std::memory_order_seq_cst);
+    if ((g & 1) == 0 || g == seen) continue;
+    // Counted in before the step's fields are read, and the step checked again after: either the
+    // caller sees this worker in busy_ before it sets the next step's fields, or this worker sees the
+    // step closed and leaves without reading them.
+    busy_.fetch_add(1, std::memory_order_seq_cst);
+    if (generation_.load(std::memory_order_seq_cst) == g) {
+      seen = g;
+      take_chunks(*body_, n_, chunk_);
     }
+    busy_.fetch_sub(1, std::memory_order_seq_cst);
   }
 }
 

@@ -240,24 +240,33 @@ private:
 
   void run_chunks(std::size_t n, std::size_t chunk,
                   const std::function<void(std::size_t, std::size_t)>& body);
-  /// Takes chunks of the current step until none are left; an exception ends the handing out.
+  /// Takes chunks of the current step until none are left, counting the finished elements in
+  /// finished_; an exception ends the handing out, and the elements never handed out count as finished.
   void take_chunks(const std::function<void(std::size_t, std::size_t)>& body, std::size_t n,
                    std::size_t chunk) noexcept;
   void worker_loop(unsigned index);
 
   unsigned num_threads_ = 1;
   std::vector<std::thread> workers_;
-  // A step is published by raising generation_ (after body_, n_, chunk_ and next_ are set) and is done
-  // when pending_, the workers still in it, reaches 0. Both sides spin a little (yielding their core)
-  // before they sleep on the condition variables, so that back-to-back steps do not wait for sleeping
-  // threads to wake: a step of 8192 elements on 2 threads took about 5 us instead of 24-30, 12 instead of
-  // 39 with 4 threads on 2 cores; the host's parts of a GPU triangulation are many such small steps
-  // (the split of the suspect pieces: dozens of steps on a few thousand elements).
+  // A step is published by setting body_, n_, chunk_ and next_ and then raising generation_ to an odd
+  // value; it is done when finished_ (its elements finished, or given up after an exception) reaches n_.
+  // The caller waits for the elements, not for the workers: a worker that wakes late, or whose core
+  // is taken by another busy thread (the device's waiting thread beside a full pool), finds no chunk
+  // left and costs the step nothing, where waiting for every worker to check in cost a scheduler tick
+  // (4 ms) now and then. After a step generation_ goes even (closed); a worker counts itself in busy_
+  // before it looks at a step and checks generation_ again after, and the caller sets the next step's
+  // fields only once busy_ is 0, so no worker reads a step's fields while they change. Both sides spin
+  // a little (yielding their core) before they sleep on the condition variables, so that back-to-back
+  // steps do not wait for sleeping threads to wake: a step of 8192 elements on 2 threads took about
+  // 5 us instead of 24-30, 12 instead of 39 with 4 threads on 2 cores; the host's parts of a GPU
+  // triangulation are many such small steps (the split of the suspect pieces: dozens of steps on a
+  // few thousand elements).
   std::mutex mutex_;
   std::condition_variable start_;
   std::condition_variable done_;
   std::atomic<std::uint64_t> generation_{0};
-  std::atomic<unsigned> pending_{0};
+  std::atomic<unsigned> busy_{0};
+  std::atomic<std::size_t> finished_{0};
   std::atomic<bool> stop_{false};
   unsigned sleepers_ = 0;        // workers asleep on start_ (under mutex_)
   bool caller_sleeping_ = false; // the caller asleep on done_ (under mutex_)
