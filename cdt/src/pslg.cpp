@@ -1364,8 +1364,9 @@ PreparedPslg merge_input(std::span<const Point> points, std::span<const Segment>
     trace.mark("validated");
     out.duplicate_of = merge_duplicates(points, executor);
     trace.mark("duplicates");
-    out.sites =
-        executor.compact<IndexArray>(points.size(), [&](std::size_t i) { return out.duplicate_of[i] == i; });
+    // With room for the vertices the split adds: a full array would be copied for the first of them.
+    out.sites = executor.compact<IndexArray>(
+        points.size(), [&](std::size_t i) { return out.duplicate_of[i] == i; }, vertex_room(points.size()));
   }
   if (merge) {
     // The merge may still be filling the maps: the points themselves are looked at.

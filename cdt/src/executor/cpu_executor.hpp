@@ -156,10 +156,11 @@ public:
   }
 
   /// The indices i in [0, n) for which keep(i) is true, in increasing order (stream compaction), in
-  /// a std::vector or another vector of 32-bit indices (Out).
+  /// a std::vector or another vector of 32-bit indices (Out) with room for at least `room` of them.
   template <class Out = std::vector<std::uint32_t>, class Pred>
-  Out compact(std::size_t n, Pred&& keep) {
+  Out compact(std::size_t n, Pred&& keep, std::size_t room = 0) {
     Out out;
+    out.reserve(room);
     if (num_threads_ == 1 || n < kSerialBelow) {
       for (std::size_t i = 0; i < n; ++i)
         if (keep(i)) out.push_back(static_cast<std::uint32_t>(i));
