@@ -56,19 +56,13 @@ void CpuExecutor::run_chunks(std::size_t n, std::size_t chunk,
   // Wake as many sleepers as there are chunks for them (the caller takes one itself).
   const std::size_t chunks = (n + chunk - 1) / chunk;
   std::size_t wake = 0;
-  bool wake_all = false;
   {
     // Under the mutex: a worker about to sleep checks generation_ under it, so none misses the step.
     std::lock_guard<std::mutex> lock(mutex_);
     generation_.fetch_add(1, std::memory_order_seq_cst); // odd: open
     wake = std::min<std::size_t>(sleepers_, chunks - 1);
-    wake_all = wake == sleepers_;
   }
-  if (wake_all) {
-    if (wake > 0) start_.notify_all();
-  } else {
-    for (std::size_t k = 0; k < wake; ++k) start_.notify_one();
-  }
+  for (std::size_t k = 0; k < wake; ++k) start_.notify_one();
   take_chunks(body, n, chunk);
   const auto done = [this] { return finished_.load(std::memory_order_acquire) == n_; };
   if (!spin_until(done)) {
@@ -110,7 +104,6 @@ void CpuExecutor::take_chunks(const std::function<void(std::size_t, std::size_t)
       std::lock_guard<std::mutex> lock(mutex_);
       if (caller_sleeping_) done_.notify_one();
     }
-    if (count != end - begin) return;
   }
 }
 
