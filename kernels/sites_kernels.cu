@@ -445,7 +445,9 @@ void prepare_sites(DeviceSites::State& s, std::uint32_t m, GridMapping& mapping,
       },
       "renumber_sites");
 
-  // Grid cells; the lowest site of a cell owns it (atomic minimum, whatever the order of the threads).
+  // Grid cells; the site nearest a cell's grid point owns it, the lowest among equals (assign_sites):
+  // atomic minima of the distances, then of the sites at the least one, whatever the order of the
+  // threads.
   const std::size_t cells = static_cast<std::size_t>(m) * m;
   s.gx.resize(n);
   s.gy.resize(n);
@@ -453,15 +455,29 @@ void prepare_sites(DeviceSites::State& s, std::uint32_t m, GridMapping& mapping,
   std::uint32_t* gx = s.gx.data();
   std::uint32_t* gy = s.gy.data();
   std::uint32_t* owner = s.cell_owner.data();
-  executor.fill_bytes(owner, 0xFF, cells);
-  executor.for_each(
-      n,
-      [=] __device__(std::size_t k) {
-        gx[k] = map.grid_x(tx[k]);
-        gy[k] = map.grid_y(ty[k]);
-        atomic_min(owner + static_cast<std::size_t>(gy[k]) * map.m + gx[k], static_cast<std::uint32_t>(k));
-      },
-      "site_cells");
+  {
+    DeviceBuffer<std::uint32_t> d_least(cells);
+    std::uint32_t* least = d_least.data();
+    executor.fill_bytes(least, 0xFF, cells);
+    executor.fill_bytes(owner, 0xFF, cells);
+    executor.for_each(
+        n,
+        [=] __device__(std::size_t k) {
+          gx[k] = map.grid_x(tx[k]);
+          gy[k] = map.grid_y(ty[k]);
+          atomic_min(least + static_cast<std::size_t>(gy[k]) * map.m + gx[k],
+                     ::cdt::detail::grid_point_distance_key(map, tx[k], ty[k], gx[k], gy[k]));
+        },
+        "site_cells");
+    executor.for_each(
+        n,
+        [=] __device__(std::size_t k) {
+          const std::size_t cell = static_cast<std::size_t>(gy[k]) * map.m + gx[k];
+          if (::cdt::detail::grid_point_distance_key(map, tx[k], ty[k], gx[k], gy[k]) == least[cell])
+            atomic_min(owner + cell, static_cast<std::uint32_t>(k));
+        },
+        "site_owners");
+  }
 
   // Kept sites sit at their grid points, the others at their true positions.
   s.kept.resize(n);
@@ -555,10 +571,10 @@ void prepare_sites(DeviceSites::State& s, std::uint32_t m, GridMapping& mapping,
 std::size_t sites_device_bytes(std::size_t num_vertices, std::size_t num_sites, std::uint32_t m) {
   // Vertices (16 bytes) and their sites (4); per site: the list of sites, 4 positions, 2 cells, the
   // sort's keys and values twice, the numbering, the kept flag, a missing point (4 + 32 + 8 + 16 + 4 +
-  // 1 + 12); the m * m owners; CUB's scratch and the executor's within a margin of a megabyte plus a
-  // byte per site.
+  // 1 + 12); the m * m owners and their least distances; CUB's scratch and the executor's within a
+  // margin of a megabyte plus a byte per site.
   const std::size_t cells = static_cast<std::size_t>(m) * m;
-  return 20 * num_vertices + 78 * num_sites + 4 * cells + (std::size_t{1} << 20);
+  return 20 * num_vertices + 78 * num_sites + 8 * cells + (std::size_t{1} << 20);
 }
 
 DeviceSites::DeviceSites(std::span<const Point> vertices, std::span<const std::uint32_t> sites,

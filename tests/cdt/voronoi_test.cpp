@@ -455,9 +455,10 @@ TEST(GridMap, RejectsNonFiniteCoordinatesAndBadSizes) {
 }
 
 // Duplicates and near-duplicates share a cell: the lowest index is kept, the rest are missing points.
-TEST(GridMap, AssignSitesKeepsTheLowestIndexPerCell) {
+TEST(GridMap, AssignSitesKeepsThePointNearestTheGridPoint) {
   CpuExecutor executor(2);
-  // In grid units through the identity mapping: 0.2 and 0.9 fall in cell 0, 3.0 in cell 3.
+  // In grid units through the identity mapping: 0.9, 0.2 and 0.0 fall in cell 0, whose grid point
+  // (0, 0) is point 5 itself; 3.0 (twice, equally near) and 3.99 in cell 3 of row 1.
   const std::vector<double> x = {3.0, 0.9, 0.2, 3.0, 5.5, 0.0, 3.99};
   const std::vector<double> y = {1.0, 0.0, 0.5, 1.0, 7.0, 0.0, 1.5};
   GridMapping identity;
@@ -466,12 +467,26 @@ TEST(GridMap, AssignSitesKeepsTheLowestIndexPerCell) {
   const GridSites s = cdt::detail::assign_sites(identity, x, y, executor);
   EXPECT_EQ(s.gx, (std::vector<std::uint32_t>{3, 0, 0, 3, 5, 0, 3}));
   EXPECT_EQ(s.gy, (std::vector<std::uint32_t>{1, 0, 0, 1, 7, 0, 1}));
-  EXPECT_EQ(s.cell_owner[0], 1u);
-  EXPECT_EQ(s.cell_owner[1 * 8 + 3], 0u);
+  EXPECT_EQ(s.cell_owner[0], 5u);         // the nearest, though not the lowest index
+  EXPECT_EQ(s.cell_owner[1 * 8 + 3], 0u); // the lowest of two equally near
   EXPECT_EQ(s.cell_owner[7 * 8 + 5], 4u);
   EXPECT_EQ(std::count(s.cell_owner.begin(), s.cell_owner.end(), kNone), 64 - 3);
-  EXPECT_EQ(s.missing, (std::vector<std::uint32_t>{2, 3, 5, 6}));
-  EXPECT_EQ(s.missing_owner, (std::vector<std::uint32_t>{1, 0, 1, 0}));
+  EXPECT_EQ(s.missing, (std::vector<std::uint32_t>{1, 2, 3, 6}));
+  EXPECT_EQ(s.missing_owner, (std::vector<std::uint32_t>{5, 5, 0, 0}));
+}
+
+TEST(GridMap, GridPointDistanceKeyOrdersByDistance) {
+  GridMapping identity;
+  identity.m = 8;
+  identity.scale = 1.0;
+  const auto key = [&](double x, double y) {
+    return cdt::detail::grid_point_distance_key(identity, x, y, identity.grid_x(x), identity.grid_y(y));
+  };
+  EXPECT_EQ(key(2.0, 3.0), 0u);
+  EXPECT_LT(key(2.1, 3.0), key(2.0, 3.2));
+  EXPECT_LT(key(2.0, 3.2), key(2.15, 3.15));
+  EXPECT_LT(key(2.15, 3.15), key(2.9, 3.9));
+  EXPECT_EQ(key(2.3, 3.4), key(2.4, 3.3));
 }
 
 // The atomic minimum must make the kept point independent of thread timing on a contended input.
@@ -488,9 +503,16 @@ TEST(GridMap, AssignSitesMatchesASerialReferenceUnderContention) {
   const GridSites s = cdt::detail::assign_sites(map, x, y, executor);
   std::vector<std::uint32_t> owner(256 * 256, kNone);
   std::vector<std::uint32_t> missing, missing_owner;
+  // One point after the other: the nearest its grid point, the first of equally near ones.
+  std::vector<std::uint32_t> least(256 * 256, kNone);
   for (std::uint32_t i = 0; i < x.size(); ++i) {
-    std::uint32_t& o = owner[map.grid_y(y[i]) * 256 + map.grid_x(x[i])];
-    if (o == kNone) o = i;
+    const std::uint32_t gx = map.grid_x(x[i]), gy = map.grid_y(y[i]);
+    const std::uint32_t key = cdt::detail::grid_point_distance_key(map, x[i], y[i], gx, gy);
+    std::uint32_t& o = owner[gy * 256 + gx];
+    if (o == kNone || key < least[gy * 256 + gx]) {
+      o = i;
+      least[gy * 256 + gx] = key;
+    }
   }
   for (std::uint32_t i = 0; i < x.size(); ++i) {
     const std::uint32_t o = owner[map.grid_y(y[i]) * 256 + map.grid_x(x[i])];
