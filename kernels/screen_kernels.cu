@@ -117,8 +117,7 @@ ScreenedPieces DeviceMesh::screen(std::span<const ConstraintPiece2> host_pieces,
   // slot, the first two pieces through it and whether more pass.
   DeviceBuffer<std::uint32_t> d_piece_on(3 * static_cast<std::size_t>(s.num_slots)), d_first(s.num_slots),
       d_second(s.num_slots);
-  DeviceBuffer<std::uint8_t> d_walker(np), d_crowded(s.num_slots), d_in_crowd(np), d_suspect(np),
-      d_site(s.num_vertices);
+  DeviceBuffer<std::uint8_t> d_walker(np), d_crowded(s.num_slots), d_suspect(np), d_site(s.num_vertices);
   // Two words, read back together: whether a walk failed, and (its first byte) whether the split will
   // change the pieces.
   DeviceBuffer<std::uint32_t> d_failed(2);
@@ -127,7 +126,6 @@ ScreenedPieces DeviceMesh::screen(std::span<const ConstraintPiece2> host_pieces,
   std::uint32_t* second = d_second.data();
   std::uint8_t* walker = d_walker.data();
   std::uint8_t* crowded = d_crowded.data();
-  std::uint8_t* in_crowd = d_in_crowd.data();
   std::uint8_t* suspect = d_suspect.data();
   std::uint8_t* site = d_site.data();
   std::uint32_t* failed = d_failed.data();
@@ -136,7 +134,6 @@ ScreenedPieces DeviceMesh::screen(std::span<const ConstraintPiece2> host_pieces,
   executor.fill_bytes(first, 0xFF, s.num_slots);
   executor.fill_bytes(second, 0xFF, s.num_slots);
   executor.fill_bytes(crowded, 0, s.num_slots);
-  executor.fill_bytes(in_crowd, 0, np);
   executor.fill_bytes(suspect, 0, np);
   executor.fill_bytes(site, 0, s.num_vertices);
   executor.fill_bytes(failed, 0, 2);
@@ -165,7 +162,7 @@ ScreenedPieces DeviceMesh::screen(std::span<const ConstraintPiece2> host_pieces,
           return atomicCAS(word, expected, v);
         };
         return ::cdt::detail::screen_corridor(m, pieces[k], static_cast<std::uint32_t>(k), piece_on, first,
-                                              second, crowded, in_crowd, suspect, site, *changes, flag, swap,
+                                              second, crowded, suspect, site, *changes, flag, swap,
                                               part.tri == kNoId && part.stop == kNoId ? nullptr : &part);
       },
       "screen_corridors", "screen_corridor_parts");
@@ -175,76 +172,10 @@ ScreenedPieces DeviceMesh::screen(std::span<const ConstraintPiece2> host_pieces,
       [=] __device__(std::size_t t) {
         const auto flag = [](std::uint8_t& f) { f = 1; };
         ::cdt::detail::screen_settle_triangle(m, pieces, static_cast<std::uint32_t>(t), first, second,
-                                              crowded, piece_on, in_crowd, suspect, site, *changes, flag);
+                                              crowded, piece_on, suspect, site, *changes, flag);
       },
       "screen_settle");
   mark("shared triangles");
-  // The crowds (screen.hpp): their members listed by two more walks of the pieces in them, then every
-  // pair tested. A crowded triangle's first piece is settled: its word now holds the crowd's index
-  // (still not kNoId, which is all corridor_slots reads).
-  DeviceBuffer<std::uint32_t> d_crowds(s.num_slots);
-  const std::uint32_t num_crowds = executor.compact(
-      s.num_slots, [=] __device__(std::size_t t) { return crowded[t] != 0; }, d_crowds.data());
-  if (num_crowds > 0) {
-    const std::uint32_t* crowds = d_crowds.data();
-    std::uint32_t* crowd_of = first;
-    executor.for_each(
-        num_crowds, [=] __device__(std::size_t c) { crowd_of[crowds[c]] = static_cast<std::uint32_t>(c); },
-        "crowd_index");
-    DeviceBuffer<std::uint32_t> d_start(num_crowds + 1), d_filled(num_crowds);
-    std::uint32_t* start = d_start.data();
-    std::uint32_t* filled = d_filled.data();
-    executor.fill_bytes(start, 0, num_crowds + 1);
-    executor.fill_bytes(filled, 0, num_crowds);
-    const auto in_crowds = [=] __device__(std::size_t k) { return in_crowd[k] != 0; };
-    detail::walk_corridors(
-        executor, m, hints, walk_parts, static_cast<std::uint32_t>(np), pieces, d_again.data(), failed,
-        in_crowds,
-        [=] __device__(std::size_t k, ::cdt::detail::CorridorPart & part) {
-          const auto nothing = [](std::uint32_t) {};
-          return ::cdt::detail::walk_corridor_triangles(
-              m, pieces[k].a, pieces[k].b, nothing, nothing,
-              [=](std::uint32_t t) {
-                ::cdt::detail::screen_crowd_claim(t, crowded, crowd_of,
-                                                  [=](std::uint32_t c) { atomicAdd(start + c, 1u); });
-              },
-              part.tri == kNoId && part.stop == kNoId ? nullptr : &part);
-        },
-        "crowd_counts", "crowd_count_parts");
-    const std::uint32_t total = executor.exclusive_scan(start, num_crowds + 1);
-    DeviceBuffer<std::uint32_t> d_members(total);
-    std::uint32_t* members = d_members.data();
-    detail::walk_corridors(
-        executor, m, hints, walk_parts, static_cast<std::uint32_t>(np), pieces, d_again.data(), failed,
-        in_crowds,
-        [=] __device__(std::size_t k, ::cdt::detail::CorridorPart & part) {
-          const auto nothing = [](std::uint32_t) {};
-          return ::cdt::detail::walk_corridor_triangles(
-              m, pieces[k].a, pieces[k].b, nothing, nothing,
-              [=](std::uint32_t t) {
-                ::cdt::detail::screen_crowd_claim(t, crowded, crowd_of, [=](std::uint32_t c) {
-                  const std::uint32_t at = start[c] + atomicAdd(filled + c, 1u);
-                  if (at < start[c + 1]) {
-                    members[at] = static_cast<std::uint32_t>(k);
-                  } else {
-                    atomicExch(failed, 1u); // the second walks claimed more than the first
-                  }
-                });
-              },
-              part.tri == kNoId && part.stop == kNoId ? nullptr : &part);
-        },
-        "crowd_members", "crowd_member_parts");
-    executor.for_each(
-        num_crowds,
-        [=] __device__(std::size_t c) {
-          const auto flag = [](std::uint8_t& f) { f = 1; };
-          ::cdt::detail::screen_settle_crowd(m, pieces, crowds[c], members + start[c],
-                                             start[c + 1] - start[c], piece_on, suspect, site, *changes,
-                                             flag);
-        },
-        "crowd_settle");
-    mark("crowds");
-  }
   std::uint32_t words[2] = {0, 0};
   executor.download(words, failed, 2);
   if (words[0] != 0) {

@@ -23,8 +23,7 @@ ScreenedPieces screen_pieces(const MeshView& m, std::span<const ConstraintPiece2
 
   // The pieces that are no edges walk their corridors: the sites on them, the edge-pieces they cross,
   // the triangles they claim; then each triangle that two or more claimed is settled.
-  std::vector<std::uint8_t> suspect(pieces.size(), 0), site(m.num_vertices, 0), crowded(m.num_slots, 0),
-      in_crowd(pieces.size(), 0);
+  std::vector<std::uint8_t> suspect(pieces.size(), 0), site(m.num_vertices, 0), crowded(m.num_slots, 0);
   std::vector<std::uint32_t> first(m.num_slots, kNoId), second(m.num_slots, kNoId);
   std::atomic<bool> failed{false};
   std::uint8_t changes = 0;
@@ -38,7 +37,7 @@ ScreenedPieces screen_pieces(const MeshView& m, std::span<const ConstraintPiece2
   executor.for_each(walkers.size(), [&](std::size_t w) {
     const std::uint32_t k = walkers[w];
     if (!screen_corridor(m, pieces[k], k, piece_on.data(), first.data(), second.data(), crowded.data(),
-                         in_crowd.data(), suspect.data(), site.data(), changes, flag, swap))
+                         suspect.data(), site.data(), changes, flag, swap))
       failed.store(true, std::memory_order_relaxed);
   });
   if (failed.load()) {
@@ -47,54 +46,8 @@ ScreenedPieces screen_pieces(const MeshView& m, std::span<const ConstraintPiece2
   }
   executor.for_each(m.num_slots, [&](std::size_t t) {
     screen_settle_triangle(m, pieces.data(), static_cast<std::uint32_t>(t), first.data(), second.data(),
-                           crowded.data(), piece_on.data(), in_crowd.data(), suspect.data(), site.data(),
-                           changes, flag);
+                           crowded.data(), piece_on.data(), suspect.data(), site.data(), changes, flag);
   });
-  // The crowds: their members listed by two more walks of the pieces in them, then every pair tested.
-  const std::vector<std::uint32_t> crowds =
-      executor.compact(m.num_slots, [&](std::size_t t) { return crowded[t] != 0; });
-  if (!crowds.empty()) {
-    // A crowded triangle's first piece is settled: its word now holds the crowd's index.
-    std::uint32_t* crowd_of = first.data();
-    executor.for_each(crowds.size(),
-                      [&](std::size_t c) { crowd_of[crowds[c]] = static_cast<std::uint32_t>(c); });
-    const std::vector<std::uint32_t> members_walk =
-        executor.compact(pieces.size(), [&](std::size_t k) { return in_crowd[k] != 0; });
-    const auto walk_claims = [&](auto&& add) {
-      executor.for_each(members_walk.size(), [&](std::size_t w) {
-        const std::uint32_t k = members_walk[w];
-        const auto nothing = [](std::uint32_t) {};
-        if (!walk_corridor_triangles(m, pieces[k].a, pieces[k].b, nothing, nothing, [&](std::uint32_t t) {
-              screen_crowd_claim(t, crowded.data(), crowd_of, [&](std::uint32_t c) { add(c, k); });
-            }))
-          failed.store(true, std::memory_order_relaxed);
-      });
-    };
-    std::vector<std::uint32_t> start(crowds.size() + 1, 0), filled(crowds.size(), 0);
-    walk_claims([&](std::uint32_t c, std::uint32_t) {
-      std::atomic_ref<std::uint32_t>(start[c]).fetch_add(1, std::memory_order_relaxed);
-    });
-    const std::uint32_t total = executor.exclusive_scan(start);
-    start.back() = total;
-    std::vector<std::uint32_t> members(total);
-    walk_claims([&](std::uint32_t c, std::uint32_t k) {
-      const std::uint32_t at =
-          std::atomic_ref<std::uint32_t>(filled[c]).fetch_add(1, std::memory_order_relaxed);
-      if (start[c] + at < start[c + 1]) {
-        members[start[c] + at] = k;
-      } else {
-        failed.store(true, std::memory_order_relaxed); // the second walks claimed more than the first
-      }
-    });
-    if (failed.load()) {
-      out.complete = false;
-      return out;
-    }
-    executor.for_each(crowds.size(), [&](std::size_t c) {
-      screen_settle_crowd(m, pieces.data(), crowds[c], members.data() + start[c], start[c + 1] - start[c],
-                          piece_on.data(), suspect.data(), site.data(), changes, flag);
-    });
-  }
   out.changes = changes != 0;
   // Every suspect's ends are suspect sites.
   executor.for_each(pieces.size(), [&](std::size_t k) {

@@ -14,16 +14,13 @@
 // a triangle with its own; the rest (every segment of an input without crossings, but for points on
 // segments) meet nothing. Two such segments can meet only by crossing properly: an end of one on the
 // other is a site on it, which its walk finds, and so is an overlap. A triangle that two corridors
-// share is settled by testing the two exactly. One that three or more share (a crowd: on the
-// coastlines a few thousand triangles, where dense shores pass the sites' large triangles) is settled
-// the same way once its pieces are listed: the pieces in crowds walk their corridors twice more, to
-// count each crowd's members and then to list them, and every pair of a crowd is tested exactly (a
-// crowd of more than kCrowdLimit keeps them all suspect instead). The suspects are those, the
-// edge-segments they cross, and the sites on them; split_pieces then resolves the suspects alone
-// (cdt/src/pslg.hpp), finding in its first round exactly the pairs it would find among all. Where a
-// crossing may be (a crossed edge-segment, a triangle of a crossing pair), the triangles there, their
-// sites and the segments on their edges are suspect too: a crossing's rounded vertex lies there, and
-// the repair rounds test what passes near it.
+// share is settled by testing the two exactly; one that three or more share keeps them all suspect
+// (which one to test against is not known there). The suspects are those, the edge-segments they
+// cross, and the sites on them; split_pieces then resolves the suspects alone (cdt/src/pslg.hpp),
+// finding in its first round exactly the pairs it would find among all. Where a crossing may be (a
+// crossed edge-segment, a triangle of a crossing pair or of three corridors), the triangles there,
+// their sites and the segments on their edges are suspect too: a crossing's rounded vertex lies there,
+// and the repair rounds test what passes near it.
 
 #include <cstdint>
 #include <span>
@@ -46,7 +43,7 @@ struct ScreenedPieces {
   std::vector<std::uint32_t> pieces; ///< suspect pieces: indices into the screened list, increasing
   std::vector<std::uint32_t> sites;  ///< suspect sites: mesh vertex ids, increasing
   /// A site lies on a piece or two pieces cross: the split will change the pieces. (Without, it may
-  /// still, where a crowd of more than kCrowdLimit shares a triangle.)
+  /// still, where three or more corridors share a triangle.)
   bool changes = false;
 };
 
@@ -230,18 +227,18 @@ CDT_HD bool walk_corridor_triangles(const MeshView& m, std::uint32_t a, std::uin
 
 /// Claims triangle t for piece k among the pieces through it: first[t] and second[t] take the first two
 /// pieces to claim it (swap(word, kNoId, k), an atomic compare-and-swap returning the word's old value);
-/// a third flags crowded[t] and flag(in_crowd[k]). A piece that claims a triangle again, from another
+/// a third flags crowded[t] and flag(suspect[k]). A piece that claims a triangle again, from another
 /// part of its walk or walked whole again, finds itself there and changes nothing, so the result does
 /// not depend on the order.
 template <class Flag, class Swap>
 CDT_HD_INLINE void screen_claim(std::uint32_t t, std::uint32_t k, std::uint32_t* first, std::uint32_t* second,
-                                std::uint8_t* crowded, std::uint8_t* in_crowd, Flag&& flag, Swap&& swap) {
+                                std::uint8_t* crowded, std::uint8_t* suspect, Flag&& flag, Swap&& swap) {
   std::uint32_t there = swap(&first[t], kNoId, k);
   if (there == kNoId || there == k) return;
   there = swap(&second[t], kNoId, k);
   if (there == kNoId || there == k) return;
   flag(crowded[t]);
-  flag(in_crowd[k]);
+  flag(suspect[k]);
 }
 
 /// The screen's second pass for piece k, which is no edge. For every site strictly between its ends,
@@ -251,9 +248,8 @@ CDT_HD_INLINE void screen_claim(std::uint32_t t, std::uint32_t k, std::uint32_t*
 template <class Flag, class Swap>
 CDT_HD bool screen_corridor(const MeshView& m, const ConstraintPiece2& p, std::uint32_t k,
                             const std::uint32_t* piece_on, std::uint32_t* first, std::uint32_t* second,
-                            std::uint8_t* crowded, std::uint8_t* in_crowd, std::uint8_t* suspect,
-                            std::uint8_t* site, std::uint8_t& changes, Flag&& flag, Swap&& swap,
-                            CorridorPart* part = nullptr) {
+                            std::uint8_t* crowded, std::uint8_t* suspect, std::uint8_t* site,
+                            std::uint8_t& changes, Flag&& flag, Swap&& swap, CorridorPart* part = nullptr) {
   return walk_corridor_triangles(
       m, p.a, p.b,
       [&](std::uint32_t v) {
@@ -269,76 +265,29 @@ CDT_HD bool screen_corridor(const MeshView& m, const ConstraintPiece2& p, std::u
         screen_mark_triangle(m, edge_tri(e), piece_on, suspect, site, flag);
         if (m.adj[e] != kNoId) screen_mark_triangle(m, edge_tri(m.adj[e]), piece_on, suspect, site, flag);
       },
-      [&](std::uint32_t t) { screen_claim(t, k, first, second, crowded, in_crowd, flag, swap); }, part);
+      [&](std::uint32_t t) { screen_claim(t, k, first, second, crowded, suspect, flag, swap); }, part);
 }
 
-/// The screen's third pass for triangle t, after the second pass is done everywhere: when two pieces
-/// pass t, they are tested exactly (the higher against the lower) and, when they cross, flagged suspect
-/// with the marks around t (and `changes`); when three or more do, the first two are flagged in_crowd
-/// (the others flagged themselves), for screen_settle_crowd.
+/// The screen's third pass for triangle t, after the second pass is done everywhere: when three or more
+/// pieces pass t, the first two are flagged suspect (the others flagged themselves); when two do, they
+/// are tested exactly (the higher against the lower) and flagged when they cross (and `changes` with
+/// them). Each time, the marks around t.
 template <class Flag>
 CDT_HD_INLINE void screen_settle_triangle(const MeshView& m, const ConstraintPiece2* pieces, std::uint32_t t,
                                           const std::uint32_t* first, const std::uint32_t* second,
                                           const std::uint8_t* crowded, const std::uint32_t* piece_on,
-                                          std::uint8_t* in_crowd, std::uint8_t* suspect, std::uint8_t* site,
-                                          std::uint8_t& changes, Flag&& flag) {
+                                          std::uint8_t* suspect, std::uint8_t* site, std::uint8_t& changes,
+                                          Flag&& flag) {
   const std::uint32_t j = second[t];
   if (j == kNoId) return;
   const std::uint32_t i = first[t];
-  if (crowded[t] != 0) {
-    flag(in_crowd[i]);
-    flag(in_crowd[j]);
-    return;
+  if (crowded[t] == 0) {
+    const std::uint32_t lo = i < j ? i : j, hi = i < j ? j : i;
+    if (!pieces_cross(m, pieces[hi], pieces[lo])) return;
+    flag(changes);
   }
-  const std::uint32_t lo = i < j ? i : j, hi = i < j ? j : i;
-  if (!pieces_cross(m, pieces[hi], pieces[lo])) return;
-  flag(changes);
   flag(suspect[i]);
   flag(suspect[j]);
-  screen_mark_triangle(m, t, piece_on, suspect, site, flag);
-}
-
-/// Crowds of more members than this (a piece counted once for every time its walk claims the triangle)
-/// keep them all suspect rather than test every pair: a bound on one thread's work.
-inline constexpr std::uint32_t kCrowdLimit = 64;
-
-/// The crowds' walks (every piece flagged in_crowd walks its corridor again, twice): claim(t) of such
-/// a walk calls add(c), c = crowd_of[t], for each crowded triangle t, first to count each crowd's
-/// members and then to list them.
-template <class Add>
-CDT_HD_INLINE void screen_crowd_claim(std::uint32_t t, const std::uint8_t* crowded,
-                                      const std::uint32_t* crowd_of, Add&& add) {
-  if (crowded[t] != 0) add(crowd_of[t]);
-}
-
-/// Settles crowded triangle t, whose n members (pieces, some listed more than once) are listed at
-/// `members`: every two distinct members are tested exactly (the higher against the lower), and those
-/// that cross are flagged suspect, with `changes` and the marks around t. A crowd of more than
-/// kCrowdLimit flags every member suspect, with the marks around t.
-template <class Flag>
-CDT_HD_INLINE void screen_settle_crowd(const MeshView& m, const ConstraintPiece2* pieces, std::uint32_t t,
-                                       const std::uint32_t* members, std::uint32_t n,
-                                       const std::uint32_t* piece_on, std::uint8_t* suspect,
-                                       std::uint8_t* site, std::uint8_t& changes, Flag&& flag) {
-  if (n > kCrowdLimit) {
-    for (std::uint32_t a = 0; a < n; ++a) flag(suspect[members[a]]);
-    screen_mark_triangle(m, t, piece_on, suspect, site, flag);
-    return;
-  }
-  bool crossing = false;
-  for (std::uint32_t a = 1; a < n; ++a) {
-    for (std::uint32_t b = 0; b < a; ++b) {
-      const std::uint32_t i = members[a], j = members[b];
-      if (i == j) continue;
-      const std::uint32_t lo = i < j ? i : j, hi = i < j ? j : i;
-      if (!pieces_cross(m, pieces[hi], pieces[lo])) continue;
-      flag(suspect[i]);
-      flag(suspect[j]);
-      crossing = true;
-    }
-  }
-  if (!crossing) return;
-  flag(changes);
   screen_mark_triangle(m, t, piece_on, suspect, site, flag);
 }
 
