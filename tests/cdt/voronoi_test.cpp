@@ -454,7 +454,8 @@ TEST(GridMap, RejectsNonFiniteCoordinatesAndBadSizes) {
   EXPECT_THROW(cdt::detail::make_grid_mapping(y, y, cdt::detail::kMaxGridSize + 1), cdt::Error);
 }
 
-// Duplicates and near-duplicates share a cell: the lowest index is kept, the rest are missing points.
+// Points sharing a cell: the one nearest its grid point is kept (the lowest index among equally near
+// ones), the rest are missing points.
 TEST(GridMap, AssignSitesKeepsThePointNearestTheGridPoint) {
   CpuExecutor executor(2);
   // In grid units through the identity mapping: 0.9, 0.2 and 0.0 fall in cell 0, whose grid point

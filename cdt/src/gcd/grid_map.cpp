@@ -170,18 +170,16 @@ GridSites assign_sites(const GridMapping& mapping, std::span<const double> x, st
   std::uint32_t* owner = sites.cell_owner.data();
   // The point nearest the grid point wins every cell, the lowest index among equals, however the
   // threads interleave: first the cells' least distance, then the least index at it.
+  std::vector<std::uint32_t> least(static_cast<std::size_t>(m) * m, kNone);
   executor.for_each(n, [&](std::size_t i) {
     const std::uint32_t cell = site_cell(mapping, x[i], y[i], gx[i], gy[i]);
-    atomic_min(owner + cell, grid_point_distance_key(mapping, x[i], y[i], gx[i], gy[i]));
+    atomic_min(least.data() + cell, grid_point_distance_key(mapping, x[i], y[i], gx[i], gy[i]));
   });
-  std::vector<std::uint32_t> nearest(static_cast<std::size_t>(m) * m, kNone);
   executor.for_each(n, [&](std::size_t i) {
     const std::size_t cell = static_cast<std::size_t>(gy[i]) * m + gx[i];
-    if (grid_point_distance_key(mapping, x[i], y[i], gx[i], gy[i]) == owner[cell])
-      atomic_min(nearest.data() + cell, static_cast<std::uint32_t>(i));
+    if (grid_point_distance_key(mapping, x[i], y[i], gx[i], gy[i]) == least[cell])
+      atomic_min(owner + cell, static_cast<std::uint32_t>(i));
   });
-  sites.cell_owner.swap(nearest);
-  owner = sites.cell_owner.data();
   sites.missing = executor.compact(n, [&](std::size_t i) {
     return owner[static_cast<std::size_t>(gy[i]) * m + gx[i]] != static_cast<std::uint32_t>(i);
   });

@@ -121,26 +121,26 @@ GridMapping make_grid_mapping(std::span<const double> x, std::span<const double>
 /// elsewhere (on the device, say).
 GridMapping grid_mapping_of_box(double x_min, double x_max, double y_min, double y_max, std::uint32_t m);
 
-/// The grid sites of Phase 1: each input point's grid cell and the one point kept per occupied cell.
 /// How far (x, y) lies from the grid point of its cell (gx, gy), as a key that orders points by their
 /// squared distance from it: the high half of the bits of that distance (a non-negative double, whose
 /// bits order as its values do). Kept points are moved from their grid points to their true positions
 /// (Phase 3), and the shorter the move, the fewer triangles it turns over (Algorithm 2's bad cases).
-/// The same value on the host and the device: each operation is rounded once, none fused.
+/// The same value on the host and the device: the library is built without contraction
+/// (-ffp-contract=off, --fmad=false), so each operation is rounded once on both.
 CDT_HD inline std::uint32_t grid_point_distance_key(const GridMapping& mapping, double x, double y,
                                                     std::uint32_t gx, std::uint32_t gy) {
   const double dx = x - mapping.to_x(gx);
   const double dy = y - mapping.to_y(gy);
+  const double d = dx * dx + dy * dy;
 #if defined(__CUDA_ARCH__)
-  const double d = __dadd_rn(__dmul_rn(dx, dx), __dmul_rn(dy, dy));
-  const auto bits = static_cast<unsigned long long>(__double_as_longlong(d));
+  const auto bits = static_cast<std::uint64_t>(__double_as_longlong(d));
 #else
-  const double dxx = dx * dx, dyy = dy * dy;
-  const auto bits = std::bit_cast<std::uint64_t>(dxx + dyy);
+  const auto bits = std::bit_cast<std::uint64_t>(d);
 #endif
   return static_cast<std::uint32_t>(bits >> 32);
 }
 
+/// The grid sites of Phase 1: each input point's grid cell and the one point kept per occupied cell.
 struct GridSites {
   std::vector<std::uint32_t> gx, gy;     ///< per input point
   std::vector<std::uint32_t> cell_owner; ///< m*m, row-major (gy*m+gx): the point kept there, kNone if empty
