@@ -224,13 +224,20 @@ WalkHints make_walk_hints(CudaExecutor& executor, const MeshView& m, DeviceBuffe
   if (m.num_vertices < 3) return h;
   const Extent box = box_of(executor, m.num_vertices, m.xy);
   const double width = box.max_x - box.min_x, height = box.max_y - box.min_y;
+  h.width = width;
+  h.height = height;
   const double extent = width > height ? width : height;
   if (!(extent > 0.0) || !std::isfinite(extent)) return h;
   h.side = static_cast<std::uint32_t>(std::clamp(std::sqrt(m.num_vertices / 4.0), 1.0, 2048.0));
   h.x0 = box.min_x;
   h.y0 = box.min_y;
   h.inverse_cell = h.side / extent;
-  if (!std::isfinite(h.inverse_cell)) return WalkHints{};
+  if (!std::isfinite(h.inverse_cell)) {
+    WalkHints box_only;
+    box_only.width = width;
+    box_only.height = height;
+    return box_only;
+  }
   // The vertices' spacing, were they spread evenly over the box.
   const double area = width * height;
   const double spacing = area > 0.0 ? std::sqrt(area / m.num_vertices) : extent / m.num_vertices;

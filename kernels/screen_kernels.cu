@@ -113,27 +113,33 @@ ScreenedPieces DeviceMesh::screen(std::span<const ConstraintPiece2> host_pieces,
     detail::check_device_pieces(executor, d_pieces.data(), host_pieces, s.num_vertices);
     pieces = d_pieces.data();
   }
-  // Per edge side, the piece lying on it; per piece, whether it is walked and whether it is suspect; per
-  // slot, the first two pieces through it and whether more pass.
+  // Per edge side, the piece lying on it; per piece, whether it is walked, in a crowd, suspect; per slot,
+  // the first two pieces through it, whether more pass and whether a far one among them.
   DeviceBuffer<std::uint32_t> d_piece_on(3 * static_cast<std::size_t>(s.num_slots)), d_first(s.num_slots),
       d_second(s.num_slots);
-  DeviceBuffer<std::uint8_t> d_walker(np), d_crowded(s.num_slots), d_suspect(np), d_site(s.num_vertices);
+  DeviceBuffer<std::uint8_t> d_walker(np), d_crowded(s.num_slots), d_far_crowd(s.num_slots), d_in_crowd(np),
+      d_suspect(np), d_site(s.num_vertices);
   // Two words, read back together: whether a walk failed, and (its first byte) whether the split will
   // change the pieces.
   DeviceBuffer<std::uint32_t> d_failed(2);
   std::uint32_t* piece_on = d_piece_on.data();
   std::uint32_t* first = d_first.data();
-  std::uint32_t* second = d_second.data();
   std::uint8_t* walker = d_walker.data();
   std::uint8_t* crowded = d_crowded.data();
+  std::uint8_t* far_crowd = d_far_crowd.data();
+  std::uint8_t* in_crowd = d_in_crowd.data();
   std::uint8_t* suspect = d_suspect.data();
   std::uint8_t* site = d_site.data();
   std::uint32_t* failed = d_failed.data();
-  std::uint8_t* changes = reinterpret_cast<std::uint8_t*>(failed + 1);
+  const ::cdt::detail::ScreenMarks marks{piece_on, first,     d_second.data(),
+                                         crowded,  far_crowd, in_crowd,
+                                         suspect,  site,      reinterpret_cast<std::uint8_t*>(failed + 1)};
   executor.fill_bytes(piece_on, 0xFF, d_piece_on.size());
   executor.fill_bytes(first, 0xFF, s.num_slots);
-  executor.fill_bytes(second, 0xFF, s.num_slots);
+  executor.fill_bytes(d_second.data(), 0xFF, s.num_slots);
   executor.fill_bytes(crowded, 0, s.num_slots);
+  executor.fill_bytes(far_crowd, 0, s.num_slots);
+  executor.fill_bytes(in_crowd, 0, np);
   executor.fill_bytes(suspect, 0, np);
   executor.fill_bytes(site, 0, s.num_vertices);
   executor.fill_bytes(failed, 0, 2);
@@ -151,6 +157,7 @@ ScreenedPieces DeviceMesh::screen(std::span<const ConstraintPiece2> host_pieces,
   // walked twice, or a piece walked whole again after parts out of order, changes nothing.
   detail::DeviceBuffer<std::uint32_t> d_hint_cells;
   const detail::WalkHints hints = detail::make_walk_hints(executor, m, d_hint_cells);
+  const double far2 = ::cdt::detail::far_piece_length2(hints.width, hints.height, m.num_vertices);
   detail::WalkParts walk_parts;
   DeviceBuffer<std::uint8_t> d_again(np);
   detail::walk_corridors(
@@ -161,8 +168,8 @@ ScreenedPieces DeviceMesh::screen(std::span<const ConstraintPiece2> host_pieces,
         const auto swap = [](std::uint32_t* word, std::uint32_t expected, std::uint32_t v) {
           return atomicCAS(word, expected, v);
         };
-        return ::cdt::detail::screen_corridor(m, pieces[k], static_cast<std::uint32_t>(k), piece_on, first,
-                                              second, crowded, suspect, site, *changes, flag, swap,
+        return ::cdt::detail::screen_corridor(m, pieces[k], static_cast<std::uint32_t>(k), far2, marks, flag,
+                                              swap,
                                               part.tri == kNoId && part.stop == kNoId ? nullptr : &part);
       },
       "screen_corridors", "screen_corridor_parts");
@@ -171,11 +178,51 @@ ScreenedPieces DeviceMesh::screen(std::span<const ConstraintPiece2> host_pieces,
       s.num_slots,
       [=] __device__(std::size_t t) {
         const auto flag = [](std::uint8_t& f) { f = 1; };
-        ::cdt::detail::screen_settle_triangle(m, pieces, static_cast<std::uint32_t>(t), first, second,
-                                              crowded, piece_on, suspect, site, *changes, flag);
+        ::cdt::detail::screen_settle_triangle(m, pieces, static_cast<std::uint32_t>(t), far2, marks, flag);
       },
       "screen_settle");
   mark("shared triangles");
+  // The crowds no far piece passes (screen.hpp): their short members listed by another walk, then every
+  // pair tested. A crowded slot's first word is settled: it now holds the crowd's number (still not
+  // kNoId, which is all corridor_slots reads).
+  DeviceBuffer<std::uint32_t> d_crowds(s.num_slots);
+  const std::uint32_t num_crowds = executor.compact(
+      s.num_slots, [=] __device__(std::size_t t) { return crowded[t] != 0 && far_crowd[t] == 0; },
+      d_crowds.data());
+  const std::uint32_t limit = ::cdt::detail::crowd_list_limit(num_crowds, s.num_slots);
+  DeviceBuffer<std::uint32_t> d_count(num_crowds), d_members(static_cast<std::size_t>(num_crowds) * limit);
+  const std::uint32_t* crowds = d_crowds.data();
+  std::uint32_t* crowd_of = first;
+  const ::cdt::detail::CrowdLists lists{crowd_of, d_count.data(), d_members.data(), limit};
+  if (num_crowds > 0) {
+    executor.fill_bytes(d_count.data(), 0, num_crowds);
+    executor.for_each(
+        num_crowds, [=] __device__(std::size_t c) { crowd_of[crowds[c]] = static_cast<std::uint32_t>(c); },
+        "crowd_numbers");
+  }
+  // Short pieces of far crowds only flag themselves: they walk whether or not a crowd is listed.
+  executor.for_each(
+      np,
+      [=] __device__(std::size_t k) {
+        if (in_crowd[k] == 0) return;
+        const auto flag = [](std::uint8_t& f) { f = 1; };
+        const auto add = [](std::uint32_t* word) { return atomicAdd(word, 1u); };
+        if (!::cdt::detail::screen_list_in_crowds(m, pieces[k], static_cast<std::uint32_t>(k), marks, lists,
+                                                  flag, add))
+          atomicExch(failed, 1u);
+      },
+      "crowd_lists");
+  if (num_crowds > 0) {
+    executor.for_each(
+        num_crowds,
+        [=] __device__(std::size_t c) {
+          const auto flag = [](std::uint8_t& f) { f = 1; };
+          ::cdt::detail::screen_settle_crowd(m, pieces, static_cast<std::uint32_t>(c), crowds[c], marks,
+                                             lists, flag);
+        },
+        "crowd_settle");
+  }
+  mark("crowds");
   std::uint32_t words[2] = {0, 0};
   executor.download(words, failed, 2);
   if (words[0] != 0) {

@@ -35,7 +35,8 @@ struct WalkHints {
   double x0 = 0, y0 = 0, inverse_cell = 0;
   std::uint32_t side = 0;
   const std::uint32_t* cell = nullptr;
-  double part_length = 0; ///< 0: no parts
+  double part_length = 0;       ///< 0: no parts
+  double width = 0, height = 0; ///< the vertices' box (0 x 0 for fewer than 3 vertices)
 
   __device__ std::uint32_t cell_of(double x, double y) const {
     const double cx = (x - x0) * inverse_cell, cy = (y - y0) * inverse_cell;

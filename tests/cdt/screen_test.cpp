@@ -6,6 +6,7 @@
 #include <algorithm>
 #include <array>
 #include <map>
+#include <numeric>
 #include <set>
 #include <string>
 #include <tuple>
@@ -126,23 +127,23 @@ TEST(WalkCorridor, FailsForAnEndOutsideTheMesh) {
   EXPECT_FALSE(walk(mesh, 0, 3).ok);
 }
 
-/// Vertex (i, j) of the 6 x 6 lattice of lattice_mesh().
-std::uint32_t at(std::uint32_t i, std::uint32_t j) { return j * 6 + i; }
+/// Vertex (i, j) of a lattice of lattice_mesh() `width` vertices wide.
+std::uint32_t at(std::uint32_t i, std::uint32_t j, std::uint32_t width = 6) { return j * width + i; }
 
-/// A 6 x 6 lattice, each square cut by its rising diagonal.
-Mesh lattice_mesh() {
+/// A width x height lattice, each square cut by its rising diagonal.
+Mesh lattice_mesh(std::uint32_t width = 6, std::uint32_t height = 6) {
   std::vector<double> x, y;
-  for (std::uint32_t j = 0; j < 6; ++j) {
-    for (std::uint32_t i = 0; i < 6; ++i) {
+  for (std::uint32_t j = 0; j < height; ++j) {
+    for (std::uint32_t i = 0; i < width; ++i) {
       x.push_back(i);
       y.push_back(j);
     }
   }
   std::vector<trixel_test::Triangle> triangles;
-  for (std::uint32_t j = 0; j + 1 < 6; ++j) {
-    for (std::uint32_t i = 0; i + 1 < 6; ++i) {
-      triangles.push_back({at(i, j), at(i + 1, j), at(i + 1, j + 1)});
-      triangles.push_back({at(i, j), at(i + 1, j + 1), at(i, j + 1)});
+  for (std::uint32_t j = 0; j + 1 < height; ++j) {
+    for (std::uint32_t i = 0; i + 1 < width; ++i) {
+      triangles.push_back({at(i, j, width), at(i + 1, j, width), at(i + 1, j + 1, width)});
+      triangles.push_back({at(i, j, width), at(i + 1, j + 1, width), at(i, j + 1, width)});
     }
   }
   return trixel_test::mesh_from_triangles(x, y, triangles);
@@ -209,20 +210,81 @@ TEST(ScreenPieces, PiecesThatAreNoEdgesAreSuspectOnlyWhereTheyMeet) {
     EXPECT_TRUE(s.sites.empty());
     EXPECT_FALSE(s.changes);
   }
-  // A third through that triangle keeps all three suspect, with the triangle's corners.
+  // A third through that triangle makes a crowd, whose members are listed and tested in pairs: they meet
+  // only at their common end.
   const cdt::detail::ConstraintPiece2 third{at(0, 0), at(5, 2), 0};
   for (const auto& fan : {std::vector{low, high, third}, std::vector{third, high, low}}) {
     const cdt::detail::ScreenedPieces s = screen(fan);
-    EXPECT_EQ(s.pieces, (std::vector<std::uint32_t>{0, 1, 2}));
-    EXPECT_FALSE(s.changes); // suspects that meet nothing: the screen cannot tell
-    for (const std::uint32_t v : {at(0, 0), at(1, 0), at(1, 1), at(3, 1), at(2, 1), at(5, 2)})
+    EXPECT_TRUE(s.pieces.empty());
+    EXPECT_TRUE(s.sites.empty());
+    EXPECT_FALSE(s.changes);
+  }
+  // A fourth from (1, 0) to (0, 1) crosses all three inside that triangle: the crowd is suspect, with the
+  // triangle's corners, in every place of the list.
+  const cdt::detail::ConstraintPiece2 crosser{at(1, 0), at(0, 1), 0};
+  for (const auto& crowd : {std::vector{low, high, third, crosser}, std::vector{crosser, third, high, low},
+                            std::vector{high, crosser, low, third}}) {
+    const cdt::detail::ScreenedPieces s = screen(crowd);
+    EXPECT_EQ(s.pieces, (std::vector<std::uint32_t>{0, 1, 2, 3}));
+    EXPECT_TRUE(s.changes);
+    for (const std::uint32_t v : {at(0, 0), at(1, 0), at(1, 1), at(0, 1), at(3, 1), at(2, 1), at(5, 2)})
       EXPECT_TRUE(std::binary_search(s.sites.begin(), s.sites.end(), v)) << v;
   }
+  // Beside a crowd that meets nothing, a pair crossing elsewhere: only the pair is suspect.
+  const std::vector<cdt::detail::ConstraintPiece2> calm_crowd{
+      low, high, third, {at(3, 3), at(5, 4), 0}, {at(3, 4), at(5, 3), 0}};
+  EXPECT_EQ(screen(calm_crowd).pieces, (std::vector<std::uint32_t>{3, 4}));
   // A crossing pair beside a fan from (2, 2) that shares a triangle: the fan stays clean.
   const std::vector<cdt::detail::ConstraintPiece2> mixed{
       {at(0, 0), at(2, 1), 0}, {at(0, 1), at(2, 0), 0}, {at(2, 2), at(5, 3), 0}, {at(2, 2), at(4, 3), 0}};
   EXPECT_EQ(screen(mixed).pieces, (std::vector<std::uint32_t>{0, 1}));
   EXPECT_TRUE(screen(mixed).changes);
+}
+
+// A crowd that a far piece passes, or listed more than kCrowdLimit times, keeps all its members
+// suspect (the screen cannot tell whether they cross), with the triangle's corners.
+TEST(ScreenPieces, CrowdsOfAFarPieceOrOfTooManyStaySuspect) {
+  cdt::detail::CpuExecutor executor(2);
+  {
+    // A 60 x 2 strip: 120 vertices over a 59 x 1 box, far beyond 24 * sqrt(59 / 120), about 16.8.
+    Mesh strip = lattice_mesh(60, 2);
+    const auto on = [](std::uint32_t i, std::uint32_t j) { return at(i, j, 60); };
+    const cdt::detail::ConstraintPiece2 low{on(0, 0), on(3, 1), 0}, high{on(0, 0), on(2, 1), 0},
+        near{on(0, 0), on(16, 1), 0}, far{on(0, 0), on(17, 1), 0};
+    const auto screen = [&](const std::vector<cdt::detail::ConstraintPiece2>& pieces) {
+      const cdt::detail::ScreenedPieces s = cdt::detail::screen_pieces(strip.view(), pieces, executor);
+      EXPECT_TRUE(s.complete);
+      return s;
+    };
+    const cdt::detail::ScreenedPieces short_crowd = screen({low, high, near});
+    EXPECT_TRUE(short_crowd.pieces.empty());
+    EXPECT_TRUE(short_crowd.sites.empty());
+    for (const auto& crowd :
+         {std::vector{low, high, far}, std::vector{far, high, low}, std::vector{high, far, low}}) {
+      const cdt::detail::ScreenedPieces s = screen(crowd);
+      EXPECT_EQ(s.pieces, (std::vector<std::uint32_t>{0, 1, 2}));
+      EXPECT_FALSE(s.changes); // suspects that meet nothing: the screen cannot tell
+      for (const std::uint32_t v : {on(0, 0), on(1, 0), on(1, 1), on(3, 1), on(2, 1), on(17, 1)})
+        EXPECT_TRUE(std::binary_search(s.sites.begin(), s.sites.end(), v)) << v;
+    }
+  }
+  // A fan from (0, 0) on a 16 x 16 lattice: every piece to a vertex (i, j) below the diagonal, through
+  // no vertex, passes the triangle (0, 0), (1, 0), (1, 1). kCrowdLimit of them are listed and clean; one
+  // more keeps them all suspect.
+  Mesh mesh = lattice_mesh(16, 16);
+  std::vector<cdt::detail::ConstraintPiece2> fan;
+  for (std::uint32_t i = 2; i < 16 && fan.size() <= cdt::detail::kCrowdLimit; ++i) {
+    for (std::uint32_t j = 1; j < i && fan.size() <= cdt::detail::kCrowdLimit; ++j)
+      if (std::gcd(i, j) == 1) fan.push_back({at(0, 0, 16), at(i, j, 16), 0});
+  }
+  ASSERT_EQ(fan.size(), cdt::detail::kCrowdLimit + 1);
+  const cdt::detail::ScreenedPieces all = cdt::detail::screen_pieces(mesh.view(), fan, executor);
+  EXPECT_EQ(all.pieces.size(), fan.size());
+  EXPECT_FALSE(all.changes);
+  fan.pop_back();
+  const cdt::detail::ScreenedPieces listed = cdt::detail::screen_pieces(mesh.view(), fan, executor);
+  EXPECT_TRUE(listed.pieces.empty());
+  EXPECT_TRUE(listed.sites.empty());
 }
 
 TEST(ScreenPieces, AnEndOutsideTheMeshMakesEverythingSuspect) {

@@ -10,6 +10,7 @@
 #include <chrono>
 #include <cmath>
 #include <cstdint>
+#include <numeric>
 #include <optional>
 #include <set>
 #include <span>
@@ -770,9 +771,30 @@ TEST_F(MeshGpu, ConstraintsBesideTheSplitWithoutTheSuspects) {
   EXPECT_THROW(device.renumber_constraints(std::vector<PieceRun>{{0, 0, 5}}), cdt::Error);
 }
 
+/// A 24 x 24 lattice with fans of short pieces (screen.hpp's crowds): from (0, 0) to the vertices it
+/// sees, more than kCrowdLimit; from (0, 12), three that meet nothing; from (12, 0), four that a piece
+/// from (13, 0) to (12, 1) crosses; from (23, 0), two with a far piece.
+trixel_gen::Pslg crowded_fans() {
+  trixel_gen::Pslg p;
+  constexpr std::uint32_t side = 24;
+  for (std::uint32_t j = 0; j < side; ++j)
+    for (std::uint32_t i = 0; i < side; ++i)
+      p.points.push_back({static_cast<double>(i), static_cast<double>(j)});
+  const auto at = [](std::uint32_t i, std::uint32_t j) { return j * side + i; };
+  for (std::uint32_t i = 2; i < 12; ++i)
+    for (std::uint32_t j = 1; j < i; ++j)
+      if (std::gcd(i, j) == 1) p.segments.push_back({at(0, 0), at(i, j)});
+  for (std::uint32_t i = 2; i < 5; ++i) p.segments.push_back({at(0, 12), at(i, 13)});
+  for (std::uint32_t i = 2; i < 6; ++i) p.segments.push_back({at(12, 0), at(12 + i, 1)});
+  for (std::uint32_t i = 2; i < 4; ++i) p.segments.push_back({at(23, 0), at(23 - i, 1)});
+  p.segments.push_back({at(23, 0), at(0, 1)}); // far: longer than 24 * sqrt(23 * 23 / 576) = 23
+  p.segments.push_back({at(13, 0), at(12, 1)});
+  return p;
+}
+
 // The segments' screen (gcd/screen.hpp) on the device: the same suspect pieces and sites as the CPU
 // executor's, on Delaunay meshes with non-crossing segments plus long ones that cross them and pass
-// through vertices, and on a lattice where segments overlap and run through points.
+// through vertices, on a lattice where segments overlap and run through points, and on crowds.
 TEST_F(MeshGpu, ScreenMatchesTheCpuExecutor) {
   struct Case {
     trixel_gen::Pslg pslg;
@@ -783,6 +805,7 @@ TEST_F(MeshGpu, ScreenMatchesTheCpuExecutor) {
       {trixel_gen::synthetic_pslg(3000, 300, trixel_gen::Distribution::uniform, 41), 10, "uniform 3000"},
       {trixel_gen::synthetic_pslg(60000, 6000, trixel_gen::Distribution::gaussian, 42), 40, "gaussian 60000"},
       {trixel_gen::lattice_with_segments(64, 300, 43), 0, "lattice 64"},
+      {crowded_fans(), 0, "crowded fans"},
   };
   CpuExecutor executor(4);
   for (const Case& c : cases) {

@@ -2,7 +2,9 @@
 
 #include "gcd/screen.hpp"
 
+#include <algorithm>
 #include <atomic>
+#include <limits>
 
 #include "executor/cpu_executor.hpp"
 
@@ -23,10 +25,13 @@ ScreenedPieces screen_pieces(const MeshView& m, std::span<const ConstraintPiece2
 
   // The pieces that are no edges walk their corridors: the sites on them, the edge-pieces they cross,
   // the triangles they claim; then each triangle that two or more claimed is settled.
-  std::vector<std::uint8_t> suspect(pieces.size(), 0), site(m.num_vertices, 0), crowded(m.num_slots, 0);
+  std::vector<std::uint8_t> suspect(pieces.size(), 0), site(m.num_vertices, 0), crowded(m.num_slots, 0),
+      far_crowd(m.num_slots, 0), in_crowd(pieces.size(), 0);
   std::vector<std::uint32_t> first(m.num_slots, kNoId), second(m.num_slots, kNoId);
   std::atomic<bool> failed{false};
   std::uint8_t changes = 0;
+  const ScreenMarks marks{piece_on.data(), first.data(),   second.data(), crowded.data(), far_crowd.data(),
+                          in_crowd.data(), suspect.data(), site.data(),   &changes};
   const auto flag = [](std::uint8_t& f) {
     std::atomic_ref<std::uint8_t>(f).store(1, std::memory_order_relaxed);
   };
@@ -34,10 +39,18 @@ ScreenedPieces screen_pieces(const MeshView& m, std::span<const ConstraintPiece2
     std::atomic_ref<std::uint32_t>(*word).compare_exchange_strong(expected, k, std::memory_order_relaxed);
     return expected; // the word's old value, whether or not it was swapped
   };
+  // The vertices' box, for which pieces are far.
+  double lo_x = std::numeric_limits<double>::infinity(), lo_y = lo_x, hi_x = -lo_x, hi_y = -lo_x;
+  for (std::uint32_t v = 0; v < m.num_vertices; ++v) {
+    lo_x = std::min(lo_x, m.xy[v].x);
+    hi_x = std::max(hi_x, m.xy[v].x);
+    lo_y = std::min(lo_y, m.xy[v].y);
+    hi_y = std::max(hi_y, m.xy[v].y);
+  }
+  const double far2 = far_piece_length2(hi_x - lo_x, hi_y - lo_y, m.num_vertices);
   executor.for_each(walkers.size(), [&](std::size_t w) {
     const std::uint32_t k = walkers[w];
-    if (!screen_corridor(m, pieces[k], k, piece_on.data(), first.data(), second.data(), crowded.data(),
-                         suspect.data(), site.data(), changes, flag, swap))
+    if (!screen_corridor(m, pieces[k], k, far2, marks, flag, swap))
       failed.store(true, std::memory_order_relaxed);
   });
   if (failed.load()) {
@@ -45,9 +58,37 @@ ScreenedPieces screen_pieces(const MeshView& m, std::span<const ConstraintPiece2
     return out;
   }
   executor.for_each(m.num_slots, [&](std::size_t t) {
-    screen_settle_triangle(m, pieces.data(), static_cast<std::uint32_t>(t), first.data(), second.data(),
-                           crowded.data(), piece_on.data(), suspect.data(), site.data(), changes, flag);
+    screen_settle_triangle(m, pieces.data(), static_cast<std::uint32_t>(t), far2, marks, flag);
   });
+  // The crowds no far piece passes: their short members listed by another walk, then every pair tested.
+  const std::vector<std::uint32_t> crowds =
+      executor.compact(m.num_slots, [&](std::size_t t) { return crowded[t] != 0 && far_crowd[t] == 0; });
+  const std::vector<std::uint32_t> listed =
+      executor.compact(pieces.size(), [&](std::size_t k) { return in_crowd[k] != 0; });
+  if (!listed.empty()) {
+    // A crowded slot's first word is settled: it now holds the crowd's number.
+    std::uint32_t* crowd_of = first.data();
+    executor.for_each(crowds.size(),
+                      [&](std::size_t c) { crowd_of[crowds[c]] = static_cast<std::uint32_t>(c); });
+    const std::uint32_t limit = crowd_list_limit(crowds.size(), m.num_slots);
+    std::vector<std::uint32_t> count(crowds.size(), 0), members(crowds.size() * limit);
+    const CrowdLists lists{crowd_of, count.data(), members.data(), limit};
+    const auto add = [](std::uint32_t* word) {
+      return std::atomic_ref<std::uint32_t>(*word).fetch_add(1, std::memory_order_relaxed);
+    };
+    executor.for_each(listed.size(), [&](std::size_t w) {
+      const std::uint32_t k = listed[w];
+      if (!screen_list_in_crowds(m, pieces[k], k, marks, lists, flag, add))
+        failed.store(true, std::memory_order_relaxed);
+    });
+    if (failed.load()) {
+      out.complete = false;
+      return out;
+    }
+    executor.for_each(crowds.size(), [&](std::size_t c) {
+      screen_settle_crowd(m, pieces.data(), static_cast<std::uint32_t>(c), crowds[c], marks, lists, flag);
+    });
+  }
   out.changes = changes != 0;
   // Every suspect's ends are suspect sites.
   executor.for_each(pieces.size(), [&](std::size_t k) {

@@ -14,15 +14,22 @@
 // a triangle with its own; the rest (every segment of an input without crossings, but for points on
 // segments) meet nothing. Two such segments can meet only by crossing properly: an end of one on the
 // other is a site on it, which its walk finds, and so is an overlap. A triangle that two corridors
-// share is settled by testing the two exactly; one that three or more share keeps them all suspect
-// (which one to test against is not known there). The suspects are those, the edge-segments they
-// cross, and the sites on them; split_pieces then resolves the suspects alone (cdt/src/pslg.hpp),
-// finding in its first round exactly the pairs it would find among all. Where a crossing may be (a
-// crossed edge-segment, a triangle of a crossing pair or of three corridors), the triangles there,
-// their sites and the segments on their edges are suspect too: a crossing's rounded vertex lies there,
-// and the repair rounds test what passes near it.
+// share is settled by testing the two exactly. One that three or more share is a crowd (on the
+// coastlines a few thousand triangles, where dense shores pass the sites' large triangles): its short
+// members walk their corridors once more, each listing itself in the crowds it passes, and every pair
+// of a crowd is then tested exactly. A crowd that a far piece passes (longer than kCrowdSteps times
+// the vertices' even spacing: one whose walk again would cost more than the split it spares) keeps all
+// its members suspect, and so does one of more than kCrowdLimit listings. The suspects are those, the
+// edge-segments they cross, and the sites on them; split_pieces then resolves the suspects alone
+// (cdt/src/pslg.hpp), finding in its first round exactly the pairs it would find among all. Where a
+// crossing may be (a crossed edge-segment, a triangle of a crossing pair or of a crowd kept suspect),
+// the triangles there, their sites and the segments on their edges are suspect too: a crossing's
+// rounded vertex lies there, and the repair rounds test what passes near it.
 
+#include <cmath>
+#include <cstddef>
 #include <cstdint>
+#include <limits>
 #include <span>
 #include <vector>
 
@@ -43,7 +50,7 @@ struct ScreenedPieces {
   std::vector<std::uint32_t> pieces; ///< suspect pieces: indices into the screened list, increasing
   std::vector<std::uint32_t> sites;  ///< suspect sites: mesh vertex ids, increasing
   /// A site lies on a piece or two pieces cross: the split will change the pieces. (Without, it may
-  /// still, where three or more corridors share a triangle.)
+  /// still, where a crowd is kept suspect.)
   bool changes = false;
 };
 
@@ -225,70 +232,200 @@ CDT_HD bool walk_corridor_triangles(const MeshView& m, std::uint32_t a, std::uin
       both_sides, part);
 }
 
-/// Claims triangle t for piece k among the pieces through it: first[t] and second[t] take the first two
-/// pieces to claim it (swap(word, kNoId, k), an atomic compare-and-swap returning the word's old value);
-/// a third flags crowded[t] and flag(suspect[k]). A piece that claims a triangle again, from another
-/// part of its walk or walked whole again, finds itself there and changes nothing, so the result does
-/// not depend on the order.
+/// Pieces longer than this many times the vertices' even spacing are far: their crowds are not listed.
+/// At 10M points + 1M segments (H200 machine) listing the crowds of every piece cost 5.4 ms, their
+/// long pieces' walks again; the coastlines' crowds are of short pieces.
+inline constexpr double kCrowdSteps = 24.0;
+/// Listings a crowd holds (a piece listed once for every run of its walk through the triangle); one
+/// listed more keeps its members suspect: a bound on one thread's pairs and on the lists' memory.
+inline constexpr std::uint32_t kCrowdLimit = 16;
+
+/// The squared length above which a piece is far, among num_vertices vertices in a width x height box:
+/// kCrowdSteps times their spacing were they spread evenly (along the box when it is a line); infinite,
+/// so that none is far, when the box has no extent or there are fewer than 3 vertices.
+inline double far_piece_length2(double width, double height, std::uint32_t num_vertices) {
+  const double extent = width > height ? width : height;
+  if (num_vertices < 3 || !(extent > 0.0) || !(extent < std::numeric_limits<double>::infinity()))
+    return std::numeric_limits<double>::infinity();
+  const double area = width * height;
+  const double spacing = area > 0.0 ? std::sqrt(area / num_vertices) : extent / num_vertices;
+  const double far = kCrowdSteps * spacing;
+  return far * far;
+}
+
+/// Whether piece p is far (longer than the square root of far2).
+CDT_HD_INLINE bool piece_is_far(const MeshView& m, const ConstraintPiece2& p, double far2) {
+  const double dx = m.xy[p.b].x - m.xy[p.a].x, dy = m.xy[p.b].y - m.xy[p.a].y;
+  return dx * dx + dy * dy > far2;
+}
+
+/// The screen's per-slot and per-piece marks, shared by its passes (flag sets a byte to 1; only 1 is
+/// ever stored, so several threads may flag the same byte).
+struct ScreenMarks {
+  const std::uint32_t* piece_on; ///< per edge side, the piece lying on it
+  std::uint32_t* first;          ///< per slot, the first piece to claim it
+  std::uint32_t* second;         ///< per slot, the second
+  std::uint8_t* crowded;         ///< per slot: three or more claimed it
+  std::uint8_t* far_crowd;       ///< per slot: crowded, and a far piece among them
+  std::uint8_t* in_crowd;        ///< per piece: short, in a crowd (to be listed)
+  std::uint8_t* suspect;         ///< per piece
+  std::uint8_t* site;            ///< per vertex: suspect
+  std::uint8_t* changes;         ///< one byte: the split will change the pieces
+};
+
+/// Claims triangle t for piece k (far: piece_is_far) among the pieces through it: first[t] and
+/// second[t] take the first two pieces to claim it (swap(word, kNoId, k), an atomic compare-and-swap
+/// returning the word's old value); a third flags crowded[t], and then either flags itself suspect and
+/// the crowd far, or, short, in_crowd. A piece that claims a triangle again, from another part of its
+/// walk or walked whole again, finds itself there and changes nothing, so the result does not depend
+/// on the order.
 template <class Flag, class Swap>
-CDT_HD_INLINE void screen_claim(std::uint32_t t, std::uint32_t k, std::uint32_t* first, std::uint32_t* second,
-                                std::uint8_t* crowded, std::uint8_t* suspect, Flag&& flag, Swap&& swap) {
-  std::uint32_t there = swap(&first[t], kNoId, k);
+CDT_HD_INLINE void screen_claim(std::uint32_t t, std::uint32_t k, bool far, const ScreenMarks& s, Flag&& flag,
+                                Swap&& swap) {
+  std::uint32_t there = swap(&s.first[t], kNoId, k);
   if (there == kNoId || there == k) return;
-  there = swap(&second[t], kNoId, k);
+  there = swap(&s.second[t], kNoId, k);
   if (there == kNoId || there == k) return;
-  flag(crowded[t]);
-  flag(suspect[k]);
+  flag(s.crowded[t]);
+  if (far) {
+    flag(s.suspect[k]);
+    flag(s.far_crowd[t]);
+  } else {
+    flag(s.in_crowd[k]);
+  }
 }
 
 /// The screen's second pass for piece k, which is no edge. For every site strictly between its ends,
 /// flag(site[v]) and flag(suspect[k]); at every edge-piece it crosses, flag(suspect[k]) and the marks
 /// around the two triangles there; each triangle of its corridor it claims (screen_claim). Either
-/// meeting also flags `changes`. flag sets a byte to 1. Returns false when the walk fails.
+/// meeting also flags `changes`. Returns false when the walk fails.
 template <class Flag, class Swap>
-CDT_HD bool screen_corridor(const MeshView& m, const ConstraintPiece2& p, std::uint32_t k,
-                            const std::uint32_t* piece_on, std::uint32_t* first, std::uint32_t* second,
-                            std::uint8_t* crowded, std::uint8_t* suspect, std::uint8_t* site,
-                            std::uint8_t& changes, Flag&& flag, Swap&& swap, CorridorPart* part = nullptr) {
+CDT_HD bool screen_corridor(const MeshView& m, const ConstraintPiece2& p, std::uint32_t k, double far2,
+                            const ScreenMarks& s, Flag&& flag, Swap&& swap, CorridorPart* part = nullptr) {
+  const bool far = piece_is_far(m, p, far2);
   return walk_corridor_triangles(
       m, p.a, p.b,
       [&](std::uint32_t v) {
         if (v == p.a || v == p.b) return;
-        flag(site[v]);
-        flag(suspect[k]);
-        flag(changes);
+        flag(s.site[v]);
+        flag(s.suspect[k]);
+        flag(*s.changes);
       },
       [&](std::uint32_t e) {
-        if (piece_on[e] == kNoId) return;
-        flag(suspect[k]);
-        flag(changes);
-        screen_mark_triangle(m, edge_tri(e), piece_on, suspect, site, flag);
-        if (m.adj[e] != kNoId) screen_mark_triangle(m, edge_tri(m.adj[e]), piece_on, suspect, site, flag);
+        if (s.piece_on[e] == kNoId) return;
+        flag(s.suspect[k]);
+        flag(*s.changes);
+        screen_mark_triangle(m, edge_tri(e), s.piece_on, s.suspect, s.site, flag);
+        if (m.adj[e] != kNoId)
+          screen_mark_triangle(m, edge_tri(m.adj[e]), s.piece_on, s.suspect, s.site, flag);
       },
-      [&](std::uint32_t t) { screen_claim(t, k, first, second, crowded, suspect, flag, swap); }, part);
+      [&](std::uint32_t t) { screen_claim(t, k, far, s, flag, swap); }, part);
 }
 
-/// The screen's third pass for triangle t, after the second pass is done everywhere: when three or more
-/// pieces pass t, the first two are flagged suspect (the others flagged themselves); when two do, they
-/// are tested exactly (the higher against the lower) and flagged when they cross (and `changes` with
-/// them). Each time, the marks around t.
+/// The screen's third pass for triangle t, after the second pass is done everywhere: when two pieces
+/// pass t, they are tested exactly (the higher against the lower) and, when they cross, flagged suspect
+/// with the marks around t (and `changes`). When three or more do, the first two are marked as the
+/// others marked themselves (suspect, and the crowd far, when far; else in_crowd), and a far crowd
+/// gets the marks around t.
 template <class Flag>
 CDT_HD_INLINE void screen_settle_triangle(const MeshView& m, const ConstraintPiece2* pieces, std::uint32_t t,
-                                          const std::uint32_t* first, const std::uint32_t* second,
-                                          const std::uint8_t* crowded, const std::uint32_t* piece_on,
-                                          std::uint8_t* suspect, std::uint8_t* site, std::uint8_t& changes,
-                                          Flag&& flag) {
-  const std::uint32_t j = second[t];
+                                          double far2, const ScreenMarks& s, Flag&& flag) {
+  const std::uint32_t j = s.second[t];
   if (j == kNoId) return;
-  const std::uint32_t i = first[t];
-  if (crowded[t] == 0) {
-    const std::uint32_t lo = i < j ? i : j, hi = i < j ? j : i;
-    if (!pieces_cross(m, pieces[hi], pieces[lo])) return;
-    flag(changes);
+  const std::uint32_t i = s.first[t];
+  if (s.crowded[t] != 0) {
+    for (const std::uint32_t k : {i, j}) {
+      if (piece_is_far(m, pieces[k], far2)) {
+        flag(s.suspect[k]);
+        flag(s.far_crowd[t]);
+      } else {
+        flag(s.in_crowd[k]);
+      }
+    }
+    if (s.far_crowd[t] != 0) screen_mark_triangle(m, t, s.piece_on, s.suspect, s.site, flag);
+    return;
   }
-  flag(suspect[i]);
-  flag(suspect[j]);
-  screen_mark_triangle(m, t, piece_on, suspect, site, flag);
+  const std::uint32_t lo = i < j ? i : j, hi = i < j ? j : i;
+  if (!pieces_cross(m, pieces[hi], pieces[lo])) return;
+  flag(*s.changes);
+  flag(s.suspect[i]);
+  flag(s.suspect[j]);
+  screen_mark_triangle(m, t, s.piece_on, s.suspect, s.site, flag);
+}
+
+/// The crowds' lists: crowds that no far piece passes, numbered; per such crowded slot t its number
+/// crowd_of[t] (the slot's first word, settled), per crowd its listings' count and up to `limit` of
+/// them, crowd c's at members[c * limit].
+struct CrowdLists {
+  const std::uint32_t* crowd_of;
+  std::uint32_t* count;
+  std::uint32_t* members;
+  std::uint32_t limit;
+};
+
+/// Listings each of num_crowds crowds holds: kCrowdLimit, fewer where that would take more words than
+/// the mesh has slots (every crowd then fills sooner, and keeps its members suspect).
+inline std::uint32_t crowd_list_limit(std::size_t num_crowds, std::uint32_t num_slots) {
+  if (num_crowds == 0) return kCrowdLimit;
+  const std::size_t fit = num_slots / num_crowds;
+  return fit < kCrowdLimit ? static_cast<std::uint32_t>(fit) : kCrowdLimit;
+}
+
+/// The crowds' walk of piece k (in_crowd, so short): lists k in each crowd its corridor passes (once
+/// for each run of its walk through the crowd; add(word) an atomic increment returning the old value),
+/// or flags it suspect where the crowd is far or its list full. Returns false when the walk fails.
+template <class Flag, class Add>
+CDT_HD bool screen_list_in_crowds(const MeshView& m, const ConstraintPiece2& p, std::uint32_t k,
+                                  const ScreenMarks& s, const CrowdLists& lists, Flag&& flag, Add&& add) {
+  std::uint32_t last = kNoId;
+  const auto nothing = [](std::uint32_t) {};
+  return walk_corridor_triangles(m, p.a, p.b, nothing, nothing, [&](std::uint32_t t) {
+    if (t == last || s.crowded[t] == 0) return;
+    last = t;
+    if (s.far_crowd[t] != 0) {
+      flag(s.suspect[k]);
+      return;
+    }
+    const std::uint32_t c = lists.crowd_of[t];
+    const std::uint32_t at = add(&lists.count[c]);
+    if (at < lists.limit) {
+      lists.members[static_cast<std::size_t>(c) * lists.limit + at] = k;
+    } else {
+      flag(s.suspect[k]);
+    }
+  });
+}
+
+/// Settles crowd c in slot t once every member is listed: every two distinct members are tested
+/// exactly (the higher against the lower), and those that cross are flagged suspect, with `changes`
+/// and the marks around t. A crowd listed more than lists.limit times flags the listed suspect (the
+/// others flagged themselves), with the marks around t.
+template <class Flag>
+CDT_HD_INLINE void screen_settle_crowd(const MeshView& m, const ConstraintPiece2* pieces, std::uint32_t c,
+                                       std::uint32_t t, const ScreenMarks& s, const CrowdLists& lists,
+                                       Flag&& flag) {
+  const std::uint32_t* members = lists.members + static_cast<std::size_t>(c) * lists.limit;
+  const std::uint32_t n = lists.count[c];
+  if (n > lists.limit) {
+    for (std::uint32_t a = 0; a < lists.limit; ++a) flag(s.suspect[members[a]]);
+    screen_mark_triangle(m, t, s.piece_on, s.suspect, s.site, flag);
+    return;
+  }
+  bool crossing = false;
+  for (std::uint32_t a = 1; a < n; ++a) {
+    for (std::uint32_t b = 0; b < a; ++b) {
+      const std::uint32_t i = members[a], j = members[b];
+      if (i == j) continue;
+      const std::uint32_t lo = i < j ? i : j, hi = i < j ? j : i;
+      if (!pieces_cross(m, pieces[hi], pieces[lo])) continue;
+      flag(s.suspect[i]);
+      flag(s.suspect[j]);
+      crossing = true;
+    }
+  }
+  if (!crossing) return;
+  flag(*s.changes);
+  screen_mark_triangle(m, t, s.piece_on, s.suspect, s.site, flag);
 }
 
 } // namespace cdt::detail
