@@ -238,10 +238,7 @@ WalkHints make_walk_hints(CudaExecutor& executor, const MeshView& m, DeviceBuffe
     box_only.height = height;
     return box_only;
   }
-  // The vertices' spacing, were they spread evenly over the box.
-  const double area = width * height;
-  const double spacing = area > 0.0 ? std::sqrt(area / m.num_vertices) : extent / m.num_vertices;
-  h.part_length = kPartSteps * spacing;
+  h.part_length = kPartSteps * ::cdt::detail::even_spacing(width, height, m.num_vertices);
   cells.resize(static_cast<std::size_t>(h.side) * h.side);
   executor.fill_bytes(cells.data(), 0xFF, cells.size());
   std::uint32_t* cell = cells.data();

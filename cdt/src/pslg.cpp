@@ -32,6 +32,7 @@
 #include <unordered_map>
 #include <utility>
 
+#include "box.hpp"
 #include "cdt/detail/predicates.hpp"
 #include "cdt/detail/trace.hpp"
 #include "cdt/errors.hpp"
@@ -324,13 +325,6 @@ Ends endpoints(const std::vector<WorkSegment>& segs, const PointArray& vertices,
   });
   return ends;
 }
-
-struct Box {
-  double min_x;
-  double min_y;
-  double max_x;
-  double max_y;
-};
 
 /// The largest coordinate magnitude in the box: the scale of the rounding errors of coordinates.
 double magnitude(const Box& box) {
@@ -1204,20 +1198,8 @@ void order_spatially(std::vector<WorkSegment>& segs, const PointArray& vertices,
 }
 
 Box bounding_box(const PointArray& vertices, const IndexArray& sites, CpuExecutor& executor) {
-  const auto extend = [](Box& box, const Point& p) {
-    box.min_x = std::min(box.min_x, p.x);
-    box.min_y = std::min(box.min_y, p.y);
-    box.max_x = std::max(box.max_x, p.x);
-    box.max_y = std::max(box.max_y, p.y);
-  };
-  const Point& first = vertices[sites[0]];
-  return executor.reduce(
-      sites.size(), Box{first.x, first.y, first.x, first.y},
-      [&](Box& box, std::size_t k) { extend(box, vertices[sites[k]]); },
-      [&](Box& box, const Box& part) {
-        extend(box, {part.min_x, part.min_y});
-        extend(box, {part.max_x, part.max_y});
-      });
+  return box_of_points(
+      sites.size(), [&](std::size_t k) -> const Point& { return vertices[sites[k]]; }, executor);
 }
 
 /// Splits segs (all dirty) in rounds until no two pieces cross or overlap and no site of `sites` lies

@@ -14,6 +14,7 @@
 // lies on an open piece, so a piece enters and leaves a triangle through the interiors of its edges.
 
 #include <atomic>
+#include <cmath>
 #include <cstddef>
 #include <cstdint>
 #include <span>
@@ -87,6 +88,13 @@ void check_constraint_pieces(std::uint32_t num_slots, std::uint32_t num_vertices
 
 /// The first two of those checks alone (the device tests the pieces on its own copy).
 void check_constraint_counts(std::uint32_t num_slots, std::size_t num_pieces);
+
+/// The spacing of num_vertices (at least 1) spread evenly over a width x height box, or along it when it
+/// is a line: the unit of the pieces' lengths that decide how they are walked and screened.
+inline double even_spacing(double width, double height, std::uint32_t num_vertices) {
+  const double area = width * height;
+  return area > 0.0 ? std::sqrt(area / num_vertices) : (width > height ? width : height) / num_vertices;
+}
 
 /// Whether a piece's endpoints are distinct vertices of a mesh of num_vertices.
 CDT_HD_INLINE bool piece_endpoints_valid(const ConstraintPiece2& p, std::uint32_t num_vertices) {

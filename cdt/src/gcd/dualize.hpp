@@ -8,6 +8,7 @@
 #include <utility>
 #include <vector>
 
+#include "box.hpp"
 #include "cdt/cdt.hpp"
 #include "cdt/detail/host_device.hpp"
 #include "cdt/detail/predicates.hpp"
@@ -25,11 +26,6 @@ struct DualTriangle {
 /// Per site a flag (1: kept in the diagram), with the allocator of the triangulation's large arrays
 /// (cdt.hpp): sized without a zero fill where every flag is then written.
 using FlagArray = std::vector<std::uint8_t, DefaultInitAllocator<std::uint8_t>>;
-
-/// Axis-aligned box.
-struct Box {
-  double min_x = 0, min_y = 0, max_x = 0, max_y = 0;
-};
 
 struct DualizeStats {
   std::uint64_t dual_triangles = 0; ///< triangles from 3- and 4-colour grid corners

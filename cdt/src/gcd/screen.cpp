@@ -2,10 +2,9 @@
 
 #include "gcd/screen.hpp"
 
-#include <algorithm>
 #include <atomic>
-#include <limits>
 
+#include "box.hpp"
 #include "executor/cpu_executor.hpp"
 
 namespace cdt::detail {
@@ -40,14 +39,11 @@ ScreenedPieces screen_pieces(const MeshView& m, std::span<const ConstraintPiece2
     return expected; // the word's old value, whether or not it was swapped
   };
   // The vertices' box, for which pieces are far.
-  double lo_x = std::numeric_limits<double>::infinity(), lo_y = lo_x, hi_x = -lo_x, hi_y = -lo_x;
-  for (std::uint32_t v = 0; v < m.num_vertices; ++v) {
-    lo_x = std::min(lo_x, m.xy[v].x);
-    hi_x = std::max(hi_x, m.xy[v].x);
-    lo_y = std::min(lo_y, m.xy[v].y);
-    hi_y = std::max(hi_y, m.xy[v].y);
-  }
-  const double far2 = far_piece_length2(hi_x - lo_x, hi_y - lo_y, m.num_vertices);
+  const Box box = m.num_vertices == 0
+                      ? Box{}
+                      : box_of_points(
+                            m.num_vertices, [&](std::size_t v) -> const Vec2& { return m.xy[v]; }, executor);
+  const double far2 = far_piece_length2(box.max_x - box.min_x, box.max_y - box.min_y, m.num_vertices);
   executor.for_each(walkers.size(), [&](std::size_t w) {
     const std::uint32_t k = walkers[w];
     if (!screen_corridor(m, pieces[k], k, far2, marks, flag, swap))

@@ -26,7 +26,6 @@
 // the triangles there, their sites and the segments on their edges are suspect too: a crossing's
 // rounded vertex lies there, and the repair rounds test what passes near it.
 
-#include <cmath>
 #include <cstddef>
 #include <cstdint>
 #include <limits>
@@ -247,9 +246,7 @@ inline double far_piece_length2(double width, double height, std::uint32_t num_v
   const double extent = width > height ? width : height;
   if (num_vertices < 3 || !(extent > 0.0) || !(extent < std::numeric_limits<double>::infinity()))
     return std::numeric_limits<double>::infinity();
-  const double area = width * height;
-  const double spacing = area > 0.0 ? std::sqrt(area / num_vertices) : extent / num_vertices;
-  const double far = kCrowdSteps * spacing;
+  const double far = kCrowdSteps * even_spacing(width, height, num_vertices);
   return far * far;
 }
 
