@@ -135,10 +135,17 @@ void throw_invalid_point(std::span<const Point> points, std::size_t i) {
     throw InvalidInputError(Kind::non_finite_coordinate, i,
                             "point " + std::to_string(i) + " has a non-finite coordinate " + format_point(p));
   }
+  if (std::abs(p.x) > kMaxCoordinate || std::abs(p.y) > kMaxCoordinate) {
+    throw InvalidInputError(Kind::coordinate_out_of_range, i,
+                            "point " + std::to_string(i) + " has a coordinate beyond +-" +
+                                format_number(kMaxCoordinate) + " " + format_point(p) +
+                                ": the exact predicates' products would overflow");
+  }
   throw InvalidInputError(Kind::coordinate_out_of_range, i,
-                          "point " + std::to_string(i) + " has a coordinate beyond +-" +
-                              format_number(kMaxCoordinate) + " " + format_point(p) +
-                              ": the exact predicates' products would overflow");
+                          "point " + std::to_string(i) + " has a nonzero coordinate smaller than " +
+                              format_number(kMinCoordinate) + " in magnitude " + format_point(p) +
+                              ": the exact predicates' products would underflow (scale the input, or "
+                              "write such coordinates as 0)");
 }
 
 void throw_invalid_segment(std::span<const Point> points, std::span<const Segment> segments, std::size_t s) {
@@ -770,9 +777,10 @@ std::vector<std::pair<std::uint32_t, std::uint32_t>> find_crossings(const Segmen
 }
 
 [[noreturn]] void throw_not_converging(const std::string& where, int rounds) {
-  throw Error("crossing segments: resolution did not converge after " + std::to_string(rounds) +
-              " rounds: rounding the crossing points keeps creating new crossings" + where +
-              "; the input has segments that nearly overlap at the limit of double precision");
+  throw SplitNotConvergingError(
+      "crossing segments: resolution did not converge after " + std::to_string(rounds) +
+      " rounds: rounding the crossing points keeps creating new crossings" + where +
+      "; the input has segments that nearly overlap at the limit of double precision");
 }
 
 [[noreturn]] void reject_crossing(const std::vector<std::pair<std::uint32_t, std::uint32_t>>& crossings,

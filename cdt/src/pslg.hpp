@@ -27,6 +27,13 @@ namespace cdt::detail {
 /// the largest double.
 inline constexpr double kMaxCoordinate = 1e60;
 
+/// Smallest magnitude of a nonzero coordinate accepted. The floating-point filters and orient2d's
+/// expansions need their products not to underflow: a nonzero coordinate of at least 1e-60 is a
+/// multiple of 2^-252, so every difference is 0 or at least that, and products of two are at least
+/// 2^-504 (2^-1008 for four), far above the smallest normal double. Below it (subnormals, say) the
+/// predicates lied: three points at 0 and 1e-300 were found collinear.
+inline constexpr double kMinCoordinate = 1e-60;
+
 /// A constraint between two distinct vertices that must appear as one edge of the triangulation.
 struct ConstraintPiece {
   std::uint32_t a;       ///< vertex index (into PreparedPslg::vertices)
@@ -118,10 +125,16 @@ CDT_HD_INLINE std::uint64_t point_hash(double x, double y) {
   return h ^ (h >> 29);
 }
 
-/// Whether a point passes the input checks: finite coordinates within +-kMaxCoordinate (a NaN or an
-/// infinity fails the comparison; the same test on the host and the device).
+/// Whether a coordinate passes the input checks: 0, or finite with a magnitude from kMinCoordinate to
+/// kMaxCoordinate (a NaN or an infinity fails the comparison).
+CDT_HD_INLINE bool coordinate_is_valid(double v) {
+  const double magnitude = v < 0 ? -v : v;
+  return magnitude <= kMaxCoordinate && (magnitude >= kMinCoordinate || magnitude == 0.0);
+}
+
+/// Whether a point passes the input checks (the same test on the host and the device).
 CDT_HD_INLINE bool point_is_valid(double x, double y) {
-  return (x < 0 ? -x : x) <= kMaxCoordinate && (y < 0 ? -y : y) <= kMaxCoordinate;
+  return coordinate_is_valid(x) && coordinate_is_valid(y);
 }
 
 /// The InvalidInputError of merge_input's checks for point i, which fails point_is_valid.
@@ -145,14 +158,13 @@ using InputMerge = std::function<std::size_t(IndexArray& duplicate_of, IndexArra
                                              bool& identity_unwritten)>;
 
 /// Checks and cleans the input of triangulate(). Throws InvalidInputError (non-finite coordinates,
-/// coordinates beyond kMaxCoordinate, out-of-range indices, zero-length segments under
-/// CrossingSegments::reject (ignored under resolve), fewer than 3 distinct
-/// points, all points collinear; item() is the point or segment id, or the number of distinct points
-/// for the last two), CrossingSegmentsError when segments cross under CrossingSegments::reject (the
-/// lowest pair of ids, lower first; segments that cross exactly at an input point are split there, not
-/// rejected), and Error when crossing resolution does not converge. Runs in O((n + m) log(n + m) + k)
-/// for n points, m segments and k candidate pairs from the grid (about linear for inputs whose
-/// segments are short compared with the domain).
+/// coordinates beyond kMaxCoordinate or nonzero ones below kMinCoordinate in magnitude, out-of-range indices,
+/// zero-length segments under CrossingSegments::reject (ignored under resolve), fewer than 3 distinct points,
+/// all points collinear; item() is the point or segment id, or the number of distinct points for the last
+/// two), CrossingSegmentsError when segments cross under CrossingSegments::reject (the lowest pair of ids,
+/// lower first; segments that cross exactly at an input point are split there, not rejected), and Error when
+/// crossing resolution does not converge. Runs in O((n + m) log(n + m) + k) for n points, m segments and k
+/// candidate pairs from the grid (about linear for inputs whose segments are short compared with the domain).
 PreparedPslg prepare_pslg(std::span<const Point> points, std::span<const Segment> segments,
                           CrossingSegments policy);
 
@@ -183,6 +195,13 @@ void write_identity_maps(PreparedPslg& pslg);
 /// The second half: splits every piece at the sites on it and at crossings (the errors of prepare_pslg
 /// for crossings), adding the crossing vertices to vertices and sites.
 void split_pieces(PreparedPslg& pslg, CrossingSegments policy, CpuExecutor& executor);
+
+/// Thrown by split_pieces when rounding the crossing points keeps making new crossings round after
+/// round (segments that nearly overlap at the limit of double precision).
+class SplitNotConvergingError : public Error {
+public:
+  using Error::Error;
+};
 
 /// The same, testing only the suspect pieces (indices into pslg.pieces), against each other and against
 /// the suspect sites (vertex ids, increasing, holding every end of a suspect piece); the other pieces are

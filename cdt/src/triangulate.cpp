@@ -653,12 +653,6 @@ Triangulation triangulate_on(std::span<const Point> points, std::span<const Segm
       }
     });
     trace.mark("kept sites");
-    const auto extend = [](Box& b, double px, double py) {
-      b.min_x = std::min(b.min_x, px);
-      b.min_y = std::min(b.min_y, py);
-      b.max_x = std::max(b.max_x, px);
-      b.max_y = std::max(b.max_y, py);
-    };
     // With the box, the largest absolute coordinate of the sites' true positions: the split's snap
     // tolerance is made from it (as the device gives it), without another pass over the sites there.
     struct Extent {
@@ -668,13 +662,13 @@ Triangulation triangulate_on(std::span<const Point> points, std::span<const Segm
     const Extent extent = executor.reduce(
         n, Extent{Box{true_x[0], true_y[0], true_x[0], true_y[0]}, 0.0},
         [&](Extent& e, std::size_t s) {
-          extend(e.box, x[s], y[s]);
-          extend(e.box, true_x[s], true_y[s]);
+          e.box.extend(x[s], y[s]);
+          e.box.extend(true_x[s], true_y[s]);
           e.magnitude = std::max({e.magnitude, std::abs(true_x[s]), std::abs(true_y[s])});
         },
         [&](Extent& e, const Extent& part) {
-          extend(e.box, part.box.min_x, part.box.min_y);
-          extend(e.box, part.box.max_x, part.box.max_y);
+          e.box.extend(part.box.min_x, part.box.min_y);
+          e.box.extend(part.box.max_x, part.box.max_y);
           e.magnitude = std::max(e.magnitude, part.magnitude);
         });
     bounds = extent.box;
@@ -939,8 +933,17 @@ Triangulation triangulate_on(std::span<const Point> points, std::span<const Segm
 #if defined(TRIXEL_HAVE_CUDA)
     if (beside_split.running() && beside_split.without_suspects()) later = &piece_move;
 #endif
-    pieces_stale = split_screened(pslg, screen, site_vertex, options.crossings, executor, sites_magnitude,
-                                  new_pieces, moves, later);
+    try {
+      pieces_stale = split_screened(pslg, screen, site_vertex, options.crossings, executor, sites_magnitude,
+                                    new_pieces, moves, later);
+    } catch (const SplitNotConvergingError&) {
+      // The suspects' crossings, rounded, kept crossing again among themselves: the whole input's split
+      // (every piece in every round) may settle them, and says so when it does not.
+#if defined(TRIXEL_HAVE_CUDA)
+      if (beside_split.running()) beside_split.finish(false);
+#endif
+      return start_again(std::nullopt);
+    }
     trace.mark("split");
     InsertStats placed;
     const std::size_t added = pslg.vertices.size() - first_added;
@@ -1069,9 +1072,10 @@ Triangulation triangulate_on(std::span<const Point> points, std::span<const Segm
     throw;
   } catch (const Error&) {
     // Insertion checks what splitting promised: no site on a piece, no two pieces crossing. Should
-    // the screen have missed a pair (rounded crossing points snapping across a neighbourhood), the
-    // whole input is split first instead.
-    if (!screened) throw;
+    // the screen have missed a pair (a crossing point rounded onto another piece, or a piece bent
+    // through it across another), the whole input is split first instead; so too when this attempt
+    // took its PSLG from a screened split (started again for the vertices that split added).
+    if (!screened && !split_before) throw;
     beside_device.wait();
     beside_move.wait();
     return start_again(std::nullopt);

@@ -333,6 +333,21 @@ TEST(PslgErrors, HugeCoordinateIsOutOfRange) {
       prepare_pslg(std::vector<Point>{{0, 0}, {1e60, 0}, {0, -1e60}}, {}, CrossingSegments::resolve));
 }
 
+// Below the limit (other than 0) the predicates' products underflow: three points at 0 and 1e-300 were
+// found collinear, subnormal coordinates beside ordinary ones broke the mesh.
+TEST(PslgErrors, TinyNonzeroCoordinateIsOutOfRange) {
+  const auto e = invalid_input({{0, 0}, {1e-300, 0}, {0, 1e-300}}, {});
+  EXPECT_EQ(e.kind(), Kind::coordinate_out_of_range);
+  EXPECT_EQ(e.item(), 1u);
+  EXPECT_NE(std::string(e.what()).find("underflow"), std::string::npos) << e.what();
+  const auto f =
+      invalid_input({{0, 0}, {1, 0}, {0, 1}, {0.5, -std::numeric_limits<double>::denorm_min()}}, {});
+  EXPECT_EQ(f.kind(), Kind::coordinate_out_of_range);
+  EXPECT_EQ(f.item(), 3u);
+  EXPECT_NO_THROW(
+      prepare_pslg(std::vector<Point>{{0, -0.0}, {1e-60, 0}, {0, -1e-60}}, {}, CrossingSegments::resolve));
+}
+
 TEST(PslgErrors, SegmentIndexOutOfRangeNamesTheSegment) {
   const auto e = invalid_input(kTriangle, {{0, 1}, {1, 2}, {2, 3}});
   EXPECT_EQ(e.kind(), Kind::index_out_of_range);

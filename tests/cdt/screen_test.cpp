@@ -351,7 +351,10 @@ void expect_same_as_splitting_first(const std::vector<cdt::Point>& points,
   }
   const auto split = std::find_if(screened.stats.phases.begin(), screened.stats.phases.end(),
                                   [](const cdt::PhaseStats& p) { return p.name == "split"; });
-  EXPECT_EQ(split != screened.stats.phases.end(), !segments.empty()) << what;
+  // A run started again splitting first (a screened split that failed) has no split phase of its own.
+  if (screened.stats.attempts == 1) {
+    EXPECT_EQ(split != screened.stats.phases.end(), !segments.empty()) << what;
+  }
 }
 
 TEST(TriangulateScreened, CrossingRandomSegmentsAsSplittingFirst) {
@@ -446,6 +449,69 @@ TEST(TriangulateScreened, RejectedCrossingsNameTheSameSegments) {
     first = {e.first(), e.second()};
   }
   EXPECT_EQ(screened, first);
+}
+
+// Crossings among segments that nearly overlap at the limit of double precision, found by random
+// testing: a crossing point rounded onto a piece the screen left clean, a piece bent through one
+// across another, and suspects whose split alone did not converge (the whole input's does). Each failed
+// inside the screened run; now it starts again splitting first, and gives what splitting first gives.
+TEST(TriangulateScreened, RoundedCrossingsBesideCleanPiecesAsSplittingFirst) {
+  struct Case {
+    std::string what;
+    std::vector<cdt::Point> points;
+    std::vector<cdt::Segment> segments;
+  };
+  const std::vector<Case> cases = {
+      {"a crossing rounded onto a piece near (1, 1)",
+       {{1.000000146279435, 1.0000000000002391},
+        {0.99999999999999944, 0.99999999999999978},
+        {1.0000000000000009, -1},
+        {0.99999999999999989, -0.99999999999999922},
+        {1.0000000000000004, -1.0000000000000002},
+        {-1.3252357242056929, -1.8516892597678218},
+        {0.99999999999929279, 1.0000000000005604},
+        {1.0000000422592494, 1.0000000000005709},
+        {1.0000000000000018, -1.0000000000000016},
+        {1.0000000000000018, -0.99999999999999944},
+        {0.99999999999923328, 1.0000000000004989},
+        {0.99999999999999911, 0.99999999999999922},
+        {0.99999995415679832, 1.0000000000005007},
+        {1.0000000000000018, -1.0000000000000004}},
+       {{5, 7}, {3, 6}, {8, 10}, {11, 3}, {12, 4}, {1, 5}, {0, 3}, {2, 1}}},
+      {"a piece bent across another near (1e15, 1e15)",
+       {{999999739530013.75, 999999999999300.12},
+        {1000000000000891.5, 999999999999565.75},
+        {1000000405257049.2, 1000000000000816.5},
+        {999999999999206.38, 999999999999486.5},
+        {999999999999999.5, -1000000000000000.9},
+        {862416096287312.88, -1539532636117132.2},
+        {1000000000000000.4, -1000000000000000.8},
+        {1000000000000001, 1000000000000000.1},
+        {1000000000000000.2, -999999999999999.62},
+        {999999999999999, -1000000000000000.8}},
+       {{1, 5}, {2, 8}, {7, 6}, {9, 2}, {3, 9}, {2, 5}, {5, 8}, {0, 4}, {8, 9}}},
+      {"crossings near (1e-15, 1e-15) that a split of the suspects alone keeps making",
+       {{9.9999999999999968e-16, 9.9999999999999968e-16},  {9.999999999999987e-16, 1.0000000000000007e-15},
+        {1.0000000000000013e-15, 9.9999999999999988e-16},  {9.9999999999999909e-16, 1.0000000000000009e-15},
+        {1.0000000000000003e-15, 9.9999999999999929e-16},  {1.0000000000000011e-15, 9.999999999999987e-16},
+        {9.9999999999999909e-16, 9.9999999999999949e-16},  {2.770773269690543e-16, -1.805061180916183e-15},
+        {1.0000000000007968e-15, 1.0000000000006278e-15},  {9.9999999999999929e-16, 9.9999999999999968e-16},
+        {1.0000000000000013e-15, 9.999999999999987e-16},   {9.9999999999999909e-16, 9.999999999999987e-16},
+        {9.9999999999999988e-16, -1.0000000000000005e-15}, {1.0000000000000011e-15, 9.9999999999999949e-16},
+        {9.9999999999999968e-16, -9.9999999999999889e-16}, {9.9999994655527881e-16, 9.999999999994534e-16},
+        {9.9999999999999909e-16, 9.9999999999999968e-16},  {1.0000000000000011e-15, 9.9999999999999909e-16},
+        {9.9999999999999929e-16, 9.9999999999999949e-16},  {9.9999923611365862e-16, 1.0000000000001158e-15},
+        {9.9999999999999949e-16, 9.9999999999999988e-16},  {1.0000000000000007e-15, 9.9999999999999949e-16},
+        {1.0000000000000013e-15, -9.9999999999999949e-16}, {9.999999999999985e-16, 9.9999999999999909e-16},
+        {1.0000000000000009e-15, 9.9999999999999889e-16}},
+       {{3, 22}, {8, 23}, {13, 12}, {7, 2}, {15, 10}, {14, 1}, {19, 0}, {24, 20}}},
+  };
+  for (const Case& c : cases) {
+    expect_same_as_splitting_first(c.points, c.segments, false, c.what);
+    cdt::Options cpu;
+    cpu.backend = cdt::Backend::cpu;
+    EXPECT_GE(cdt::triangulate(c.points, c.segments, cpu).stats.attempts, 2u) << c.what;
+  }
 }
 
 // A long segment's corridor walked in parts (the GPU backend's, each part from the triangle holding a

@@ -461,6 +461,8 @@ TEST_F(TriangulateGpu, BadInputsGetTheCpuBackendsErrors) {
   cases.push_back({"infinity before NaN", two_bad, sides, int(Kind::non_finite_coordinate), 3});
   cases.push_back(
       {"beyond the range", with_point(2, {4, -2e60}), sides, int(Kind::coordinate_out_of_range), 2});
+  cases.push_back(
+      {"below the range", with_point(4, {1e-300, 3}), sides, int(Kind::coordinate_out_of_range), 4});
   cases.push_back({"bad point and bad segment", with_point(7, {inf, inf}), with_segments({{0, 99}}),
                    int(Kind::non_finite_coordinate), 7});
   cases.push_back({"ends beyond the points", square, with_segments({{5, 7}, {2, 8}, {9, 1}}),

@@ -251,8 +251,9 @@ bool keep_pinned_results(std::size_t max_bytes) noexcept;
 /// Duplicate points are merged (see Triangulation::duplicate_of), points lying on a segment split it,
 /// overlapping collinear segments are merged, and crossing segments are split at their intersection
 /// (CrossingSegments::resolve) or reported (CrossingSegments::reject). Throws InvalidInputError for
-/// non-finite or huge coordinates, out-of-range indices, degenerate segments, fewer than three
-/// distinct points or all points collinear; CrossingSegmentsError under the reject policy;
+/// non-finite coordinates, coordinates beyond +-1e60 or, other than 0, below 1e-60 in magnitude (the
+/// exact predicates' products would overflow or underflow), out-of-range indices, degenerate segments, fewer
+/// than three distinct points or all points collinear; CrossingSegmentsError under the reject policy;
 /// DeviceError when Backend::gpu is asked for and cannot be used.
 Triangulation triangulate(std::span<const Point> points, std::span<const Segment> segments,
                           const Options& options = {});

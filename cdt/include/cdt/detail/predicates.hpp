@@ -14,7 +14,8 @@
 // -ffp-contract=off (see cdt/CMakeLists.txt). The one deliberate fma is the device's two-product.
 //
 // Preconditions: finite coordinates whose magnitude stays below about 1e60 (no overflow of the
-// fourth powers in incircle) and differences that do not underflow.
+// fourth powers in incircle) and differences that do not underflow (the engine's input checks accept
+// nonzero coordinates from 1e-60 on).
 
 #include <bit>
 #include <cstdint>
