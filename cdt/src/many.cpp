@@ -235,12 +235,17 @@ std::vector<ManyResult> triangulate_many(std::span<const Input> inputs, const Op
       const Input& in = inputs[framed[f]];
       const Box& b = boxes[f];
       Placed p{framed[f]};
-      p.dx = static_cast<double>(f % columns) * width - std::floor(b.x0);
-      p.dy = static_cast<double>(f / columns) * height - std::floor(b.y0);
+      const double column = static_cast<double>(f % columns), row = static_cast<double>(f / columns);
+      p.dx = column * width - std::floor(b.x0);
+      p.dy = row * height - std::floor(b.y0);
       bool exact = std::isfinite(p.dx) && std::isfinite(p.dy) && in.points.size() + num_points < kNone / 2 &&
                    in.segments.size() + num_segments < kNone / 2;
       for (std::size_t i = 0; exact && i < in.points.size(); ++i)
         exact = adds_exactly(in.points[i].x, p.dx) && adds_exactly(in.points[i].y, p.dy);
+      // Its cell holds it, ending strictly before the next cell's start as that cell computes it: past
+      // 2^53 the cells' margin of 1 rounds away, and frames would touch.
+      exact = exact && b.x0 + p.dx >= column * width && b.x1 + p.dx < (column + 1.0) * width &&
+              b.y0 + p.dy >= row * height && b.y1 + p.dy < (row + 1.0) * height;
       if (!exact) {
         redo.push_back(framed[f]);
         continue;

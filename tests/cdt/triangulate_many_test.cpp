@@ -103,6 +103,24 @@ TEST(TriangulateMany, OtherInputsAreTriangulatedAlone) {
   EXPECT_GT(got[4].triangulation.vertices.size(), pslgs[4].points.size()); // the crossing's vertex
 }
 
+// Frames past 2^53 wide: the cells' margin of 1 rounds away, so two copies of a frame 1e50 wide would
+// be placed touching (the second's bottom side on the first's top, their corners merged as
+// duplicates, and the second left without triangles). They are triangulated alone.
+TEST(TriangulateMany, FramesTooWideForTheirCellsAreTriangulatedAlone) {
+  const double w = 1e50;
+  Pslg huge; // the corners twice, the sides, one diagonal
+  huge.points = {{w, 0}, {0, w}, {w, w}, {0, w}, {w, 0}, {w, w}, {0, 0}, {0, 0}};
+  huge.segments = {{5, 3}, {6, 1}, {4, 2}, {0, 7}};
+  const std::vector<Pslg> pslgs = {huge, framed_pixels(20, 20, 9), huge};
+  cdt::Options options;
+  options.backend = cdt::Backend::cpu;
+  const std::vector<cdt::ManyResult> got = cdt::triangulate_many(as_inputs(pslgs), options);
+  ASSERT_EQ(got.size(), pslgs.size());
+  for (std::size_t i = 0; i < got.size(); ++i)
+    expect_as_alone(got[i], pslgs[i], options, "input " + std::to_string(i));
+  EXPECT_EQ(got[2].triangulation.triangles.size(), 2u);
+}
+
 // A bad input gets triangulate()'s error; the others are not affected.
 TEST(TriangulateMany, ErrorsStayWithTheirInputs) {
   std::vector<Pslg> pslgs;
