@@ -3,12 +3,15 @@
 
 #include <CLI/CLI.hpp>
 
+#include <array>
 #include <cctype>
 #include <cstdio>
 #include <filesystem>
 #include <iostream>
 #include <map>
 #include <string>
+#include <system_error>
+#include <vector>
 
 #include "cdt/cdt.hpp"
 #include "cdt/errors.hpp"
@@ -36,6 +39,54 @@ fs::path default_prefix(const fs::path& input) {
   return input.parent_path() / (stem + ".1");
 }
 
+/// The files a run reads: the input, and for a .poly its .node, where a .poly of no vertices takes them
+/// from.
+std::vector<fs::path> inputs_of(const fs::path& input) {
+  std::vector<fs::path> inputs = {input};
+  if (input.extension() == ".poly") inputs.push_back(fs::path(input).replace_extension(".node"));
+  return inputs;
+}
+
+/// Writes PREFIX.node, .ele, .neigh and .edge, all or none: each first to a part file beside it, then
+/// every part renamed into place once all four are written. A part already written is removed when a
+/// later one fails.
+void write_outputs(const std::array<fs::path, 4>& paths, const cdt::Triangulation& t, unsigned first_index) {
+  for (const fs::path& p : paths) {
+    std::error_code ec;
+    if (fs::is_directory(p, ec)) throw cdt::FileError(p.string(), 0, p.string() + ": is a directory");
+  }
+  std::array<fs::path, 4> parts;
+  struct RemoveParts {
+    std::array<fs::path, 4>& parts;
+    ~RemoveParts() {
+      for (const fs::path& p : parts) {
+        std::error_code ec;
+        if (!p.empty()) fs::remove(p, ec);
+      }
+    }
+  } remove_parts{parts};
+  const auto part = [&](std::size_t k) {
+    fs::path p = paths[k];
+    p += ".part";
+    parts[k] = p;
+    return p;
+  };
+  cdt::io::write_node(part(0), t.vertices, first_index);
+  cdt::io::write_ele(part(1), t, first_index);
+  cdt::io::write_neigh(part(2), t, first_index);
+  cdt::io::write_edge(part(3), t, first_index);
+  for (std::size_t k = 0; k < paths.size(); ++k) {
+    std::error_code ec;
+    fs::rename(parts[k], paths[k], ec);
+    if (ec) {
+      throw cdt::FileError(paths[k].string(), 0,
+                           paths[k].string() + ": cannot rename " + parts[k].string() +
+                               " to it: " + ec.message());
+    }
+    parts[k].clear();
+  }
+}
+
 void print_stats(const cdt::Triangulation& t, std::size_t points, std::size_t segments) {
   const auto& s = t.stats;
   std::printf("input: %zu points, %zu segments; output: %zu vertices, %zu triangles\n", points, segments,
@@ -46,7 +97,8 @@ void print_stats(const cdt::Triangulation& t, std::size_t points, std::size_t se
               static_cast<unsigned long long>(s.zero_length_segments));
   if (s.attempts > 1) {
     std::printf("mesh made %u times (the crossings added more vertices than there were sites, or one could "
-                "not be inserted): the phases sum every attempt\n",
+                "not be inserted, or the split of the suspect segments alone missed one: every segment was "
+                "split first then): the phases sum every attempt\n",
                 s.attempts);
   }
   std::printf("%-12s %10s %10s %10s %10s\n", "phase", "ms", "flips", "missing", "rounds");
@@ -138,22 +190,26 @@ int main(int argc, char** argv) {
       std::cerr << "cdt: " << input.string() << ": warning: ignored " << t.stats.zero_length_segments
                 << " zero-length segment(s) (--crossings reject makes them an error)\n";
     }
-    fs::path node = out, ele = out, neigh = out, edge = out;
-    node += ".node";
-    ele += ".ele";
-    neigh += ".neigh";
-    edge += ".edge";
-    for (const fs::path& p : {node, ele, neigh, edge}) {
-      std::error_code ec;
-      if (fs::exists(p, ec) && fs::equivalent(p, input, ec)) {
-        std::cerr << "cdt: " << p.string() << " is the input file; choose another -o PREFIX\n";
-        return kExitUsage;
+    std::array<fs::path, 4> files = {out, out, out, out};
+    files[0] += ".node";
+    files[1] += ".ele";
+    files[2] += ".neigh";
+    files[3] += ".edge";
+    const auto& [node, ele, neigh, edge] = files;
+    for (const fs::path& p : files) {
+      for (const fs::path& read : inputs_of(input)) {
+        std::error_code ec;
+        if (fs::exists(p, ec) && fs::equivalent(p, read, ec)) {
+          std::cerr << "cdt: " << p.string()
+                    << (read == input
+                            ? " is the input file"
+                            : " may be read with the input (a .poly of no vertices takes them from it)")
+                    << "; choose another -o PREFIX\n";
+          return kExitUsage;
+        }
       }
     }
-    cdt::io::write_node(node, t.vertices, pslg.first_index);
-    cdt::io::write_ele(ele, t, pslg.first_index);
-    cdt::io::write_neigh(neigh, t, pslg.first_index);
-    cdt::io::write_edge(edge, t, pslg.first_index);
+    write_outputs(files, t, pslg.first_index);
     if (stats) print_stats(t, pslg.points.size(), pslg.segments.size());
     if (!quiet) {
       std::cout << "wrote " << node.string() << ", " << ele.string() << ", " << neigh.string() << ", "
