@@ -16,7 +16,7 @@
 
 namespace cdt::detail {
 struct Mesh;             // cdt/src/gcd/mesh.hpp
-struct Box;              // cdt/src/gcd/dualize.hpp
+struct Box;              // cdt/src/box.hpp
 struct GridMapping;      // cdt/src/gcd/grid_map.hpp
 struct MissingPoint;     // cdt/src/gcd/shift.hpp
 struct ShiftStats;       // cdt/src/gcd/shift.hpp

@@ -57,11 +57,11 @@ ScreenedPieces screen_pieces(const MeshView& m, std::span<const ConstraintPiece2
     screen_settle_triangle(m, pieces.data(), static_cast<std::uint32_t>(t), far2, marks, flag);
   });
   // The crowds no far piece passes: their short members listed by another walk, then every pair tested.
-  const std::vector<std::uint32_t> crowds =
-      executor.compact(m.num_slots, [&](std::size_t t) { return crowded[t] != 0 && far_crowd[t] == 0; });
   const std::vector<std::uint32_t> listed =
       executor.compact(pieces.size(), [&](std::size_t k) { return in_crowd[k] != 0; });
   if (!listed.empty()) {
+    const std::vector<std::uint32_t> crowds =
+        executor.compact(m.num_slots, [&](std::size_t t) { return crowded[t] != 0 && far_crowd[t] == 0; });
     // A crowded slot's first word is settled: it now holds the crowd's number.
     std::uint32_t* crowd_of = first.data();
     executor.for_each(crowds.size(),
