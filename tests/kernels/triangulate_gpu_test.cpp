@@ -329,6 +329,19 @@ TEST_F(TriangulateGpu, CrossingSegmentsMatchTheCpuBackend) {
   }
 }
 
+// Nearly overlapping segments near 1, 1e15 and 1e-15, whose screened split can miss a crossing and
+// start again splitting first: the same on the device.
+TEST_F(TriangulateGpu, NearlyOverlappingSegmentsMatchTheCpuBackend) {
+  for (std::uint64_t seed = 1; seed <= 60; ++seed) {
+    const trixel_gen::Pslg in = trixel_gen::nearly_overlapping(seed);
+    try {
+      expect_same_as_cpu(in.points, in.segments, "nearly overlapping, seed " + std::to_string(seed));
+    } catch (const cdt::InvalidInputError&) {
+      // all points collinear, say: the input checks' tests compare those
+    }
+  }
+}
+
 // Enough pieces for the constraints beside the split (2^16), some through points and some crossing: the
 // run beside the split ends at its first walk and starts again without the suspects, whose pieces go in
 // after the crossing vertices.

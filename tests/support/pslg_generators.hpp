@@ -6,6 +6,7 @@
 // many lengths first, then random points that lie on no constraint.
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <cstdint>
 #include <vector>
@@ -299,6 +300,38 @@ inline Pslg framed_pixels(int w, int h, std::uint64_t seed, int cuts = 2) {
   }
   add_frame(p, w, h, cuts);
   return p;
+}
+
+/// Up to 200 points near (base, base) and (base, -base), base 1, 1e15 or 1e-15: within 8 units in the
+/// last place, within 1e-12 or 1e-6 relatively, or anywhere in the square of side 4 base; with up to
+/// 80 random segments among them: crossings whose rounded points land near other pieces and sites.
+inline Pslg nearly_overlapping(std::uint64_t seed) {
+  Random rng(seed);
+  Pslg in;
+  const auto n = static_cast<std::size_t>(rng.range(6, 200));
+  const double base = std::array<double, 3>{1.0, 1e15, 1e-15}[rng.range(0, 2)];
+  const auto near = [&](double v) {
+    for (std::int64_t steps = rng.range(-8, 8); steps != 0; steps += steps > 0 ? -1 : 1)
+      v = std::nextafter(v, steps > 0 ? 2 * std::abs(v) : -2 * std::abs(v));
+    return v;
+  };
+  const auto jitter = [&](double scale) { return (2 * rng.unit() - 1) * 1e-12 * scale; };
+  for (std::size_t i = 0; i < n; ++i) {
+    const double side = rng.range(0, 1) ? base : -base;
+    switch (rng.range(0, 3)) {
+    case 0:
+    case 1:
+      in.points.push_back({near(base), near(side)});
+      break;
+    case 2:
+      in.points.push_back({base * (1 + jitter(rng.range(0, 1) ? 1 : 1e6)), side * (1 + jitter(1))});
+      break;
+    default:
+      in.points.push_back({base * (4 * rng.unit() - 2), base * (4 * rng.unit() - 2)});
+    }
+  }
+  add_random_segments(in, static_cast<std::size_t>(rng.range(2, 80)), rng);
+  return in;
 }
 
 } // namespace trixel_gen
