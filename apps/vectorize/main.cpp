@@ -14,6 +14,7 @@
 
 #include <atomic>
 #include <chrono>
+#include <cmath>
 #include <csignal>
 #include <cstdio>
 #include <cstdlib>
@@ -41,6 +42,20 @@ bool same_file(const std::filesystem::path& a, const std::filesystem::path& b) {
   std::error_code ec;
   if (std::filesystem::equivalent(a, b, ec)) return true;
   return std::filesystem::weakly_canonical(a, ec) == std::filesystem::weakly_canonical(b, ec);
+}
+
+/// CLI::Range for a real option that also refuses NaN, which compares false with both bounds.
+CLI::Validator number_in(double lo, double hi) {
+  const CLI::Range range(lo, hi);
+  return CLI::Validator(
+             [range](std::string& text) -> std::string {
+               char* end = nullptr;
+               const double value = std::strtod(text.c_str(), &end);
+               if (end == text.c_str() || std::isnan(value)) return "Value " + text + " is not a number";
+               return range(text);
+             },
+             range.get_description())
+      .name("NUMBER");
 }
 
 void print_stats_text(const vectorize::Stats& s, const std::filesystem::path& input) {
@@ -160,6 +175,25 @@ int run_batch_cli(const BatchCli& cli, const DebugCli& debug, const vectorize::O
   if (jobs.empty()) {
     std::cerr << "vectorize: no images to convert" << (collisions.empty() ? "" : " (see above)") << '\n';
     return kExitFailure;
+  }
+  if (!cli.report.empty()) {
+    // Checked before any image: the report must not replace an input or an output, and its folder must
+    // be there when the batch ends.
+    for (const vectorize::BatchJob& job : jobs) {
+      for (const std::filesystem::path* p : {&job.input, &job.output}) {
+        if (same_file(cli.report, *p)) {
+          std::cerr << "vectorize: --report " << cli.report.string() << " is "
+                    << (p == &job.input ? "an input" : "an output") << " of the batch; choose another path\n";
+          return kExitUsage;
+        }
+      }
+    }
+    const std::filesystem::path folder = cli.report.parent_path().empty() ? "." : cli.report.parent_path();
+    if (!std::filesystem::is_directory(folder, ec)) {
+      std::cerr << "vectorize: --report " << cli.report.string() << ": " << folder.string()
+                << " is not a folder\n";
+      return kExitUsage;
+    }
   }
 
   const bool terminal = isatty(2) != 0;
@@ -330,20 +364,20 @@ int main(int argc, char** argv) {
   app.add_option("-c,--colour-tolerance,--color-tolerance", colour_tolerance,
                  "Largest colour difference (CIELAB Delta E) joined into one region; larger = fewer, "
                  "flatter regions")
-      ->check(CLI::Range(0.0, 200.0));
+      ->check(number_in(0.0, 200.0));
   app.add_option("--min-area", min_area, "Regions smaller than this (square pixels) merge into a neighbour")
-      ->check(CLI::Range(0.0, 1e9));
+      ->check(number_in(0.0, 1e9));
   app.add_option("-s,--simplify", simplify, "Edge simplification tolerance, pixels")
-      ->check(CLI::Range(0.0, 100.0));
+      ->check(number_in(0.0, 100.0));
   app.add_option("-d,--detail", detail,
                  "Interior-point grid cell, pixels: smaller follows shading more closely; 0 = none")
       ->check(CLI::Range(0, 10000));
   app.add_option("--blur", blur, "Gaussian blur before edge detection, sigma in pixels; 0 = none")
-      ->check(CLI::Range(0.0, 50.0));
+      ->check(number_in(0.0, 50.0));
   app.add_option("--edge-low", edge_low, "Canny low threshold (Sobel units on 8-bit values); 0 = automatic")
-      ->check(CLI::Range(0.0, 1e6));
+      ->check(number_in(0.0, 1e6));
   app.add_option("--edge-high", edge_high, "Canny high threshold; 0 = automatic")
-      ->check(CLI::Range(0.0, 1e6));
+      ->check(number_in(0.0, 1e6));
   app.add_option("--precision", precision, "Decimal places of SVG coordinates")->check(CLI::Range(0, 6));
   app.add_option("--seams", seams_name,
                  "How to hide the hairline cracks anti-aliasing renderers show between regions: underlay "
@@ -354,7 +388,7 @@ int main(int argc, char** argv) {
   app.add_flag("--no-seams", no_seams, "Same as --seams none");
   app.add_option("--seam-width", seam_width,
                  "Width of the seam stroke, pixels (default: 3 for underlay, 0.5 for stroke)")
-      ->check(CLI::Range(0.0, 10.0));
+      ->check(number_in(0.0, 10.0));
   app.add_option("--backend", backend_name,
                  "CDT engine: auto (the GPU when present, for PSLGs of " +
                      std::to_string(vectorize::kDevicePslgPoints) +

@@ -150,4 +150,48 @@ TEST(VectorizeCli, ExistingOutputIsReplaced) {
   EXPECT_EQ(read_all(dir / "out.svg").find("old content"), std::string::npos);
 }
 
+// A device or a pipe as the output is written into, never replaced by a file (as root, a rename over
+// /dev/null replaced the device). Here a pipe, read by cat.
+TEST(VectorizeCli, APipeAsTheOutputIsWrittenIntoAndKept) {
+  ScratchDir dir;
+  const std::filesystem::path fifo = dir / "pipe.svg";
+  ASSERT_EQ(run("mkfifo " + shell_quote(fifo)).exit_code, 0);
+  // The reader gives up after a while: with a rename over the pipe it would wait for a writer forever.
+  const auto r = run("timeout 20 cat " + shell_quote(fifo) + " > " + shell_quote(dir / "copy.svg") + " & " +
+                     shell_quote(kBin) + " " + shell_quote(kSamples / "logo.png") + " " + shell_quote(fifo) +
+                     " --preset logo; status=$?; wait; exit $status");
+  EXPECT_EQ(r.exit_code, 0) << r.output;
+  EXPECT_TRUE(std::filesystem::is_fifo(fifo));
+  EXPECT_NE(read_all(dir / "copy.svg").find("</svg>"), std::string::npos);
+}
+
+// A report that would replace an input or an output of the batch is refused before any image.
+TEST(VectorizeCli, AReportOverAnInputOrAnOutputIsRefused) {
+  ScratchDir dir;
+  std::filesystem::copy_file(kSamples / "logo.png", dir / "logo.png");
+  const std::string batch = shell_quote(kBin) + " " + shell_quote(dir / "logo.png") + " -o " +
+                            shell_quote(dir / "out") + " --report ";
+  const auto over_input = run(batch + shell_quote(dir / "logo.png"));
+  EXPECT_EQ(over_input.exit_code, 2) << over_input.output;
+  EXPECT_NE(over_input.output.find("is an input"), std::string::npos) << over_input.output;
+  const auto over_output = run(batch + shell_quote(dir / "out" / "logo.svg"));
+  EXPECT_EQ(over_output.exit_code, 2) << over_output.output;
+  EXPECT_NE(over_output.output.find("is an output"), std::string::npos) << over_output.output;
+  EXPECT_EQ(read_all(dir / "logo.png"), read_all(kSamples / "logo.png"));
+  EXPECT_FALSE(std::filesystem::exists(dir / "out" / "logo.svg"));
+}
+
+// NaN compares false with both ends of a range: it is refused as not a number.
+TEST(VectorizeCli, NotANumberIsAUsageError) {
+  ScratchDir dir;
+  const std::string base =
+      shell_quote(kBin) + " " + shell_quote(kSamples / "logo.png") + " " + shell_quote(dir / "x.svg");
+  for (const char* option : {"--min-area", "--colour-tolerance", "--simplify", "--blur", "--seam-width"}) {
+    const auto r = run(base + " " + option + " nan");
+    EXPECT_EQ(r.exit_code, 2) << option << ": " << r.output;
+    EXPECT_NE(r.output.find("not a number"), std::string::npos) << option << ": " << r.output;
+  }
+  EXPECT_FALSE(std::filesystem::exists(dir / "x.svg"));
+}
+
 } // namespace

@@ -292,6 +292,38 @@ TEST(PngReader, ErrorsNameTheFileAndTheReason) {
   EXPECT_NE(error_of(dir / "missing.png").find("missing.png: cannot open"), std::string::npos);
 }
 
+// A chunk whose length runs past the end of the file is an error at once: libpng allocated (and
+// touched) the claimed 2 GiB of a text chunk before finding the file short.
+TEST(PngReader, AChunkClaimingMoreThanTheFileHoldsIsAnError) {
+  ScratchDir dir;
+  const auto good = make_png(8, 2, 1, 0, {0xA0, 0x50});
+  std::vector<std::uint8_t> huge(good.begin(), good.begin() + 33); // the signature and IHDR
+  put32(huge, 0x7fffffffu);
+  huge.insert(huge.end(), {'t', 'E', 'X', 't', 'k', 'e', 'y', 0});
+  write_bytes(dir / "huge_text.png", huge);
+  const std::string error = error_of(dir / "huge_text.png");
+  EXPECT_NE(error.find("huge_text.png: truncated or corrupt: chunk 'tEXt' at byte 33 runs past the end"),
+            std::string::npos)
+      << error;
+}
+
+// libpng refuses sides beyond 10^6 pixels by default; the limit is max_pixels' alone.
+TEST(PngReader, ALongImageWithinThePixelLimitIsRead) {
+  ScratchDir dir;
+  const int length = 1100000;
+  std::vector<std::uint8_t> rows;
+  for (int y = 0; y < length; ++y) rows.insert(rows.end(), {0, static_cast<std::uint8_t>(y % 2 ? 0x80 : 0)});
+  PngLayout tall; // one-bit grey: libpng's to decode
+  tall.width = 1;
+  tall.height = length;
+  tall.bit_depth = 1;
+  write_bytes(dir / "tall.png", assemble_png(tall, rows));
+  const vectorize::Image image = vectorize::load_png(dir / "tall.png");
+  EXPECT_EQ(image.width, 1);
+  EXPECT_EQ(image.height, length);
+  EXPECT_NE(error_of(dir / "tall.png", length - 1).find("more than the limit"), std::string::npos);
+}
+
 // The pixels a decoder must give for packed samples: value / 255 or / 65535, grey replicated, alpha 1
 // when the layout has none. Written out here rather than through the readers' shared conversion.
 std::vector<float> expected_rgba(const std::vector<std::uint8_t>& rows, int channels, int bit_depth) {

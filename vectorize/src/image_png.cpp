@@ -6,6 +6,7 @@
 
 #include <algorithm>
 #include <array>
+#include <cctype>
 #include <cerrno>
 #include <csetjmp>
 #include <cstdint>
@@ -50,11 +51,16 @@ struct PngHeader {
 };
 
 // Reads the header and sets up the transformations: palette to RGB, grey below 8 bits to 8 bits,
-// transparency chunks to an alpha channel, interlaced rows merged.
-bool read_header(PngState& state, PngHeader& header) {
+// transparency chunks to an alpha channel, interlaced rows merged; only the size when the image has
+// more than max_pixels pixels.
+bool read_header(PngState& state, std::size_t max_pixels, PngHeader& header) {
   if (setjmp(png_jmpbuf(state.png))) return false;
   png_init_io(state.png, state.file);
   png_read_info(state.png, state.info);
+  header.width = png_get_image_width(state.png, state.info);
+  header.height = png_get_image_height(state.png, state.info);
+  // Too large: refused by the caller before png_read_update_info allocates rows of that width.
+  if (static_cast<std::size_t>(header.width) * header.height > max_pixels) return true;
   const int colour_type = png_get_color_type(state.png, state.info);
   const bool has_trns = png_get_valid(state.png, state.info, PNG_INFO_tRNS) != 0;
   switch (colour_type) {
@@ -105,6 +111,36 @@ std::string reason_of(const PngState& state, const char* fallback) {
 
 } // namespace
 
+namespace {
+
+/// Throws FileError when a chunk claims more bytes than the file holds after it: libpng allocates an
+/// ancillary chunk's claimed length (up to 2 GiB, and touches it) before it finds the file too short.
+/// Reads the chunks' headers alone, from the signature to IEND; leaves the file at its start.
+void check_chunk_lengths(std::FILE* file, const std::filesystem::path& path) {
+  if (std::fseek(file, 0, SEEK_END) != 0) return;
+  const long size = std::ftell(file);
+  long at = 8; // past the signature
+  while (size >= 0 && at + 8 <= size) {
+    std::array<unsigned char, 8> header{};
+    if (std::fseek(file, at, SEEK_SET) != 0 || std::fread(header.data(), 1, 8, file) != 8) break;
+    const unsigned long length =
+        (static_cast<unsigned long>(header[0]) << 24) | (header[1] << 16) | (header[2] << 8) | header[3];
+    std::string type(reinterpret_cast<const char*>(header.data()) + 4, 4);
+    for (char& c : type) c = std::isalpha(static_cast<unsigned char>(c)) ? c : '?'; // printable in a message
+    const long room = size - at - 12; // after its header and before its checksum
+    if (length > 0x7fffffffUL || room < 0 || static_cast<unsigned long>(room) < length) {
+      throw FileError(path, "truncated or corrupt: chunk '" + type + "' at byte " + std::to_string(at) +
+                                " runs past the end of the file (it claims " + std::to_string(length) +
+                                " bytes of data; " + std::to_string(size - at) + " bytes remain)");
+    }
+    if (type == "IEND") break;
+    at += 12 + static_cast<long>(length);
+  }
+  std::rewind(file);
+}
+
+} // namespace
+
 bool is_png_file(const std::filesystem::path& path) {
   std::FILE* file = std::fopen(path.c_str(), "rb");
   if (!file) return false;
@@ -120,13 +156,16 @@ Image detail::load_png_with_libpng(const std::filesystem::path& path, std::size_
   state.file = std::fopen(path.c_str(), "rb");
   if (!state.file) throw FileError(path, std::string("cannot open for reading: ") + std::strerror(errno));
   if (!is_png_file(path)) throw FileError(path, "not a PNG file");
+  check_chunk_lengths(state.file, path);
   state.png = png_create_read_struct(PNG_LIBPNG_VER_STRING, &state, on_png_error, on_png_warning);
   if (!state.png) throw FileError(path, "cannot start the PNG decoder (out of memory)");
   state.info = png_create_info_struct(state.png);
   if (!state.info) throw FileError(path, "cannot start the PNG decoder (out of memory)");
+  // The size limit is max_pixels' (checked below), not libpng's default of 10^6 pixels a side.
+  png_set_user_limits(state.png, 0x7fffffff, 0x7fffffff);
 
   PngHeader header;
-  if (!read_header(state, header))
+  if (!read_header(state, max_pixels, header))
     throw FileError(path, "cannot decode: " + reason_of(state, "bad PNG header"));
   if (header.width == 0 || header.height == 0) throw FileError(path, "image has zero size");
   const std::size_t pixels = static_cast<std::size_t>(header.width) * header.height;

@@ -4,6 +4,7 @@
 #include <unistd.h>
 
 #include <atomic>
+#include <cerrno>
 #include <chrono>
 #include <cstdio>
 #include <cstring>
@@ -257,6 +258,21 @@ void remove_unfinished_outputs() noexcept {
 
 void write_file_atomically(const std::filesystem::path& path, std::string_view content) {
   namespace fs = std::filesystem;
+  std::error_code status_error;
+  const fs::file_status status = fs::status(path, status_error);
+  if (fs::is_character_file(status) || fs::is_fifo(status)) {
+    // A device or a pipe (/dev/null, /dev/stdout): written in place, since a rename would replace it
+    // with a file.
+    std::ofstream file(path, std::ios::binary);
+    if (!file) throw FileError(path, "cannot open it for writing: " + std::string(std::strerror(errno)));
+    file.write(content.data(), static_cast<std::streamsize>(content.size()));
+    file.flush();
+    if (!file) throw FileError(path, "write failed");
+    return;
+  }
+  if (fs::is_directory(status)) throw FileError(path, "is a directory");
+  if (fs::exists(status) && !fs::is_regular_file(status))
+    throw FileError(path, "is neither a regular file nor a device or a pipe");
   // A name unique to this process and call, beside the target so that the rename stays on one
   // file system.
   static thread_local std::mt19937_64 rng{std::random_device{}()};
