@@ -13,6 +13,7 @@
 #endif
 
 #include <atomic>
+#include <cerrno>
 #include <chrono>
 #include <cmath>
 #include <csignal>
@@ -21,6 +22,7 @@
 #include <filesystem>
 #include <fstream>
 #include <iostream>
+#include <new>
 #include <optional>
 #include <string>
 #include <system_error>
@@ -273,7 +275,19 @@ int run_batch_cli(const BatchCli& cli, const DebugCli& debug, const vectorize::O
 
 } // namespace
 
+#if defined(TRIXEL_MIMALLOC)
+// mimalloc's `new`, built as C, aborts the whole process when memory runs out (it does not see the C++
+// new handler); it reports the error here first, and the exception thrown here fails the image it was
+// for instead (the frames between have unwind tables, as everything on x86-64 Linux).
+void on_mimalloc_error(int error, void*) {
+  if (error == ENOMEM) throw std::bad_alloc();
+}
+#endif
+
 int main(int argc, char** argv) {
+#if defined(TRIXEL_MIMALLOC)
+  mi_register_error(&on_mimalloc_error, nullptr);
+#endif
   CLI::App app{"vectorize: convert a raster image (PNG, JPEG, TIFF, BMP, WebP, ...) into an SVG of coloured\n"
                "polygons, through edge detection, a constrained Delaunay triangulation of the edge map and\n"
                "grouping of its triangles (trixels) by colour. Transparent areas (alpha < 0.5) stay empty.",
@@ -376,8 +390,7 @@ int main(int argc, char** argv) {
       ->check(number_in(0.0, 50.0));
   app.add_option("--edge-low", edge_low, "Canny low threshold (Sobel units on 8-bit values); 0 = automatic")
       ->check(number_in(0.0, 1e6));
-  app.add_option("--edge-high", edge_high, "Canny high threshold; 0 = automatic")
-      ->check(number_in(0.0, 1e6));
+  app.add_option("--edge-high", edge_high, "Canny high threshold; 0 = automatic")->check(number_in(0.0, 1e6));
   app.add_option("--precision", precision, "Decimal places of SVG coordinates")->check(CLI::Range(0, 6));
   app.add_option("--seams", seams_name,
                  "How to hide the hairline cracks anti-aliasing renderers show between regions: underlay "
@@ -518,6 +531,9 @@ int main(int argc, char** argv) {
     return 0;
   } catch (const vectorize::FileError& e) {
     std::cerr << "vectorize: " << e.what() << '\n'; // names the file and the reason
+    return kExitFailure;
+  } catch (const std::bad_alloc&) {
+    std::cerr << "vectorize: " << input.string() << ": " << vectorize::kOutOfMemory << '\n';
     return kExitFailure;
   } catch (const std::exception& e) {
     std::cerr << "vectorize: " << input.string() << ": " << e.what() << '\n';

@@ -19,6 +19,7 @@
 #include <map>
 #include <memory>
 #include <mutex>
+#include <new>
 #include <set>
 #include <sstream>
 #include <system_error>
@@ -146,6 +147,8 @@ void fail(JobResult& r) {
     throw;
   } catch (const FileError& e) {
     r.error = e.what();
+  } catch (const std::bad_alloc&) {
+    r.error = r.job.input.string() + ": " + kOutOfMemory;
   } catch (const std::exception& e) {
     r.error = r.job.input.string() + ": " + e.what();
   } catch (...) {

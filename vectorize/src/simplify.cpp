@@ -766,8 +766,9 @@ std::vector<Polyline> simplify_chains(const std::vector<Chain>& chains, double t
     simplifier.run();
     if (!across.empty()) simplifier.run(across);
   } else {
-    // The two sides on two threads, then the crossing chains around them.
-    std::exception_ptr failure;
+    // The two sides on two threads, then the crossing chains around them. The worker is joined
+    // whichever side fails (memory running out, say): a thread destroyed unjoined ends the process.
+    std::exception_ptr failure, own_failure;
     std::thread worker([&] {
       try {
         simplify(right, across);
@@ -775,8 +776,13 @@ std::vector<Polyline> simplify_chains(const std::vector<Chain>& chains, double t
         failure = std::current_exception();
       }
     });
-    simplify(left, across);
+    try {
+      simplify(left, across);
+    } catch (...) {
+      own_failure = std::current_exception();
+    }
     worker.join();
+    if (own_failure) std::rethrow_exception(own_failure);
     if (failure) std::rethrow_exception(failure);
     simplify(across, sides);
   }

@@ -13,6 +13,10 @@ public:
   using std::runtime_error::runtime_error;
 };
 
+/// The reason given for an image whose conversion ran out of memory.
+inline constexpr const char* kOutOfMemory =
+    "out of memory (a conversion needs about 64 bytes a pixel; --max-pixels refuses larger images)";
+
 /// A file that cannot be read, decoded or written; what() is "<path>: <reason>".
 class FileError : public Error {
 public:
