@@ -108,6 +108,14 @@ volatile std::sig_atomic_t g_interrupts = 0;
 
 // First Ctrl-C: no new image starts, the ones under way finish (their outputs are whole). Second:
 // abandon them, removing their temporary files, and exit at once.
+// One image: a signal abandons it, removing the temporary file of its output if one is being written,
+// and ends the process as the signal would have.
+extern "C" void on_signal_alone(int signal) {
+  vectorize::remove_unfinished_outputs();
+  std::signal(signal, SIG_DFL);
+  std::raise(signal);
+}
+
 extern "C" void on_interrupt(int) {
   g_interrupts = g_interrupts + 1;
   g_stop.store(true);
@@ -491,6 +499,7 @@ int main(int argc, char** argv) {
     }
   }
 
+  for (const int signal : {SIGINT, SIGTERM, SIGHUP}) std::signal(signal, on_signal_alone);
   const std::filesystem::path input = positional[0];
   const std::filesystem::path output = positional[1];
   if (same_file(input, output)) {
