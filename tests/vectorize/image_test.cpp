@@ -150,6 +150,20 @@ TEST(LoadImage, ReportsTruncatedPng) {
   }
 }
 
+// A JPEG or TIFF cut short is an error too: their readers filled the missing rows (black, grey) and
+// said so only on the side.
+TEST(LoadImage, ReportsTruncatedJpegAndTiff) {
+  ScratchDir dir;
+  for (const char* name : {"full.jpg", "full.tif"}) {
+    const std::filesystem::path full = dir / name;
+    write_image(full, 64, 64, 3, OIIO::TypeDesc::UINT8, rgb8);
+    const std::filesystem::path cut = dir / ("cut" + full.extension().string());
+    std::filesystem::copy_file(full, cut);
+    std::filesystem::resize_file(cut, std::filesystem::file_size(full) / 2);
+    expect_file_error(cut, "corrupt or truncated");
+  }
+}
+
 TEST(LoadImage, RefusesImagesOverThePixelLimit) {
   ScratchDir dir;
   write_image(dir / "big.png", 20, 10, 3, OIIO::TypeDesc::UINT8, rgb8);

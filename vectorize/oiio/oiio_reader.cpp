@@ -55,7 +55,9 @@ Image load(const std::filesystem::path& path, std::size_t max_pixels) {
   }
 
   std::vector<float> raw(pixels * static_cast<std::size_t>(channels));
-  if (!input->read_image(0, 0, 0, channels, OIIO::TypeDesc::FLOAT, raw.data())) {
+  // A reader may fill what it could not read and report it only as an error on the side (a TIFF cut
+  // short became black rows, a JPEG cut short grey ones).
+  if (!input->read_image(0, 0, 0, channels, OIIO::TypeDesc::FLOAT, raw.data()) || input->has_error()) {
     std::string reason = first_line(input->geterror());
     if (reason.empty()) reason = "read failed";
     throw ReadError("corrupt or truncated image data: " + reason);
