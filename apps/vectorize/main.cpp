@@ -177,11 +177,11 @@ int run_batch_cli(const BatchCli& cli, const DebugCli& debug, const vectorize::O
     std::cerr << "vectorize: " << cli.out_dir.string() << ": cannot create the output directory\n";
     return kExitFailure;
   }
-  std::vector<std::string> collisions;
+  std::vector<vectorize::JobResult> collisions; // failed before they start: in the summary and report
   std::vector<vectorize::BatchJob> jobs =
       vectorize::plan_batch(inputs, cli.out_dir, cli.recursive, collisions);
   if (debug.on()) vectorize::assign_debug_folders(jobs, cli.out_dir, debug.dir);
-  for (const auto& c : collisions) std::cerr << "vectorize: " << c << '\n';
+  for (const auto& c : collisions) std::cerr << "vectorize: " << c.error << '\n';
   if (jobs.empty()) {
     std::cerr << "vectorize: no images to convert" << (collisions.empty() ? "" : " (see above)") << '\n';
     return kExitFailure;
@@ -249,10 +249,12 @@ int run_batch_cli(const BatchCli& cli, const DebugCli& debug, const vectorize::O
   };
   // Once, before any image: OpenCV's pool keeps to a conversion's share of the -j budget.
   vectorize::set_opencv_threads(vectorize::threads_per_conversion(batch, jobs.size()));
-  const std::vector<vectorize::JobResult> results = vectorize::run_batch(jobs, batch);
+  std::vector<vectorize::JobResult> results = vectorize::run_batch(jobs, batch);
   const double wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   if (terminal && !quiet && results.size() < jobs.size()) std::fputc('\n', stderr);
 
+  const std::size_t not_started = jobs.size() - results.size();
+  results.insert(results.end(), collisions.begin(), collisions.end());
   std::size_t converted = 0, skipped = 0;
   std::vector<const vectorize::JobResult*> failed;
   for (const auto& r : results) {
@@ -260,7 +262,6 @@ int run_batch_cli(const BatchCli& cli, const DebugCli& debug, const vectorize::O
     skipped += r.status == JobStatus::skipped;
     if (r.status == JobStatus::failed) failed.push_back(&r);
   }
-  const std::size_t not_started = jobs.size() - results.size();
   if (!cli.report.empty()) {
     try {
       vectorize::write_file_atomically(cli.report, vectorize::batch_report_json(results, wall));

@@ -312,6 +312,36 @@ TEST(VectorizeBatch, InputListFromStandardInput) {
   EXPECT_EQ(r.output, ""); // -q: silence
 }
 
+// A list's lines lose their trailing blanks, and lines of blanks are skipped: "logo.png   " claimed
+// logo.svg, failed, and left the real logo.png unconverted.
+TEST(VectorizeBatch, InputListLinesLoseTrailingBlanks) {
+  ScratchDir dir;
+  std::ofstream(dir / "list.txt") << (kSamples / "logo.png").string() << "   \n"
+                                  << (kSamples / "logo.png").string() << "\n   \n";
+  const auto r = run(shell_quote(kBin) + " --from-list " + shell_quote(dir / "list.txt") + " -o " +
+                     shell_quote(dir / "out") + " -q");
+  EXPECT_EQ(r.exit_code, 0) << r.output;
+  EXPECT_EQ(files_under(dir / "out"), (std::vector<std::string>{"logo.svg"}));
+}
+
+// Two inputs with one output: the second is not converted, and counts as failed in the summary and
+// the report.
+TEST(VectorizeBatch, InputsSharingAnOutputAreReportedAsFailed) {
+  ScratchDir dir;
+  fs::create_directories(dir / "a");
+  fs::create_directories(dir / "b");
+  fs::copy_file(kSamples / "logo.png", dir / "a" / "x.png");
+  fs::copy_file(kSamples / "strokes.png", dir / "b" / "x.png");
+  const auto r = run(shell_quote(kBin) + " " + shell_quote(dir / "a" / "x.png") + " " +
+                     shell_quote(dir / "b" / "x.png") + " -o " + shell_quote(dir / "out") + " --report " +
+                     shell_quote(dir / "report.json"));
+  EXPECT_EQ(r.exit_code, 1) << r.output;
+  EXPECT_NE(r.output.find("1 converted, 0 skipped, 1 failed"), std::string::npos) << r.output;
+  const std::string report = read_all(dir / "report.json");
+  EXPECT_NE(report.find("\"failed\":1"), std::string::npos) << report;
+  EXPECT_NE(report.find((dir / "b" / "x.png").string()), std::string::npos) << report;
+}
+
 TEST(VectorizeBatch, ImagesOverThePixelLimitAreRefused) {
   ScratchDir dir;
   const auto r = run(shell_quote(kBin) + " " + shell_quote(kSamples / "logo.png") + " -o " +

@@ -54,7 +54,7 @@ fs::path svg_name(fs::path relative) { return relative.replace_extension(".svg")
 } // namespace
 
 std::vector<BatchJob> plan_batch(const std::vector<fs::path>& inputs, const fs::path& out_dir, bool recursive,
-                                 std::vector<std::string>& collisions) {
+                                 std::vector<JobResult>& collisions) {
   std::vector<BatchJob> jobs;
   for (const fs::path& input : inputs) {
     std::error_code ec;
@@ -88,8 +88,11 @@ std::vector<BatchJob> plan_batch(const std::vector<fs::path>& inputs, const fs::
     const fs::path key = job.input.lexically_normal();
     if (!inputs_seen.insert(key).second) continue; // the same input named twice
     if (!unique.empty() && unique.back().output == job.output) {
-      collisions.push_back(job.input.string() + ": its output " + job.output.string() +
-                           " is already the output of " + unique.back().input.string() + "; not converted");
+      JobResult collision;
+      collision.job = job;
+      collision.error = job.input.string() + ": its output " + job.output.string() +
+                        " is already the output of " + unique.back().input.string() + "; not converted";
+      collisions.push_back(std::move(collision));
       continue;
     }
     unique.push_back(job);
@@ -117,8 +120,9 @@ std::vector<fs::path> read_input_list(const fs::path& list) {
   std::vector<fs::path> paths;
   std::string line;
   while (std::getline(*in, line)) {
-    if (!line.empty() && line.back() == '\r') line.pop_back();
-    if (line.empty() || line[0] == '#') continue;
+    while (!line.empty() && (line.back() == '\r' || line.back() == ' ' || line.back() == '\t'))
+      line.pop_back();
+    if (line.empty() || line[0] == '#' || line.find_first_not_of(" \t") == std::string::npos) continue;
     paths.emplace_back(line);
   }
   if (in->bad()) throw FileError(list, "read error in the input list");

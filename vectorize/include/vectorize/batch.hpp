@@ -23,6 +23,8 @@ struct BatchJob {
 /// The file name extensions (lower case, with the dot) that directory scans pick up as images.
 const std::vector<std::string>& image_extensions();
 
+struct JobResult;
+
 /// Expands command-line inputs into jobs writing under out_dir, mirroring the input tree:
 /// - a file gives out_dir / (its stem + ".svg") — given explicitly, it is converted whatever its
 ///   extension (a non-image then fails with a clear message);
@@ -30,19 +32,20 @@ const std::vector<std::string>& image_extensions();
 ///   any subdirectory, each at out_dir / (path relative to the directory, extension ".svg").
 /// Inputs that do not exist are returned as jobs too (they fail with "no such file" when run), so
 /// that they are reported with the rest. Two inputs mapping to one output keep the first; the others
-/// are listed in `collisions` with a message. The result is sorted by output path and duplicates of
-/// the same input are removed.
+/// are added to `collisions` as failed jobs, with the reason. The result is sorted by output path and
+/// duplicates of the same input are removed.
 std::vector<BatchJob> plan_batch(const std::vector<std::filesystem::path>& inputs,
                                  const std::filesystem::path& out_dir, bool recursive,
-                                 std::vector<std::string>& collisions);
+                                 std::vector<JobResult>& collisions);
 
 /// Gives every job a debug folder under debug_dir that mirrors its output under out_dir: the output
 /// out_dir/a/b.svg gets debug_dir/a/b (the output's path relative to out_dir without its extension).
 void assign_debug_folders(std::vector<BatchJob>& jobs, const std::filesystem::path& out_dir,
                           const std::filesystem::path& debug_dir);
 
-/// Reads input paths, one per line (blank lines and lines starting with '#' skipped), from a file or,
-/// for "-", from standard input. Throws FileError when the list cannot be read.
+/// Reads input paths, one per line (blanks at a line's end dropped; blank lines and lines starting with
+/// '#' skipped), from a file or, for "-", from standard input. Throws FileError when the list cannot be
+/// read.
 std::vector<std::filesystem::path> read_input_list(const std::filesystem::path& list);
 
 enum class JobStatus { converted, skipped, failed };
