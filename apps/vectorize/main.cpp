@@ -172,9 +172,13 @@ int run_batch_cli(const BatchCli& cli, const DebugCli& debug, const vectorize::O
     inputs.insert(inputs.end(), listed.begin(), listed.end());
   }
   std::error_code ec;
-  std::filesystem::create_directories(cli.out_dir, ec);
+  std::error_code created;
+  std::filesystem::create_directories(cli.out_dir, created);
   if (!std::filesystem::is_directory(cli.out_dir, ec)) {
-    std::cerr << "vectorize: " << cli.out_dir.string() << ": cannot create the output directory\n";
+    std::cerr << "vectorize: " << cli.out_dir.string() << ": cannot create the output directory: "
+              << (std::filesystem::exists(cli.out_dir, ec) ? "a file of that name is there"
+                                                           : created.message())
+              << '\n';
     return kExitFailure;
   }
   std::vector<vectorize::JobResult> collisions; // failed before they start: in the summary and report

@@ -281,7 +281,10 @@ void write_file_atomically(const std::filesystem::path& path, std::string_view c
   const TemporaryRegistration registration(temporary);
   {
     std::ofstream file(temporary, std::ios::binary | std::ios::trunc);
-    if (!file) throw FileError(path, "cannot create a temporary file beside it (" + temporary.string() + ")");
+    if (!file) {
+      throw FileError(path, "cannot create a temporary file beside it (" + temporary.string() +
+                                "): " + std::strerror(errno));
+    }
     file.write(content.data(), static_cast<std::streamsize>(content.size()));
     file.flush();
     if (!file) {
