@@ -183,7 +183,7 @@ int run_batch_cli(const BatchCli& cli, const DebugCli& debug, const vectorize::O
   }
   std::vector<vectorize::JobResult> collisions; // failed before they start: in the summary and report
   std::vector<vectorize::BatchJob> jobs =
-      vectorize::plan_batch(inputs, cli.out_dir, cli.recursive, collisions);
+      vectorize::plan_batch(inputs, cli.out_dir, cli.recursive, collisions, {cli.out_dir, debug.dir});
   if (debug.on()) vectorize::assign_debug_folders(jobs, cli.out_dir, debug.dir);
   for (const auto& c : collisions) std::cerr << "vectorize: " << c.error << '\n';
   if (jobs.empty()) {

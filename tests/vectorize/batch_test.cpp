@@ -342,6 +342,23 @@ TEST(VectorizeBatch, InputsSharingAnOutputAreReportedAsFailed) {
   EXPECT_NE(report.find((dir / "b" / "x.png").string()), std::string::npos) << report;
 }
 
+// The batch's own output and debug folders inside its input tree are not walked into: a second run
+// converted the first run's overlays as images.
+TEST(VectorizeBatch, OwnFoldersInsideTheInputTreeAreNotInputs) {
+  ScratchDir dir;
+  fs::create_directories(dir / "src");
+  fs::copy_file(kSamples / "logo.png", dir / "src" / "logo.png");
+  const std::string command = shell_quote(kBin) + " " + shell_quote(dir / "src") + " -r -o " +
+                              shell_quote(dir / "src" / "out") + " --debug " +
+                              shell_quote(dir / "src" / "dbg");
+  for (int round = 0; round < 2; ++round) {
+    const auto r = run(command);
+    EXPECT_EQ(r.exit_code, 0) << r.output;
+    EXPECT_NE(r.output.find("1 converted"), std::string::npos) << "round " << round << ": " << r.output;
+  }
+  EXPECT_EQ(files_under(dir / "src" / "out"), (std::vector<std::string>{"logo.svg"}));
+}
+
 TEST(VectorizeBatch, ImagesOverThePixelLimitAreRefused) {
   ScratchDir dir;
   const auto r = run(shell_quote(kBin) + " " + shell_quote(kSamples / "logo.png") + " -o " +

@@ -54,7 +54,12 @@ fs::path svg_name(fs::path relative) { return relative.replace_extension(".svg")
 } // namespace
 
 std::vector<BatchJob> plan_batch(const std::vector<fs::path>& inputs, const fs::path& out_dir, bool recursive,
-                                 std::vector<JobResult>& collisions) {
+                                 std::vector<JobResult>& collisions, const std::vector<fs::path>& own) {
+  const auto is_own = [&](const fs::path& folder) {
+    std::error_code e;
+    return std::any_of(own.begin(), own.end(),
+                       [&](const fs::path& o) { return fs::equivalent(folder, o, e); });
+  };
   std::vector<BatchJob> jobs;
   for (const fs::path& input : inputs) {
     std::error_code ec;
@@ -68,6 +73,11 @@ std::vector<BatchJob> plan_batch(const std::vector<fs::path>& inputs, const fs::
         for (fs::recursive_directory_iterator it(input, fs::directory_options::skip_permission_denied, ec),
              end;
              !ec && it != end; it.increment(ec)) {
+          std::error_code e;
+          if (it->is_directory(e) && is_own(it->path())) {
+            it.disable_recursion_pending();
+            continue;
+          }
           add(*it);
         }
       } else {

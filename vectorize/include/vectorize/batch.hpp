@@ -33,10 +33,12 @@ struct JobResult;
 /// Inputs that do not exist are returned as jobs too (they fail with "no such file" when run), so
 /// that they are reported with the rest. Two inputs mapping to one output keep the first; the others
 /// are added to `collisions` as failed jobs, with the reason. The result is sorted by output path and
-/// duplicates of the same input are removed.
+/// duplicates of the same input are removed. The folders of `own` (the batch's output and debug
+/// folders) are not walked into: inside an input folder, their overlays would become inputs.
 std::vector<BatchJob> plan_batch(const std::vector<std::filesystem::path>& inputs,
                                  const std::filesystem::path& out_dir, bool recursive,
-                                 std::vector<JobResult>& collisions);
+                                 std::vector<JobResult>& collisions,
+                                 const std::vector<std::filesystem::path>& own = {});
 
 /// Gives every job a debug folder under debug_dir that mirrors its output under out_dir: the output
 /// out_dir/a/b.svg gets debug_dir/a/b (the output's path relative to out_dir without its extension).
