@@ -359,6 +359,19 @@ TEST(VectorizeBatch, OwnFoldersInsideTheInputTreeAreNotInputs) {
   EXPECT_EQ(files_under(dir / "src" / "out"), (std::vector<std::string>{"logo.svg"}));
 }
 
+// A file name that is not UTF-8 is written into the report as U+FFFD, so that it stays valid JSON.
+TEST(VectorizeBatch, ReportStaysJsonForNamesThatAreNotUtf8) {
+  ScratchDir dir;
+  fs::create_directories(dir / "in");
+  fs::copy_file(kSamples / "logo.png", dir / "in" / std::string("bad\xff.png"));
+  const auto r = run(shell_quote(kBin) + " " + shell_quote(dir / "in") + " -o " + shell_quote(dir / "out") +
+                     " -q --report " + shell_quote(dir / "report.json"));
+  EXPECT_EQ(r.exit_code, 0) << r.output;
+  const std::string report = read_all(dir / "report.json");
+  EXPECT_NE(report.find("bad\\ufffd.png"), std::string::npos) << report;
+  EXPECT_EQ(report.find('\xff'), std::string::npos);
+}
+
 TEST(VectorizeBatch, ImagesOverThePixelLimitAreRefused) {
   ScratchDir dir;
   const auto r = run(shell_quote(kBin) + " " + shell_quote(kSamples / "logo.png") + " -o " +

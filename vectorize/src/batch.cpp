@@ -663,9 +663,30 @@ std::vector<JobResult> run_batch(const std::vector<BatchJob>& jobs, const BatchO
 
 namespace {
 
+/// The length of the well-formed UTF-8 sequence at s[i], or 0 when there is none.
+std::size_t utf8_length(const std::string& s, std::size_t i) {
+  const auto at = [&](std::size_t k) { return static_cast<unsigned char>(s[k]); };
+  const unsigned char c = at(i);
+  const std::size_t n = c < 0x80                 ? 1
+                        : c >= 0xC2 && c <= 0xDF ? 2
+                        : c >= 0xE0 && c <= 0xEF ? 3
+                        : c >= 0xF0 && c <= 0xF4 ? 4
+                                                 : 0;
+  if (n == 0 || i + n > s.size()) return 0;
+  for (std::size_t k = 1; k < n; ++k)
+    if ((at(i + k) & 0xC0) != 0x80) return 0;
+  // Overlong forms, surrogates and code points past U+10FFFF.
+  if (n == 3 && ((c == 0xE0 && at(i + 1) < 0xA0) || (c == 0xED && at(i + 1) >= 0xA0))) return 0;
+  if (n == 4 && ((c == 0xF0 && at(i + 1) < 0x90) || (c == 0xF4 && at(i + 1) >= 0x90))) return 0;
+  return n;
+}
+
+/// s as a JSON string; bytes that are not UTF-8 (a file name's, say) become U+FFFD, so that the report
+/// stays valid JSON.
 std::string json_string(const std::string& s) {
   std::string out = "\"";
-  for (const char c : s) {
+  for (std::size_t i = 0; i < s.size();) {
+    const char c = s[i];
     switch (c) {
     case '"':
       out += "\\\"";
@@ -687,10 +708,15 @@ std::string json_string(const std::string& s) {
         char buf[8];
         std::snprintf(buf, sizeof buf, "\\u%04x", c);
         out += buf;
+      } else if (const std::size_t n = utf8_length(s, i); n == 0) {
+        out += "\\ufffd";
       } else {
-        out += c;
+        out.append(s, i, n);
+        i += n;
+        continue;
       }
     }
+    ++i;
   }
   return out + "\"";
 }
