@@ -13,6 +13,7 @@
 #include <chrono>
 #include <condition_variable>
 #include <cstdio>
+#include <cstring>
 #include <deque>
 #include <fstream>
 #include <iostream>
@@ -60,10 +61,20 @@ std::vector<BatchJob> plan_batch(const std::vector<fs::path>& inputs, const fs::
     return std::any_of(own.begin(), own.end(),
                        [&](const fs::path& o) { return fs::equivalent(folder, o, e); });
   };
+  // A folder that cannot be listed is refused with the reason, not skipped in silence.
+  const auto readable = [&](const fs::path& folder) {
+    if (::access(folder.c_str(), R_OK | X_OK) == 0) return true;
+    JobResult refused;
+    refused.job.input = folder;
+    refused.error = folder.string() + ": cannot read the folder: " + std::strerror(errno);
+    collisions.push_back(std::move(refused));
+    return false;
+  };
   std::vector<BatchJob> jobs;
   for (const fs::path& input : inputs) {
     std::error_code ec;
     if (fs::is_directory(input, ec)) {
+      if (!readable(input)) continue;
       const auto add = [&](const fs::directory_entry& entry) {
         std::error_code e;
         if (!entry.is_regular_file(e) || !is_image_name(entry.path())) return;
@@ -74,7 +85,7 @@ std::vector<BatchJob> plan_batch(const std::vector<fs::path>& inputs, const fs::
              end;
              !ec && it != end; it.increment(ec)) {
           std::error_code e;
-          if (it->is_directory(e) && is_own(it->path())) {
+          if (it->is_directory(e) && (is_own(it->path()) || !readable(it->path()))) {
             it.disable_recursion_pending();
             continue;
           }

@@ -31,10 +31,10 @@ struct JobResult;
 /// - a directory gives its images (image_extensions()), directly inside it or, with `recursive`, in
 ///   any subdirectory, each at out_dir / (path relative to the directory, extension ".svg").
 /// Inputs that do not exist are returned as jobs too (they fail with "no such file" when run), so
-/// that they are reported with the rest. Two inputs mapping to one output keep the first; the others
-/// are added to `collisions` as failed jobs, with the reason. The result is sorted by output path and
-/// duplicates of the same input are removed. The folders of `own` (the batch's output and debug
-/// folders) are not walked into: inside an input folder, their overlays would become inputs.
+/// that they are reported with the rest. Two inputs mapping to one output keep the first; the others,
+/// and the folders that cannot be read, are added to `collisions` as failed jobs, with the reason. The result
+/// is sorted by output path and duplicates of the same input are removed. The folders of `own` (the batch's
+/// output and debug folders) are not walked into: inside an input folder, their overlays would become inputs.
 std::vector<BatchJob> plan_batch(const std::vector<std::filesystem::path>& inputs,
                                  const std::filesystem::path& out_dir, bool recursive,
                                  std::vector<JobResult>& collisions,
