@@ -13,7 +13,6 @@
 #endif
 
 #include <atomic>
-#include <cerrno>
 #include <chrono>
 #include <cmath>
 #include <csignal>
@@ -106,8 +105,6 @@ std::string allocator_name() {
 std::atomic<bool> g_stop{false};
 volatile std::sig_atomic_t g_interrupts = 0;
 
-// First Ctrl-C: no new image starts, the ones under way finish (their outputs are whole). Second:
-// abandon them, removing their temporary files, and exit at once.
 // One image: a signal abandons it, removing the temporary file of its output if one is being written,
 // and ends the process as the signal would have.
 extern "C" void on_signal_alone(int signal) {
@@ -116,6 +113,8 @@ extern "C" void on_signal_alone(int signal) {
   std::raise(signal);
 }
 
+// First Ctrl-C: no new image starts, the ones under way finish (their outputs are whole). Second:
+// abandon them, removing their temporary files, and exit at once.
 extern "C" void on_interrupt(int) {
   g_interrupts = g_interrupts + 1;
   g_stop.store(true);
@@ -288,19 +287,7 @@ int run_batch_cli(const BatchCli& cli, const DebugCli& debug, const vectorize::O
 
 } // namespace
 
-#if defined(TRIXEL_MIMALLOC)
-// mimalloc's `new`, built as C, aborts the whole process when memory runs out (it does not see the C++
-// new handler); it reports the error here first, and the exception thrown here fails the image it was
-// for instead (the frames between have unwind tables, as everything on x86-64 Linux).
-void on_mimalloc_error(int error, void*) {
-  if (error == ENOMEM) throw std::bad_alloc();
-}
-#endif
-
 int main(int argc, char** argv) {
-#if defined(TRIXEL_MIMALLOC)
-  mi_register_error(&on_mimalloc_error, nullptr);
-#endif
   CLI::App app{"vectorize: convert a raster image (PNG, JPEG, TIFF, BMP, WebP, ...) into an SVG of coloured\n"
                "polygons, through edge detection, a constrained Delaunay triangulation of the edge map and\n"
                "grouping of its triangles (trixels) by colour. Transparent areas (alpha < 0.5) stay empty.",
