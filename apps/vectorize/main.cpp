@@ -180,13 +180,13 @@ int run_batch_cli(const BatchCli& cli, const DebugCli& debug, const vectorize::O
               << '\n';
     return kExitFailure;
   }
-  std::vector<vectorize::JobResult> collisions; // failed before they start: in the summary and report
+  std::vector<vectorize::JobResult> refused; // failed before they start: in the summary and report
   std::vector<vectorize::BatchJob> jobs =
-      vectorize::plan_batch(inputs, cli.out_dir, cli.recursive, collisions, {cli.out_dir, debug.dir});
+      vectorize::plan_batch(inputs, cli.out_dir, cli.recursive, refused, {cli.out_dir, debug.dir});
   if (debug.on()) vectorize::assign_debug_folders(jobs, cli.out_dir, debug.dir);
-  for (const auto& c : collisions) std::cerr << "vectorize: " << c.error << '\n';
+  for (const auto& c : refused) std::cerr << "vectorize: " << c.error << '\n';
   if (jobs.empty()) {
-    std::cerr << "vectorize: no images to convert" << (collisions.empty() ? "" : " (see above)") << '\n';
+    std::cerr << "vectorize: no images to convert" << (refused.empty() ? "" : " (see above)") << '\n';
     return kExitFailure;
   }
   if (!cli.report.empty()) {
@@ -257,7 +257,7 @@ int run_batch_cli(const BatchCli& cli, const DebugCli& debug, const vectorize::O
   if (terminal && !quiet && results.size() < jobs.size()) std::fputc('\n', stderr);
 
   const std::size_t not_started = jobs.size() - results.size();
-  results.insert(results.end(), collisions.begin(), collisions.end());
+  results.insert(results.end(), refused.begin(), refused.end());
   std::size_t converted = 0, skipped = 0;
   std::vector<const vectorize::JobResult*> failed;
   for (const auto& r : results) {
@@ -282,7 +282,7 @@ int run_batch_cli(const BatchCli& cli, const DebugCli& debug, const vectorize::O
     for (const auto* r : failed) std::fprintf(stderr, "  failed: %s\n", r->error.c_str());
   }
   if (g_interrupts > 0) return 130;
-  return failed.empty() && collisions.empty() ? 0 : kExitFailure;
+  return failed.empty() && refused.empty() ? 0 : kExitFailure;
 }
 
 } // namespace

@@ -162,9 +162,10 @@ using InputMerge = std::function<std::size_t(IndexArray& duplicate_of, IndexArra
 /// zero-length segments under CrossingSegments::reject (ignored under resolve), fewer than 3 distinct points,
 /// all points collinear; item() is the point or segment id, or the number of distinct points for the last
 /// two), CrossingSegmentsError when segments cross under CrossingSegments::reject (the lowest pair of ids,
-/// lower first; segments that cross exactly at an input point are split there, not rejected), and Error when
-/// crossing resolution does not converge. Runs in O((n + m) log(n + m) + k) for n points, m segments and k
-/// candidate pairs from the grid (about linear for inputs whose segments are short compared with the domain).
+/// lower first; segments that cross exactly at an input point are split there, not rejected), and
+/// SplitNotConvergingError when crossing resolution does not converge. Runs in O((n + m) log(n + m) + k) for
+/// n points, m segments and k candidate pairs from the grid (about linear for inputs whose segments are short
+/// compared with the domain).
 PreparedPslg prepare_pslg(std::span<const Point> points, std::span<const Segment> segments,
                           CrossingSegments policy);
 

@@ -4,7 +4,6 @@
 
 #include <filesystem>
 #include <fstream>
-#include <iterator>
 #include <string>
 
 #include "../test_util.hpp"
@@ -12,6 +11,7 @@
 namespace {
 
 namespace fs = std::filesystem;
+using trixel_test::read_all;
 using trixel_test::run;
 using trixel_test::ScratchDir;
 using trixel_test::shell_quote;
@@ -19,11 +19,6 @@ using trixel_test::shell_quote;
 const std::string kBin = TRIXEL_CDT_BIN;
 
 void write_text(const fs::path& path, const std::string& text) { std::ofstream(path) << text; }
-
-std::string read_text(const fs::path& path) {
-  std::ifstream in(path, std::ios::binary);
-  return {std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()};
-}
 
 std::string cdt_command(const fs::path& input, const fs::path& prefix, const std::string& more = "") {
   return shell_quote(kBin) + " " + shell_quote(input) + " -o " + shell_quote(prefix) + more;
@@ -47,7 +42,7 @@ TEST(CdtCli, WritesTheFourFilesAndVerifies) {
   EXPECT_NE(r.output.find("verified"), std::string::npos) << r.output;
   for (const char* ext : {".node", ".ele", ".neigh", ".edge"})
     EXPECT_TRUE(fs::is_regular_file(dir / ("out" + std::string(ext)))) << ext << ": " << listing(dir.path());
-  EXPECT_EQ(read_text(dir / "out.ele").substr(0, 6), "2 3 0\n");
+  EXPECT_EQ(read_all(dir / "out.ele").substr(0, 6), "2 3 0\n");
   EXPECT_EQ(listing(dir.path()).find(".part"), std::string::npos) << listing(dir.path());
 }
 
@@ -78,7 +73,7 @@ TEST(CdtCli, NeverOverwritesItsInput) {
   const auto from_node = run(cdt_command(dir / "box.node", dir / "box"));
   EXPECT_EQ(from_node.exit_code, 2) << from_node.output;
   EXPECT_NE(from_node.output.find("is the input file"), std::string::npos) << from_node.output;
-  EXPECT_EQ(read_text(dir / "box.node"), node);
+  EXPECT_EQ(read_all(dir / "box.node"), node);
   EXPECT_FALSE(fs::exists(dir / "box.ele")) << listing(dir.path());
   // Elsewhere the same .poly triangulates, its vertices read from box.node.
   const auto elsewhere = run(cdt_command(dir / "box.poly", dir / "out", " --verify"));

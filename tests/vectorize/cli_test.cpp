@@ -9,6 +9,7 @@
 
 namespace {
 
+using trixel_test::read_all;
 using trixel_test::run;
 using trixel_test::ScratchDir;
 using trixel_test::shell_quote;
@@ -85,11 +86,6 @@ TEST(VectorizeCli, CorruptInputNamesTheFile) {
   EXPECT_EQ(r.exit_code, 1);
   EXPECT_NE(r.output.find("bad.png"), std::string::npos) << r.output;
   EXPECT_FALSE(std::filesystem::exists(dir / "out.svg"));
-}
-
-std::string read_all(const std::filesystem::path& path) {
-  std::ifstream in(path, std::ios::binary);
-  return {std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()};
 }
 
 // Every bundled sample converts, with each preset, into a complete SVG document and nothing else in

@@ -13,17 +13,13 @@
 namespace {
 
 namespace fs = std::filesystem;
+using trixel_test::read_all;
 using trixel_test::run;
 using trixel_test::ScratchDir;
 using trixel_test::shell_quote;
 
 const std::string kBin = TRIXEL_VECTORIZE_BIN;
 const fs::path kSamples = fs::path(TRIXEL_SOURCE_DIR) / "samples";
-
-std::string read_all(const fs::path& path) {
-  std::ifstream in(path, std::ios::binary);
-  return {std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()};
-}
 
 std::size_t differing_pixels(const vectorize::Image& a, const vectorize::Image& b) {
   std::size_t n = 0;

@@ -17,15 +17,11 @@
 namespace {
 
 namespace fs = std::filesystem;
+using trixel_test::read_all;
 using trixel_test::ScratchDir;
 using vectorize::DebugStage;
 
 const fs::path kLogo = fs::path(TRIXEL_SOURCE_DIR) / "samples" / "logo.png";
-
-std::string read_all(const fs::path& path) {
-  std::ifstream in(path, std::ios::binary);
-  return {std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()};
-}
 
 std::size_t count(const std::string& text, const std::string& what) {
   std::size_t n = 0;

@@ -55,7 +55,7 @@ fs::path svg_name(fs::path relative) { return relative.replace_extension(".svg")
 } // namespace
 
 std::vector<BatchJob> plan_batch(const std::vector<fs::path>& inputs, const fs::path& out_dir, bool recursive,
-                                 std::vector<JobResult>& collisions, const std::vector<fs::path>& own) {
+                                 std::vector<JobResult>& refused, const std::vector<fs::path>& own) {
   const auto is_own = [&](const fs::path& folder) {
     std::error_code e;
     return std::any_of(own.begin(), own.end(),
@@ -64,10 +64,10 @@ std::vector<BatchJob> plan_batch(const std::vector<fs::path>& inputs, const fs::
   // A folder that cannot be listed is refused with the reason, not skipped in silence.
   const auto readable = [&](const fs::path& folder) {
     if (::access(folder.c_str(), R_OK | X_OK) == 0) return true;
-    JobResult refused;
-    refused.job.input = folder;
-    refused.error = folder.string() + ": cannot read the folder: " + std::strerror(errno);
-    collisions.push_back(std::move(refused));
+    JobResult unread;
+    unread.job.input = folder;
+    unread.error = folder.string() + ": cannot read the folder: " + std::strerror(errno);
+    refused.push_back(std::move(unread));
     return false;
   };
   std::vector<BatchJob> jobs;
@@ -113,7 +113,7 @@ std::vector<BatchJob> plan_batch(const std::vector<fs::path>& inputs, const fs::
       collision.job = job;
       collision.error = job.input.string() + ": its output " + job.output.string() +
                         " is already the output of " + unique.back().input.string() + "; not converted";
-      collisions.push_back(std::move(collision));
+      refused.push_back(std::move(collision));
       continue;
     }
     unique.push_back(job);

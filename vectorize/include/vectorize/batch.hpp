@@ -32,12 +32,12 @@ struct JobResult;
 ///   any subdirectory, each at out_dir / (path relative to the directory, extension ".svg").
 /// Inputs that do not exist are returned as jobs too (they fail with "no such file" when run), so
 /// that they are reported with the rest. Two inputs mapping to one output keep the first; the others,
-/// and the folders that cannot be read, are added to `collisions` as failed jobs, with the reason. The result
+/// and the folders that cannot be read, are added to `refused` as failed jobs, with the reason. The result
 /// is sorted by output path and duplicates of the same input are removed. The folders of `own` (the batch's
 /// output and debug folders) are not walked into: inside an input folder, their overlays would become inputs.
 std::vector<BatchJob> plan_batch(const std::vector<std::filesystem::path>& inputs,
                                  const std::filesystem::path& out_dir, bool recursive,
-                                 std::vector<JobResult>& collisions,
+                                 std::vector<JobResult>& refused,
                                  const std::vector<std::filesystem::path>& own = {});
 
 /// Gives every job a debug folder under debug_dir that mirrors its output under out_dir: the output
